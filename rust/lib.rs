@@ -1,0 +1,29 @@
+//! # tilesynth core
+//!
+//! The hot loops of tilesynth, free of any Python dependency (the bindings live in [`py`], compiled only
+//! with the `python` feature). Everything takes `ndarray` views and returns owned arrays or a
+//! [`error::TilesynthError`].
+//!
+//! - [`ssd`]: exhaustive sum of squared differences of a template over every translation of an image,
+//!   by FFT correlation against a cached image spectrum, with exact re-ranking of the best matches.
+//! - [`maxflow`]: a Boykov–Kolmogorov max-flow / min-cut solver and a 4-connected pixel-grid front end.
+//! - [`omega`]: the ω-tile cutting curve (Kwatra edge weights, circle and cross terminals) and composition.
+//! - [`synth`]: copying tiles into a large output by an index map.
+//! - [`parallel`]: local thread pools (`threads` argument, `TILESYNTH_NUM_THREADS`).
+//!
+//! Conventions: images are C-contiguous `f32` `(H, W, C)` in [0, 1]; masks are `bool`; energies and
+//! capacities are `f64`. Results never depend on the number of threads.
+#![deny(missing_docs)]
+#![warn(clippy::all)]
+
+pub mod error;
+pub mod maxflow;
+pub mod omega;
+pub mod parallel;
+pub mod ssd;
+pub mod synth;
+
+#[cfg(feature = "python")]
+mod py;
+
+pub use error::{Result, TilesynthError};

@@ -1,0 +1,1 @@
+//! Exhaustive SSD (being written).
