@@ -1,1 +1,66 @@
-fn main() {}
+//! ω cutting-curve min-cut at tile sizes 80, 160, 256: Kwatra weights alone, and weights + graph + solve
+//! (the whole `omega_cut`, the figure compared with PyMaxflow's pipeline in benches/compare.py).
+//!
+//! Inputs are deterministic procedural textures (smooth value noise plus grain), arranged like the real case:
+//! the intermediate tile is four quadrants of four different crops, the candidate another crop.
+
+use _core::omega::{circle_mask, kwatra_weights, omega_cut, DEFAULT_EPS};
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use ndarray::{s, Array3};
+use std::hint::black_box;
+
+fn texture(h: usize, w: usize, seed: u64) -> Array3<f32> {
+    let mut state = seed.wrapping_mul(0x9E3779B97F4A7C15) | 1;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let cell = 12;
+    let (gh, gw) = (h / cell + 2, w / cell + 2);
+    let grid: Vec<[f32; 3]> = (0..gh * gw).map(|_| [next(), next(), next()]).collect();
+    Array3::from_shape_fn((h, w, 3), |(y, x, c)| {
+        let (fy, fx) = (y as f32 / cell as f32, x as f32 / cell as f32);
+        let (iy, ix) = (fy as usize, fx as usize);
+        let (ty, tx) = (fy - iy as f32, fx - ix as f32);
+        let g = |a: usize, b: usize| grid[a * gw + b][c];
+        let v = g(iy, ix) * (1.0 - ty) * (1.0 - tx)
+            + g(iy + 1, ix) * ty * (1.0 - tx)
+            + g(iy, ix + 1) * (1.0 - ty) * tx
+            + g(iy + 1, ix + 1) * ty * tx;
+        (0.8 * v + 0.2 * next()).clamp(0.0, 1.0)
+    })
+}
+
+fn omega_pair(n: usize) -> (Array3<f32>, Array3<f32>) {
+    let ex = texture(2 * n + 8, 2 * n + 8, n as u64);
+    let h = n / 2;
+    let mut a = Array3::<f32>::zeros((n, n, 3));
+    let corners = [(0, 0), (3, n + 5), (n + 2, 7), (n + 6, n + 1)];
+    for (q, &(r, c)) in corners.iter().enumerate() {
+        let (ty, tx) = ((q / 2) * h, (q % 2) * h);
+        a.slice_mut(s![ty..ty + h, tx..tx + h, ..])
+            .assign(&ex.slice(s![r..r + h, c..c + h, ..]));
+    }
+    let b = ex.slice(s![n / 3..n / 3 + n, n / 2..n / 2 + n, ..]).to_owned();
+    (a, b)
+}
+
+fn bench_cut(c: &mut Criterion) {
+    let mut group = c.benchmark_group("omega_cut");
+    for n in [80usize, 160, 256] {
+        let (a, b) = omega_pair(n);
+        let inside = circle_mask(n);
+        group.bench_with_input(BenchmarkId::new("weights", n), &n, |bench, _| {
+            bench.iter(|| kwatra_weights(black_box(a.view()), b.view(), Some(inside.view()), DEFAULT_EPS).unwrap())
+        });
+        group.bench_with_input(BenchmarkId::new("weights+build+solve", n), &n, |bench, _| {
+            bench.iter(|| omega_cut(black_box(a.view()), b.view(), DEFAULT_EPS).unwrap())
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_cut);
+criterion_main!(benches);

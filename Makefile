@@ -1,0 +1,37 @@
+# Developer entry points. `make test` is the whole suite (Rust, then the Python package built from this tree).
+PYTHON ?= python3
+.DEFAULT_GOAL := all
+
+.PHONY: all install test test-rust test-python lint bench bench-compare clean
+
+all: lint test
+
+## Build and install the package (release) with the test extras.
+install:
+	$(PYTHON) -m pip install --quiet ".[test]"
+
+## The whole test suite: Rust unit tests, then pytest against the installed build of this tree.
+test: test-rust test-python
+
+test-rust:
+	cargo test --release
+
+test-python: install
+	$(PYTHON) -m pytest -q
+
+lint:
+	cargo fmt --check
+	cargo clippy --all-targets -- -D warnings
+	cargo clippy --all-targets --features python -- -D warnings
+
+## Criterion benches (size sweeps), then the side-by-side comparison with the Python baselines.
+bench:
+	cargo bench
+
+bench-compare: install
+	$(PYTHON) -m pip install --quiet ".[bench]"
+	$(PYTHON) benches/compare.py
+
+clean:
+	cargo clean
+	rm -rf .pytest_cache .hypothesis

@@ -1,0 +1,48 @@
+"""Type stubs of the compiled extension ``tilesynth._core`` (see rust/py/mod.rs)."""
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+def patch_ssd(
+    image: npt.NDArray[np.float32],
+    templates: npt.NDArray[np.float32],
+    mask: npt.NDArray[np.bool_] | None = None,
+    threads: int | None = None,
+) -> npt.NDArray[np.float32]: ...
+def best_matches(
+    image: npt.NDArray[np.float32],
+    templates: npt.NDArray[np.float32],
+    k: int = 1,
+    exclude_radius: int = 0,
+    mask: npt.NDArray[np.bool_] | None = None,
+    threads: int | None = None,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]: ...
+def grid_mincut(
+    wx: npt.NDArray[np.float64],
+    wy: npt.NDArray[np.float64],
+    source_hard: npt.NDArray[np.bool_],
+    sink_hard: npt.NDArray[np.bool_],
+    source_cap: npt.NDArray[np.float64] | None = None,
+    sink_cap: npt.NDArray[np.float64] | None = None,
+) -> tuple[npt.NDArray[np.bool_], float]: ...
+def kwatra_weights(
+    a: npt.NDArray[np.float32],
+    b: npt.NDArray[np.float32],
+    region: npt.NDArray[np.bool_] | None = None,
+    eps: float = 1e-6,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+def omega_cuts(
+    intermediate: npt.NDArray[np.float32],
+    matching: npt.NDArray[np.float32],
+    eps: float = 1e-6,
+    threads: int | None = None,
+) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]: ...
+def tile_copy(
+    atlas: npt.NDArray[np.generic],
+    index_map: npt.NDArray[np.int32],
+    out: npt.NDArray[np.generic],
+    threads: int | None = None,
+) -> None: ...
+def resolve_threads(threads: int | None = None) -> int: ...

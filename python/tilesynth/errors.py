@@ -1,0 +1,27 @@
+"""Exceptions raised by tilesynth.
+
+Every error message names the parameter and the offending value. The classes subclass the builtins so that
+``except ValueError`` works as users expect; the Rust core raises :class:`ShapeError` and
+:class:`ParameterError` directly.
+"""
+
+from __future__ import annotations
+
+
+class TilesynthError(Exception):
+    """Base class of every tilesynth error."""
+
+
+class ShapeError(TilesynthError, ValueError):
+    """An array has the wrong shape, or two arrays disagree."""
+
+
+class ParameterError(TilesynthError, ValueError):
+    """A parameter or the content of an array is out of range."""
+
+
+class TileSetFormatError(TilesynthError, ValueError):
+    """A tile-set file is unreadable, of an unknown version, or inconsistent."""
+
+
+__all__ = ["TilesynthError", "ShapeError", "ParameterError", "TileSetFormatError"]

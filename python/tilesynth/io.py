@@ -1,0 +1,146 @@
+"""Image files in and out (Pillow), with atomic writes.
+
+``load_image`` returns float32 ``(H, W, C)`` in [0, 1] and the file's bit depth; 16-bit greyscale PNGs keep
+their precision. ``save_image`` writes 8- or 16-bit PNG (or any format Pillow knows by extension) through a
+temporary file and ``os.replace``, so an error or Ctrl-C never leaves a partial file behind.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import IO
+
+import numpy as np
+
+from ._validate import as_image, to_uint
+from .errors import ParameterError
+
+
+def load_image(path: str | os.PathLike[str]) -> tuple[np.ndarray, int]:
+    """Read an image file.
+
+    Returns
+    -------
+    image : ndarray
+        float32 ``(H, W, C)`` in [0, 1], C = 1 (grey), 2 (grey+alpha), 3 (RGB) or 4 (RGBA).
+    bits : int
+        8 or 16, the precision of the file.
+
+    Raises
+    ------
+    ParameterError
+        If the file does not exist, is not an image, or cannot be decoded (the message names the path).
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    p = Path(path)
+    if not p.is_file():
+        raise ParameterError(f"input = {str(p)!r}: no such file")
+    try:
+        with Image.open(p) as im:
+            im.load()
+            mode = im.mode
+            if mode in ("I;16", "I;16B", "I;16L", "I"):
+                arr = np.asarray(im, dtype=np.int64)
+                if arr.min() < 0 or arr.max() > 65535:
+                    raise ParameterError(f"input = {str(p)!r}: 32-bit integer images are not supported")
+                return as_image(arr.astype(np.uint16), "input"), 16
+            if mode == "F":
+                raise ParameterError(f"input = {str(p)!r}: floating-point image files are not supported")
+            if mode not in ("L", "LA", "RGB", "RGBA"):
+                im = im.convert("RGBA" if "A" in mode or "transparency" in im.info else "RGB")
+            arr = np.asarray(im)
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
+        if isinstance(exc, ParameterError):
+            raise
+        raise ParameterError(f"input = {str(p)!r}: not a readable image ({exc})") from None
+    return as_image(arr, "input"), 8
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a temporary path next to ``path``; on success move it into place, on any error remove it."""
+    target = Path(path)
+    parent = target.parent if str(target.parent) else Path(".")
+    if not parent.is_dir():
+        raise ParameterError(f"output = {str(target)!r}: directory {str(parent)!r} does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=parent)
+    os.close(fd)
+    tmp_path = Path(tmp)
+    try:
+        yield tmp_path
+        os.replace(tmp_path, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp_path.unlink()
+        raise
+
+
+@contextlib.contextmanager
+def atomic_open(path: str | os.PathLike[str], mode: str = "wb") -> Iterator[IO]:
+    """Open a temporary file next to ``path`` for writing; it replaces ``path`` only if the block succeeds."""
+    with atomic_path(path) as tmp, open(tmp, mode) as fh:
+        yield fh
+
+
+def save_image(path: str | os.PathLike[str], image: np.ndarray, bits: int = 8) -> None:
+    """Write ``image`` (float in [0, 1], or uint8/uint16 as is) to ``path`` atomically.
+
+    ``bits=16`` writes 16-bit PNG (greyscale and RGB; Pillow cannot write 16-bit RGB, so RGB(A) 16-bit data is
+    written with the ``png`` writer of :func:`_write_png16`).
+    """
+    arr = np.asarray(image)
+    if arr.dtype not in (np.uint8, np.uint16):
+        arr = to_uint(as_image(arr, "image"), bits)
+    if arr.ndim == 3 and arr.shape[2] == 1:
+        arr = arr[:, :, 0]
+    target = Path(path)
+    fmt = _format_for(target)
+    with atomic_path(target) as tmp:
+        if arr.dtype == np.uint16:
+            if fmt != "PNG":
+                raise ParameterError(f"output = {str(target)!r}: 16-bit output needs a .png file")
+            _write_png16(tmp, arr)
+        else:
+            from PIL import Image
+
+            Image.fromarray(np.ascontiguousarray(arr)).save(tmp, format=fmt)
+
+
+def _format_for(path: Path) -> str:
+    from PIL import Image
+
+    Image.init()
+    ext = path.suffix.lower()
+    fmt = Image.EXTENSION.get(ext)
+    if fmt is None:
+        raise ParameterError(
+            f"output = {str(path)!r}: unknown image extension {ext or '(none)'!r}; use .png, .jpg, .tif, ..."
+        )
+    return fmt
+
+
+def _write_png16(path: Path, arr: np.ndarray) -> None:
+    """Minimal lossless 16-bit PNG writer (grey, grey+alpha, RGB, RGBA) using zlib; Pillow lacks 16-bit RGB."""
+    import struct
+    import zlib
+
+    h, w = arr.shape[:2]
+    channels = 1 if arr.ndim == 2 else arr.shape[2]
+    colour_type = {1: 0, 2: 4, 3: 2, 4: 6}[channels]
+    raw = np.ascontiguousarray(arr.reshape(h, w * channels).astype(">u2")).view(np.uint8)
+    rows = np.concatenate([np.zeros((h, 1), np.uint8), raw.reshape(h, -1)], axis=1)
+
+    def chunk(tag: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    ihdr = struct.pack(">IIBBBBB", w, h, 16, colour_type, 0, 0, 0)
+    with open(path, "wb") as fh:
+        fh.write(b"\x89PNG\r\n\x1a\n")
+        fh.write(chunk(b"IHDR", ihdr))
+        fh.write(chunk(b"IDAT", zlib.compress(rows.tobytes(), 6)))
+        fh.write(chunk(b"IEND", b""))

@@ -1,0 +1,158 @@
+"""Typed wrappers around the Rust kernels of :mod:`tilesynth._core`.
+
+Each function validates and converts its inputs (C-contiguous arrays of the one dtype the kernel accepts),
+releases the GIL inside the kernel and returns numpy arrays. ``threads=None`` uses ``TILESYNTH_NUM_THREADS`` or
+all cores; results never depend on the thread count.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _core
+from ._validate import as_image
+from .errors import ShapeError
+
+DEFAULT_EPS = 1e-6
+"""Epsilon in the denominator of the Kwatra edge weight (guards flat regions)."""
+
+
+def _templates(templates: np.ndarray, name: str = "templates") -> tuple[np.ndarray, bool]:
+    t = np.asarray(templates)
+    single = t.ndim in (2, 3)
+    if t.ndim == 2:
+        t = t[:, :, None]
+    if single:
+        t = t[None]
+    if t.ndim != 4:
+        raise ShapeError(f"{name} has shape {np.shape(templates)}, expected (h, w, C) or (K, h, w, C)")
+    t = np.stack([as_image(x, name) for x in t]) if t.dtype != np.float32 else np.ascontiguousarray(t)
+    return t, single
+
+
+def _mask(mask: np.ndarray | None) -> np.ndarray | None:
+    return None if mask is None else np.ascontiguousarray(mask, dtype=bool)
+
+
+def patch_ssd(
+    image: np.ndarray,
+    templates: np.ndarray,
+    mask: np.ndarray | None = None,
+    threads: int | None = None,
+) -> np.ndarray:
+    """Exhaustive SSD of template(s) over every fully-overlapping translation of ``image``.
+
+    ``map[ty, tx] = Σ_{y,x,c} m(y,x) (T[y,x,c] − I[ty+y, tx+x, c])²``, computed by FFT correlation against the
+    image's cached spectrum (accurate to ~1e-6 of the map's maximum).
+
+    Parameters
+    ----------
+    image : (H, W, C) image.
+    templates : (h, w, C) or (K, h, w, C), same C.
+    mask : optional (h, w) bool, True where a template pixel counts.
+
+    Returns
+    -------
+    float32 ``(H-h+1, W-w+1)``, or ``(K, H-h+1, W-w+1)`` for a stack of templates.
+    """
+    img = as_image(image)
+    t, single = _templates(templates)
+    maps = _core.patch_ssd(img, t, _mask(mask), threads)
+    return maps[0] if single else maps
+
+
+def best_matches(
+    image: np.ndarray,
+    templates: np.ndarray,
+    k: int = 1,
+    exclude_radius: int = 0,
+    mask: np.ndarray | None = None,
+    threads: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ``k`` best translations of each template, with exact (float64, directly summed) SSD values.
+
+    The FFT map ranks candidates; every candidate within the FFT's error bound of the winners is re-evaluated
+    exactly, so order and values are those of the exact SSD (ties: smaller (row, col) first). After the first,
+    each match must lie more than ``exclude_radius`` pixels (Chebyshev) from those already chosen.
+
+    Returns
+    -------
+    offsets : int64 ``(K, k, 2)`` (row, col) of the top-left corner; ``(k, 2)`` for a single template.
+    ssd : float64 ``(K, k)``; ``(k,)`` for a single template.
+    """
+    img = as_image(image)
+    t, single = _templates(templates)
+    offsets, values = _core.best_matches(img, t, int(k), int(exclude_radius), _mask(mask), threads)
+    return (offsets[0], values[0]) if single else (offsets, values)
+
+
+def grid_mincut(
+    wx: np.ndarray,
+    wy: np.ndarray,
+    source: np.ndarray,
+    sink: np.ndarray,
+    source_cap: np.ndarray | None = None,
+    sink_cap: np.ndarray | None = None,
+) -> tuple[np.ndarray, float]:
+    """Minimum cut of a 4-connected ``(H, W)`` pixel grid (Boykov–Kolmogorov max-flow).
+
+    ``wx[y, x]`` is the capacity of edge (y,x)–(y,x+1) and ``wy[y, x]`` of (y,x)–(y+1,x) (both directions;
+    the last column / row is ignored). ``source`` / ``sink`` are bool masks of pixels tied to a terminal with
+    infinite capacity; ``source_cap`` / ``sink_cap`` optional finite t-link capacities.
+
+    Returns ``(labels, flow)``: bool ``(H, W)``, True on the sink side, and the max-flow value (= the cut cost).
+    """
+
+    def f64(a: np.ndarray | None) -> np.ndarray | None:
+        return None if a is None else np.ascontiguousarray(a, dtype=np.float64)
+
+    return _core.grid_mincut(
+        f64(wx),
+        f64(wy),
+        np.ascontiguousarray(source, dtype=bool),
+        np.ascontiguousarray(sink, dtype=bool),
+        f64(source_cap),
+        f64(sink_cap),
+    )
+
+
+def kwatra_weights(
+    a: np.ndarray, b: np.ndarray, region: np.ndarray | None = None, eps: float = DEFAULT_EPS
+) -> tuple[np.ndarray, np.ndarray]:
+    """Kwatra et al.'s gradient-normalised seam weights between images ``a`` and ``b`` (see :mod:`tilesynth.omega`)."""
+    return _core.kwatra_weights(as_image(a, "a"), as_image(b, "b"), _mask(region), float(eps))
+
+
+def omega_cuts(
+    intermediate: np.ndarray, matching: np.ndarray, eps: float = DEFAULT_EPS, threads: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """ω cutting curves for a stack of intermediate tiles and their matching patches, ``(K, N, N, C)`` each.
+
+    Returns bool masks ``(K, N, N)`` (True = the pixel takes the matching patch) and the float64 cut costs.
+    """
+    i, _ = _templates(intermediate, "intermediate")
+    o, _ = _templates(matching, "matching")
+    return _core.omega_cuts(i, o, float(eps), threads)
+
+
+def tile_copy(atlas: np.ndarray, index_map: np.ndarray, out: np.ndarray, threads: int | None = None) -> np.ndarray:
+    """Fill ``out`` ``(H, W, C)`` with tiles of ``atlas`` ``(K, th, tw, C)`` laid out by ``index_map``.
+
+    ``atlas`` and ``out`` must share a dtype (uint8, uint16 or float32) and ``out`` must be C-contiguous; the map
+    may cover more than ``out`` (cropped). Returns ``out``.
+    """
+    _core.tile_copy(
+        np.ascontiguousarray(atlas), np.ascontiguousarray(index_map, dtype=np.int32), out, threads
+    )
+    return out
+
+
+__all__ = [
+    "DEFAULT_EPS",
+    "best_matches",
+    "grid_mincut",
+    "kwatra_weights",
+    "omega_cuts",
+    "patch_ssd",
+    "tile_copy",
+]

@@ -1,0 +1,260 @@
+"""ω-tile construction (Ng, Wen, Tan, Zhang, Kim, CGI 2005), thin control over the Rust kernels.
+
+For a tile set whose tiles are corner-colour tuples ⟨TL, BL, TR, BR⟩ and one sample patch per colour (the
+*genes*: top-left positions of N x N patches in the exemplar):
+
+1. **Intermediate tile** of each tile: the N x N centre of the 2N x 2N block ``[[TL, TR], [BL, BR]]`` of its
+   patches, i.e. its TL quadrant is the bottom-right quarter of the TL patch, its TR quadrant the bottom-left
+   quarter of the TR patch, its BL quadrant the top-right quarter of the BL patch and its BR quadrant the top-left
+   quarter of the BR patch. Two tiles that share a side therefore show the two halves of the same patch on either
+   side of it: tilings are seamless by construction.
+2. **Matching patch O**: the translation of the exemplar with the smallest SSD to the intermediate tile, found
+   exhaustively (FFT map, exact re-ranking). Its SSD is D_j.
+3. **Cutting curve**: min-cut with Kwatra weights, sources outside the inscribed circle, sinks on the central
+   cross (see :func:`tilesynth.kernels.omega_cuts`); the ω-tile takes O inside the curve.
+
+Sets with two variants of a tile (the 32-set, 002 §4.1-4.2) use the best O for variant 0 and the second-best O for
+variant 1. The second best is required to lie more than N/4 pixels (Chebyshev) from the best: the literal
+second-smallest SSD is almost always the best translation shifted by one pixel, whose content is the same, and
+002 wants two *different* good ω-tiles per intermediate tile.
+
+Quality of the whole set: E = λ·ΣD_j + (1−λ)·Var(D_j) over the intermediate tiles (λ = 0.8, population
+variance), the objective of the selection papers (000, 003).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from . import kernels
+from ._validate import as_image, positive_int, seed_int
+from .errors import ParameterError
+from .tilefile import TileSet, exemplar_digest
+from .tilesets import get_tileset
+
+LAMBDA = 0.8
+"""Default λ of E = λ·ΣD + (1−λ)·Var(D) (paper 000)."""
+
+Progress = Callable[[str, int, int], None]
+"""Progress callback: (stage, done, total)."""
+
+
+def default_tile_size(shape: tuple[int, ...]) -> int:
+    """Half the exemplar's shorter side, rounded down to even, capped at 256 (002 used 64 on 128 inputs)."""
+    n = min(shape[0], shape[1]) // 2
+    n -= n % 2
+    return max(2, min(n, 256))
+
+
+def check_tile_size(tile_size: Any, shape: tuple[int, ...]) -> int:
+    """Validate ``tile_size`` against an exemplar of ``shape`` (even, >= 4, fits inside the exemplar)."""
+    n = positive_int(tile_size, "tile_size", minimum=4)
+    if n % 2:
+        raise ParameterError(f"tile_size = {n}: must be even (the tile is cut from the centre of a 2x2 block)")
+    if n > shape[0] or n > shape[1]:
+        raise ParameterError(
+            f"tile_size = {n}: larger than the exemplar ({shape[1]}x{shape[0]} pixels); "
+            f"use at most {min(shape[0], shape[1]) - min(shape[0], shape[1]) % 2}"
+        )
+    return n
+
+
+def random_genes(shape: tuple[int, ...], n: int, tile_size: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` distinct random top-left positions of ``tile_size`` patches inside an exemplar of ``shape``.
+
+    Returns int64 ``(n, 2)`` (row, col). Positions are uniform over all valid translations.
+    """
+    rows, cols = shape[0] - tile_size + 1, shape[1] - tile_size + 1
+    if rows * cols < n:
+        raise ParameterError(
+            f"tile_size = {tile_size}: the exemplar has only {rows * cols} patch positions, {n} needed"
+        )
+    flat = rng.choice(rows * cols, size=n, replace=False)
+    return np.stack([flat // cols, flat % cols], axis=1).astype(np.int64)
+
+
+def check_genes(genes: Any, n: int, shape: tuple[int, ...], tile_size: int) -> np.ndarray:
+    """Validate a gene vector: ``n`` distinct (row, col) positions with the patch inside the exemplar."""
+    g = np.asarray(genes)
+    if g.shape != (n, 2) or not np.issubdtype(g.dtype, np.integer):
+        raise ParameterError(f"genes has shape {g.shape} and dtype {g.dtype}, expected integer ({n}, 2)")
+    g = g.astype(np.int64)
+    hi = np.array([shape[0] - tile_size, shape[1] - tile_size])
+    bad = np.nonzero((g < 0).any(axis=1) | (g > hi).any(axis=1))[0]
+    if bad.size:
+        i = int(bad[0])
+        raise ParameterError(
+            f"genes[{i}] = {tuple(int(v) for v in g[i])}: patch must lie inside the exemplar "
+            f"(row in [0, {hi[0]}], col in [0, {hi[1]}])"
+        )
+    if len({tuple(r) for r in g.tolist()}) != n:
+        raise ParameterError("genes: positions must be distinct")
+    return g
+
+
+def energy(D: np.ndarray, lam: float = LAMBDA) -> float:
+    """E = λ·ΣD_j + (1−λ)·Var(D_j) with the population variance."""
+    d = np.asarray(D, dtype=np.float64)
+    return float(lam * d.sum() + (1.0 - lam) * d.var())
+
+
+def intermediate_tiles(
+    exemplar: np.ndarray, genes: np.ndarray, tile_patches: np.ndarray, tile_size: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Assemble intermediate tiles and their provenance.
+
+    ``tile_patches`` is ``(K, 4)``: the gene index of each tile's ⟨TL, BL, TR, BR⟩ patch. Returns float32
+    ``(K, N, N, C)`` tiles and int32 ``(K, N, N, 2)`` exemplar coordinates of every pixel.
+    """
+    h = tile_size // 2
+    k = tile_patches.shape[0]
+    c = exemplar.shape[2]
+    tiles = np.empty((k, tile_size, tile_size, c), np.float32)
+    src = np.empty((k, tile_size, tile_size, 2), np.int32)
+    yy, xx = np.mgrid[0:h, 0:h].astype(np.int32)
+    # quadrant (tile rows, tile cols) <- patch offset (rows, cols) inside the patch, for TL, BL, TR, BR
+    quads = [
+        ((slice(0, h), slice(0, h)), (h, h)),  # TL: bottom-right quarter of the TL patch
+        ((slice(h, None), slice(0, h)), (0, h)),  # BL: top-right quarter of the BL patch
+        ((slice(0, h), slice(h, None)), (h, 0)),  # TR: bottom-left quarter of the TR patch
+        ((slice(h, None), slice(h, None)), (0, 0)),  # BR: top-left quarter of the BR patch
+    ]
+    for j in range(k):
+        for q, ((rs, cs), (dy, dx)) in enumerate(quads):
+            r0, c0 = genes[tile_patches[j, q]] + (dy, dx)
+            tiles[j, rs, cs] = exemplar[r0 : r0 + h, c0 : c0 + h]
+            src[j, rs, cs, 0] = yy + r0
+            src[j, rs, cs, 1] = xx + c0
+    return tiles, src
+
+
+def build_omega(
+    exemplar: np.ndarray,
+    tileset: str = "16a",
+    tile_size: int | None = None,
+    genes: np.ndarray | None = None,
+    seed: int | None = None,
+    threads: int | None = None,
+    eps: float = kernels.DEFAULT_EPS,
+    progress: Progress | None = None,
+    selection: dict[str, Any] | None = None,
+    exemplar_info: dict[str, Any] | None = None,
+) -> TileSet:
+    """Build a set of ω-tiles from ``exemplar``.
+
+    Parameters
+    ----------
+    exemplar : image ``(H, W[, C])``, uint8/uint16 or float in [0, 1].
+    tileset : name of the tile-set definition: "4", "8", "16a", "16b" or "32".
+    tile_size : N, even, at most the exemplar's shorter side; default :func:`default_tile_size`.
+    genes : optional ``(n, 2)`` top-left positions of the n sample patches (n = number of colours of the set),
+        in the order of the set's colours. Default: random distinct positions drawn from ``seed``.
+    seed : seed of the random choices (recorded in the tile set; None draws one).
+    threads : worker threads for the kernels (None: ``TILESYNTH_NUM_THREADS`` or all cores). The result does
+        not depend on it.
+    eps : epsilon of the Kwatra weight.
+    progress : optional callback ``(stage, done, total)``.
+    selection : how the genes were chosen (stored in the tile set), default ``{"method": "random"}``.
+    exemplar_info : extra facts about the exemplar to record (file name, bit depth).
+    """
+    t0 = time.perf_counter()
+    ex = as_image(exemplar, "exemplar")
+    defn = get_tileset(tileset)
+    n = default_tile_size(ex.shape) if tile_size is None else check_tile_size(tile_size, ex.shape)
+    seed = seed_int(seed)
+    rng = np.random.default_rng(seed)
+    colours = list(defn.colours)
+    if genes is None:
+        genes_arr = random_genes(ex.shape, len(colours), n, rng)
+        sel = {"method": "random"} if selection is None else dict(selection)
+    else:
+        genes_arr = check_genes(genes, len(colours), ex.shape, n)
+        sel = {"method": "given"} if selection is None else dict(selection)
+    report = progress or (lambda stage, done, total: None)
+
+    index = {c: i for i, c in enumerate(colours)}
+    tile_patches = np.array([[index[c] for c in t] for t in defn.tiles], dtype=np.int64)
+    variants = np.asarray(defn.variants, dtype=np.int64)
+    # One intermediate tile per distinct corner tuple; variant v of a tuple takes its (v+1)-th best O.
+    uniq, first, inverse = np.unique(tile_patches, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)  # keep the order in which tuples first appear
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    uniq = uniq[order]
+    inverse = rank[np.asarray(inverse).reshape(-1)]
+    n_variants = int(variants.max()) + 1
+
+    report("intermediate tiles", 0, 1)
+    inter, inter_src = intermediate_tiles(ex, genes_arr, uniq, n)
+    t1 = time.perf_counter()
+    report("intermediate tiles", 1, 1)
+
+    report("matching patches", 0, 1)
+    offsets, ssd = kernels.best_matches(
+        ex, inter, k=n_variants, exclude_radius=n // 4 if n_variants > 1 else 0, threads=threads
+    )
+    if offsets.shape[1] < n_variants:
+        raise ParameterError(
+            f"tile_size = {n}: the exemplar has too few distinct translations for {n_variants} matching "
+            "patches per intermediate tile; use a smaller tile size or a larger exemplar"
+        )
+    t2 = time.perf_counter()
+    report("matching patches", 1, 1)
+
+    k = tile_patches.shape[0]
+    match_offsets = offsets[inverse, variants]
+    D = ssd[inverse, variants].astype(np.float64)
+    I_tiles = inter[inverse]
+    I_src = inter_src[inverse]
+    O_tiles = np.stack([ex[r : r + n, c : c + n] for r, c in match_offsets])
+    report("cutting curves", 0, k)
+    masks, costs = kernels.omega_cuts(I_tiles, O_tiles, eps=eps, threads=threads)
+    t3 = time.perf_counter()
+    report("cutting curves", k, k)
+
+    yy, xx = np.mgrid[0:n, 0:n].astype(np.int32)
+    O_src = np.stack([np.stack([yy + r, xx + c], axis=-1) for r, c in match_offsets]).astype(np.int32)
+    tiles = np.where(masks[..., None], O_tiles, I_tiles).astype(np.float32)
+    source = np.where(masks[..., None], O_src, I_src).astype(np.int32)
+
+    E = energy(ssd[:, 0])
+    info = {"shape": list(ex.shape), "sha256": exemplar_digest(ex)}
+    info.update(exemplar_info or {})
+    from . import __version__
+
+    return TileSet(
+        scheme="omega",
+        layout=defn.to_dict(),
+        tiles=np.ascontiguousarray(tiles),
+        source=np.ascontiguousarray(source),
+        cut_masks=np.ascontiguousarray(masks),
+        genes=genes_arr,
+        tile_patches=tile_patches,
+        match_offsets=np.ascontiguousarray(match_offsets, dtype=np.int64),
+        D=np.ascontiguousarray(D),
+        cut_costs=np.ascontiguousarray(costs, dtype=np.float64),
+        exemplar=ex,
+        E=E,
+        params={
+            "set": defn.name,
+            "tile_size": n,
+            "eps": float(eps),
+            "lambda": LAMBDA,
+            "second_match_exclude_radius": n // 4 if n_variants > 1 else None,
+            "match": "ssd",
+            "seed": seed,
+            "selection": sel,
+        },
+        exemplar_info=info,
+        timing={
+            "intermediate_s": t1 - t0,
+            "matching_s": t2 - t1,
+            "cutting_s": t3 - t2,
+            "total_s": time.perf_counter() - t0,
+        },
+        version=__version__,
+    )

@@ -1,0 +1,77 @@
+"""Pictures for people: a contact sheet of the tiles.
+
+Each tile is drawn with its index, small squares in its corners showing the corner colours (the sample patches
+R, G, B, Y, ...), and optionally the outline of its cutting curve, so the set can be checked by eye.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._validate import to_uint
+from .tilefile import TileSet
+
+# Display colours for corner labels; colours beyond these get a grey ramp.
+_LABEL_RGB = {
+    "R": (220, 40, 40),
+    "G": (40, 170, 60),
+    "B": (40, 80, 220),
+    "Y": (235, 200, 30),
+    "C": (30, 200, 210),
+    "M": (200, 50, 200),
+    "K": (20, 20, 20),
+    "W": (245, 245, 245),
+}
+
+
+def _rgb8(img: np.ndarray) -> np.ndarray:
+    u = to_uint(img, 8)
+    if u.shape[2] == 1:
+        return np.repeat(u, 3, axis=2)
+    if u.shape[2] == 2:
+        return np.repeat(u[:, :, :1], 3, axis=2)
+    return u[:, :, :3]
+
+
+def contact_sheet(tileset: TileSet, columns: int | None = None, show_cuts: bool = True, gap: int = 6) -> np.ndarray:
+    """Render all tiles in a grid: uint8 RGB ``(H, W, 3)``.
+
+    The cutting curve (the border of the region taken from the matching patch) is drawn as a thin white line
+    when ``show_cuts``; corner markers show the corner colours ⟨TL, BL, TR, BR⟩.
+    """
+    from PIL import Image, ImageDraw
+
+    k, n = tileset.n_tiles, tileset.tile_size
+    cols = columns or int(np.ceil(np.sqrt(k)))
+    rows = -(-k // cols)
+    label_h = 14
+    cell_w, cell_h = n + gap, n + gap + label_h
+    sheet = np.full((rows * cell_h + gap, cols * cell_w + gap, 3), 40, np.uint8)
+    defn = tileset.definition
+    marker = max(3, n // 12)
+    for t in range(k):
+        r, c = divmod(t, cols)
+        y0, x0 = gap + r * cell_h + label_h, gap + c * cell_w
+        tile = _rgb8(tileset.tiles[t]).copy()
+        if show_cuts:
+            m = tileset.cut_masks[t]
+            edge = np.zeros_like(m)
+            edge[:-1] |= m[:-1] != m[1:]
+            edge[:, :-1] |= m[:, :-1] != m[:, 1:]
+            tile[edge] = (255, 255, 255)
+        tl, bl, tr, br = defn.tiles[t]
+        for name, (yy, xx) in zip(
+            (tl, bl, tr, br), ((0, 0), (n - marker, 0), (0, n - marker), (n - marker, n - marker))
+        ):
+            colour = _LABEL_RGB.get(name, (128, 128, 128))
+            tile[yy : yy + marker, xx : xx + marker] = colour
+        sheet[y0 : y0 + n, x0 : x0 + n] = tile
+    im = Image.fromarray(sheet)
+    draw = ImageDraw.Draw(im)
+    for t in range(k):
+        r, c = divmod(t, cols)
+        y0, x0 = gap + r * cell_h, gap + c * cell_w
+        v = defn.variants[t]
+        text = f"{t} {''.join(defn.tiles[t])}" + (f" v{v}" if max(defn.variants) > 0 else "")
+        draw.text((x0, y0 + 1), text, fill=(230, 230, 230))
+    return np.asarray(im)

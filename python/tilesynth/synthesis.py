@@ -1,0 +1,91 @@
+"""Synthesis: lay the tiles of a :class:`~tilesynth.tilefile.TileSet` into an image of any size.
+
+The tiling rule (scan-line, seeded, see :mod:`tilesynth.tiling`) fills an index map of ⌈H/N⌉ x ⌈W/N⌉ cells; the
+Rust kernel copies tile rows into a preallocated output (the last row and column of tiles are cropped).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from . import kernels
+from ._validate import positive_int, seed_int, to_uint
+from .errors import ParameterError, ShapeError
+from .tilefile import TileSet
+from .tiling import scanline_index_map, validate_index_map
+
+
+def synthesize(
+    tileset: TileSet,
+    width: int,
+    height: int,
+    seed: int | None = None,
+    index_map: np.ndarray | None = None,
+    dtype: Any = np.float32,
+    threads: int | None = None,
+    out: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Synthesize a ``height`` x ``width`` texture.
+
+    Parameters
+    ----------
+    tileset : the tile set.
+    width, height : output size in pixels (any positive size; tiles at the right and bottom are cropped).
+    seed : seed of the scan-line tiler (None draws one). Ignored when ``index_map`` is given.
+    index_map : optional int ``(rows, cols)`` map of tile indices to use instead of the tiler; it is checked
+        against the tile set's matching rule and must cover the output.
+    dtype : ``numpy.float32`` (values in [0, 1]), ``numpy.uint8`` or ``numpy.uint16``.
+    threads : copy threads (None: ``TILESYNTH_NUM_THREADS`` or all cores).
+    out : optional preallocated C-contiguous ``(height, width, C)`` array of ``dtype`` to write into.
+
+    Returns
+    -------
+    image : ``(height, width, C)`` of ``dtype``.
+    index_map : int32 ``(rows, cols)``, the tile of every cell.
+    """
+    w = positive_int(width, "width")
+    h = positive_int(height, "height")
+    n = tileset.tile_size
+    rows, cols = -(-h // n), -(-w // n)
+    defn = tileset.definition
+    if index_map is None:
+        imap = scanline_index_map(defn, rows, cols, seed_int(seed))
+    else:
+        imap = np.asarray(index_map)
+        if imap.ndim != 2 or not np.issubdtype(imap.dtype, np.integer):
+            raise ShapeError(f"index_map has shape {imap.shape} and dtype {imap.dtype}, expected an integer 2-d map")
+        if imap.shape[0] < rows or imap.shape[1] < cols:
+            raise ShapeError(
+                f"index_map has shape {imap.shape}, expected at least ({rows}, {cols}) to cover {w}x{h} "
+                f"pixels with {n}x{n} tiles"
+            )
+        try:
+            validate_index_map(defn, imap)
+        except ValueError as exc:
+            raise ParameterError(f"index_map: {exc}") from None
+    imap = np.ascontiguousarray(imap, dtype=np.int32)
+    dt = np.dtype(dtype)
+    if dt == np.float32:
+        atlas = tileset.tiles
+    elif dt == np.uint8:
+        atlas = to_uint(tileset.tiles, 8)
+    elif dt == np.uint16:
+        atlas = to_uint(tileset.tiles, 16)
+    else:
+        raise ParameterError(f"dtype = {dt}: must be float32, uint8 or uint16")
+    shape = (h, w, tileset.channels)
+    if out is None:
+        out = np.empty(shape, dt)
+    elif out.shape != shape or out.dtype != dt or not out.flags.c_contiguous:
+        raise ShapeError(f"out has shape {out.shape} and dtype {out.dtype}, expected C-contiguous {shape} {dt}")
+    kernels.tile_copy(atlas, imap, out, threads=threads)
+    return out, imap
+
+
+def source_map(tileset: TileSet, index_map: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Exemplar (row, col) of every output pixel: int32 ``(height, width, 2)`` (provenance of a synthesis)."""
+    out = np.empty((height, width, 2), np.int32)
+    kernels.tile_copy(tileset.source, np.ascontiguousarray(index_map, dtype=np.int32), out)
+    return out

@@ -1,0 +1,259 @@
+"""The built tile set and its file format.
+
+A ``.tiles`` file is a ZIP archive (readable with any zip tool and ``numpy.load`` per member) holding:
+
+==================  =========================================================================================
+member              content
+==================  =========================================================================================
+``manifest.json``   ``format`` = "tilesynth-tileset", ``format_version``, ``tilesynth_version``, ``scheme``
+                    ("omega"), ``layout`` (the tile-set definition: name, colours, one entry per tile), ``params``
+                    (tile size, eps, selection method and its parameters, seed), ``per_tile`` table (colours,
+                    patch numbers, matching offset, D_j, cut cost), ``E``, ``exemplar`` (file name, shape, bits,
+                    SHA-256 of its float32 pixels), ``arrays`` (name -> dtype and shape, for checking)
+``timing.json``     wall-clock seconds of each build stage (the only member that differs between two identical
+                    builds; everything else is byte-identical for the same inputs and seed)
+``tiles.npy``       float32 ``(K, N, N, C)`` the tiles, values in [0, 1]
+``source.npy``      int32 ``(K, N, N, 2)`` exemplar (row, col) each tile pixel was copied from (provenance)
+``cut_masks.npy``   bool ``(K, N, N)`` True where the pixel came from the matching patch O
+``genes.npy``       int64 ``(n, 2)`` top-left (row, col) of the n sample patches
+``tile_patches.npy`` int64 ``(K, 4)`` index into genes of each tile's ⟨TL, BL, TR, BR⟩ patch
+``match_offsets.npy`` int64 ``(K, 2)`` top-left (row, col) of each tile's matching patch O
+``D.npy``           float64 ``(K,)`` exact SSD between the intermediate tile and O
+``cut_costs.npy``   float64 ``(K,)`` min-cut cost of each tile's cutting curve
+``exemplar.npy``    float32 ``(H, W, C)`` the exemplar itself (so provenance can be resolved and maps that follow
+                    the cuts can be synthesised without the original file)
+==================  =========================================================================================
+
+Members are written in a fixed order with a fixed timestamp (1980-01-01) and deflate level 6, so the bytes
+depend only on the content. Arrays use the ``.npy`` format, floats in JSON use Python's shortest round-trip repr:
+loading and saving again reproduces every array and value bit for bit.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import zipfile
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .errors import TileSetFormatError
+from .io import atomic_path
+
+FORMAT = "tilesynth-tileset"
+FORMAT_VERSION = 1
+
+_ARRAYS: dict[str, str] = {
+    "tiles": "float32",
+    "source": "int32",
+    "cut_masks": "bool",
+    "genes": "int64",
+    "tile_patches": "int64",
+    "match_offsets": "int64",
+    "D": "float64",
+    "cut_costs": "float64",
+    "exemplar": "float32",
+}
+
+
+@dataclass(eq=False)
+class TileSet:
+    """A built set of tiles with full provenance; see the module docstring for the meaning of each field.
+
+    ``layout`` is the tile-set definition as a JSON-able dict (``CornerTileSet.to_dict()``); use
+    :attr:`definition` for the object.
+    """
+
+    scheme: str
+    layout: dict[str, Any]
+    tiles: np.ndarray
+    source: np.ndarray
+    cut_masks: np.ndarray
+    genes: np.ndarray
+    tile_patches: np.ndarray
+    match_offsets: np.ndarray
+    D: np.ndarray
+    cut_costs: np.ndarray
+    exemplar: np.ndarray
+    E: float
+    params: dict[str, Any]
+    exemplar_info: dict[str, Any]
+    timing: dict[str, float] = field(default_factory=dict)
+    version: str = ""
+
+    # ----------------------------------------------------------------------------------------------- views
+    @property
+    def definition(self):  # noqa: ANN201 - CornerTileSet
+        """The tile-set definition object (colours and matching rule)."""
+        from .tilesets import CornerTileSet
+
+        return CornerTileSet.from_dict(self.layout)
+
+    @property
+    def n_tiles(self) -> int:
+        return int(self.tiles.shape[0])
+
+    @property
+    def tile_size(self) -> int:
+        return int(self.tiles.shape[1])
+
+    @property
+    def channels(self) -> int:
+        return int(self.tiles.shape[3])
+
+    def per_tile(self) -> list[dict[str, Any]]:
+        """One JSON-able row per tile: colours, variant, patches, matching offset, D_j, cut cost."""
+        defn = self.definition
+        rows = []
+        for k in range(self.n_tiles):
+            rows.append(
+                {
+                    "index": k,
+                    "corners": "".join(defn.tiles[k]),
+                    "variant": int(defn.variants[k]),
+                    "patches": [int(v) for v in self.tile_patches[k]],
+                    "match_offset": [int(v) for v in self.match_offsets[k]],
+                    "D": float(self.D[k]),
+                    "cut_cost": float(self.cut_costs[k]),
+                }
+            )
+        return rows
+
+    def manifest(self) -> dict[str, Any]:
+        """The ``manifest.json`` content."""
+        return {
+            "format": FORMAT,
+            "format_version": FORMAT_VERSION,
+            "tilesynth_version": self.version,
+            "scheme": self.scheme,
+            "layout": self.layout,
+            "params": self.params,
+            "E": float(self.E),
+            "exemplar": self.exemplar_info,
+            "per_tile": self.per_tile(),
+            "arrays": {
+                name: {"dtype": dt, "shape": list(getattr(self, name).shape)} for name, dt in _ARRAYS.items()
+            },
+        }
+
+    def content_digest(self) -> str:
+        """SHA-256 over everything but the timing: equal digests mean equal tile sets."""
+        h = hashlib.sha256()
+        h.update(_json_bytes(self.manifest()))
+        for name in _ARRAYS:
+            h.update(_npy_bytes(getattr(self, name)))
+        return h.hexdigest()
+
+    # ---------------------------------------------------------------------------------------------- files
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the tile set to ``path`` atomically (see the module docstring for the layout)."""
+        self._check()
+        with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w") as zf:
+            _write_member(zf, "manifest.json", _json_bytes(self.manifest()))
+            _write_member(zf, "timing.json", _json_bytes(self.timing))
+            for name in _ARRAYS:
+                _write_member(zf, f"{name}.npy", _npy_bytes(getattr(self, name)))
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> TileSet:
+        """Read a ``.tiles`` file; raises :class:`TileSetFormatError` naming the path and the problem."""
+        p = os.fspath(path)
+        if not os.path.isfile(p):
+            raise TileSetFormatError(f"tileset = {p!r}: no such file")
+        try:
+            with zipfile.ZipFile(p) as zf:
+                names = set(zf.namelist())
+                missing = [m for m in ["manifest.json", *(f"{a}.npy" for a in _ARRAYS)] if m not in names]
+                if missing:
+                    raise TileSetFormatError(f"tileset = {p!r}: missing members {missing}")
+                manifest = json.loads(zf.read("manifest.json"))
+                timing = json.loads(zf.read("timing.json")) if "timing.json" in names else {}
+                arrays = {
+                    a: np.load(io.BytesIO(zf.read(f"{a}.npy")), allow_pickle=False) for a in _ARRAYS
+                }
+        except (zipfile.BadZipFile, json.JSONDecodeError, ValueError, OSError, KeyError) as exc:
+            if isinstance(exc, TileSetFormatError):
+                raise
+            raise TileSetFormatError(f"tileset = {p!r}: not a tilesynth tile set ({exc})") from None
+        if manifest.get("format") != FORMAT:
+            raise TileSetFormatError(f"tileset = {p!r}: not a tilesynth tile set (format {manifest.get('format')!r})")
+        if manifest.get("format_version") != FORMAT_VERSION:
+            raise TileSetFormatError(
+                f"tileset = {p!r}: format version {manifest.get('format_version')!r}, "
+                f"this tilesynth reads version {FORMAT_VERSION}"
+            )
+        ts = cls(
+            scheme=manifest["scheme"],
+            layout=manifest["layout"],
+            E=manifest["E"],
+            params=manifest["params"],
+            exemplar_info=manifest["exemplar"],
+            timing=timing,
+            version=manifest["tilesynth_version"],
+            **arrays,
+        )
+        try:
+            ts._check()
+        except TileSetFormatError as exc:
+            raise TileSetFormatError(f"tileset = {p!r}: {exc}") from None
+        return ts
+
+    def _check(self) -> None:
+        """Consistency of dtypes and shapes (raises TileSetFormatError)."""
+        for name, dt in _ARRAYS.items():
+            a = getattr(self, name)
+            if not isinstance(a, np.ndarray) or a.dtype != np.dtype(dt):
+                raise TileSetFormatError(f"array {name} must be {dt}, got {getattr(a, 'dtype', type(a))}")
+        k, n, n2, c = self.tiles.shape
+        expect = {
+            "source": (k, n, n, 2),
+            "cut_masks": (k, n, n),
+            "tile_patches": (k, 4),
+            "match_offsets": (k, 2),
+            "D": (k,),
+            "cut_costs": (k,),
+        }
+        if n != n2:
+            raise TileSetFormatError(f"tiles must be square, got shape {self.tiles.shape}")
+        for name, shape in expect.items():
+            if getattr(self, name).shape != shape:
+                raise TileSetFormatError(f"array {name} has shape {getattr(self, name).shape}, expected {shape}")
+        if len(self.layout.get("tiles", [])) != k:
+            raise TileSetFormatError(f"layout lists {len(self.layout.get('tiles', []))} tiles, the arrays {k}")
+        if self.exemplar.ndim != 3 or self.exemplar.shape[2] != c:
+            raise TileSetFormatError(f"exemplar has shape {self.exemplar.shape}, expected (H, W, {c})")
+
+    # ------------------------------------------------------------------------------------------ synthesis
+    def synthesize(self, width: int, height: int, seed: int | None = None, **kwargs: Any):  # noqa: ANN201
+        """Shorthand for :func:`tilesynth.synthesize` on this tile set."""
+        from .synthesis import synthesize
+
+        return synthesize(self, width, height, seed=seed, **kwargs)
+
+
+def exemplar_digest(exemplar: np.ndarray) -> str:
+    """SHA-256 of the float32 exemplar pixels and shape."""
+    h = hashlib.sha256(repr(exemplar.shape).encode())
+    h.update(np.ascontiguousarray(exemplar, dtype=np.float32).tobytes())
+    return h.hexdigest()
+
+
+def _json_bytes(obj: Any) -> bytes:
+    return json.dumps(obj, indent=1, sort_keys=True, ensure_ascii=False).encode("utf-8")
+
+
+def _npy_bytes(a: np.ndarray) -> bytes:
+    buf = io.BytesIO()
+    np.lib.format.write_array(buf, np.ascontiguousarray(a), allow_pickle=False)
+    return buf.getvalue()
+
+
+def _write_member(zf: zipfile.ZipFile, name: str, data: bytes) -> None:
+    info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+    info.compress_type = zipfile.ZIP_DEFLATED
+    info.external_attr = 0o644 << 16
+    zf.writestr(info, data, compress_type=zipfile.ZIP_DEFLATED, compresslevel=6)

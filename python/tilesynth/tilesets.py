@@ -1,0 +1,785 @@
+"""Named ω-tile sets, their structural properties and an exact completeness check.
+
+An ω-tile (Ng et al., *Generating an ω-tile set for texture synthesis*, CGI 2005;
+``/work/shared/papers/002_*.txt``) is identified by the colours of its four corner
+patches, written as the tuple ⟨TL, BL, TR, BR⟩ (top-left, bottom-left, top-right,
+bottom-right; the order of the paper's appendix). Tiles laid in a grid must share
+corners with their neighbours:
+
+* right neighbour ``X`` of tile ``A``: ``X.TL == A.TR`` and ``X.BL == A.BR``;
+* bottom neighbour ``X`` of tile ``A``: ``X.TL == A.BL`` and ``X.TR == A.BR``.
+
+The tiler (:mod:`tilesynth.tiling`) never looks at corners directly.  It only uses four
+*side keys* per tile and compares ``left_key(new) == right_key(left neighbour)`` and
+``top_key(new) == bottom_key(top neighbour)``.  For corner tiles the keys are
+``left = (TL, BL)``, ``right = (TR, BR)``, ``top = (TL, TR)``, ``bottom = (BL, BR)``.
+Any class following the :class:`TileSetLike` protocol (for example a later
+edge-coloured Wang tile set with ``left = W``, ``right = E``, ``top = N``,
+``bottom = S``) works with the tiler and with :func:`dead_ends` /
+:func:`choices_summary` unchanged.
+
+Named sets (see :func:`get_tileset`): ``"4"``, ``"8"``, ``"16a"``, ``"16b"``, ``"32"``.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections import defaultdict
+from collections.abc import Hashable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+__all__ = [
+    "TL",
+    "BL",
+    "TR",
+    "BR",
+    "PATCH_COLOURS",
+    "TILESET_NAMES",
+    "TileSetLike",
+    "CornerTileSet",
+    "DeadEnd",
+    "get_tileset",
+    "tileset_from_dict",
+    "forbidden_pairs",
+    "check_properties",
+    "reachable_situations",
+    "candidate_counts",
+    "dead_ends",
+    "choices_summary",
+]
+
+#: Position of the top-left corner in a corner tuple ⟨TL, BL, TR, BR⟩.
+TL = 0
+#: Position of the bottom-left corner in a corner tuple.
+BL = 1
+#: Position of the top-right corner in a corner tuple.
+TR = 2
+#: Position of the bottom-right corner in a corner tuple.
+BR = 3
+
+#: The patch set F of the paper (§4): four patches cut from the input texture.
+PATCH_COLOURS: tuple[str, ...] = ("R", "G", "B", "Y")
+
+#: Names accepted by :func:`get_tileset`, smallest set first.
+TILESET_NAMES: tuple[str, ...] = ("4", "8", "16a", "16b", "32")
+
+#: Situation categories of the scan-line tiler, in scan order.
+SITUATION_KINDS: tuple[str, ...] = ("first_tile", "first_row", "first_column", "interior")
+
+
+@runtime_checkable
+class TileSetLike(Protocol):
+    """Interface the scan-line tiler and the completeness checks rely on.
+
+    A tile set is a finite sequence of tiles, addressed by index ``0 .. len - 1``.
+    Matching is expressed only through hashable side keys: a tile ``X`` may be placed
+    to the right of ``A`` iff ``X.left_key == A.right_key`` and below ``A`` iff
+    ``X.top_key == A.bottom_key``.  Implementations should be immutable and hashable
+    (the tiler caches its candidate table per tile set).
+
+    Attributes
+    ----------
+    name : str
+        Human-readable name of the set.
+    """
+
+    name: str
+
+    def __len__(self) -> int:
+        """Number of tiles."""
+        ...
+
+    def left_key(self, index: int) -> Hashable:
+        """Key of the left side of tile ``index``."""
+        ...
+
+    def right_key(self, index: int) -> Hashable:
+        """Key of the right side of tile ``index``."""
+        ...
+
+    def top_key(self, index: int) -> Hashable:
+        """Key of the top side of tile ``index``."""
+        ...
+
+    def bottom_key(self, index: int) -> Hashable:
+        """Key of the bottom side of tile ``index``."""
+        ...
+
+    def tile_label(self, index: int) -> str:
+        """Short human-readable label of tile ``index`` (used in error messages)."""
+        ...
+
+
+CornerTuple = tuple[str, str, str, str]
+
+
+@dataclass(frozen=True)
+class CornerTileSet:
+    """A set of ω-tiles identified by their corner colours.
+
+    Parameters
+    ----------
+    name : str
+        Name of the set (e.g. ``"16a"``).
+    colours : sequence of str
+        The patch colours the tiles may use (distinct, non-empty strings; the named
+        sets use single letters ``R, G, B, Y``).
+    tiles : sequence of 4-sequences of str
+        One ⟨TL, BL, TR, BR⟩ tuple per tile.  A string such as ``"BRYG"`` is accepted
+        as shorthand for ``("B", "R", "Y", "G")`` when all colours are single letters.
+        Duplicated tuples are allowed and meaningful: they are distinct ω-tiles cut
+        from the same intermediate tile, told apart by ``variants``.
+    variants : sequence of int, optional
+        Variant number of each tile (``0`` if omitted).  In the 32-set tile ``k`` and
+        ``k + 16`` share their corner tuple and have variants 0 and 1: the two ω-tiles
+        the paper (§4.1, §4.2) keeps for every intermediate tile.
+
+    Raises
+    ------
+    ValueError
+        If the colours are not distinct, a tile does not have four corners, a corner
+        uses a colour outside ``colours``, the set is empty, or ``variants`` has the
+        wrong length or negative entries.
+    """
+
+    name: str
+    colours: tuple[str, ...]
+    tiles: tuple[CornerTuple, ...]
+    variants: tuple[int, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        colours = tuple(str(c) for c in self.colours)
+        if not colours:
+            raise ValueError("a tile set needs at least one colour")
+        if len(set(colours)) != len(colours):
+            raise ValueError(f"colours must be distinct, got {colours!r}")
+        if any(c == "" for c in colours):
+            raise ValueError("colours must be non-empty strings")
+        tiles: list[CornerTuple] = []
+        for k, tile in enumerate(self.tiles):
+            corners = tuple(tile)
+            if len(corners) != 4:
+                raise ValueError(
+                    f"tile {k} must have four corners <TL, BL, TR, BR>, got {tile!r}"
+                )
+            for c in corners:
+                if c not in colours:
+                    raise ValueError(
+                        f"tile {k} {tile!r} uses colour {c!r}, not one of {colours!r}"
+                    )
+            tiles.append((corners[0], corners[1], corners[2], corners[3]))
+        if not tiles:
+            raise ValueError("a tile set needs at least one tile")
+        variants = tuple(int(v) for v in self.variants) if self.variants else (0,) * len(tiles)
+        if len(variants) != len(tiles):
+            raise ValueError(
+                f"variants has {len(variants)} entries but there are {len(tiles)} tiles"
+            )
+        if any(v < 0 for v in variants):
+            raise ValueError("variants must be non-negative")
+        object.__setattr__(self, "name", str(self.name))
+        object.__setattr__(self, "colours", colours)
+        object.__setattr__(self, "tiles", tuple(tiles))
+        object.__setattr__(self, "variants", variants)
+
+    # ------------------------------------------------------------------ basics
+    def __len__(self) -> int:
+        """Number of tiles."""
+        return len(self.tiles)
+
+    def corners(self, index: int) -> CornerTuple:
+        """Corner tuple ⟨TL, BL, TR, BR⟩ of tile ``index``."""
+        return self.tiles[index]
+
+    def variant(self, index: int) -> int:
+        """Variant number of tile ``index`` (0 unless the set keeps several ω-tiles
+        per intermediate tile)."""
+        return self.variants[index]
+
+    def tile_label(self, index: int) -> str:
+        """Label such as ``"<B,R,Y,G>"`` or ``"<B,R,Y,G>#1"`` for variant 1."""
+        text = "<" + ",".join(self.tiles[index]) + ">"
+        v = self.variants[index]
+        return text if v == 0 else f"{text}#{v}"
+
+    # --------------------------------------------------------------- side keys
+    def left_key(self, index: int) -> tuple[str, str]:
+        """Left side key ``(TL, BL)`` of tile ``index``."""
+        t = self.tiles[index]
+        return (t[TL], t[BL])
+
+    def right_key(self, index: int) -> tuple[str, str]:
+        """Right side key ``(TR, BR)`` of tile ``index``."""
+        t = self.tiles[index]
+        return (t[TR], t[BR])
+
+    def top_key(self, index: int) -> tuple[str, str]:
+        """Top side key ``(TL, TR)`` of tile ``index``."""
+        t = self.tiles[index]
+        return (t[TL], t[TR])
+
+    def bottom_key(self, index: int) -> tuple[str, str]:
+        """Bottom side key ``(BL, BR)`` of tile ``index``."""
+        t = self.tiles[index]
+        return (t[BL], t[BR])
+
+    # ----------------------------------------------------------------- helpers
+    def corner_indices(self) -> np.ndarray:
+        """Corner colours as indices into :attr:`colours`.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``int32`` array of shape ``(len(self), 4)``, columns in the order
+            TL, BL, TR, BR.
+        """
+        lookup = {c: i for i, c in enumerate(self.colours)}
+        return np.array(
+            [[lookup[c] for c in tile] for tile in self.tiles], dtype=np.int32
+        ).reshape(len(self.tiles), 4)
+
+    def distinct_tuples(self) -> tuple[CornerTuple, ...]:
+        """The distinct corner tuples, in order of first appearance (the intermediate
+        tiles the set needs)."""
+        return tuple(dict.fromkeys(self.tiles))
+
+    def subset(self, indices: Iterable[int], name: str | None = None) -> CornerTileSet:
+        """A new set made of the tiles at ``indices`` (in that order).
+
+        Parameters
+        ----------
+        indices : iterable of int
+            Tile indices to keep.
+        name : str, optional
+            Name of the new set; defaults to ``"<name>-subset"``.
+
+        Returns
+        -------
+        CornerTileSet
+        """
+        idx = list(indices)
+        return CornerTileSet(
+            name=name if name is not None else f"{self.name}-subset",
+            colours=self.colours,
+            tiles=tuple(self.tiles[i] for i in idx),
+            variants=tuple(self.variants[i] for i in idx),
+        )
+
+    # ----------------------------------------------------------- serialisation
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able description of the set (stored in tile-set files).
+
+        Returns
+        -------
+        dict
+            ``{"kind": "corner", "name": str, "colours": [str, ...],
+            "tiles": [[TL, BL, TR, BR], ...], "variants": [int, ...]}``.
+        """
+        return {
+            "kind": "corner",
+            "name": self.name,
+            "colours": list(self.colours),
+            "tiles": [list(t) for t in self.tiles],
+            "variants": list(self.variants),
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> CornerTileSet:
+        """Rebuild a set written by :meth:`to_dict`.
+
+        Parameters
+        ----------
+        data : mapping
+            Must have ``name``, ``colours`` and ``tiles``; ``variants`` is optional and
+            ``kind``, if present, must be ``"corner"``.
+
+        Returns
+        -------
+        CornerTileSet
+
+        Raises
+        ------
+        ValueError
+            If a key is missing, ``kind`` is not ``"corner"`` or the content is
+            invalid.
+        """
+        if not isinstance(data, Mapping):
+            raise ValueError(f"expected a mapping, got {type(data).__name__}")
+        kind = data.get("kind", "corner")
+        if kind != "corner":
+            raise ValueError(f"expected a corner tile set (kind 'corner'), got kind {kind!r}")
+        missing = [k for k in ("name", "colours", "tiles") if k not in data]
+        if missing:
+            raise ValueError(f"tile set description lacks {', '.join(missing)}")
+        tiles_raw = data["tiles"]
+        if isinstance(tiles_raw, (str, bytes)) or not isinstance(tiles_raw, Sequence):
+            raise ValueError("'tiles' must be a list of [TL, BL, TR, BR] lists")
+        tiles = []
+        for t in tiles_raw:
+            if isinstance(t, (bytes,)) or not isinstance(t, (str, Sequence)):
+                raise ValueError(f"bad tile entry {t!r}")
+            tiles.append(tuple(str(c) for c in t))
+        return cls(
+            name=str(data["name"]),
+            colours=tuple(str(c) for c in data["colours"]),
+            tiles=tuple(tiles),  # type: ignore[arg-type]
+            variants=tuple(int(v) for v in data.get("variants", ()) or ()),
+        )
+
+
+def tileset_from_dict(data: Mapping[str, Any]) -> TileSetLike:
+    """Rebuild any known tile-set kind from its ``to_dict()`` description.
+
+    Parameters
+    ----------
+    data : mapping
+        A description with a ``kind`` entry (``"corner"`` assumed when absent).
+
+    Returns
+    -------
+    TileSetLike
+
+    Raises
+    ------
+    ValueError
+        If the kind is unknown or the description is invalid.
+    """
+    kind = data.get("kind", "corner") if isinstance(data, Mapping) else None
+    if kind == "corner":
+        return CornerTileSet.from_dict(data)
+    raise ValueError(f"unknown tile set kind {kind!r}; known kinds: 'corner'")
+
+
+# ---------------------------------------------------------------------------
+# Named sets
+# ---------------------------------------------------------------------------
+
+#: Figure 8(a) of the paper, decoded in ``/work/shared/papers/INDEX.md``.
+_SET_16A = (
+    "BRYG BYRG BYYR BRRB YGRB YRGB YRRG YGGY "
+    "RBGY RGBY RGGB RBBR GYBR GBYR GBBY GYYG"
+).split()
+
+#: Figure 8(b) of the paper, decoded in ``/work/shared/papers/INDEX.md``.
+_SET_16B = (
+    "BYRG BRYG BRRB BYYB GYRB GRYB GRRG GYYG "
+    "RBBY RGBR RGGY RBGR YBGY YGBY YGGR YBBR"
+).split()
+
+#: The 4-set: the four tiles of the 2x2-periodic corner lattice [[B, Y], [R, G]].
+_SET_4 = "BRYG YGBR RBGY GYRB".split()
+
+#: The 8-set: the 4-set plus the four tiles whose bottom corner row is shifted by one.
+_SET_8 = "BRYG YGBR RBGY GYRB BGYR YRBG RYGB GBRY".split()
+
+
+def _make(name: str, tuples: Sequence[str], variants: Sequence[int] = ()) -> CornerTileSet:
+    return CornerTileSet(
+        name=name,
+        colours=PATCH_COLOURS,
+        tiles=tuple((t[0], t[1], t[2], t[3]) for t in tuples),
+        variants=tuple(variants),
+    )
+
+
+def _set_4() -> CornerTileSet:
+    """The 4-set (Figure 7(a) of the paper, whose picture is lost in extraction).
+
+    Corner colours form the 2x2-periodic lattice ``[[B, Y], [R, G]]``: the corner at
+    lattice point (row ``r``, column ``c``) has colour ``[[B, Y], [R, G]][r % 2][c % 2]``.
+    The four tiles are the four cells of one period:
+    ⟨B,R,Y,G⟩, ⟨Y,G,B,R⟩, ⟨R,B,G,Y⟩, ⟨G,Y,R,B⟩.
+
+    Why this set: the paper says that with the 4-set "once the top-leftmost ω-tile is
+    fixed, the rest of the ω-tiles in the tiling are decided".  Here every left key
+    ``(TL, BL)`` and every top key ``(TL, TR)`` belongs to exactly one tile, so after the
+    first tile every placement has exactly one candidate (the tiling is the lattice,
+    shifted by the choice of the first tile), and it never dead-ends (checked
+    exhaustively by :func:`dead_ends`).  It satisfies Property 1 (no two corners
+    sharing a side have the same colour), so no tile equals a side neighbour.
+    """
+    return _make("4", _SET_4)
+
+
+def _set_8() -> CornerTileSet:
+    """The 8-set (Figure 7(b) of the paper, whose picture is lost in extraction).
+
+    Every corner row of a tiling alternates the two colours of one *pair*, the pairs
+    ``{B, Y}`` and ``{R, G}`` alternating from one corner row to the next; each tile
+    has one pair on top and the other at the bottom, in either phase.  The 8 tiles are
+    all such combinations: the 4-set ⟨B,R,Y,G⟩, ⟨Y,G,B,R⟩, ⟨R,B,G,Y⟩, ⟨G,Y,R,B⟩ plus
+    ⟨B,G,Y,R⟩, ⟨Y,R,B,G⟩, ⟨R,Y,G,B⟩, ⟨G,B,R,Y⟩.
+
+    Why this set: the paper says the 8-set gives "an additional choice of an ω-tile at
+    the leftmost column" compared with the 4-set.  Here a left key ``(TL, BL)`` fixes
+    the whole tile (one choice along the first row and in the interior, where the left
+    key is known), while a top key ``(TL, TR)`` is shared by exactly two tiles (the
+    two phases of the next corner row): at the start of every row there is one free
+    binary choice, and the rest of the row follows.  It contains the 4-set, satisfies
+    Property 1 (so no tile equals a side neighbour) and never dead-ends (checked
+    exhaustively by :func:`dead_ends`): in the interior the known corners TL, BL, TR
+    always come from an alternating top pair and an alternating bottom pair, and each
+    such triple has exactly one tile.
+    """
+    return _make("8", _SET_8)
+
+
+def _set_16a() -> CornerTileSet:
+    """Figure 8(a) of the paper in the order of INDEX.md (forbidden pairs R↓Y, G↓R,
+    B↓G, Y↓B)."""
+    return _make("16a", _SET_16A)
+
+
+def _set_16b() -> CornerTileSet:
+    """Figure 8(b) of the paper in the order of INDEX.md (forbidden pairs R↓Y, Y↓R,
+    B↓G, G↓B)."""
+    return _make("16b", _SET_16B)
+
+
+def _set_32() -> CornerTileSet:
+    """The 32-set: every tuple of 16a twice.
+
+    Tiles ``0..15`` are the tuples of 16a in order with variant 0 and tiles
+    ``16..31`` the same tuples with variant 1, so tile ``k`` and ``k + 16`` are the two
+    ω-tiles the paper (§4.1, §4.2) keeps for one intermediate tile, and every tiling
+    step has at least two choices.
+
+    Why 16a: the paper builds the 32-set "by generating two ω-tiles from an
+    intermediate tile" of a 16-set without saying which one.  16a is Figure 8(a), the
+    set the appendix uses as its running example; its forbidden-pair relation is a
+    single 4-cycle (R↓Y, Y↓B, B↓G, G↓R), the first scenario of Property 2, and the
+    set is invariant under the colour rotation R→G→B→Y→R, a symmetry that is
+    transitive on the patches: all four patches play the same role, so none is
+    favoured by the tiler.  The only colour permutations preserving 16b are the swaps
+    R↔Y and G↔B, which keep {R, Y} and {G, B} as two distinct classes.  16b would be
+    complete too (same four properties); the choice only fixes which 16 intermediate
+    tiles have to be computed.
+    """
+    return _make("32", _SET_16A + _SET_16A, (0,) * 16 + (1,) * 16)
+
+
+_FACTORIES = {
+    "4": _set_4,
+    "8": _set_8,
+    "16a": _set_16a,
+    "16b": _set_16b,
+    "32": _set_32,
+}
+
+
+@functools.lru_cache(maxsize=None)
+def get_tileset(name: str) -> CornerTileSet:
+    """Return a named ω-tile set.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`TILESET_NAMES`: ``"4"``, ``"8"``, ``"16a"``, ``"16b"``, ``"32"``.
+
+    Returns
+    -------
+    CornerTileSet
+        The (immutable, shared) set.
+
+    Raises
+    ------
+    ValueError
+        If ``name`` is not a known set; the message lists the valid names.
+    """
+    key = str(name)
+    if key not in _FACTORIES:
+        raise ValueError(
+            f"unknown tile set {name!r}; valid names are: {', '.join(TILESET_NAMES)}"
+        )
+    return _FACTORIES[key]()
+
+
+# ---------------------------------------------------------------------------
+# Properties of the appendix
+# ---------------------------------------------------------------------------
+
+
+def _left_columns(tileset: CornerTileSet) -> set[tuple[str, str]]:
+    return {(t[TL], t[BL]) for t in tileset.tiles}
+
+
+def forbidden_pairs(tileset: CornerTileSet) -> list[tuple[str, str]]:
+    """The forbidden pairs a↓b of the appendix, for distinct colours.
+
+    ``a↓b`` means that no tile has the form ⟨a, b, -, -⟩ (``a`` at the top-left and
+    ``b`` at the bottom-left corner).  Pairs with ``a == b`` are left out: under
+    Property 1 they are always forbidden and the appendix never lists them.
+
+    Parameters
+    ----------
+    tileset : CornerTileSet
+
+    Returns
+    -------
+    list of (str, str)
+        The pairs ``(a, b)``, ``a != b``, sorted by the order of ``tileset.colours``.
+    """
+    present = _left_columns(tileset)
+    return [
+        (a, b)
+        for a in tileset.colours
+        for b in tileset.colours
+        if a != b and (a, b) not in present
+    ]
+
+
+def check_properties(tileset: CornerTileSet) -> dict[str, bool]:
+    """Evaluate the four properties of the paper's appendix.
+
+    1. Every tile ⟨a, b, c, d⟩ has a≠b, a≠c, b≠d and c≠d.
+    2. (i) every colour ``a`` has exactly one ``a' != a`` with a↓a', and (ii) distinct
+       colours have distinct forbidden counterparts ``a'``.
+    3. For every tile ⟨a, b, -, -⟩ there is a tile ⟨-, -, a, b⟩ and vice versa (the
+       set of left columns equals the set of right columns).
+    4. For every tile ⟨a, b, c, d⟩ neither b↓d nor c↓d (here ↓ includes equal
+       colours: x↓x holds when no tile is ⟨x, x, -, -⟩).
+
+    Parameters
+    ----------
+    tileset : CornerTileSet
+
+    Returns
+    -------
+    dict of str to bool
+        Keys ``"property1"`` .. ``"property4"``.
+    """
+    tiles = tileset.tiles
+    p1 = all(
+        t[TL] != t[BL] and t[TL] != t[TR] and t[BL] != t[BR] and t[TR] != t[BR]
+        for t in tiles
+    )
+
+    counterparts: dict[str, list[str]] = defaultdict(list)
+    for a, b in forbidden_pairs(tileset):
+        counterparts[a].append(b)
+    p2i = all(len(counterparts[a]) == 1 for a in tileset.colours)
+    p2ii = p2i and len({counterparts[a][0] for a in tileset.colours}) == len(tileset.colours)
+    p2 = p2i and p2ii
+
+    left = _left_columns(tileset)
+    right = {(t[TR], t[BR]) for t in tiles}
+    p3 = left == right
+
+    def allowed(x: str, y: str) -> bool:
+        return (x, y) in left
+
+    p4 = all(allowed(t[BL], t[BR]) and allowed(t[TR], t[BR]) for t in tiles)
+    return {"property1": p1, "property2": p2, "property3": p3, "property4": p4}
+
+
+# ---------------------------------------------------------------------------
+# Completeness of scan-line tiling
+# ---------------------------------------------------------------------------
+
+Situation = tuple[Hashable | None, Hashable | None]
+
+
+@dataclass(frozen=True)
+class DeadEnd:
+    """A reachable scan-line situation in which no tile fits.
+
+    Attributes
+    ----------
+    kind : str
+        ``"first_tile"``, ``"first_row"``, ``"first_column"`` or ``"interior"``.
+    left_key : hashable or None
+        Required left key of the new tile (right key of the left neighbour), ``None``
+        in column 0.
+    top_key : hashable or None
+        Required top key of the new tile (bottom key of the top neighbour), ``None``
+        in row 0.
+    left_tile, top_tile, diagonal_tile : int or None
+        A witness: indices of a left neighbour, top neighbour and (interior only)
+        top-left diagonal tile that realise the situation at cell (1, 1), (0, 1) or
+        (1, 0) of a scan-line tiling.
+    """
+
+    kind: str
+    left_key: Hashable | None
+    top_key: Hashable | None
+    left_tile: int | None
+    top_tile: int | None
+    diagonal_tile: int | None
+
+    def __str__(self) -> str:
+        parts = [f"{self.kind}: no tile with left key {self.left_key!r} and top key {self.top_key!r}"]
+        wit = []
+        if self.diagonal_tile is not None:
+            wit.append(f"top-left tile {self.diagonal_tile}")
+        if self.top_tile is not None:
+            wit.append(f"top tile {self.top_tile}")
+        if self.left_tile is not None:
+            wit.append(f"left tile {self.left_tile}")
+        if wit:
+            parts.append(" (reached with " + ", ".join(wit) + ")")
+        return "".join(parts)
+
+
+def reachable_situations(
+    tileset: TileSetLike,
+) -> dict[str, dict[Situation, tuple[int | None, int | None, int | None]]]:
+    """All situations the scan-line tiler can meet, exactly.
+
+    The tiler fills an ``rows x cols`` grid (any ``rows, cols >= 1``) left to right,
+    top to bottom; at cell (i, j) it needs a tile whose left key equals the right key
+    of tile (i, j-1) (no constraint when j = 0) and whose top key equals the bottom
+    key of tile (i-1, j) (no constraint when i = 0).  A *situation* is that pair of
+    required keys.  It is *reachable* if some run of the tiler, with some grid size
+    and some sequence of choices, arrives at a cell with it.
+
+    Exact characterisation:
+
+    * ``(None, None)`` at (0, 0);
+    * ``(right_key(L), None)`` for **every** tile L (row 0, j >= 1);
+    * ``(None, bottom_key(T))`` for **every** tile T (column 0, i >= 1);
+    * ``(right_key(L), bottom_key(T))`` for every pair (L, T) that has a common
+      "diagonal" tile D with ``top_key(L) == bottom_key(D)`` (L can sit below D) and
+      ``left_key(T) == right_key(D)`` (T can sit right of D) (interior, i, j >= 1).
+
+    Proof.  The tiler picks among *all* matching tiles with positive probability, so
+    the states it can reach at cell (i, j) are exactly the valid tilings of the
+    already-placed region (rows ``0..i-1`` in full, row ``i`` up to column ``j-1``);
+    a dead end anywhere before would contradict validity of that tiling.
+
+    *Soundness* (nothing unreachable is listed): each listed situation is realised by
+    a tiny valid prefix: tile L alone at (0, 0) before cell (0, 1) of a 1x2 grid; tile
+    T alone at (0, 0) before cell (1, 0) of a 2x1 grid; row 0 = [D, T] and row 1 =
+    [L] before cell (1, 1) of a 2x2 grid (valid because T fits right of D and L fits
+    below D; the first row has no constraint from above, and L no constraint from the
+    left).  *Completeness* (nothing reachable is missed): in row 0 the situation
+    depends only on the left tile, and any tile is a possible left tile; likewise in
+    column 0.  For i, j >= 1 the tile D at (i-1, j-1) of the placed region exists and,
+    by validity, is matched by T = (i-1, j) on its right and L = (i, j-1) below it, so
+    the situation is one listed for that (L, T).  Hence the fixpoint over "what rows
+    can contain" that one might compute collapses after one step: the first row is
+    unconstrained, so every horizontally adjacent pair (D, T) and every vertically
+    adjacent pair (D, L) already occur at the top-left corner of the grid, and deeper
+    rows or further columns can only restrict, never extend, the set of situations.
+    The argument uses nothing but the side keys, so it holds for any
+    :class:`TileSetLike` (corner or edge tiles).
+
+    Parameters
+    ----------
+    tileset : TileSetLike
+
+    Returns
+    -------
+    dict
+        For each kind in ``("first_tile", "first_row", "first_column", "interior")``
+        a mapping from situation ``(left_key | None, top_key | None)`` to one witness
+        ``(left_tile, top_tile, diagonal_tile)`` (``None`` where not applicable).
+    """
+    n = len(tileset)
+    left = [tileset.left_key(k) for k in range(n)]
+    right = [tileset.right_key(k) for k in range(n)]
+    top = [tileset.top_key(k) for k in range(n)]
+    bottom = [tileset.bottom_key(k) for k in range(n)]
+
+    by_left: dict[Hashable, list[int]] = defaultdict(list)
+    by_top: dict[Hashable, list[int]] = defaultdict(list)
+    for k in range(n):
+        by_left[left[k]].append(k)
+        by_top[top[k]].append(k)
+
+    out: dict[str, dict[Situation, tuple[int | None, int | None, int | None]]] = {
+        kind: {} for kind in SITUATION_KINDS
+    }
+    out["first_tile"][(None, None)] = (None, None, None)
+    for k in range(n):
+        out["first_row"].setdefault((right[k], None), (k, None, None))
+        out["first_column"].setdefault((None, bottom[k]), (None, k, None))
+    interior = out["interior"]
+    for d in range(n):
+        below_d = by_top.get(bottom[d], [])
+        right_of_d = by_left.get(right[d], [])
+        if not below_d or not right_of_d:
+            continue
+        # Group by key so the work is (#distinct keys)^2 per D, not (#tiles)^2.
+        l_keys: dict[Hashable, int] = {}
+        for l_tile in below_d:
+            l_keys.setdefault(right[l_tile], l_tile)
+        t_keys: dict[Hashable, int] = {}
+        for t_tile in right_of_d:
+            t_keys.setdefault(bottom[t_tile], t_tile)
+        for lk, l_tile in l_keys.items():
+            for tk, t_tile in t_keys.items():
+                interior.setdefault((lk, tk), (l_tile, t_tile, d))
+    return out
+
+
+def candidate_counts(tileset: TileSetLike) -> dict[Situation, int]:
+    """Number of tiles matching every *possible* situation key pair.
+
+    Parameters
+    ----------
+    tileset : TileSetLike
+
+    Returns
+    -------
+    dict
+        ``(left_key | None, top_key | None) -> count`` for every key pair at least one
+        tile matches (absent key pairs have no candidate).
+    """
+    counts: dict[Situation, int] = defaultdict(int)
+    for k in range(len(tileset)):
+        lk, tk = tileset.left_key(k), tileset.top_key(k)
+        counts[(None, None)] += 1
+        counts[(lk, None)] += 1
+        counts[(None, tk)] += 1
+        counts[(lk, tk)] += 1
+    return dict(counts)
+
+
+def dead_ends(tileset: TileSetLike) -> list[DeadEnd]:
+    """Exhaustive completeness check of scan-line tiling.
+
+    Enumerates every situation the scan-line tiler can reach (exactly; see
+    :func:`reachable_situations` for the argument) and reports those with no
+    matching tile.
+
+    Parameters
+    ----------
+    tileset : TileSetLike
+
+    Returns
+    -------
+    list of DeadEnd
+        Empty iff the tiler can never get stuck, for any grid size and any choices.
+    """
+    counts = candidate_counts(tileset)
+    found: list[DeadEnd] = []
+    for kind, situations in reachable_situations(tileset).items():
+        for (lk, tk), (l_tile, t_tile, d_tile) in situations.items():
+            if counts.get((lk, tk), 0) == 0:
+                found.append(DeadEnd(kind, lk, tk, l_tile, t_tile, d_tile))
+    return found
+
+
+def choices_summary(tileset: TileSetLike) -> dict[str, tuple[int, int]]:
+    """Minimum and maximum number of candidate tiles over reachable situations.
+
+    Parameters
+    ----------
+    tileset : TileSetLike
+
+    Returns
+    -------
+    dict of str to (int, int)
+        ``(min, max)`` for each of ``"first_tile"`` (cell (0, 0)), ``"first_row"``
+        (row 0, j >= 1), ``"first_column"`` (column 0, i >= 1) and ``"interior"``
+        (i, j >= 1).  A minimum of 0 means a dead end (see :func:`dead_ends`).
+    """
+    counts = candidate_counts(tileset)
+    summary: dict[str, tuple[int, int]] = {}
+    for kind, situations in reachable_situations(tileset).items():
+        values = [counts.get(s, 0) for s in situations]
+        summary[kind] = (min(values), max(values)) if values else (0, 0)
+    return summary

@@ -1,0 +1,198 @@
+//! The Python extension module `tilesynth._core`. Each function borrows its arrays, releases the GIL around the
+//! core kernel (`py.detach`) inside a local thread pool, and converts the result. Nothing here may panic.
+
+mod convert;
+mod errors;
+
+use crate::{maxflow, omega, parallel, ssd, synth};
+use convert::contiguous;
+use errors::to_pyerr;
+use ndarray::{Array2, Array3};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4,
+    PyReadwriteArray3, PyUntypedArrayMethods,
+};
+use pyo3::prelude::*;
+
+/// Runs a core kernel without the GIL on a pool of `threads` workers and maps its error.
+fn run<R: Send>(
+    py: Python<'_>,
+    threads: Option<usize>,
+    f: impl FnOnce() -> crate::Result<R> + Send,
+) -> PyResult<R> {
+    py.detach(|| parallel::install(threads, f).and_then(|r| r))
+        .map_err(to_pyerr)
+}
+
+/// SSD maps of K templates `(K, h, w, C)` against `image` `(H, W, C)`: float32 `(K, H-h+1, W-w+1)`.
+#[pyfunction]
+#[pyo3(signature = (image, templates, mask=None, threads=None))]
+fn patch_ssd<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArray3<'py, f32>,
+    templates: PyReadonlyArray4<'py, f32>,
+    mask: Option<PyReadonlyArray2<'py, bool>>,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyArray3<f32>>> {
+    contiguous("image", &image)?;
+    contiguous("templates", &templates)?;
+    if let Some(m) = &mask {
+        contiguous("mask", m)?;
+    }
+    let (image, templates) = (image.as_array(), templates.as_array());
+    let mask = mask.as_ref().map(|m| m.as_array());
+    let maps = run(py, threads, || {
+        let index = ssd::SsdIndex::new(image)?;
+        ssd::ssd_maps(&index, templates, mask)
+    })?;
+    Ok(maps.into_pyarray(py))
+}
+
+/// The k best translations of each template (exact SSD): int64 `(K, k, 2)` (row, col) and float64 `(K, k)`.
+#[pyfunction]
+#[pyo3(signature = (image, templates, k=1, exclude_radius=0, mask=None, threads=None))]
+#[allow(clippy::type_complexity)]
+fn best_matches<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArray3<'py, f32>,
+    templates: PyReadonlyArray4<'py, f32>,
+    k: usize,
+    exclude_radius: usize,
+    mask: Option<PyReadonlyArray2<'py, bool>>,
+    threads: Option<usize>,
+) -> PyResult<(Bound<'py, PyArray3<i64>>, Bound<'py, PyArray2<f64>>)> {
+    contiguous("image", &image)?;
+    contiguous("templates", &templates)?;
+    if let Some(m) = &mask {
+        contiguous("mask", m)?;
+    }
+    let n = templates.shape()[0];
+    let (image, templates) = (image.as_array(), templates.as_array());
+    let mask = mask.as_ref().map(|m| m.as_array());
+    let found = run(py, threads, || {
+        let index = ssd::SsdIndex::new(image)?;
+        ssd::best_matches_many(&index, templates, mask, k, exclude_radius)
+    })?;
+    let got = found.iter().map(|v| v.len()).min().unwrap_or(0);
+    let mut offsets = Array3::<i64>::zeros((n, got, 2));
+    let mut values = Array2::<f64>::zeros((n, got));
+    for (t, list) in found.iter().enumerate() {
+        for (j, m) in list.iter().take(got).enumerate() {
+            offsets[(t, j, 0)] = m.row as i64;
+            offsets[(t, j, 1)] = m.col as i64;
+            values[(t, j)] = m.ssd;
+        }
+    }
+    Ok((offsets.into_pyarray(py), values.into_pyarray(py)))
+}
+
+/// Min-cut on a 4-connected grid: bool `(H, W)` labels (True = sink side) and the flow (= cut cost).
+#[pyfunction]
+#[pyo3(signature = (wx, wy, source_hard, sink_hard, source_cap=None, sink_cap=None))]
+fn grid_mincut<'py>(
+    py: Python<'py>,
+    wx: PyReadonlyArray2<'py, f64>,
+    wy: PyReadonlyArray2<'py, f64>,
+    source_hard: PyReadonlyArray2<'py, bool>,
+    sink_hard: PyReadonlyArray2<'py, bool>,
+    source_cap: Option<PyReadonlyArray2<'py, f64>>,
+    sink_cap: Option<PyReadonlyArray2<'py, f64>>,
+) -> PyResult<(Bound<'py, PyArray2<bool>>, f64)> {
+    let (wx, wy) = (wx.as_array(), wy.as_array());
+    let (src, snk) = (source_hard.as_array(), sink_hard.as_array());
+    let sc = source_cap.as_ref().map(|a| a.as_array());
+    let kc = sink_cap.as_ref().map(|a| a.as_array());
+    let cut = run(py, Some(1), || maxflow::grid::grid_mincut(wx, wy, src, snk, sc, kc))?;
+    Ok((cut.sink_side.into_pyarray(py), cut.flow))
+}
+
+/// Kwatra edge weights `(wx, wy)` between `a` and `b` (`(H, W, C)`), optionally restricted to `region`.
+#[pyfunction]
+#[pyo3(signature = (a, b, region=None, eps=omega::DEFAULT_EPS))]
+#[allow(clippy::type_complexity)]
+fn kwatra_weights<'py>(
+    py: Python<'py>,
+    a: PyReadonlyArray3<'py, f32>,
+    b: PyReadonlyArray3<'py, f32>,
+    region: Option<PyReadonlyArray2<'py, bool>>,
+    eps: f64,
+) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>)> {
+    let (a, b) = (a.as_array(), b.as_array());
+    let region = region.as_ref().map(|r| r.as_array());
+    let (wx, wy) = run(py, Some(1), || omega::kwatra_weights(a, b, region, eps))?;
+    Ok((wx.into_pyarray(py), wy.into_pyarray(py)))
+}
+
+/// ω cutting curves for K tiles: bool masks `(K, N, N)` (True = takes the matching patch) and float64 costs.
+#[pyfunction]
+#[pyo3(signature = (intermediate, matching, eps=omega::DEFAULT_EPS, threads=None))]
+fn omega_cuts<'py>(
+    py: Python<'py>,
+    intermediate: PyReadonlyArray4<'py, f32>,
+    matching: PyReadonlyArray4<'py, f32>,
+    eps: f64,
+    threads: Option<usize>,
+) -> PyResult<(Bound<'py, PyArray3<bool>>, Bound<'py, PyArray1<f64>>)> {
+    let (i, o) = (intermediate.as_array(), matching.as_array());
+    let (masks, costs) = run(py, threads, || omega::omega_cuts(i, o, eps))?;
+    Ok((masks.into_pyarray(py), costs.into_pyarray(py)))
+}
+
+/// Writes tiles into `out` `(H, W, C)` by `index_map`; `atlas` `(K, th, tw, C)` and `out` share a dtype
+/// (uint8, uint16, float32 or int32).
+#[pyfunction]
+#[pyo3(signature = (atlas, index_map, out, threads=None))]
+fn tile_copy<'py>(
+    py: Python<'py>,
+    atlas: &Bound<'py, PyAny>,
+    index_map: PyReadonlyArray2<'py, i32>,
+    out: &Bound<'py, PyAny>,
+    threads: Option<usize>,
+) -> PyResult<()> {
+    contiguous("index_map", &index_map)?;
+    let map = index_map.as_array();
+    macro_rules! dispatch {
+        ($t:ty) => {
+            if let (Ok(a), Ok(mut o)) = (
+                atlas.extract::<PyReadonlyArray4<'py, $t>>(),
+                out.extract::<PyReadwriteArray3<'py, $t>>(),
+            ) {
+                contiguous("atlas", &a)?;
+                if !o.is_c_contiguous() {
+                    return Err(errors::layout_error("out", "array must be C-contiguous"));
+                }
+                let a = a.as_array();
+                let o = o.as_array_mut();
+                return run(py, threads, || synth::tile_copy_into(a, map, o));
+            }
+        };
+    }
+    dispatch!(u8);
+    dispatch!(u16);
+    dispatch!(f32);
+    dispatch!(i32);
+    Err(errors::layout_error(
+        "atlas/out",
+        "expected a 4-d atlas and a 3-d writable out of the same dtype, uint8, uint16, float32 or int32",
+    ))
+}
+
+/// Resolved thread count (explicit value, else TILESYNTH_NUM_THREADS, else all cores).
+#[pyfunction]
+#[pyo3(signature = (threads=None))]
+fn resolve_threads(threads: Option<usize>) -> PyResult<usize> {
+    parallel::resolve_threads(threads).map_err(to_pyerr)
+}
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_function(wrap_pyfunction!(patch_ssd, m)?)?;
+    m.add_function(wrap_pyfunction!(best_matches, m)?)?;
+    m.add_function(wrap_pyfunction!(grid_mincut, m)?)?;
+    m.add_function(wrap_pyfunction!(kwatra_weights, m)?)?;
+    m.add_function(wrap_pyfunction!(omega_cuts, m)?)?;
+    m.add_function(wrap_pyfunction!(tile_copy, m)?)?;
+    m.add_function(wrap_pyfunction!(resolve_threads, m)?)?;
+    Ok(())
+}
