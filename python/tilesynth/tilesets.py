@@ -319,8 +319,8 @@ class CornerTileSet:
             raise ValueError("'tiles' must be a list of [TL, BL, TR, BR] lists")
         tiles = []
         for t in tiles_raw:
-            if isinstance(t, (bytes,)) or not isinstance(t, (str, Sequence)):
-                raise ValueError(f"bad tile entry {t!r}")
+            if isinstance(t, bytes) or not isinstance(t, Sequence):
+                raise ValueError(f"bad tile entry {t!r}: expected [TL, BL, TR, BR]")
             tiles.append(tuple(str(c) for c in t))
         return cls(
             name=str(data["name"]),

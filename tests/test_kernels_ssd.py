@@ -1,0 +1,141 @@
+"""Exhaustive SSD kernel against a float64 brute-force oracle."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import tilesynth
+from tilesynth import _core
+
+
+def ssd_oracle(image: np.ndarray, template: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+    I = image.astype(np.float64)
+    T = template.astype(np.float64)
+    h, w = T.shape[:2]
+    m = np.ones((h, w)) if mask is None else mask.astype(np.float64)
+    out = np.empty((I.shape[0] - h + 1, I.shape[1] - w + 1))
+    for y in range(out.shape[0]):
+        for x in range(out.shape[1]):
+            out[y, x] = (m[:, :, None] * (T - I[y : y + h, x : x + w]) ** 2).sum()
+    return out
+
+
+@st.composite
+def ssd_case(draw):
+    H = draw(st.integers(1, 20))
+    W = draw(st.integers(1, 20))
+    C = draw(st.sampled_from([1, 3, 4]))
+    h = draw(st.integers(1, H))
+    w = draw(st.integers(1, W))
+    seed = draw(st.integers(0, 2**32 - 1))
+    use_mask = draw(st.booleans())
+    r = np.random.default_rng(seed)
+    image = r.random((H, W, C), dtype=np.float32)
+    template = r.random((h, w, C), dtype=np.float32)
+    mask = (r.random((h, w)) < 0.7) if use_mask else None
+    return image, template, mask
+
+
+@given(ssd_case())
+def test_ssd_map_matches_oracle(case):
+    image, template, mask = case
+    got = tilesynth.patch_ssd(image, template, mask=mask)
+    ref = ssd_oracle(image, template, mask)
+    assert got.shape == ref.shape and got.dtype == np.float32
+    scale = max(ref.max(), 1e-12)
+    assert np.abs(got - ref).max() <= 1e-4 * scale
+
+
+@given(ssd_case())
+def test_best_match_is_exact(case):
+    image, template, mask = case
+    ref = ssd_oracle(image, template, mask)
+    offsets, values = tilesynth.best_matches(image, template, k=1, mask=mask)
+    assert offsets.shape == (1, 2) and values.shape == (1,)
+    assert values[0] == pytest.approx(ref.min(), rel=1e-9, abs=1e-9)
+    # exact re-ranking: the returned translation has the exact minimum (ties -> smallest (row, col))
+    best = np.argwhere(np.isclose(ref, ref.min(), rtol=1e-12, atol=1e-12))[0]
+    assert ref[tuple(offsets[0])] == pytest.approx(ref.min(), rel=1e-9, abs=1e-9)
+    assert tuple(offsets[0]) == tuple(best)
+
+
+def test_realistic_sizes_and_k_best(lettuce):
+    image = lettuce[:128, :128]
+    r = np.random.default_rng(3)
+    templates = np.stack([lettuce[y : y + 80, x : x + 80] for y, x in r.integers(0, 200, (3, 2))])
+    templates = templates + r.normal(0, 0.02, templates.shape).astype(np.float32)
+    templates = np.clip(templates, 0, 1).astype(np.float32)
+    maps = tilesynth.patch_ssd(image, templates)
+    assert maps.shape == (3, 49, 49)
+    offsets, values = tilesynth.best_matches(image, templates, k=3, exclude_radius=5)
+    for t in range(3):
+        ref = ssd_oracle(image, templates[t])
+        assert np.abs(maps[t] - ref).max() <= 1e-4 * ref.max()
+        order = np.argsort(ref, axis=None, kind="stable")
+        assert tuple(offsets[t, 0]) == tuple(np.unravel_index(order[0], ref.shape))
+        assert values[t, 0] == pytest.approx(ref.min(), rel=1e-9)
+        # greedy exclusion: later matches are > 5 px (Chebyshev) from earlier ones and sorted
+        assert np.all(np.diff(values[t]) >= 0)
+        for a in range(3):
+            for b in range(a):
+                assert np.abs(offsets[t, a] - offsets[t, b]).max() > 5
+            assert values[t, a] == pytest.approx(ref[tuple(offsets[t, a])], rel=1e-9)
+
+
+def test_exact_copy_is_found_with_zero_cost(lettuce):
+    image = lettuce[:150, :140]
+    template = image[37:37 + 64, 51:51 + 64]
+    offsets, values = tilesynth.best_matches(image, template)
+    assert tuple(offsets[0]) == (37, 51)
+    assert values[0] == 0.0
+
+
+def test_uint8_input_is_scaled():
+    r = np.random.default_rng(0)
+    img8 = r.integers(0, 256, (20, 20, 3), dtype=np.uint8)
+    t8 = img8[3:9, 4:12]
+    m1 = tilesynth.patch_ssd(img8, t8)
+    m2 = tilesynth.patch_ssd(img8.astype(np.float32) / 255, t8.astype(np.float32) / 255)
+    np.testing.assert_allclose(m1, m2, atol=1e-5)
+
+
+def test_thread_count_does_not_change_bits(lettuce):
+    image = lettuce[:200, :200]
+    templates = np.stack([lettuce[y : y + 64, y : y + 64] for y in (5, 90, 170)])
+    a = tilesynth.patch_ssd(image, templates, threads=1)
+    b = tilesynth.patch_ssd(image, templates, threads=2)
+    assert a.tobytes() == b.tobytes()
+
+
+@pytest.mark.parametrize(
+    ("image", "template", "exc", "words"),
+    [
+        (np.zeros((10, 10, 3), np.float32), np.zeros((11, 4, 3), np.float32), tilesynth.ShapeError, "template"),
+        (np.zeros((10, 10, 3), np.float32), np.zeros((4, 4, 1), np.float32), tilesynth.ShapeError, "template"),
+        (np.zeros((0, 10, 3), np.float32), np.zeros((1, 1, 3), np.float32), tilesynth.ShapeError, "image"),
+        (np.full((10, 10, 3), 2.0, np.float32), np.zeros((4, 4, 3), np.float32), tilesynth.ParameterError, "image"),
+        (np.zeros((10, 10, 3), np.complex64), np.zeros((4, 4, 3), np.float32), TypeError, "dtype"),
+    ],
+)
+def test_errors_name_the_problem(image, template, exc, words):
+    with pytest.raises(exc, match=words):
+        tilesynth.patch_ssd(image, template)
+
+
+def test_errors_are_value_errors_and_nan_rejected():
+    t = np.zeros((4, 4, 3), np.float32)
+    t[1, 1, 1] = np.nan
+    with pytest.raises(ValueError, match="template"):
+        tilesynth.patch_ssd(np.zeros((10, 10, 3), np.float32), t)
+    with pytest.raises(tilesynth.ShapeError, match="mask"):
+        tilesynth.patch_ssd(np.zeros((10, 10, 3), np.float32), np.zeros((4, 4, 3), np.float32),
+                            mask=np.ones((3, 4), bool))
+
+
+def test_core_rejects_non_contiguous_arrays():
+    image = np.zeros((20, 20, 3), np.float32)[:, ::2]
+    with pytest.raises(TypeError, match="contiguous"):
+        _core.patch_ssd(image, np.zeros((1, 2, 2, 3), np.float32))
