@@ -19,7 +19,7 @@
 //! reaches the four side midpoints, so ω-tiles that share corner patches stay seamless.
 
 use crate::error::{fmt_shape, Result, TilesynthError};
-use crate::maxflow::grid::grid_mincut;
+use crate::maxflow::grid_mincut;
 use ndarray::{Array2, Array3, ArrayView2, ArrayView3, ArrayView4, Axis, Zip};
 use rayon::prelude::*;
 

@@ -14,6 +14,11 @@ import tilesynth
 from tilesynth.cli import main
 
 
+def read_png(path) -> np.ndarray:
+    with Image.open(path) as im:
+        return np.asarray(im)
+
+
 @pytest.fixture(scope="module")
 def exemplar_png(tmp_path_factory, small_exemplar):
     p = tmp_path_factory.mktemp("in") / "ex.png"
@@ -34,14 +39,14 @@ def test_build_synth_info(built_file, tmp_path, capsys):
     mp = tmp_path / "map.npy"
     assert main(["synth", str(built_file), "-o", str(out), "--size", "100x70", "--seed", "5", "--save-map", str(mp),
                  "-q"]) == 0
-    im = np.asarray(Image.open(out))
+    im = read_png(out)
     assert im.shape == (70, 100, 3) and im.dtype == np.uint8
     imap = np.load(mp)
     assert imap.shape == (3, 5)
     # the saved map reproduces the image exactly
     out2 = tmp_path / "t2.png"
     assert main(["synth", str(built_file), "-o", str(out2), "--size", "100x70", "--map", str(mp), "-q"]) == 0
-    np.testing.assert_array_equal(np.asarray(Image.open(out2)), im)
+    np.testing.assert_array_equal(read_png(out2), im)
     capsys.readouterr()
     assert main(["info", str(built_file)]) == 0
     text = capsys.readouterr().out
@@ -57,7 +62,7 @@ def test_build_synth_info(built_file, tmp_path, capsys):
 def test_sheet(built_file, tmp_path):
     out = tmp_path / "sheet.png"
     assert main(["sheet", str(built_file), "-o", str(out)]) == 0
-    assert Image.open(out).size[0] > 4 * 24
+    assert read_png(out).shape[1] > 4 * 24
 
 
 def run_err(args, capsys):
@@ -135,4 +140,4 @@ def test_demo(tmp_path):
     assert main(["demo", "-o", str(d), "--size", "300x200", "-q"]) == 0
     for name in ("lettuce.tiles", "tiles.png", "texture.png", "texture-map.npy"):
         assert (d / name).is_file(), name
-    assert Image.open(d / "texture.png").size == (300, 200)
+    assert read_png(d / "texture.png").shape[:2] == (200, 300)

@@ -118,7 +118,8 @@ def test_synthesis_is_continuous_exemplar_content_across_tile_borders(name, smal
         np.testing.assert_array_equal(src[y, keep, 0], src[y - 1, keep, 0] + 1)
         np.testing.assert_array_equal(src[y, keep, 1], src[y - 1, keep, 1])
         checked += keep.sum()
-    assert checked > 0.8 * ((W // n) * H + (H // n) * W)
+    # at N = 16 the inscribed circle meets each side over 6 of 16 pixels, so at least 10/16 are kept from I
+    assert checked >= 0.6 * ((W // n) * H + (H // n) * W)
 
 
 def test_genes_interface(small_exemplar):

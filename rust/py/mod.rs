@@ -102,7 +102,7 @@ fn grid_mincut<'py>(
     let (src, snk) = (source_hard.as_array(), sink_hard.as_array());
     let sc = source_cap.as_ref().map(|a| a.as_array());
     let kc = sink_cap.as_ref().map(|a| a.as_array());
-    let cut = run(py, Some(1), || maxflow::grid::grid_mincut(wx, wy, src, snk, sc, kc))?;
+    let cut = run(py, Some(1), || maxflow::grid_mincut(wx, wy, src, snk, sc, kc))?;
     Ok((cut.sink_side.into_pyarray(py), cut.flow))
 }
 
