@@ -53,10 +53,10 @@ fn bench_cut(c: &mut Criterion) {
         let (a, b) = omega_pair(n);
         let inside = circle_mask(n);
         group.bench_with_input(BenchmarkId::new("weights", n), &n, |bench, _| {
-            bench.iter(|| kwatra_weights(black_box(a.view()), b.view(), Some(inside.view()), DEFAULT_EPS).unwrap())
+            bench.iter(|| kwatra_weights(black_box(a.view()), b.view(), Some(inside.view()), DEFAULT_EPS, None).unwrap())
         });
         group.bench_with_input(BenchmarkId::new("weights+build+solve", n), &n, |bench, _| {
-            bench.iter(|| omega_cut(black_box(a.view()), b.view(), DEFAULT_EPS).unwrap())
+            bench.iter(|| omega_cut(black_box(a.view()), b.view(), DEFAULT_EPS, None).unwrap())
         });
     }
     group.finish();

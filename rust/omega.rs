@@ -75,13 +75,35 @@ fn check_pair(i: &ArrayView3<f32>, o: &ArrayView3<f32>) -> Result<()> {
 ///
 /// Returns `(wx, wy)`, both `(H, W)` f64: `wx[y, x]` weights edge (y,x)–(y,x+1) (last column 0), `wy[y, x]` edge
 /// (y,x)–(y+1,x) (last row 0). If `region` is given, edges with both ends outside it get weight 0.
+///
+/// `a_grad` optionally replaces the gradient norms of `a`: `(H, W, 2)` holding ‖g_a‖ along x (index 0) and along
+/// y (index 1) at every pixel. See [`omega_cut`] for why the ω construction passes the gradients of the sample
+/// patches rather than those of the assembled intermediate tile.
 pub fn kwatra_weights(
     a: ArrayView3<f32>,
     b: ArrayView3<f32>,
     region: Option<ArrayView2<bool>>,
     eps: f64,
+    a_grad: Option<ArrayView3<f64>>,
 ) -> Result<(Array2<f64>, Array2<f64>)> {
     check_pair(&a, &b)?;
+    if let Some(g) = &a_grad {
+        let (h, w, _) = a.dim();
+        if g.dim() != (h, w, 2) {
+            return Err(TilesynthError::shape(
+                "intermediate_grad",
+                fmt_shape(&[h, w, 2]),
+                fmt_shape(g.shape()),
+            ));
+        }
+        if g.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(TilesynthError::param(
+                "intermediate_grad",
+                "negative or non-finite value",
+                "gradient norms must be finite and >= 0",
+            ));
+        }
+    }
     if !(eps.is_finite() && eps > 0.0) {
         return Err(TilesynthError::param("eps", eps, "must be finite and > 0"));
     }
@@ -115,7 +137,7 @@ pub fn kwatra_weights(
     };
     let diff: Vec<f64> = (0..h * w).map(|p| dist(a, p, b, p)).collect();
     let mut out = Vec::with_capacity(2);
-    for (dy, dx) in [(0usize, 1usize), (1, 0)] {
+    for (axis, (dy, dx)) in [(0usize, 1usize), (1, 0)].into_iter().enumerate() {
         let step = dy * w + dx;
         // ‖img(p + step) − img(p)‖, 0 where p + step leaves the image.
         let grad = |img: &[f32]| -> Vec<f64> {
@@ -130,7 +152,11 @@ pub fn kwatra_weights(
                 })
                 .collect()
         };
-        let (ga, gb) = (grad(a), grad(b));
+        let ga = match &a_grad {
+            Some(g) => g.index_axis(Axis(2), axis).iter().copied().collect(),
+            None => grad(a),
+        };
+        let gb = grad(b);
         let wmap = Array2::from_shape_fn((h, w), |(y, x)| {
             let (ty, tx) = (y + dy, x + dx);
             if ty >= h || tx >= w {
@@ -163,7 +189,19 @@ pub struct OmegaCut {
 }
 
 /// The cutting curve between intermediate tile `i` and matching patch `o` (both `(N, N, C)`, N even ≥ 2).
-pub fn omega_cut(i: ArrayView3<f32>, o: ArrayView3<f32>, eps: f64) -> Result<OmegaCut> {
+///
+/// `i_grad` (`(N, N, 2)`, see [`kwatra_weights`]) optionally gives the gradient norms of `i`. Without it the
+/// gradients are forward differences of the assembled tile, exactly the formula of the reference data. The paper
+/// defines `G_I(s)` as the gradient "in the patch I"; taken literally on the assembled intermediate tile, the
+/// gradient across its own cross seam is large, which makes every edge next to the sink cross cheap, and the
+/// min-cut then hugs the cross (thin strips of `O` along the seams instead of a curve around them). The ω
+/// construction therefore passes the gradients of the sample patches each pixel came from.
+pub fn omega_cut(
+    i: ArrayView3<f32>,
+    o: ArrayView3<f32>,
+    eps: f64,
+    i_grad: Option<ArrayView3<f64>>,
+) -> Result<OmegaCut> {
     check_pair(&i, &o)?;
     let (h, w, _) = i.dim();
     if h != w || h % 2 != 0 || h < 2 {
@@ -175,7 +213,7 @@ pub fn omega_cut(i: ArrayView3<f32>, o: ArrayView3<f32>, eps: f64) -> Result<Ome
     }
     let inside = circle_mask(h);
     let sinks = cross_mask(h);
-    let (wx, wy) = kwatra_weights(i, o, Some(inside.view()), eps)?;
+    let (wx, wy) = kwatra_weights(i, o, Some(inside.view()), eps, i_grad)?;
     let outside = inside.mapv(|v| !v);
     let cut = grid_mincut(
         wx.view(),
@@ -191,13 +229,25 @@ pub fn omega_cut(i: ArrayView3<f32>, o: ArrayView3<f32>, eps: f64) -> Result<Ome
     })
 }
 
-/// [`omega_cut`] for K tiles at once, in parallel over tiles: `intermediate` and `matching` are `(K, N, N, C)`.
-/// Returns the masks `(K, N, N)` and the costs. Results do not depend on the thread count.
+/// [`omega_cut`] for K tiles at once, in parallel over tiles: `intermediate` and `matching` are `(K, N, N, C)`,
+/// `intermediate_grad` optionally `(K, N, N, 2)`. Returns the masks `(K, N, N)` and the costs. Results do not
+/// depend on the thread count.
 pub fn omega_cuts(
     intermediate: ArrayView4<f32>,
     matching: ArrayView4<f32>,
     eps: f64,
+    intermediate_grad: Option<ArrayView4<f64>>,
 ) -> Result<(Array3<bool>, Vec<f64>)> {
+    if let Some(g) = &intermediate_grad {
+        let (k, n, m, _) = intermediate.dim();
+        if g.dim() != (k, n, m, 2) {
+            return Err(TilesynthError::shape(
+                "intermediate_grad",
+                fmt_shape(&[k, n, m, 2]),
+                fmt_shape(g.shape()),
+            ));
+        }
+    }
     if intermediate.dim() != matching.dim() {
         return Err(TilesynthError::shape(
             "matching",
@@ -213,6 +263,7 @@ pub fn omega_cuts(
                 intermediate.index_axis(Axis(0), t),
                 matching.index_axis(Axis(0), t),
                 eps,
+                intermediate_grad.as_ref().map(|g| g.index_axis(Axis(0), t)),
             )
         })
         .collect();
@@ -276,7 +327,7 @@ mod tests {
     fn weights_follow_formula() {
         let a = lcg_image(6, 7, 3, 1);
         let b = lcg_image(6, 7, 3, 2);
-        let (wx, wy) = kwatra_weights(a.view(), b.view(), None, 1e-6).unwrap();
+        let (wx, wy) = kwatra_weights(a.view(), b.view(), None, 1e-6, None).unwrap();
         let norm = |v: Vec<f64>| v.iter().map(|x| x * x).sum::<f64>().sqrt();
         let px = |img: &Array3<f32>, y: usize, x: usize| -> Vec<f64> {
             (0..3).map(|c| img[(y, x, c)] as f64).collect()
@@ -300,9 +351,33 @@ mod tests {
     }
 
     #[test]
+    fn gradient_override_equal_to_own_gradients_changes_nothing() {
+        let a = lcg_image(9, 8, 3, 5);
+        let b = lcg_image(9, 8, 3, 6);
+        let own = Array3::from_shape_fn((9, 8, 2), |(y, x, axis)| {
+            let (ty, tx) = if axis == 0 { (y, x + 1) } else { (y + 1, x) };
+            if ty >= 9 || tx >= 8 {
+                return 0.0;
+            }
+            (0..3)
+                .map(|c| (a[(ty, tx, c)] as f64 - a[(y, x, c)] as f64).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        });
+        let plain = kwatra_weights(a.view(), b.view(), None, 1e-6, None).unwrap();
+        let over = kwatra_weights(a.view(), b.view(), None, 1e-6, Some(own.view())).unwrap();
+        assert_eq!(plain, over);
+        let zero = Array3::<f64>::zeros((9, 8, 2));
+        let flat = kwatra_weights(a.view(), b.view(), None, 1e-6, Some(zero.view())).unwrap();
+        assert!(flat.0[(0, 0)] > plain.0[(0, 0)]);
+        let bad = Array3::<f64>::zeros((9, 8, 3));
+        assert!(kwatra_weights(a.view(), b.view(), None, 1e-6, Some(bad.view())).is_err());
+    }
+
+    #[test]
     fn identical_images_cut_for_free() {
         let a = lcg_image(16, 16, 3, 7);
-        let cut = omega_cut(a.view(), a.view(), DEFAULT_EPS).unwrap();
+        let cut = omega_cut(a.view(), a.view(), DEFAULT_EPS, None).unwrap();
         assert_eq!(cut.cost, 0.0);
     }
 
@@ -311,7 +386,7 @@ mod tests {
         let n = 32;
         let a = lcg_image(n, n, 3, 3);
         let b = lcg_image(n, n, 3, 4);
-        let cut = omega_cut(a.view(), b.view(), DEFAULT_EPS).unwrap();
+        let cut = omega_cut(a.view(), b.view(), DEFAULT_EPS, None).unwrap();
         let inside = circle_mask(n);
         let cross = cross_mask(n);
         for ((&t, &i), &c) in cut.takes_o.iter().zip(inside.iter()).zip(cross.iter()) {
@@ -338,16 +413,16 @@ mod tests {
             ii.index_axis_mut(Axis(0), t).assign(&lcg_image(n, n, 3, 10 + t as u64));
             oo.index_axis_mut(Axis(0), t).assign(&lcg_image(n, n, 3, 20 + t as u64));
         }
-        let one = crate::parallel::install(Some(1), || omega_cuts(ii.view(), oo.view(), DEFAULT_EPS))
+        let one = crate::parallel::install(Some(1), || omega_cuts(ii.view(), oo.view(), DEFAULT_EPS, None))
             .unwrap()
             .unwrap();
-        let two = crate::parallel::install(Some(2), || omega_cuts(ii.view(), oo.view(), DEFAULT_EPS))
+        let two = crate::parallel::install(Some(2), || omega_cuts(ii.view(), oo.view(), DEFAULT_EPS, None))
             .unwrap()
             .unwrap();
         assert_eq!(one.0, two.0);
         assert_eq!(one.1, two.1);
         for t in 0..k {
-            let single = omega_cut(ii.index_axis(Axis(0), t), oo.index_axis(Axis(0), t), DEFAULT_EPS).unwrap();
+            let single = omega_cut(ii.index_axis(Axis(0), t), oo.index_axis(Axis(0), t), DEFAULT_EPS, None).unwrap();
             assert_eq!(single.cost, one.1[t]);
         }
     }
@@ -355,12 +430,12 @@ mod tests {
     #[test]
     fn errors_name_the_parameter() {
         let a = lcg_image(5, 5, 3, 1);
-        let e = omega_cut(a.view(), a.view(), DEFAULT_EPS).unwrap_err();
+        let e = omega_cut(a.view(), a.view(), DEFAULT_EPS, None).unwrap_err();
         assert!(e.to_string().contains("intermediate"), "{e}");
         let b = lcg_image(6, 6, 3, 1);
-        let e = omega_cut(b.view(), a.view(), DEFAULT_EPS).unwrap_err();
+        let e = omega_cut(b.view(), a.view(), DEFAULT_EPS, None).unwrap_err();
         assert!(e.to_string().contains("matching"), "{e}");
-        let e = kwatra_weights(b.view(), b.view(), None, 0.0).unwrap_err();
+        let e = kwatra_weights(b.view(), b.view(), None, 0.0, None).unwrap_err();
         assert!(e.to_string().contains("eps"), "{e}");
     }
 }

@@ -152,3 +152,33 @@ def test_same_seed_same_tiles_any_threads(small_exemplar):
     assert a.content_digest() == b.content_digest()
     c = tilesynth.build_omega(small_exemplar, tileset="16a", tile_size=24, seed=10)
     assert c.content_digest() != a.content_digest()
+
+
+def test_patch_gradients_follow_provenance(small_exemplar):
+    from tilesynth.omega import patch_gradients
+
+    ex = small_exemplar.astype(np.float64)
+    src = np.array([[[3, 4], [10, 95]], [[95, 7], [95, 95]]], np.int32)
+    g = patch_gradients(small_exemplar, src)
+    assert g[0, 0, 0] == pytest.approx(np.linalg.norm(ex[3, 5] - ex[3, 4]))
+    assert g[0, 0, 1] == pytest.approx(np.linalg.norm(ex[4, 4] - ex[3, 4]))
+    assert g[0, 1, 0] == 0.0 and g[1, 0, 1] == 0.0 and g[1, 1].tolist() == [0.0, 0.0]
+
+
+def test_tile_gradients_reproduce_the_literal_weights(small_exemplar):
+    """gradients='tile' is the literal formula: the cut equals omega_cuts on the assembled tile alone."""
+    a = tilesynth.build_omega(small_exemplar, tileset="4", tile_size=24, seed=1, gradients="tile")
+    b = tilesynth.build_omega(small_exemplar, tileset="4", tile_size=24, seed=1, gradients="patch")
+    inter, src = intermediate_tiles(small_exemplar, a.genes, a.tile_patches, 24)
+    O = np.stack([small_exemplar[r : r + 24, c : c + 24] for r, c in a.match_offsets])
+    masks, costs = tilesynth.omega_cuts(inter, O)
+    np.testing.assert_array_equal(masks, a.cut_masks)
+    np.testing.assert_array_equal(costs, a.cut_costs)
+    from tilesynth.omega import patch_gradients
+
+    masks_p, costs_p = tilesynth.omega_cuts(inter, O, intermediate_grad=patch_gradients(small_exemplar, src))
+    np.testing.assert_array_equal(masks_p, b.cut_masks)
+    np.testing.assert_array_equal(costs_p, b.cut_costs)
+    assert a.params["gradients"] == "tile" and b.params["gradients"] == "patch"
+    with pytest.raises(tilesynth.ParameterError, match="gradients"):
+        tilesynth.build_omega(small_exemplar, tile_size=24, gradients="sobel")

@@ -32,12 +32,14 @@ def kwatra_weights(
     b: npt.NDArray[np.float32],
     region: npt.NDArray[np.bool_] | None = None,
     eps: float = 1e-6,
+    a_grad: npt.NDArray[np.float64] | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 def omega_cuts(
     intermediate: npt.NDArray[np.float32],
     matching: npt.NDArray[np.float32],
     eps: float = 1e-6,
     threads: int | None = None,
+    intermediate_grad: npt.NDArray[np.float64] | None = None,
 ) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]: ...
 def tile_copy(
     atlas: npt.NDArray[np.generic],

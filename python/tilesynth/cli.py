@@ -76,6 +76,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "exemplar's shorter side, at most 256)")
     b.add_argument("--seed", type=_nonneg, default=None, help="random seed (default: a fresh one, recorded)")
     b.add_argument("--threads", type=_pos, default=None, help="worker threads (default: TILESYNTH_NUM_THREADS or all cores)")
+    b.add_argument("--gradients", default="patch", choices=("patch", "tile"),
+                   help="gradients of the intermediate tile in the seam weight: of the sample patches (default) or "
+                   "of the assembled tile (the literal formula; cuts tend to hug the central cross)")
     b.add_argument("--sheet", default=None, help="also write a contact sheet of the tiles to this PNG")
     b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
@@ -112,7 +115,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 # ------------------------------------------------------------------------------------------------ commands
 def _build(input_path: str, output: str, set_name: str, tile_size: int | None, seed: int | None,
-           threads: int | None, quiet: bool, sheet: str | None) -> "TileSet":  # noqa: F821
+           threads: int | None, quiet: bool, sheet: str | None, gradients: str = "patch") -> "TileSet":  # noqa: F821
     from .io import load_image
     from .omega import build_omega
     from .progress import Progress
@@ -123,7 +126,7 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
     if sheet:
         _check_output_dir(sheet)
     ts = build_omega(
-        image, tileset=set_name, tile_size=tile_size, seed=seed, threads=threads, progress=prog,
+        image, tileset=set_name, tile_size=tile_size, seed=seed, threads=threads, progress=prog, gradients=gradients,
         exemplar_info={"file": os.path.basename(input_path), "bits": bits},
     )
     ts.save(output)
@@ -249,7 +252,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         if args.command == "build":
-            _build(args.input, args.output, args.set, args.tile_size, args.seed, args.threads, args.quiet, args.sheet)
+            _build(args.input, args.output, args.set, args.tile_size, args.seed, args.threads, args.quiet, args.sheet,
+                   args.gradients)
         elif args.command == "synth":
             _synth(args.tileset, args.output, args.size, args.seed, args.map, args.save_map, args.bits,
                    args.threads, args.quiet)

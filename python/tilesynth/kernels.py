@@ -116,23 +116,44 @@ def grid_mincut(
     )
 
 
+def _grad(g: np.ndarray | None) -> np.ndarray | None:
+    return None if g is None else np.ascontiguousarray(g, dtype=np.float64)
+
+
 def kwatra_weights(
-    a: np.ndarray, b: np.ndarray, region: np.ndarray | None = None, eps: float = DEFAULT_EPS
+    a: np.ndarray,
+    b: np.ndarray,
+    region: np.ndarray | None = None,
+    eps: float = DEFAULT_EPS,
+    a_grad: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Kwatra et al.'s gradient-normalised seam weights between images ``a`` and ``b`` (see :mod:`tilesynth.omega`)."""
-    return _core.kwatra_weights(as_image(a, "a"), as_image(b, "b"), _mask(region), float(eps))
+    """Kwatra et al.'s gradient-normalised seam weights between images ``a`` (kept) and ``b`` (inserted).
+
+    ``w(s,t) = (‖a(s)−b(s)‖ + ‖a(t)−b(t)‖) / (‖g_a(s)‖ + ‖g_a(t)‖ + ‖g_b(s)‖ + ‖g_b(t)‖ + eps)`` with g the
+    forward difference along s→t (0 past the image edge). Returns ``(wx, wy)``, float64 ``(H, W)``: ``wx[y, x]``
+    weights edge (y,x)–(y,x+1), ``wy[y, x]`` edge (y,x)–(y+1,x); edges with both ends outside ``region`` get 0.
+    ``a_grad`` (``(H, W, 2)``: ‖g_a‖ along x, along y) replaces the gradients of ``a`` (see :mod:`tilesynth.omega`).
+    """
+    return _core.kwatra_weights(as_image(a, "a"), as_image(b, "b"), _mask(region), float(eps), _grad(a_grad))
 
 
 def omega_cuts(
-    intermediate: np.ndarray, matching: np.ndarray, eps: float = DEFAULT_EPS, threads: int | None = None
+    intermediate: np.ndarray,
+    matching: np.ndarray,
+    eps: float = DEFAULT_EPS,
+    threads: int | None = None,
+    intermediate_grad: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """ω cutting curves for a stack of intermediate tiles and their matching patches, ``(K, N, N, C)`` each.
 
-    Returns bool masks ``(K, N, N)`` (True = the pixel takes the matching patch) and the float64 cut costs.
+    Sources are the pixels outside the inscribed circle, sinks the two central rows and columns inside it, edge
+    weights those of :func:`kwatra_weights`; ``intermediate_grad`` (``(K, N, N, 2)``) optionally replaces the
+    gradients of the intermediate tiles. Returns bool masks ``(K, N, N)`` (True = the pixel takes the matching
+    patch) and the float64 cut costs (= max-flow values).
     """
     i, _ = _templates(intermediate, "intermediate")
     o, _ = _templates(matching, "matching")
-    return _core.omega_cuts(i, o, float(eps), threads)
+    return _core.omega_cuts(i, o, float(eps), threads, _grad(intermediate_grad))
 
 
 def tile_copy(atlas: np.ndarray, index_map: np.ndarray, out: np.ndarray, threads: int | None = None) -> np.ndarray:

@@ -108,7 +108,7 @@ fn grid_mincut<'py>(
 
 /// Kwatra edge weights `(wx, wy)` between `a` and `b` (`(H, W, C)`), optionally restricted to `region`.
 #[pyfunction]
-#[pyo3(signature = (a, b, region=None, eps=omega::DEFAULT_EPS))]
+#[pyo3(signature = (a, b, region=None, eps=omega::DEFAULT_EPS, a_grad=None))]
 #[allow(clippy::type_complexity)]
 fn kwatra_weights<'py>(
     py: Python<'py>,
@@ -116,25 +116,33 @@ fn kwatra_weights<'py>(
     b: PyReadonlyArray3<'py, f32>,
     region: Option<PyReadonlyArray2<'py, bool>>,
     eps: f64,
+    a_grad: Option<PyReadonlyArray3<'py, f64>>,
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>)> {
+    contiguous("a", &a)?;
+    contiguous("b", &b)?;
     let (a, b) = (a.as_array(), b.as_array());
     let region = region.as_ref().map(|r| r.as_array());
-    let (wx, wy) = run(py, Some(1), || omega::kwatra_weights(a, b, region, eps))?;
+    let a_grad = a_grad.as_ref().map(|g| g.as_array());
+    let (wx, wy) = run(py, Some(1), || omega::kwatra_weights(a, b, region, eps, a_grad))?;
     Ok((wx.into_pyarray(py), wy.into_pyarray(py)))
 }
 
 /// ω cutting curves for K tiles: bool masks `(K, N, N)` (True = takes the matching patch) and float64 costs.
 #[pyfunction]
-#[pyo3(signature = (intermediate, matching, eps=omega::DEFAULT_EPS, threads=None))]
+#[pyo3(signature = (intermediate, matching, eps=omega::DEFAULT_EPS, threads=None, intermediate_grad=None))]
 fn omega_cuts<'py>(
     py: Python<'py>,
     intermediate: PyReadonlyArray4<'py, f32>,
     matching: PyReadonlyArray4<'py, f32>,
     eps: f64,
     threads: Option<usize>,
+    intermediate_grad: Option<PyReadonlyArray4<'py, f64>>,
 ) -> PyResult<(Bound<'py, PyArray3<bool>>, Bound<'py, PyArray1<f64>>)> {
+    contiguous("intermediate", &intermediate)?;
+    contiguous("matching", &matching)?;
     let (i, o) = (intermediate.as_array(), matching.as_array());
-    let (masks, costs) = run(py, threads, || omega::omega_cuts(i, o, eps))?;
+    let g = intermediate_grad.as_ref().map(|g| g.as_array());
+    let (masks, costs) = run(py, threads, || omega::omega_cuts(i, o, eps, g))?;
     Ok((masks.into_pyarray(py), costs.into_pyarray(py)))
 }
 
