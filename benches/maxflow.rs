@@ -43,7 +43,9 @@ fn omega_pair(n: usize) -> (Array3<f32>, Array3<f32>) {
         a.slice_mut(s![ty..ty + h, tx..tx + h, ..])
             .assign(&ex.slice(s![r..r + h, c..c + h, ..]));
     }
-    let b = ex.slice(s![n / 3..n / 3 + n, n / 2..n / 2 + n, ..]).to_owned();
+    let b = ex
+        .slice(s![n / 3..n / 3 + n, n / 2..n / 2 + n, ..])
+        .to_owned();
     (a, b)
 }
 
@@ -53,11 +55,24 @@ fn bench_cut(c: &mut Criterion) {
         let (a, b) = omega_pair(n);
         let inside = circle_mask(n);
         group.bench_with_input(BenchmarkId::new("weights", n), &n, |bench, _| {
-            bench.iter(|| kwatra_weights(black_box(a.view()), b.view(), Some(inside.view()), DEFAULT_EPS, None).unwrap())
+            bench.iter(|| {
+                kwatra_weights(
+                    black_box(a.view()),
+                    b.view(),
+                    Some(inside.view()),
+                    DEFAULT_EPS,
+                    None,
+                )
+                .unwrap()
+            })
         });
-        group.bench_with_input(BenchmarkId::new("weights+build+solve", n), &n, |bench, _| {
-            bench.iter(|| omega_cut(black_box(a.view()), b.view(), DEFAULT_EPS, None).unwrap())
-        });
+        group.bench_with_input(
+            BenchmarkId::new("weights+build+solve", n),
+            &n,
+            |bench, _| {
+                bench.iter(|| omega_cut(black_box(a.view()), b.view(), DEFAULT_EPS, None).unwrap())
+            },
+        );
     }
     group.finish();
 }

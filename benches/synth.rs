@@ -11,20 +11,28 @@ fn bench_copy(c: &mut Criterion) {
     let mut group = c.benchmark_group("tile_copy_rgb8");
     group.sample_size(20);
     let tile = 64;
-    let atlas = Array4::from_shape_fn((16, tile, tile, 3), |(k, y, x, ch)| (k * 13 + y * 7 + x * 3 + ch) as u8);
+    let atlas = Array4::from_shape_fn((16, tile, tile, 3), |(k, y, x, ch)| {
+        (k * 13 + y * 7 + x * 3 + ch) as u8
+    });
     for size in [1024usize, 4096, 8192] {
         let cells = size / tile;
         let map = Array2::from_shape_fn((cells, cells), |(i, j)| ((i * 31 + j * 17) % 16) as i32);
         let mut out = Array3::<u8>::zeros((size, size, 3));
         group.throughput(Throughput::Bytes((size * size * 3) as u64));
         for threads in [1usize, 2] {
-            group.bench_with_input(BenchmarkId::new(format!("{threads}thr"), size), &size, |b, _| {
-                b.iter(|| {
-                    install(Some(threads), || tile_copy_into(atlas.view(), black_box(map.view()), out.view_mut()))
+            group.bench_with_input(
+                BenchmarkId::new(format!("{threads}thr"), size),
+                &size,
+                |b, _| {
+                    b.iter(|| {
+                        install(Some(threads), || {
+                            tile_copy_into(atlas.view(), black_box(map.view()), out.view_mut())
+                        })
                         .unwrap()
                         .unwrap()
-                })
-            });
+                    })
+                },
+            );
         }
     }
     group.finish();

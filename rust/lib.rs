@@ -1,6 +1,6 @@
 //! # tilesynth core
 //!
-//! The hot loops of tilesynth, free of any Python dependency (the bindings live in [`py`], compiled only
+//! The hot loops of tilesynth, free of any Python dependency (the bindings live in `rust/py/`, compiled only
 //! with the `python` feature). Everything takes `ndarray` views and returns owned arrays or a
 //! [`error::TilesynthError`].
 //!

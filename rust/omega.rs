@@ -251,7 +251,10 @@ pub fn omega_cuts(
     if intermediate.dim() != matching.dim() {
         return Err(TilesynthError::shape(
             "matching",
-            format!("{} (the shape of intermediate)", fmt_shape(intermediate.shape())),
+            format!(
+                "{} (the shape of intermediate)",
+                fmt_shape(intermediate.shape())
+            ),
             fmt_shape(matching.shape()),
         ));
     }
@@ -278,7 +281,11 @@ pub fn omega_cuts(
 }
 
 /// The ω-tile: `o` where `takes_o`, else `i`.
-pub fn compose(i: ArrayView3<f32>, o: ArrayView3<f32>, takes_o: ArrayView2<bool>) -> Result<Array3<f32>> {
+pub fn compose(
+    i: ArrayView3<f32>,
+    o: ArrayView3<f32>,
+    takes_o: ArrayView2<bool>,
+) -> Result<Array3<f32>> {
     check_pair(&i, &o)?;
     let (h, w, _) = i.dim();
     if takes_o.dim() != (h, w) {
@@ -305,9 +312,13 @@ mod tests {
     use super::*;
 
     fn lcg_image(h: usize, w: usize, c: usize, seed: u64) -> Array3<f32> {
-        let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        let mut s = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         Array3::from_shape_fn((h, w, c), |_| {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((s >> 40) as f32) / ((1u64 << 24) as f32)
         })
     }
@@ -332,7 +343,9 @@ mod tests {
         let px = |img: &Array3<f32>, y: usize, x: usize| -> Vec<f64> {
             (0..3).map(|c| img[(y, x, c)] as f64).collect()
         };
-        let sub = |p: Vec<f64>, q: Vec<f64>| -> Vec<f64> { p.iter().zip(&q).map(|(a, b)| a - b).collect() };
+        let sub = |p: Vec<f64>, q: Vec<f64>| -> Vec<f64> {
+            p.iter().zip(&q).map(|(a, b)| a - b).collect()
+        };
         // edge (2,3)-(2,4): forward differences (2,3)->(2,4) and (2,4)->(2,5)
         let num = norm(sub(px(&a, 2, 3), px(&b, 2, 3))) + norm(sub(px(&a, 2, 4), px(&b, 2, 4)));
         let den = norm(sub(px(&a, 2, 4), px(&a, 2, 3)))
@@ -343,7 +356,8 @@ mod tests {
         assert!((wx[(2, 3)] - num / den).abs() < 1e-12);
         // last edge of a row: the forward neighbour of t is outside, so its gradient is 0
         let num = norm(sub(px(&a, 1, 5), px(&b, 1, 5))) + norm(sub(px(&a, 1, 6), px(&b, 1, 6)));
-        let den = norm(sub(px(&a, 1, 6), px(&a, 1, 5))) + norm(sub(px(&b, 1, 6), px(&b, 1, 5))) + 1e-6;
+        let den =
+            norm(sub(px(&a, 1, 6), px(&a, 1, 5))) + norm(sub(px(&b, 1, 6), px(&b, 1, 5))) + 1e-6;
         assert!((wx[(1, 5)] - num / den).abs() < 1e-12);
         assert_eq!(wx[(1, 6)], 0.0);
         assert_eq!(wy[(5, 2)], 0.0);
@@ -410,19 +424,31 @@ mod tests {
         let mut ii = ndarray::Array4::<f32>::zeros((k, n, n, 3));
         let mut oo = ndarray::Array4::<f32>::zeros((k, n, n, 3));
         for t in 0..k {
-            ii.index_axis_mut(Axis(0), t).assign(&lcg_image(n, n, 3, 10 + t as u64));
-            oo.index_axis_mut(Axis(0), t).assign(&lcg_image(n, n, 3, 20 + t as u64));
+            ii.index_axis_mut(Axis(0), t)
+                .assign(&lcg_image(n, n, 3, 10 + t as u64));
+            oo.index_axis_mut(Axis(0), t)
+                .assign(&lcg_image(n, n, 3, 20 + t as u64));
         }
-        let one = crate::parallel::install(Some(1), || omega_cuts(ii.view(), oo.view(), DEFAULT_EPS, None))
-            .unwrap()
-            .unwrap();
-        let two = crate::parallel::install(Some(2), || omega_cuts(ii.view(), oo.view(), DEFAULT_EPS, None))
-            .unwrap()
-            .unwrap();
+        let one = crate::parallel::install(Some(1), || {
+            omega_cuts(ii.view(), oo.view(), DEFAULT_EPS, None)
+        })
+        .unwrap()
+        .unwrap();
+        let two = crate::parallel::install(Some(2), || {
+            omega_cuts(ii.view(), oo.view(), DEFAULT_EPS, None)
+        })
+        .unwrap()
+        .unwrap();
         assert_eq!(one.0, two.0);
         assert_eq!(one.1, two.1);
         for t in 0..k {
-            let single = omega_cut(ii.index_axis(Axis(0), t), oo.index_axis(Axis(0), t), DEFAULT_EPS, None).unwrap();
+            let single = omega_cut(
+                ii.index_axis(Axis(0), t),
+                oo.index_axis(Axis(0), t),
+                DEFAULT_EPS,
+                None,
+            )
+            .unwrap();
             assert_eq!(single.cost, one.1[t]);
         }
     }

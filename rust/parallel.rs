@@ -14,7 +14,11 @@ pub const THREADS_ENV: &str = "TILESYNTH_NUM_THREADS";
 /// Resolves the thread count: the explicit value if any, else `TILESYNTH_NUM_THREADS`, else all cores.
 pub fn resolve_threads(threads: Option<usize>) -> Result<usize> {
     match threads {
-        Some(0) => Err(TilesynthError::param("threads", 0, "must be at least 1 (or None for all cores)")),
+        Some(0) => Err(TilesynthError::param(
+            "threads",
+            0,
+            "must be at least 1 (or None for all cores)",
+        )),
         Some(n) => Ok(n),
         None => match std::env::var(THREADS_ENV) {
             Ok(s) if !s.trim().is_empty() => match s.trim().parse::<usize>() {
@@ -47,7 +51,11 @@ pub fn install<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) ->
                         .thread_name(|i| format!("tilesynth-{i}"))
                         .build()
                         .map_err(|e| {
-                            TilesynthError::param("threads", n, format!("cannot start thread pool: {e}"))
+                            TilesynthError::param(
+                                "threads",
+                                n,
+                                format!("cannot start thread pool: {e}"),
+                            )
                         })?,
                 );
                 pools.insert(n, Arc::clone(&p));

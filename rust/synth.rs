@@ -10,7 +10,14 @@ use ndarray::{ArrayView2, ArrayView4, ArrayViewMut3};
 use rayon::prelude::*;
 
 /// Checks that `map` can fill an `(out_h, out_w)` output from `n_tiles` tiles of `th x tw`.
-fn check(n_tiles: usize, th: usize, tw: usize, map: &ArrayView2<i32>, out_h: usize, out_w: usize) -> Result<()> {
+fn check(
+    n_tiles: usize,
+    th: usize,
+    tw: usize,
+    map: &ArrayView2<i32>,
+    out_h: usize,
+    out_w: usize,
+) -> Result<()> {
     if n_tiles == 0 || th == 0 || tw == 0 {
         return Err(TilesynthError::shape(
             "atlas",
@@ -102,7 +109,9 @@ mod tests {
 
     #[test]
     fn matches_naive_copy_with_cropping() {
-        let atlas = Array4::from_shape_fn((5, 4, 3, 2), |(k, y, x, c)| (k * 1000 + y * 100 + x * 10 + c) as u16);
+        let atlas = Array4::from_shape_fn((5, 4, 3, 2), |(k, y, x, c)| {
+            (k * 1000 + y * 100 + x * 10 + c) as u16
+        });
         let map = Array2::from_shape_fn((7, 9), |(i, j)| ((i * 7 + j * 3) % 5) as i32);
         for (h, w) in [(28, 27), (25, 20), (1, 1), (17, 26)] {
             let mut out = Array3::zeros((h, w, 2));
@@ -113,13 +122,17 @@ mod tests {
 
     #[test]
     fn thread_count_does_not_matter() {
-        let atlas = Array4::from_shape_fn((3, 8, 8, 3), |(k, y, x, c)| (k * 7 + y * 5 + x * 3 + c) as u16);
+        let atlas = Array4::from_shape_fn((3, 8, 8, 3), |(k, y, x, c)| {
+            (k * 7 + y * 5 + x * 3 + c) as u16
+        });
         let map = Array2::from_shape_fn((40, 40), |(i, j)| ((i * 31 + j * 17) % 3) as i32);
         let run = |n| {
             let mut out = Array3::zeros((317, 301, 3));
-            crate::parallel::install(Some(n), || tile_copy_into(atlas.view(), map.view(), out.view_mut()))
-                .unwrap()
-                .unwrap();
+            crate::parallel::install(Some(n), || {
+                tile_copy_into(atlas.view(), map.view(), out.view_mut())
+            })
+            .unwrap()
+            .unwrap();
             out
         };
         assert_eq!(run(1), run(2));

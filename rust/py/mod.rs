@@ -9,8 +9,8 @@ use convert::contiguous;
 use errors::to_pyerr;
 use ndarray::{Array2, Array3};
 use numpy::{
-    IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4,
-    PyReadwriteArray3, PyUntypedArrayMethods,
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3,
+    PyReadonlyArray4, PyReadwriteArray3, PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
 
@@ -102,7 +102,9 @@ fn grid_mincut<'py>(
     let (src, snk) = (source_hard.as_array(), sink_hard.as_array());
     let sc = source_cap.as_ref().map(|a| a.as_array());
     let kc = sink_cap.as_ref().map(|a| a.as_array());
-    let cut = run(py, Some(1), || maxflow::grid_mincut(wx, wy, src, snk, sc, kc))?;
+    let cut = run(py, Some(1), || {
+        maxflow::grid_mincut(wx, wy, src, snk, sc, kc)
+    })?;
     Ok((cut.sink_side.into_pyarray(py), cut.flow))
 }
 
@@ -123,13 +125,16 @@ fn kwatra_weights<'py>(
     let (a, b) = (a.as_array(), b.as_array());
     let region = region.as_ref().map(|r| r.as_array());
     let a_grad = a_grad.as_ref().map(|g| g.as_array());
-    let (wx, wy) = run(py, Some(1), || omega::kwatra_weights(a, b, region, eps, a_grad))?;
+    let (wx, wy) = run(py, Some(1), || {
+        omega::kwatra_weights(a, b, region, eps, a_grad)
+    })?;
     Ok((wx.into_pyarray(py), wy.into_pyarray(py)))
 }
 
 /// ω cutting curves for K tiles: bool masks `(K, N, N)` (True = takes the matching patch) and float64 costs.
 #[pyfunction]
 #[pyo3(signature = (intermediate, matching, eps=omega::DEFAULT_EPS, threads=None, intermediate_grad=None))]
+#[allow(clippy::type_complexity)]
 fn omega_cuts<'py>(
     py: Python<'py>,
     intermediate: PyReadonlyArray4<'py, f32>,
