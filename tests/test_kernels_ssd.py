@@ -138,4 +138,22 @@ def test_errors_are_value_errors_and_nan_rejected():
 def test_core_rejects_non_contiguous_arrays():
     image = np.zeros((20, 20, 3), np.float32)[:, ::2]
     with pytest.raises(TypeError, match="contiguous"):
-        _core.patch_ssd(image, np.zeros((1, 2, 2, 3), np.float32))
+        _core.SsdIndex(image)
+    with pytest.raises(TypeError, match="contiguous"):
+        _core.SsdIndex(np.zeros((20, 20, 3), np.float32)).ssd_maps(np.zeros((2, 4, 4, 3), np.float32)[:, ::2])
+
+
+def test_index_reuse_equals_one_shot(lettuce):
+    image = lettuce[:160, :170]
+    index = tilesynth.SsdIndex(image)
+    assert index.shape == (160, 170, 3)
+    t1 = lettuce[200:264, 10:74]
+    t2 = np.stack([lettuce[5:37, 300:332], lettuce[100:132, 100:132]])
+    np.testing.assert_array_equal(index.ssd(t1), tilesynth.patch_ssd(image, t1))
+    np.testing.assert_array_equal(index.ssd(t2), tilesynth.patch_ssd(image, t2))
+    o1, v1 = index.best_matches(t2, k=2, exclude_radius=3)
+    o2, v2 = tilesynth.best_matches(image, t2, k=2, exclude_radius=3)
+    np.testing.assert_array_equal(o1, o2)
+    np.testing.assert_array_equal(v1, v2)
+    with pytest.raises(tilesynth.ShapeError, match="template"):
+        index.ssd(np.zeros((8, 8, 1), np.float32))

@@ -24,7 +24,7 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
 
 from .errors import ParameterError, ShapeError, TileSetFormatError, TilesynthError
 from .io import load_image, save_image
-from .kernels import best_matches, grid_mincut, kwatra_weights, omega_cuts, patch_ssd, tile_copy
+from .kernels import SsdIndex, best_matches, grid_mincut, kwatra_weights, omega_cuts, patch_ssd, tile_copy
 from .omega import build_omega, energy
 from .render import contact_sheet
 from .synthesis import source_map, synthesize
@@ -39,6 +39,7 @@ __all__ = [
     "TILESET_NAMES",
     "ParameterError",
     "ShapeError",
+    "SsdIndex",
     "TileSet",
     "TileSetFormatError",
     "TilesynthError",

@@ -5,20 +5,25 @@ import numpy.typing as npt
 
 __version__: str
 
-def patch_ssd(
-    image: npt.NDArray[np.float32],
-    templates: npt.NDArray[np.float32],
-    mask: npt.NDArray[np.bool_] | None = None,
-    threads: int | None = None,
-) -> npt.NDArray[np.float32]: ...
-def best_matches(
-    image: npt.NDArray[np.float32],
-    templates: npt.NDArray[np.float32],
-    k: int = 1,
-    exclude_radius: int = 0,
-    mask: npt.NDArray[np.bool_] | None = None,
-    threads: int | None = None,
-) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]: ...
+class SsdIndex:
+    def __init__(self, image: npt.NDArray[np.float32], threads: int | None = None) -> None: ...
+    @property
+    def shape(self) -> tuple[int, int, int]: ...
+    def ssd_maps(
+        self,
+        templates: npt.NDArray[np.float32],
+        mask: npt.NDArray[np.bool_] | None = None,
+        threads: int | None = None,
+    ) -> npt.NDArray[np.float32]: ...
+    def best_matches(
+        self,
+        templates: npt.NDArray[np.float32],
+        k: int = 1,
+        exclude_radius: int = 0,
+        mask: npt.NDArray[np.bool_] | None = None,
+        threads: int | None = None,
+    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]: ...
+
 def grid_mincut(
     wx: npt.NDArray[np.float64],
     wy: npt.NDArray[np.float64],

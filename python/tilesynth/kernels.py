@@ -34,6 +34,57 @@ def _mask(mask: np.ndarray | None) -> np.ndarray | None:
     return None if mask is None else np.ascontiguousarray(mask, dtype=bool)
 
 
+class SsdIndex:
+    """Exhaustive SSD against one image, with everything that depends only on the image cached.
+
+    Building the index computes the image's per-channel spectra (FFT size = image size, which is exact for
+    fully-overlapping translations), the spectrum of Σ_c I_c² and an integral image of it; each template then
+    costs one forward FFT of its non-zero rows per channel, a multiply-accumulate in the frequency domain and one
+    partial inverse FFT. Build it once and match many templates (the ω construction does).
+
+    ``map[ty, tx] = Σ_{y,x,c} m(y,x) (T[y,x,c] − I[ty+y, tx+x, c])²``; the map is accurate to ~1e-9 of its
+    largest value (float64 FFTs), and :meth:`best_matches` re-ranks every candidate within the FFT's error bound
+    by a direct float64 sum, so its order and values are exact.
+    """
+
+    def __init__(self, image: np.ndarray, threads: int | None = None) -> None:
+        self.image = as_image(image)
+        self._index = _core.SsdIndex(self.image, threads)
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """``(H, W, C)`` of the indexed image."""
+        return self._index.shape
+
+    def ssd(self, templates: np.ndarray, mask: np.ndarray | None = None, threads: int | None = None) -> np.ndarray:
+        """SSD map(s): float32 ``(H-h+1, W-w+1)`` for a ``(h, w, C)`` template, ``(K, ...)`` for a stack.
+
+        ``mask``: optional ``(h, w)`` bool, True where a template pixel counts.
+        """
+        t, single = _templates(templates)
+        maps = self._index.ssd_maps(t, _mask(mask), threads)
+        return maps[0] if single else maps
+
+    def best_matches(
+        self,
+        templates: np.ndarray,
+        k: int = 1,
+        exclude_radius: int = 0,
+        mask: np.ndarray | None = None,
+        threads: int | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The ``k`` best translations of each template with exact float64 SSD values, best first.
+
+        Ties go to the smaller (row, col). After the first, each match lies more than ``exclude_radius`` pixels
+        (Chebyshev) from those already chosen. Returns int64 offsets ``(K, k, 2)`` (top-left row, col) and float64
+        values ``(K, k)``, or ``(k, 2)`` and ``(k,)`` for a single template; fewer than ``k`` columns when the
+        image has fewer admissible translations.
+        """
+        t, single = _templates(templates)
+        offsets, values = self._index.best_matches(t, int(k), int(exclude_radius), _mask(mask), threads)
+        return (offsets[0], values[0]) if single else (offsets, values)
+
+
 def patch_ssd(
     image: np.ndarray,
     templates: np.ndarray,
@@ -42,8 +93,7 @@ def patch_ssd(
 ) -> np.ndarray:
     """Exhaustive SSD of template(s) over every fully-overlapping translation of ``image``.
 
-    ``map[ty, tx] = Σ_{y,x,c} m(y,x) (T[y,x,c] − I[ty+y, tx+x, c])²``, computed by FFT correlation against the
-    image's cached spectrum (accurate to ~1e-6 of the map's maximum).
+    One-shot form of :meth:`SsdIndex.ssd` (builds the image's index, then matches all templates against it).
 
     Parameters
     ----------
@@ -55,10 +105,7 @@ def patch_ssd(
     -------
     float32 ``(H-h+1, W-w+1)``, or ``(K, H-h+1, W-w+1)`` for a stack of templates.
     """
-    img = as_image(image)
-    t, single = _templates(templates)
-    maps = _core.patch_ssd(img, t, _mask(mask), threads)
-    return maps[0] if single else maps
+    return SsdIndex(image, threads).ssd(templates, mask, threads)
 
 
 def best_matches(
@@ -69,21 +116,14 @@ def best_matches(
     mask: np.ndarray | None = None,
     threads: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The ``k`` best translations of each template, with exact (float64, directly summed) SSD values.
-
-    The FFT map ranks candidates; every candidate within the FFT's error bound of the winners is re-evaluated
-    exactly, so order and values are those of the exact SSD (ties: smaller (row, col) first). After the first,
-    each match must lie more than ``exclude_radius`` pixels (Chebyshev) from those already chosen.
+    """One-shot form of :meth:`SsdIndex.best_matches`: the ``k`` best translations with exact SSD values.
 
     Returns
     -------
     offsets : int64 ``(K, k, 2)`` (row, col) of the top-left corner; ``(k, 2)`` for a single template.
     ssd : float64 ``(K, k)``; ``(k,)`` for a single template.
     """
-    img = as_image(image)
-    t, single = _templates(templates)
-    offsets, values = _core.best_matches(img, t, int(k), int(exclude_radius), _mask(mask), threads)
-    return (offsets[0], values[0]) if single else (offsets, values)
+    return SsdIndex(image, threads).best_matches(templates, k, exclude_radius, mask, threads)
 
 
 def grid_mincut(
@@ -170,6 +210,7 @@ def tile_copy(atlas: np.ndarray, index_map: np.ndarray, out: np.ndarray, threads
 
 __all__ = [
     "DEFAULT_EPS",
+    "SsdIndex",
     "best_matches",
     "grid_mincut",
     "kwatra_weights",

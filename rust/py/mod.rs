@@ -24,55 +24,11 @@ fn run<R: Send>(
         .map_err(to_pyerr)
 }
 
-/// SSD maps of K templates `(K, h, w, C)` against `image` `(H, W, C)`: float32 `(K, H-h+1, W-w+1)`.
-#[pyfunction]
-#[pyo3(signature = (image, templates, mask=None, threads=None))]
-fn patch_ssd<'py>(
-    py: Python<'py>,
-    image: PyReadonlyArray3<'py, f32>,
-    templates: PyReadonlyArray4<'py, f32>,
-    mask: Option<PyReadonlyArray2<'py, bool>>,
-    threads: Option<usize>,
-) -> PyResult<Bound<'py, PyArray3<f32>>> {
-    contiguous("image", &image)?;
-    contiguous("templates", &templates)?;
-    if let Some(m) = &mask {
-        contiguous("mask", m)?;
-    }
-    let (image, templates) = (image.as_array(), templates.as_array());
-    let mask = mask.as_ref().map(|m| m.as_array());
-    let maps = run(py, threads, || {
-        let index = ssd::SsdIndex::new(image)?;
-        ssd::ssd_maps(&index, templates, mask)
-    })?;
-    Ok(maps.into_pyarray(py))
-}
+/// The k best matches of every template, packed as `(K, k, 2)` offsets and `(K, k)` exact SSD values.
+type MatchArrays<'py> = (Bound<'py, PyArray3<i64>>, Bound<'py, PyArray2<f64>>);
 
-/// The k best translations of each template (exact SSD): int64 `(K, k, 2)` (row, col) and float64 `(K, k)`.
-#[pyfunction]
-#[pyo3(signature = (image, templates, k=1, exclude_radius=0, mask=None, threads=None))]
-#[allow(clippy::type_complexity)]
-fn best_matches<'py>(
-    py: Python<'py>,
-    image: PyReadonlyArray3<'py, f32>,
-    templates: PyReadonlyArray4<'py, f32>,
-    k: usize,
-    exclude_radius: usize,
-    mask: Option<PyReadonlyArray2<'py, bool>>,
-    threads: Option<usize>,
-) -> PyResult<(Bound<'py, PyArray3<i64>>, Bound<'py, PyArray2<f64>>)> {
-    contiguous("image", &image)?;
-    contiguous("templates", &templates)?;
-    if let Some(m) = &mask {
-        contiguous("mask", m)?;
-    }
-    let n = templates.shape()[0];
-    let (image, templates) = (image.as_array(), templates.as_array());
-    let mask = mask.as_ref().map(|m| m.as_array());
-    let found = run(py, threads, || {
-        let index = ssd::SsdIndex::new(image)?;
-        ssd::best_matches_many(&index, templates, mask, k, exclude_radius)
-    })?;
+fn pack_matches<'py>(py: Python<'py>, found: Vec<Vec<ssd::Match>>) -> MatchArrays<'py> {
+    let n = found.len();
     let got = found.iter().map(|v| v.len()).min().unwrap_or(0);
     let mut offsets = Array3::<i64>::zeros((n, got, 2));
     let mut values = Array2::<f64>::zeros((n, got));
@@ -83,7 +39,74 @@ fn best_matches<'py>(
             values[(t, j)] = m.ssd;
         }
     }
-    Ok((offsets.into_pyarray(py), values.into_pyarray(py)))
+    (offsets.into_pyarray(py), values.into_pyarray(py))
+}
+
+/// The cached part of the exhaustive SSD for one image (its spectra and box sums): build once, then match any
+/// number of templates against it.
+#[pyclass(name = "SsdIndex", module = "tilesynth._core", frozen)]
+struct PySsdIndex {
+    inner: ssd::SsdIndex,
+}
+
+#[pymethods]
+impl PySsdIndex {
+    #[new]
+    #[pyo3(signature = (image, threads=None))]
+    fn new(py: Python<'_>, image: PyReadonlyArray3<'_, f32>, threads: Option<usize>) -> PyResult<Self> {
+        contiguous("image", &image)?;
+        let image = image.as_array();
+        let inner = run(py, threads, || ssd::SsdIndex::new(image))?;
+        Ok(PySsdIndex { inner })
+    }
+
+    /// `(H, W, C)` of the indexed image.
+    #[getter]
+    fn shape(&self) -> (usize, usize, usize) {
+        self.inner.shape()
+    }
+
+    /// SSD maps of K templates `(K, h, w, C)`: float32 `(K, H-h+1, W-w+1)`.
+    #[pyo3(signature = (templates, mask=None, threads=None))]
+    fn ssd_maps<'py>(
+        &self,
+        py: Python<'py>,
+        templates: PyReadonlyArray4<'py, f32>,
+        mask: Option<PyReadonlyArray2<'py, bool>>,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyArray3<f32>>> {
+        contiguous("templates", &templates)?;
+        if let Some(m) = &mask {
+            contiguous("mask", m)?;
+        }
+        let templates = templates.as_array();
+        let mask = mask.as_ref().map(|m| m.as_array());
+        let maps = run(py, threads, || ssd::ssd_maps(&self.inner, templates, mask))?;
+        Ok(maps.into_pyarray(py))
+    }
+
+    /// The k best translations of each template (exact SSD): int64 `(K, k, 2)` (row, col), float64 `(K, k)`.
+    #[pyo3(signature = (templates, k=1, exclude_radius=0, mask=None, threads=None))]
+    fn best_matches<'py>(
+        &self,
+        py: Python<'py>,
+        templates: PyReadonlyArray4<'py, f32>,
+        k: usize,
+        exclude_radius: usize,
+        mask: Option<PyReadonlyArray2<'py, bool>>,
+        threads: Option<usize>,
+    ) -> PyResult<MatchArrays<'py>> {
+        contiguous("templates", &templates)?;
+        if let Some(m) = &mask {
+            contiguous("mask", m)?;
+        }
+        let templates = templates.as_array();
+        let mask = mask.as_ref().map(|m| m.as_array());
+        let found = run(py, threads, || {
+            ssd::best_matches_many(&self.inner, templates, mask, k, exclude_radius)
+        })?;
+        Ok(pack_matches(py, found))
+    }
 }
 
 /// Min-cut on a 4-connected grid: bool `(H, W)` labels (True = sink side) and the flow (= cut cost).
@@ -200,8 +223,7 @@ fn resolve_threads(threads: Option<usize>) -> PyResult<usize> {
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
-    m.add_function(wrap_pyfunction!(patch_ssd, m)?)?;
-    m.add_function(wrap_pyfunction!(best_matches, m)?)?;
+    m.add_class::<PySsdIndex>()?;
     m.add_function(wrap_pyfunction!(grid_mincut, m)?)?;
     m.add_function(wrap_pyfunction!(kwatra_weights, m)?)?;
     m.add_function(wrap_pyfunction!(omega_cuts, m)?)?;
