@@ -1,10 +1,12 @@
 //! ω cutting-curve min-cut at tile sizes 80, 160, 256: Kwatra weights alone, and weights + graph + solve
-//! (the whole `omega_cut`, the figure compared with PyMaxflow's pipeline in benches/compare.py).
+//! (the whole `omega_cut`, the figure compared with PyMaxflow's pipeline in benches/compare.py), on one
+//! thread and on two.
 //!
 //! Inputs are deterministic procedural textures (smooth value noise plus grain), arranged like the real case:
 //! the intermediate tile is four quadrants of four different crops, the candidate another crop.
 
 use _core::omega::{circle_mask, kwatra_weights, omega_cut, DEFAULT_EPS};
+use _core::parallel::install;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use ndarray::{s, Array3};
 use std::hint::black_box;
@@ -70,7 +72,25 @@ fn bench_cut(c: &mut Criterion) {
             BenchmarkId::new("weights+build+solve", n),
             &n,
             |bench, _| {
-                bench.iter(|| omega_cut(black_box(a.view()), b.view(), DEFAULT_EPS, None).unwrap())
+                bench.iter(|| {
+                    install(Some(1), || {
+                        omega_cut(black_box(a.view()), b.view(), DEFAULT_EPS, None).unwrap()
+                    })
+                    .unwrap()
+                })
+            },
+        );
+        // The four quadrants of the cut are independent networks, solved in parallel.
+        group.bench_with_input(
+            BenchmarkId::new("weights+build+solve threads=2", n),
+            &n,
+            |bench, _| {
+                bench.iter(|| {
+                    install(Some(2), || {
+                        omega_cut(black_box(a.view()), b.view(), DEFAULT_EPS, None).unwrap()
+                    })
+                    .unwrap()
+                })
             },
         );
     }

@@ -9,6 +9,8 @@
 //! - [`maxflow`]: a Boykov–Kolmogorov max-flow / min-cut solver and a 4-connected pixel-grid front end.
 //! - [`omega`]: the ω-tile cutting curve (Kwatra edge weights, circle and cross terminals) and composition.
 //! - [`synth`]: copying tiles into a large output by an index map.
+//! - [`population`]: the ω-tile objective `E` for whole populations of gene vectors (exact, cached
+//!   per-patch SSD maps).
 //! - [`parallel`]: local thread pools (`threads` argument, `TILESYNTH_NUM_THREADS`).
 //!
 //! Conventions: images are C-contiguous `f32` `(H, W, C)` in [0, 1]; masks are `bool`; energies and
@@ -20,6 +22,7 @@ pub mod error;
 pub mod maxflow;
 pub mod omega;
 pub mod parallel;
+pub mod population;
 pub mod ssd;
 pub mod synth;
 

@@ -19,7 +19,7 @@
 //! reaches the four side midpoints, so ω-tiles that share corner patches stay seamless.
 
 use crate::error::{fmt_shape, Result, TilesynthError};
-use crate::maxflow::grid_mincut;
+use crate::maxflow::{GridNetwork, MAX_INDEX};
 use ndarray::{Array2, Array3, ArrayView2, ArrayView3, ArrayView4, Axis, Zip};
 use rayon::prelude::*;
 
@@ -203,7 +203,7 @@ pub fn omega_cut(
     i_grad: Option<ArrayView3<f64>>,
 ) -> Result<OmegaCut> {
     check_pair(&i, &o)?;
-    let (h, w, _) = i.dim();
+    let (h, w, c) = i.dim();
     if h != w || h % 2 != 0 || h < 2 {
         return Err(TilesynthError::shape(
             "intermediate",
@@ -211,22 +211,335 @@ pub fn omega_cut(
             fmt_shape(i.shape()),
         ));
     }
-    let inside = circle_mask(h);
-    let sinks = cross_mask(h);
-    let (wx, wy) = kwatra_weights(i, o, Some(inside.view()), eps, i_grad)?;
-    let outside = inside.mapv(|v| !v);
-    let cut = grid_mincut(
-        wx.view(),
-        wy.view(),
-        outside.view(),
-        sinks.view(),
-        None,
-        None,
-    )?;
+    check_grad(i_grad.as_ref(), h, w)?;
+    check_eps(eps)?;
+    let n = h;
+    if n.checked_mul(n)
+        .and_then(|v| v.checked_mul(4))
+        .map_or(true, |v| v > MAX_INDEX)
+    {
+        return Err(TilesynthError::shape(
+            "intermediate",
+            "a tile with at most 2^30 - 1 pixels",
+            fmt_shape(i.shape()),
+        ));
+    }
+    let (i, o) = (i.as_standard_layout(), o.as_standard_layout());
+    let grad = i_grad.map(|g| g.as_standard_layout().into_owned());
+    let tile = Tile {
+        n,
+        c,
+        i: i.as_slice().expect("standard layout"),
+        o: o.as_slice().expect("standard layout"),
+        grad: grad
+            .as_ref()
+            .map(|g| g.as_slice().expect("standard layout")),
+        eps,
+        class: classes(n),
+    };
+    // The sink cross separates the free pixels (inside the circle, off the cross) into four quadrants that
+    // share no edge: four independent networks, solved in parallel and merged in a fixed order.
+    let quads: Vec<(f64, Vec<bool>)> = (0..4usize)
+        .into_par_iter()
+        .map(|q| tile.solve_quadrant(q / 2, q % 2))
+        .collect();
+    let mut cost = tile.constant_flow();
+    let mut takes_o: Vec<bool> = tile.class.iter().map(|&k| k == SINK).collect();
+    let m = n / 2 - 1;
+    for (q, (flow, sink_side)) in quads.into_iter().enumerate() {
+        cost += flow;
+        let (y0, x0) = ((q / 2) * (n / 2 + 1), (q % 2) * (n / 2 + 1));
+        for ly in 0..m {
+            let row = (y0 + ly) * n + x0;
+            for lx in 0..m {
+                if tile.class[row + lx] == FREE_PX {
+                    takes_o[row + lx] = sink_side[ly * m + lx];
+                }
+            }
+        }
+    }
     Ok(OmegaCut {
-        takes_o: cut.sink_side,
-        cost: cut.flow,
+        takes_o: Array2::from_shape_vec((n, n), takes_o).expect("n * n labels"),
+        cost,
     })
+}
+
+fn check_grad(g: Option<&ArrayView3<f64>>, h: usize, w: usize) -> Result<()> {
+    if let Some(g) = g {
+        if g.dim() != (h, w, 2) {
+            return Err(TilesynthError::shape(
+                "intermediate_grad",
+                fmt_shape(&[h, w, 2]),
+                fmt_shape(g.shape()),
+            ));
+        }
+        if g.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(TilesynthError::param(
+                "intermediate_grad",
+                "negative or non-finite value",
+                "gradient norms must be finite and >= 0",
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn check_eps(eps: f64) -> Result<()> {
+    if !(eps.is_finite() && eps > 0.0) {
+        return Err(TilesynthError::param("eps", eps, "must be finite and > 0"));
+    }
+    Ok(())
+}
+
+/// Pixel classes of the ω construction.
+const FREE_PX: u8 = 0;
+/// Outside the circle: tied to the source.
+const SOURCE: u8 = 1;
+/// On the sink cross.
+const SINK: u8 = 2;
+
+/// The class of every pixel of an `n x n` tile (row-major), as [`circle_mask`] and [`cross_mask`].
+fn classes(n: usize) -> Vec<u8> {
+    let inside = circle_mask(n);
+    let (a, b) = (n / 2 - 1, n / 2);
+    inside
+        .indexed_iter()
+        .map(|((y, x), &v)| {
+            if !v {
+                SOURCE
+            } else if y == a || y == b || x == a || x == b {
+                SINK
+            } else {
+                FREE_PX
+            }
+        })
+        .collect()
+}
+
+/// L2 norm over channels of `s − t`, in f64 (summed in channel order).
+#[inline(always)]
+fn dist(s: &[f32], t: &[f32]) -> f64 {
+    s.iter()
+        .zip(t)
+        .fold(0.0f64, |acc, (&u, &v)| {
+            let d = u as f64 - v as f64;
+            acc + d * d
+        })
+        .sqrt()
+}
+
+/// One ω problem, contiguous.
+struct Tile<'a> {
+    n: usize,
+    c: usize,
+    i: &'a [f32],
+    o: &'a [f32],
+    grad: Option<&'a [f64]>,
+    eps: f64,
+    class: Vec<u8>,
+}
+
+/// Per-pixel terms of the Kwatra weights over a rectangle: `‖I − O‖`, and the gradient norms of `I` and
+/// `O` along x and y.
+struct Terms {
+    diff: Vec<f64>,
+    gxa: Vec<f64>,
+    gxb: Vec<f64>,
+    gya: Vec<f64>,
+    gyb: Vec<f64>,
+}
+
+impl Tile<'_> {
+    #[inline(always)]
+    fn px<'b>(&self, img: &'b [f32], p: usize) -> &'b [f32] {
+        &img[p * self.c..p * self.c + self.c]
+    }
+
+    /// The terms of the rectangle `[ry0, ry0 + rh) x [rx0, rx0 + rw)` (row-major, width `rw`).
+    fn terms(&self, ry0: usize, rx0: usize, rh: usize, rw: usize) -> Terms {
+        match self.c {
+            1 => self.terms_c::<1>(ry0, rx0, rh, rw),
+            3 => self.terms_c::<3>(ry0, rx0, rh, rw),
+            4 => self.terms_c::<4>(ry0, rx0, rh, rw),
+            _ => self.terms_c::<0>(ry0, rx0, rh, rw),
+        }
+    }
+
+    /// [`Tile::terms`] for `C` channels (`C = 0`: any count, `self.c`).
+    #[inline(always)]
+    fn terms_c<const C: usize>(&self, ry0: usize, rx0: usize, rh: usize, rw: usize) -> Terms {
+        let n = self.n;
+        let c = if C == 0 { self.c } else { C };
+        let len = rh * rw;
+        let mut t = Terms {
+            diff: Vec::with_capacity(len),
+            gxa: Vec::with_capacity(len),
+            gxb: Vec::with_capacity(len),
+            gya: Vec::with_capacity(len),
+            gyb: Vec::with_capacity(len),
+        };
+        for y in ry0..ry0 + rh {
+            for x in rx0..rx0 + rw {
+                let p = y * n + x;
+                let (ip, op) = (&self.i[p * c..p * c + c], &self.o[p * c..p * c + c]);
+                t.diff.push(dist(ip, op));
+                let (gxa, gxb) = if x + 1 < n {
+                    let (ia, ob) = (&self.i[(p + 1) * c..], &self.o[(p + 1) * c..]);
+                    let ga = match self.grad {
+                        Some(g) => g[2 * p],
+                        None => dist(&ia[..c], ip),
+                    };
+                    (ga, dist(&ob[..c], op))
+                } else {
+                    (self.grad.map_or(0.0, |g| g[2 * p]), 0.0)
+                };
+                let (gya, gyb) = if y + 1 < n {
+                    let (ia, ob) = (&self.i[(p + n) * c..], &self.o[(p + n) * c..]);
+                    let ga = match self.grad {
+                        Some(g) => g[2 * p + 1],
+                        None => dist(&ia[..c], ip),
+                    };
+                    (ga, dist(&ob[..c], op))
+                } else {
+                    (self.grad.map_or(0.0, |g| g[2 * p + 1]), 0.0)
+                };
+                t.gxa.push(gxa);
+                t.gxb.push(gxb);
+                t.gya.push(gya);
+                t.gyb.push(gyb);
+            }
+        }
+        t
+    }
+
+    /// The min-cut of quadrant `(qy, qx)`: its free pixels, local `m x m` grid (`m = n/2 − 1`), edges to
+    /// hard pixels folded into terminal links. Returns the flow and the local sink-side flags.
+    fn solve_quadrant(&self, qy: usize, qx: usize) -> (f64, Vec<bool>) {
+        let n = self.n;
+        let m = n / 2 - 1;
+        if m == 0 {
+            return (0.0, Vec::new());
+        }
+        let (y0, x0) = (qy * (n / 2 + 1), qx * (n / 2 + 1));
+        // The quadrant and the cross row / column next to it.
+        let (ry0, rx0) = (y0 - qy, x0 - qx);
+        let (rw, rh) = (m + 1, m + 1);
+        let t = self.terms(ry0, rx0, rh, rw);
+        let eps = self.eps;
+        let wx = |r: usize| {
+            let num = t.diff[r] + t.diff[r + 1];
+            let den = t.gxa[r] + t.gxa[r + 1] + t.gxb[r] + t.gxb[r + 1] + eps;
+            num / den
+        };
+        let wy = |r: usize| {
+            let num = t.diff[r] + t.diff[r + rw];
+            let den = t.gya[r] + t.gya[r + rw] + t.gyb[r] + t.gyb[r + rw] + eps;
+            num / den
+        };
+        let mut net = GridNetwork::new(m, m);
+        let class = &self.class;
+        for ly in 0..m {
+            let y = y0 + ly;
+            for lx in 0..m {
+                let x = x0 + lx;
+                let g = y * n + x;
+                if class[g] != FREE_PX {
+                    continue;
+                }
+                let l = ly * m + lx;
+                let r = (y - ry0) * rw + (x - rx0);
+                let (mut cs, mut ck) = (0.0f64, 0.0f64);
+                // Right and down: arcs to free pixels of the quadrant, else terminal links; left and up:
+                // terminal links only (arcs between free pixels are made from the other side).
+                if x + 1 < n {
+                    let c = wx(r);
+                    match class[g + 1] {
+                        FREE_PX if lx + 1 < m && c > 0.0 => net.set_right(l, c),
+                        SOURCE => cs += c,
+                        SINK => ck += c,
+                        _ => {}
+                    }
+                }
+                if y + 1 < n {
+                    let c = wy(r);
+                    match class[g + n] {
+                        FREE_PX if ly + 1 < m && c > 0.0 => net.set_down(l, c),
+                        SOURCE => cs += c,
+                        SINK => ck += c,
+                        _ => {}
+                    }
+                }
+                if x > 0 {
+                    match class[g - 1] {
+                        SOURCE => cs += wx(r - 1),
+                        SINK => ck += wx(r - 1),
+                        _ => {}
+                    }
+                }
+                if y > 0 {
+                    match class[g - n] {
+                        SOURCE => cs += wy(r - rw),
+                        SINK => ck += wy(r - rw),
+                        _ => {}
+                    }
+                }
+                net.set_terminal(l, cs, ck);
+            }
+        }
+        net.solve()
+    }
+
+    /// The Kwatra weight of the edge `p`–`p + step` (`step` 1 or `n`), from scratch.
+    fn weight(&self, p: usize, step: usize) -> f64 {
+        let (n, c) = (self.n, self.c);
+        let axis = usize::from(step != 1);
+        let q = p + step;
+        let grad = |img: &[f32], s: usize| -> f64 {
+            let (y, x) = (s / n, s % n);
+            if (axis == 0 && x + 1 >= n) || (axis == 1 && y + 1 >= n) {
+                0.0
+            } else {
+                dist(
+                    &img[(s + step) * c..(s + step) * c + c],
+                    &img[s * c..s * c + c],
+                )
+            }
+        };
+        let ga = |s: usize| match self.grad {
+            Some(g) => g[2 * s + axis],
+            None => grad(self.i, s),
+        };
+        let num = dist(self.px(self.i, p), self.px(self.o, p))
+            + dist(self.px(self.i, q), self.px(self.o, q));
+        let den = ga(p) + ga(q) + grad(self.o, p) + grad(self.o, q) + self.eps;
+        num / den
+    }
+
+    /// Flow of the edges between a source pixel and a sink pixel (always cut), in row-major order of the
+    /// sink pixels.
+    fn constant_flow(&self) -> f64 {
+        let n = self.n;
+        let mut flow = 0.0;
+        for (p, &k) in self.class.iter().enumerate() {
+            if k != SINK {
+                continue;
+            }
+            let (y, x) = (p / n, p % n);
+            if x + 1 < n && self.class[p + 1] == SOURCE {
+                flow += self.weight(p, 1);
+            }
+            if y + 1 < n && self.class[p + n] == SOURCE {
+                flow += self.weight(p, n);
+            }
+            if x > 0 && self.class[p - 1] == SOURCE {
+                flow += self.weight(p - 1, 1);
+            }
+            if y > 0 && self.class[p - n] == SOURCE {
+                flow += self.weight(p - n, n);
+            }
+        }
+        flow
+    }
 }
 
 /// [`omega_cut`] for K tiles at once, in parallel over tiles: `intermediate` and `matching` are `(K, N, N, C)`,
@@ -450,6 +763,50 @@ mod tests {
             )
             .unwrap();
             assert_eq!(single.cost, one.1[t]);
+        }
+    }
+
+    /// The fused per-quadrant path equals the plain pipeline: full weights, then one grid min-cut.
+    #[test]
+    fn fused_cut_equals_weights_plus_grid_mincut() {
+        for (n, ch, seed) in [
+            (2, 3, 1),
+            (4, 3, 2),
+            (6, 1, 3),
+            (8, 4, 4),
+            (10, 2, 5),
+            (30, 3, 6),
+            (48, 3, 7),
+        ] {
+            let a = lcg_image(n, n, ch, seed);
+            let b = lcg_image(n, n, ch, seed + 100);
+            let grad = Array3::from_shape_fn((n, n, 2), |(y, x, k)| {
+                ((y * 7 + x * 3 + k) % 5) as f64 * 0.1
+            });
+            for g in [None, Some(grad.view())] {
+                let inside = circle_mask(n);
+                let (wx, wy) =
+                    kwatra_weights(a.view(), b.view(), Some(inside.view()), DEFAULT_EPS, g)
+                        .unwrap();
+                let outside = inside.mapv(|v| !v);
+                let want = crate::maxflow::grid_mincut(
+                    wx.view(),
+                    wy.view(),
+                    outside.view(),
+                    cross_mask(n).view(),
+                    None,
+                    None,
+                )
+                .unwrap();
+                let got = omega_cut(a.view(), b.view(), DEFAULT_EPS, g).unwrap();
+                assert_eq!(got.takes_o, want.sink_side, "n {n}");
+                assert!(
+                    (got.cost - want.flow).abs() <= 1e-12 * want.flow.abs().max(1.0),
+                    "n {n}: {} != {}",
+                    got.cost,
+                    want.flow
+                );
+            }
         }
     }
 

@@ -9,70 +9,70 @@
 //!             = sum m T^2  +  sum_window m S  -  2 sum_c corr(m T_c, I_c)       (S = sum_c I_c^2)
 //! ```
 //!
-//! The correlations are computed with real 2-D FFTs at FFT size = image size: a valid correlation with an
+//! The correlations are computed with 2-D FFTs at FFT size = image size: a valid correlation with an
 //! image-sized circular correlation is exact, because the circular wrap only touches invalid offsets.
-//! Everything that depends only on the image (the spectra of every channel and of `S`, an integral image of
-//! `S`) is computed once in [`SsdIndex::new`]; a template then costs `C` forward transforms (`C + 1` with a
-//! mask), a product accumulated in the frequency domain, and a single inverse transform.
 //!
-//! ## Precision
+//! ## Centring
 //!
-//! All transforms run in `f64` (the input data is `f32`). This keeps the rounding error of the FFT map
-//! provably tiny (about `1e-16 * log2(HW) * ||T|| * ||I||`), so [`SsdIndex::best_matches`] can re-rank the
-//! best candidates with the exact direct sum while re-evaluating only genuine near-ties.
+//! The image planes are centred before any transform: `I'_c = I_c - mean(I_c)` (and `S' = S - mean(S)`),
+//! so `corr(p, I_c) = corr(p, I'_c) + mean(I_c) * sum(p)` with the constant added back exactly in `f64`.
+//! This removes the large DC peak of the image spectra, which otherwise dominates the rounding error.
 //!
-//! ## Layout of the 2-D transform
+//! ## Two channels per complex transform
 //!
-//! `realfft` provides real-to-complex transforms only (and `rustfft` is not a direct dependency), so the
-//! 2-D spectrum is built as: real FFT of every row (length `W`, giving `W/2 + 1` complex columns), then for
-//! every column `kx` a real FFT of the real part and one of the imaginary part along `y` (half spectra `A`
-//! and `B` of length `H/2 + 1`). Since both are spectra of real sequences, the full complex column spectrum
-//! is `F[k] = A[k] + i B[k]` and `F[H - k] = conj(A[k]) + i conj(B[k])`, so the half range `k <= H/2`
-//! gives both `G[k] = sum conj(T[k]) I[k]` and `G[H - k]`. The image side is stored as `(I[k], I[H - k])`.
-//! The inverse column transform of `G` is split into the half spectra of its real part,
-//! `P = (G[k] + conj(G[H - k])) / 2`, and of its imaginary part, `Q = (G[k] - conj(G[H - k])) / 2i`, each
-//! inverted with one real inverse FFT; a complex-to-real inverse FFT along each valid row then gives the
-//! map. Padding rows of the template are never transformed and only the valid rows of the result are
-//! inverted. Intermediate arrays use row- and column-blocked layouts so that the transposes read and write
-//! contiguous runs.
+//! Template planes are packed in pairs `z = p_a + i p_b` (the planes are `-2 m T_c`, then `m` with a mask).
+//! With the image-side spectrum `U = FFT(I'_a + i I'_b) / 2` (cached) and `V[k] = conj(U[-k])`, the
+//! spectrum of `corr(p_a, I'_a) + corr(p_b, I'_b)` is `conj(Z[k]) U[k] + Z[-k] V[k]`, which is Hermitian,
+//! so only the half `kx <= W/2` is formed and inverted (complex column IFFTs, then a real inverse FFT of
+//! each *valid* row). An odd plane out is transformed as a real 2-D FFT (two rows per complex row FFT,
+//! only `W/2 + 1` column transforms). Only the `h` template rows are row-transformed.
+//!
+//! ## Precision and laziness
+//!
+//! [`SsdIndex::new`] only validates and copies the image and computes `S`, its integral image, the means
+//! and the norms. The spectra are built lazily (`OnceLock`) on first use:
+//!
+//! - maps ([`SsdIndex::ssd_map`], [`ssd_maps`]) use `f32` transforms (rustfft's AVX kernels): accurate to
+//!   about `1e-6` of the map scale, well inside the documented `1e-4`;
+//! - [`SsdIndex::best_matches`] and [`SsdIndex::ssd_map_f64`] use `f64` transforms with a rigorous
+//!   error bound (below), built on first use;
+//! - the spectrum of `S` (needed only with a mask) is built the first time a mask is used.
 //!
 //! ## Exact best matches
 //!
-//! The FFT map `F` satisfies `|F(t) - E(t)| <= B` for the exact SSD `E`, with the norm-wise bound
-//! `B = 3 a sum_planes (||x||_2 ||y||_1 + ||x||_1 ||y||_2)` (`x`: template side, `y`: image side,
+//! The `f64` FFT map `F` satisfies `|F(t) - E(t)| <= B` for the exact SSD `E`, with the norm-wise bound
+//! `B = 6 a sum_planes (||x||_2 ||y||_1 + ||x||_1 ||y||_2)` (`x`: template side, `y`: centred image side,
 //! `a = 16 eps (ceil(log2 H) + ceil(log2 W) + 8)`, a generous constant per FFT level covering mixed-radix
-//! and Bluestein algorithms) plus the rounding of the final sums and of the integral image. Every
-//! translation whose FFT value is `<= E(t0) + B` (`t0` the FFT argmin) is re-evaluated directly, so no
-//! exact winner can be missed. With `f64` transforms `B` is around `1e-9` relative, so in practice only the
-//! FFT argmin itself (and exact ties) are re-evaluated.
+//! and Bluestein algorithms, doubled for the pair packing) plus the rounding of the centring, of the
+//! final sums and of the integral image. Every translation whose FFT value is `<= E(t0) + B` (`t0` the FFT
+//! argmin) is re-evaluated directly, so no exact winner can be missed. With `f64` transforms `B` is around
+//! `1e-9` relative, so in practice only the FFT argmin itself (and exact ties) are re-evaluated.
 //!
 //! Parallelism (rayon, within one call for large images; over templates in [`ssd_maps`]) splits work into
-//! fixed blocks of rows or columns whose results never depend on the thread count, so outputs are
-//! bit-identical at any number of threads.
+//! fixed blocks of rows or columns; every transform and every sum is computed the same way whatever
+//! thread runs it, so outputs are bit-identical at any number of threads.
 
 use crate::error::{fmt_shape, Result, TilesynthError};
 use ndarray::{Array2, Array3, ArrayView2, ArrayView3, ArrayView4, Axis};
 use rayon::prelude::*;
-use realfft::num_complex::Complex;
-use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
+use realfft::{ComplexToReal, RealFftPlanner};
+use rustfft::num_complex::Complex;
+use rustfft::num_traits::{Float, Zero};
+use rustfft::{Fft, FftNum, FftPlanner};
 use std::borrow::Cow;
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
-type C64 = Complex<f64>;
-
-const CZERO: C64 = C64 { re: 0.0, im: 0.0 };
-
-/// Images with at least this many pixels run the stages of one call in parallel (rayon).
+/// Images with at least this many pixels run the stages of one call in parallel (rayon), when the pool
+/// has more than one thread (the results do not depend on it).
 const PAR_MIN_PIXELS: usize = 100 * 100;
-/// Spectrum columns per task of the column stage.
-const COL_BLOCK: usize = 4;
-/// Padding (in `f64`) between gathered columns of the column stage.
-const COL_PAD: usize = 24;
-/// Padding (in complex values) between rows buffered by the row stages.
-const ROW_PAD: usize = 12;
+/// Maps are computed with `f32` transforms when their typical rounding error is at most this fraction of
+/// the map's largest value (else with `f64` transforms); the documented accuracy is `1e-4`.
+const F32_REL_EST: f64 = 1e-5;
 /// Rows per task of the row stages.
-const ROW_BLOCK: usize = 8;
+const ROW_BLOCK: usize = 16;
+/// Columns per task of the column stages.
+const COL_BLOCK: usize = 16;
 
 /// One best translation: its top-left corner `(row, col)` in the image and its exact (`f64`) SSD.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -86,59 +86,122 @@ pub struct Match {
 }
 
 /// The FFT plans of one image size (all `Arc`, `Send + Sync`).
-struct Plans {
-    fwd_w: Arc<dyn RealToComplex<f64>>,
-    inv_w: Arc<dyn ComplexToReal<f64>>,
-    fwd_h: Arc<dyn RealToComplex<f64>>,
-    inv_h: Arc<dyn ComplexToReal<f64>>,
+struct Plans<T: FftNum> {
+    fwd_w: Arc<dyn Fft<T>>,
+    fwd_h: Arc<dyn Fft<T>>,
+    inv_h: Arc<dyn Fft<T>>,
+    inv_w: Arc<dyn ComplexToReal<T>>,
+    scratch: usize,
 }
 
-impl Plans {
-    /// Plans for an `h x w` image, from a process-wide planner (plans are cached and shared).
-    fn new(h: usize, w: usize) -> Plans {
-        static PLANNER: Mutex<Option<RealFftPlanner<f64>>> = Mutex::new(None);
-        let mut guard = PLANNER.lock().unwrap_or_else(|e| e.into_inner());
-        let planner = guard.get_or_insert_with(RealFftPlanner::new);
-        Plans {
-            fwd_w: planner.plan_fft_forward(w),
-            inv_w: planner.plan_fft_inverse(w),
-            fwd_h: planner.plan_fft_forward(h),
-            inv_h: planner.plan_fft_inverse(h),
+fn make_plans<T: FftNum>(
+    cp: &mut FftPlanner<T>,
+    rp: &mut RealFftPlanner<T>,
+    h: usize,
+    w: usize,
+) -> Plans<T> {
+    let fwd_w = cp.plan_fft_forward(w);
+    let fwd_h = cp.plan_fft_forward(h);
+    let inv_h = cp.plan_fft_inverse(h);
+    let inv_w = rp.plan_fft_inverse(w);
+    let scratch = fwd_w
+        .get_inplace_scratch_len()
+        .max(fwd_h.get_inplace_scratch_len())
+        .max(inv_h.get_inplace_scratch_len())
+        .max(inv_w.get_scratch_len());
+    Plans {
+        fwd_w,
+        fwd_h,
+        inv_h,
+        inv_w,
+        scratch,
+    }
+}
+
+/// The floating-point type of a transform pipeline (`f32` for maps, `f64` for exact best matches).
+trait Real: FftNum + Float {
+    fn of(x: f64) -> Self;
+    fn to64(self) -> f64;
+    /// Plans from a process-wide planner of this type (plans are cached and shared).
+    fn plans(h: usize, w: usize) -> Plans<Self>;
+    /// The lazily built spectra of this precision in an index.
+    fn spec_cell(idx: &SsdIndex) -> &OnceLock<Spec<Self>>;
+    fn tail_cell(idx: &SsdIndex) -> &OnceLock<Chunk<Self>>;
+}
+
+macro_rules! impl_real {
+    ($t:ty, $spec:ident, $tail:ident) => {
+        impl Real for $t {
+            #[inline(always)]
+            fn of(x: f64) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn to64(self) -> f64 {
+                self as f64
+            }
+            fn plans(h: usize, w: usize) -> Plans<$t> {
+                type Planners = (FftPlanner<$t>, RealFftPlanner<$t>);
+                static PLANNERS: Mutex<Option<Planners>> = Mutex::new(None);
+                let mut guard = PLANNERS.lock().unwrap_or_else(|e| e.into_inner());
+                let (cp, rp) =
+                    guard.get_or_insert_with(|| (FftPlanner::new(), RealFftPlanner::new()));
+                make_plans(cp, rp, h, w)
+            }
+            fn spec_cell(idx: &SsdIndex) -> &OnceLock<Spec<$t>> {
+                &idx.$spec
+            }
+            fn tail_cell(idx: &SsdIndex) -> &OnceLock<Chunk<$t>> {
+                &idx.$tail
+            }
         }
-    }
+    };
+}
+impl_real!(f32, spec32, tail32);
+impl_real!(f64, spec64, tail64);
 
-    fn scratch_len(&self) -> usize {
-        self.fwd_w
-            .get_scratch_len()
-            .max(self.inv_w.get_scratch_len())
-            .max(self.fwd_h.get_scratch_len())
-            .max(self.inv_h.get_scratch_len())
-    }
+/// Image-side spectrum of one group of planes, laid out `[kx][ky]` for `kx < W/2 + 1`, all `ky < H`.
+enum Chunk<T> {
+    /// A pair `(a, b)`: `U = FFT(a + ib) / 2` and `V[k] = conj(U[-k])`.
+    Pair {
+        u: Vec<Complex<T>>,
+        v: Vec<Complex<T>>,
+    },
+    /// One real plane: its spectrum.
+    Lone(Vec<Complex<T>>),
 }
 
-/// Everything that depends only on the image, computed once: per-channel real FFT spectra at FFT size =
-/// image size (valid correlation with an image-sized FFT is exact: circular wrap only touches invalid
-/// offsets), the spectrum of `S = sum_c I_c^2` (for masked SSD), and an `f64` integral image of `S` (box sums
-/// for the unmasked case). Keeps a copy of the image for the exact direct sums. `Send + Sync`.
+/// The spectra of one precision: plans, then the groups of the unmasked planes (channel pairs, then the
+/// last channel alone when `C` is odd). With a mask the planes are the channels then `S`: the first
+/// `C / 2` groups are shared, the last one is the `tail` (built on first masked use).
+struct Spec<T: FftNum> {
+    plans: Plans<T>,
+    chunks: Vec<Chunk<T>>,
+}
+
+/// Everything that depends only on the image: the image (for the exact direct sums), `S = sum_c I_c^2`,
+/// its integral image (box sums for the unmasked case), the plane means and norms, and lazily built
+/// spectra at FFT size = image size. `Send + Sync`.
 pub struct SsdIndex {
     h: usize,
     w: usize,
     c: usize,
-    /// Half-spectrum lengths: `H/2 + 1` and `W/2 + 1`.
-    hc: usize,
-    wc: usize,
     /// The image, `(H, W, C)` C-contiguous.
     image: Vec<f32>,
-    /// Spectra, laid out `[kx][plane][F[k] | F[H - k]][k]` for `k < H/2 + 1`, with `C + 1` planes (the
-    /// channels, then `S`).
-    spec: Vec<C64>,
+    /// `S`, `(H, W)`.
+    s: Vec<f64>,
     /// Integral image of `S`, `(H + 1, W + 1)`.
     integral: Vec<f64>,
-    /// `(l1, l2)` norms of every plane, for the FFT error bound.
-    norms: Vec<(f64, f64)>,
+    /// Means of the `C + 1` planes (the channels, then `S`).
+    means: Vec<f64>,
+    /// `(l1, l2, linf)` norms of every centred plane, for the error bound.
+    norms: Vec<(f64, f64, f64)>,
     /// Sum of `S` over the image.
     s_total: f64,
-    plans: Plans,
+    spec32: OnceLock<Spec<f32>>,
+    spec64: OnceLock<Spec<f64>>,
+    tail32: OnceLock<Chunk<f32>>,
+    tail64: OnceLock<Chunk<f64>>,
 }
 
 /// A validated template, borrowed when C-contiguous, copied otherwise.
@@ -149,7 +212,8 @@ struct Tmpl<'a> {
 }
 
 impl SsdIndex {
-    /// Builds the index of `image` `(H, W, C)` (any strides; `H, W, C >= 1`; finite values).
+    /// Builds the index of `image` `(H, W, C)` (any strides; `H, W, C >= 1`; finite values). Cheap: the
+    /// spectra are computed on first use.
     pub fn new(image: ArrayView3<f32>) -> Result<SsdIndex> {
         let (h, w, c) = image.dim();
         if h == 0 || w == 0 || c == 0 {
@@ -160,91 +224,59 @@ impl SsdIndex {
             ));
         }
         let data = contiguous_finite("image", image)?;
-        let plans = Plans::new(h, w);
-        let (hc, wc) = (h / 2 + 1, w / 2 + 1);
-        let np = c + 1;
+        let n = (h * w) as f64;
 
-        // S = sum_c I_c^2, its integral image and the plane norms.
+        // S = sum_c I_c^2, the plane means and the norms of the centred planes (local accumulators per
+        // plane, so that the loops stay in registers).
         let s: Vec<f64> = data
             .chunks_exact(c)
             .map(|px| px.iter().map(|&v| (v as f64) * (v as f64)).sum())
             .collect();
+        // Per plane: copy into a buffer, then 8-lane sums (a fixed order, vectorisable).
+        let mut buf = vec![0.0f64; h * w];
+        let mut means = Vec::with_capacity(c + 1);
+        let mut norms = Vec::with_capacity(c + 1);
+        let mut s_total = 0.0;
+        for q in 0..=c {
+            if q < c {
+                for (b, px) in buf.iter_mut().zip(data.chunks_exact(c)) {
+                    *b = px[q] as f64;
+                }
+            } else {
+                buf.copy_from_slice(&s);
+            }
+            let (sum, _, _, _) = lane_stats(&buf, 0.0);
+            let mean = sum / n;
+            let (_, l1, l2, li) = lane_stats(&buf, mean);
+            if q == c {
+                s_total = sum;
+            }
+            means.push(mean);
+            norms.push((l1, l2.sqrt(), li));
+        }
         let mut integral = vec![0.0f64; (h + 1) * (w + 1)];
         for y in 0..h {
             let mut run = 0.0;
+            let (prev, cur) = integral[y * (w + 1)..(y + 2) * (w + 1)].split_at_mut(w + 1);
             for x in 0..w {
                 run += s[y * w + x];
-                integral[(y + 1) * (w + 1) + x + 1] = integral[y * (w + 1) + x + 1] + run;
+                cur[x + 1] = prev[x + 1] + run;
             }
         }
-        let mut norms = vec![(0.0f64, 0.0f64); np];
-        for px in data.chunks_exact(c) {
-            for (ch, &v) in px.iter().enumerate() {
-                let v = v as f64;
-                norms[ch].0 += v.abs();
-                norms[ch].1 += v * v;
-            }
-        }
-        let s_total: f64 = s.iter().sum();
-        norms[c] = (s_total, s.iter().map(|v| v * v).sum());
-        for n in norms.iter_mut() {
-            n.1 = n.1.sqrt();
-        }
-
-        let par = h * w >= PAR_MIN_PIXELS;
-        // Row stage: every row of every plane.
-        let rt = row_spectra(&plans, np, h, w, wc, par, &|plane, y, buf| {
-            if plane < c {
-                let row = &data[y * w * c..(y + 1) * w * c];
-                for (b, px) in buf.iter_mut().zip(row.chunks_exact(c)) {
-                    *b = px[plane] as f64;
-                }
-            } else {
-                buf.copy_from_slice(&s[y * w..(y + 1) * w]);
-            }
-        });
-
-        // Column stage: half spectra A, B of every column of every plane.
-        let mut spec = vec![CZERO; wc * np * 2 * hc];
-        let block_len = COL_BLOCK * np * 2 * hc;
-        let scratch_len = plans.scratch_len();
-        for_each_block(
-            &mut spec,
-            block_len,
-            par,
-            || ColWork::new(h, hc, scratch_len),
-            |work, bi, out| {
-                let kx0 = bi * COL_BLOCK;
-                let nb = out.len() / (np * 2 * hc);
-                for plane in 0..np {
-                    work.gather(&rt, plane, h, wc, kx0, nb, h);
-                    for j in 0..nb {
-                        let o = &mut out[(j * np + plane) * 2 * hc..][..2 * hc];
-                        let (fk, fm) = o.split_at_mut(hc);
-                        work.forward(&plans, j, fk, fm);
-                        // (A, B) -> (F[k], F[H - k]) = (A + iB, conj(A) + i conj(B)) for k < H/2 + 1.
-                        for (x, y) in fk.iter_mut().zip(fm.iter_mut()) {
-                            let (a, b) = (*x, *y);
-                            *x = C64::new(a.re - b.im, a.im + b.re);
-                            *y = C64::new(a.re + b.im, b.re - a.im);
-                        }
-                    }
-                }
-            },
-        );
-
         Ok(SsdIndex {
             h,
             w,
             c,
-            hc,
-            wc,
             image: data.into_owned(),
-            spec,
+            s,
             integral,
+            means,
             norms,
             s_total,
-            plans,
+            spec32: OnceLock::new(),
+            spec64: OnceLock::new(),
+            tail32: OnceLock::new(),
+            tail64: OnceLock::new(),
         })
     }
 
@@ -258,9 +290,102 @@ impl SsdIndex {
         (self.h + 1 - h, self.w + 1 - w)
     }
 
+    fn par(&self) -> bool {
+        self.h * self.w >= PAR_MIN_PIXELS && rayon::current_num_threads() > 1
+    }
+
+    /// Writes row `y` of centred image plane `q` (a channel, or `S` for `q = C`).
+    fn image_row<T: Real>(&self, q: usize, y: usize, out: &mut [T]) {
+        let (w, c) = (self.w, self.c);
+        let mu = self.means[q];
+        if q < c {
+            let row = &self.image[y * w * c..(y + 1) * w * c];
+            for (o, px) in out.iter_mut().zip(row.chunks_exact(c)) {
+                *o = T::of(px[q] as f64 - mu);
+            }
+        } else {
+            for (o, &v) in out.iter_mut().zip(&self.s[y * w..(y + 1) * w]) {
+                *o = T::of(v - mu);
+            }
+        }
+    }
+
+    fn build_chunk<T: Real>(&self, plans: &Plans<T>, qa: usize, qb: Option<usize>) -> Chunk<T> {
+        let (hh, ww) = (self.h, self.w);
+        let wc = ww / 2 + 1;
+        let par = self.par();
+        let fill = |q: usize, y: usize, out: &mut [T]| self.image_row(q, y, out);
+        match qb {
+            Some(qb) => {
+                let mut full = vec![Complex::<T>::zero(); ww * hh];
+                fwd_pair(plans, hh, ww, hh, par, &fill, qa, qb, &mut full);
+                let half = T::of(0.5);
+                let mut u = vec![Complex::<T>::zero(); wc * hh];
+                let mut v = vec![Complex::<T>::zero(); wc * hh];
+                for kx in 0..wc {
+                    let f1 = &full[kx * hh..(kx + 1) * hh];
+                    let f2 = &full[((ww - kx) % ww) * hh..][..hh];
+                    for (o, z) in u[kx * hh..(kx + 1) * hh].iter_mut().zip(f1) {
+                        *o = z * half;
+                    }
+                    let vo = &mut v[kx * hh..(kx + 1) * hh];
+                    vo[0] = f2[0].conj() * half;
+                    for (o, z) in vo[1..].iter_mut().zip(f2[1..].iter().rev()) {
+                        *o = z.conj() * half;
+                    }
+                }
+                Chunk::Pair { u, v }
+            }
+            None => {
+                let mut x = vec![Complex::<T>::zero(); wc * hh];
+                fwd_real(plans, hh, ww, hh, par, &fill, qa, &mut x);
+                Chunk::Lone(x)
+            }
+        }
+    }
+
+    /// The spectra of precision `T`, built on first use.
+    fn spec<T: Real>(&self) -> &Spec<T> {
+        T::spec_cell(self).get_or_init(|| {
+            let plans = T::plans(self.h, self.w);
+            let c = self.c;
+            let mut chunks: Vec<Chunk<T>> = (0..c / 2)
+                .map(|k| self.build_chunk(&plans, 2 * k, Some(2 * k + 1)))
+                .collect();
+            if c % 2 == 1 {
+                chunks.push(self.build_chunk(&plans, c - 1, None));
+            }
+            Spec { plans, chunks }
+        })
+    }
+
+    /// The last group of the masked planes (`(I_{C-1}, S)` for odd `C`, `S` alone otherwise), built on
+    /// the first masked call.
+    fn tail<T: Real>(&self) -> &Chunk<T> {
+        let plans = &self.spec::<T>().plans;
+        T::tail_cell(self).get_or_init(|| {
+            let c = self.c;
+            if c % 2 == 1 {
+                self.build_chunk(plans, c - 1, Some(c))
+            } else {
+                self.build_chunk(plans, c, None)
+            }
+        })
+    }
+
+    /// Builds every lazily computed part that a call of precision `T` (with or without a mask) needs, so
+    /// that parallel loops over templates never initialise them concurrently.
+    fn ensure<T: Real>(&self, masked: bool) {
+        self.spec::<T>();
+        if masked {
+            self.tail::<T>();
+        }
+    }
+
     /// The full SSD map (`f32`, shape `(H - h + 1, W - w + 1)`), via FFT:
     /// `sum m T^2 + boxsum/corr(m, S) - 2 sum_c corr(m T_c, I_c)`, clamped at 0.
-    /// Accurate to about `1e-12` relative to the largest term (the FFTs run in `f64`).
+    /// Computed with `f32` transforms on centred planes: accurate to about `1e-6` relative to the largest
+    /// term for typical images (far inside `1e-4`).
     pub fn ssd_map(
         &self,
         template: ArrayView3<f32>,
@@ -268,14 +393,13 @@ impl SsdIndex {
     ) -> Result<Array2<f32>> {
         let t = self.prepare_template("template", template)?;
         let m = prepare_mask(mask, t.h, t.w)?;
-        let (map, _) = self.fft_map(&t, m.as_deref());
+        let map = self.fft_map_f32(&t, m.as_deref());
         let dim = self.map_dim(t.h, t.w);
-        let v: Vec<f32> = map.iter().map(|&x| x as f32).collect();
-        Ok(Array2::from_shape_vec(dim, v).expect("map length matches its shape"))
+        Ok(Array2::from_shape_vec(dim, map).expect("map length matches its shape"))
     }
 
-    /// The SSD map in `f64` (same computation as [`SsdIndex::ssd_map`] without the final rounding to `f32`),
-    /// together with a rigorous-enough bound on its absolute error against the exact SSD.
+    /// The SSD map in `f64` (`f64` transforms), together with a rigorous-enough bound on its absolute
+    /// error against the exact SSD.
     pub fn ssd_map_f64(
         &self,
         template: ArrayView3<f32>,
@@ -283,7 +407,7 @@ impl SsdIndex {
     ) -> Result<(Array2<f64>, f64)> {
         let t = self.prepare_template("template", template)?;
         let m = prepare_mask(mask, t.h, t.w)?;
-        let (map, bound) = self.fft_map(&t, m.as_deref());
+        let (map, bound) = self.fft_map_f64(&t, m.as_deref());
         let dim = self.map_dim(t.h, t.w);
         Ok((
             Array2::from_shape_vec(dim, map).expect("map length matches its shape"),
@@ -409,16 +533,44 @@ impl SsdIndex {
         (acc[0] + acc[1]) + (acc[2] + acc[3])
     }
 
-    /// The FFT map in `f64` (row-major, clamped at 0) and the bound on its absolute error.
-    fn fft_map(&self, t: &Tmpl, mask: Option<&[bool]>) -> (Vec<f64>, f64) {
+    /// The map with `f32` transforms, unless the typical `f32` rounding error (`est`, see
+    /// [`SsdIndex::fft_map`]) exceeds `F32_REL_EST` of the map's largest value: then (flat images, maps
+    /// that are nearly zero everywhere) the map is recomputed with `f64` transforms.
+    fn fft_map_f32(&self, t: &Tmpl, mask: Option<&[bool]>) -> Vec<f32> {
+        let (map, _, est) = self.fft_map::<f32, f32>(t, mask, |v| v as f32);
+        let max = map.iter().fold(0.0f32, |a, &v| a.max(v)) as f64;
+        if est <= F32_REL_EST * max {
+            return map;
+        }
+        self.fft_map::<f64, f32>(t, mask, |v| v as f32).0
+    }
+
+    fn fft_map_f64(&self, t: &Tmpl, mask: Option<&[bool]>) -> (Vec<f64>, f64) {
+        let (map, bound, _) = self.fft_map::<f64, f64>(t, mask, |v| v);
+        (map, bound)
+    }
+
+    /// The FFT map with transforms in `T` (row-major, clamped at 0, converted by `cvt`), the rigorous
+    /// bound on its absolute error, and a typical (not rigorous) size of the transform rounding error,
+    /// `2 eps sqrt(levels) ||x||_2 ||y'||_2`, used to choose the precision of maps.
+    fn fft_map<T: Real, O: Copy + Default + Send + Sync>(
+        &self,
+        t: &Tmpl,
+        mask: Option<&[bool]>,
+        cvt: fn(f64) -> O,
+    ) -> (Vec<O>, f64, f64) {
         let (hh, ww, c) = (self.h, self.w, self.c);
-        let (hc, wc) = (self.hc, self.wc);
+        let wc = ww / 2 + 1;
         let (th, tw) = (t.h, t.w);
         let (mh, mw) = self.map_dim(th, tw);
-        let par = hh * ww >= PAR_MIN_PIXELS;
+        let par = self.par();
+        let spec = self.spec::<T>();
+        let tail = mask.map(|_| self.tail::<T>());
+        let plans = &spec.plans;
         // Template-side planes: -2 m T_c for every channel, then m (masked only). Scaling by -2 is exact.
         let np = if mask.is_some() { c + 1 } else { c };
         let data = &t.data;
+        let zero = Complex::<T>::zero();
 
         // The constant term sum m T^2 and the norms of the template side (for the error bound), as
         // lane-parallel sums (fixed order, vectorisable): sq = sum m T^2, l1 = sum m |T|, over all channels.
@@ -430,127 +582,128 @@ impl SsdIndex {
                 })),
             };
         let nnz = mask.map_or(0, |m| m.iter().filter(|&&on| on).count()) as f64;
+        // The centring constant sum_q mean_q * sum(p_q).
+        let mut psum = vec![0.0f64; c];
+        match mask {
+            None => {
+                for px in data.chunks_exact(c) {
+                    for (s, &v) in psum.iter_mut().zip(px) {
+                        *s += v as f64;
+                    }
+                }
+            }
+            Some(m) => {
+                for (px, _) in data.chunks_exact(c).zip(m).filter(|(_, &on)| on) {
+                    for (s, &v) in psum.iter_mut().zip(px) {
+                        *s += v as f64;
+                    }
+                }
+            }
+        }
+        let mut kconst = 0.0f64;
+        for (ch, &ps) in psum.iter().enumerate() {
+            kconst += self.means[ch] * (-2.0 * ps);
+        }
+        if mask.is_some() {
+            kconst += self.means[c] * nnz;
+        }
 
-        // Row stage: only the h template rows (the padding rows have zero spectra).
-        let rt = row_spectra(&self.plans, np, th, ww, wc, par, &|plane, y, buf| {
+        let tfill = |q: usize, y: usize, out: &mut [T]| {
             let row = &data[y * tw * c..(y + 1) * tw * c];
-            let (head, tail) = buf.split_at_mut(tw);
-            tail.fill(0.0);
+            let (head, rest) = out.split_at_mut(tw);
+            rest.fill(T::zero());
             match mask {
                 None => {
                     for (b, px) in head.iter_mut().zip(row.chunks_exact(c)) {
-                        *b = -2.0 * px[plane] as f64;
+                        *b = T::of(-2.0 * px[q] as f64);
                     }
                 }
                 Some(m) => {
                     let mr = &m[y * tw..(y + 1) * tw];
                     for ((b, px), &on) in head.iter_mut().zip(row.chunks_exact(c)).zip(mr) {
-                        *b = match (on, plane < c) {
-                            (false, _) => 0.0,
-                            (true, true) => -2.0 * px[plane] as f64,
-                            (true, false) => 1.0,
+                        *b = match (on, q < c) {
+                            (false, _) => T::zero(),
+                            (true, true) => T::of(-2.0 * px[q] as f64),
+                            (true, false) => T::one(),
                         };
                     }
                 }
             }
-        });
+        };
 
-        // Column stage: forward column transforms of the template, product with the image spectra
-        // accumulated over planes, inverse column transforms; keeps the mh valid rows, laid out
-        // [kx / CB][y / RB][kx % CB][y % RB] (CB = COL_BLOCK, RB = ROW_BLOCK) so that both this stage
-        // and the row stage below write and read contiguous runs.
-        let nkb = wc.div_ceil(COL_BLOCK);
-        let nyb = mh.div_ceil(ROW_BLOCK);
-        let zblock = nyb * COL_BLOCK * ROW_BLOCK;
-        let mut zt = vec![CZERO; nkb * zblock];
-        let scratch_len = self.plans.scratch_len();
-        let nsp = c + 1;
+        // Forward transforms of the template groups and the product with the image spectra, accumulated
+        // over groups in a fixed order into the half spectrum g ([kx][ky], kx < W/2 + 1).
+        let mut g = vec![zero; wc * hh];
+        let mut zc = vec![zero; ww * hh];
+        for k in 0..np.div_ceil(2) {
+            let qa = 2 * k;
+            let img = match tail {
+                Some(tl) if k >= c / 2 => tl,
+                _ => &spec.chunks[k],
+            };
+            match img {
+                Chunk::Pair { u, v } => {
+                    debug_assert!(qa + 1 < np);
+                    fwd_pair(plans, hh, ww, th, par, &tfill, qa, qa + 1, &mut zc);
+                    accumulate_pair(&mut g, &zc, u, v, hh, ww, par);
+                }
+                Chunk::Lone(x) => {
+                    debug_assert!(qa + 1 == np);
+                    let xc = &mut zc[..wc * hh];
+                    fwd_real(plans, hh, ww, th, par, &tfill, qa, xc);
+                    accumulate_lone(&mut g, xc, x, hh, par);
+                }
+            }
+        }
+        drop(zc);
+
+        // Inverse column transforms, then a real inverse transform of each valid row, plus the constants.
+        let scratch_len = plans.scratch;
         for_each_block(
-            &mut zt,
-            zblock,
+            &mut g,
+            COL_BLOCK * hh,
             par,
-            || ColWork::new(hh, hc, scratch_len),
-            |work, bi, out| {
-                let kx0 = bi * COL_BLOCK;
-                let nb = COL_BLOCK.min(wc - kx0);
-                work.pq.fill(CZERO);
-                for plane in 0..np {
-                    let ip = if plane < c { plane } else { c };
-                    work.gather(&rt, plane, th, wc, kx0, nb, hh);
-                    for j in 0..nb {
-                        let kx = kx0 + j;
-                        work.forward_to_ab(&self.plans, j);
-                        let img = &self.spec[(kx * nsp + ip) * 2 * hc..][..2 * hc];
-                        let (ci, di) = img.split_at(hc);
-                        let (p, q) = work.pq[j * 2 * hc..(j + 1) * 2 * hc].split_at_mut(hc);
-                        let (a, b) = work.ab.split_at(hc);
-                        // With u = a + ib = T[k] and v = conj(a) + i conj(b) = T[H - k]:
-                        // G[k] += conj(u) I[k],  G[H - k] += conj(v) I[H - k].
-                        for ky in 0..hc {
-                            let (a, b, fk, fm) = (a[ky], b[ky], ci[ky], di[ky]);
-                            let (ur, ui) = (a.re - b.im, a.im + b.re);
-                            let (vr, vi) = (a.re + b.im, b.re - a.im);
-                            p[ky].re += ur * fk.re + ui * fk.im;
-                            p[ky].im += ur * fk.im - ui * fk.re;
-                            q[ky].re += vr * fm.re + vi * fm.im;
-                            q[ky].im += vr * fm.im - vi * fm.re;
-                        }
-                    }
-                }
-                for j in 0..nb {
-                    let (re, im) = work.inverse_pq(&self.plans, j);
-                    for (yb, blk) in out.chunks_exact_mut(COL_BLOCK * ROW_BLOCK).enumerate() {
-                        let y0 = yb * ROW_BLOCK;
-                        let nr = ROW_BLOCK.min(mh - y0);
-                        let run = &mut blk[j * ROW_BLOCK..j * ROW_BLOCK + nr];
-                        for (i, o) in run.iter_mut().enumerate() {
-                            *o = C64::new(re[y0 + i], im[y0 + i]);
-                        }
-                    }
-                }
-            },
+            || vec![zero; scratch_len],
+            |s, _, blk| plans.inv_h.process_with_scratch(blk, s),
         );
-
-        // Row stage of the inverse: the mh valid rows, plus the constant terms.
-        let mut map = vec![0.0f64; mh * mw];
-        // 1/2 from the P, Q reconstruction, 1/(HW) for the unnormalised transforms.
-        let scale = 0.5 / (hh as f64 * ww as f64);
+        let scale = 1.0 / (hh as f64 * ww as f64);
+        let base = sum_t2 + kconst;
         let w_even = ww % 2 == 0;
         let integral = &self.integral;
         let iw = ww + 1;
+        let mut map = vec![O::default(); mh * mw];
         for_each_block(
             &mut map,
             ROW_BLOCK * mw,
             par,
-            || RowInvWork::new(ww, wc, scratch_len),
-            |work, bi, out| {
+            || {
+                (
+                    vec![zero; ROW_BLOCK * wc],
+                    vec![T::zero(); ww],
+                    vec![zero; scratch_len],
+                )
+            },
+            |(rows, outr, scratch), bi, out| {
                 let y0 = bi * ROW_BLOCK;
                 let nr = out.len() / mw;
-                let rs = wc + ROW_PAD;
                 for kx in 0..wc {
-                    let (kb, jj) = (kx / COL_BLOCK, kx % COL_BLOCK);
-                    let run = &zt[kb * zblock + (bi * COL_BLOCK + jj) * ROW_BLOCK..][..nr];
-                    for (j, &v) in run.iter().enumerate() {
-                        work.rows[j * rs + kx] = v;
+                    for (j, &v) in g[kx * hh + y0..][..nr].iter().enumerate() {
+                        rows[j * wc + kx] = v;
                     }
                 }
                 for j in 0..nr {
-                    let spec_row = &mut work.rows[j * rs..j * rs + wc];
-                    spec_row[0].im = 0.0;
+                    let row = &mut rows[j * wc..(j + 1) * wc];
+                    row[0].im = T::zero();
                     if w_even {
-                        spec_row[wc - 1].im = 0.0;
+                        row[wc - 1].im = T::zero();
                     }
-                    let r = self.plans.inv_w.process_with_scratch(
-                        spec_row,
-                        &mut work.out,
-                        &mut work.scratch,
-                    );
+                    let r = plans.inv_w.process_with_scratch(row, outr, scratch);
                     debug_assert!(r.is_ok());
                     let y = y0 + j;
                     let orow = &mut out[j * mw..(j + 1) * mw];
                     if mask.is_some() {
-                        for (o, &z) in orow.iter_mut().zip(&work.out[..mw]) {
-                            *o = (sum_t2 + z * scale).max(0.0);
+                        for (o, &z) in orow.iter_mut().zip(&outr[..mw]) {
+                            *o = cvt((base + z.to64() * scale).max(0.0));
                         }
                     } else {
                         let (top, bot) = (&integral[y * iw..], &integral[(y + th) * iw..]);
@@ -558,7 +711,7 @@ impl SsdIndex {
                         let (bl, br) = (&bot[..mw], &bot[tw..tw + mw]);
                         for x in 0..mw {
                             let boxsum = (br[x] - tr[x]) - (bl[x] - tl[x]);
-                            orow[x] = (sum_t2 + boxsum + work.out[x] * scale).max(0.0);
+                            orow[x] = cvt((base + boxsum + outr[x].to64() * scale).max(0.0));
                         }
                     }
                 }
@@ -566,28 +719,39 @@ impl SsdIndex {
         );
 
         // Error bound (see the module docs): per plane pair, the FFT correlation error is at most
-        // ~ 3 a (||x||_2 ||y||_1 + ||x||_1 ||y||_2) with a = (rounding per FFT level) * (levels), plus the
-        // rounding of the final sums and of the integral image.
-        let eps = f64::EPSILON;
+        // ~ 3 a (||x||_2 ||y||_1 + ||x||_1 ||y||_2) with a = (rounding per FFT level) * (levels), doubled
+        // for the pair packing; plus the rounding of the centred image values, of the centring constant,
+        // of the final sums and of the integral image.
+        let eps = T::epsilon().to64();
+        let e64 = f64::EPSILON;
         let levels = (ceil_log2(hh) + ceil_log2(ww) + 8) as f64;
         let a = 16.0 * eps * levels;
         // Template side: the planes -2 m T_c (sum_c ||x_c||_2 <= sqrt(C) * 2 sqrt(sum_t2) and
-        // sum_c ||x_c||_1 = 2 l1) against the largest image channel norms; then m against S.
-        let (y1, y2) = self.norms[..c]
+        // sum_c ||x_c||_1 = 2 l1) against the largest centred image channel norms; then m against S'.
+        let (y1, y2, yinf) = self.norms[..c]
             .iter()
-            .fold((0.0f64, 0.0f64), |(a, b), &(n1, n2)| (a.max(n1), b.max(n2)));
+            .fold((0.0f64, 0.0f64, 0.0f64), |(a, b, d), &(n1, n2, ni)| {
+                (a.max(n1), b.max(n2), d.max(ni))
+            });
+        let mean_max = self.means[..c].iter().fold(0.0f64, |a, &m| a.max(m.abs()));
         let x2 = 2.0 * (c as f64).sqrt() * sum_t2.sqrt();
         let x1 = 2.0 * l1;
-        let mut fft_err = 3.0 * a * (x2 * y1 + x1 * y2);
+        let mut fft_err = 6.0 * a * (x2 * y1 + x1 * y2);
         let mut zmax = x2 * y2;
+        let mut cent_err = 2.0 * eps * x1 * yinf;
+        let mut k_abs = mean_max * x1;
         if mask.is_some() {
-            let (s1, s2) = self.norms[c];
-            fft_err += 3.0 * a * (nnz.sqrt() * s1 + nnz * s2);
+            let (s1, s2, sinf) = self.norms[c];
+            fft_err += 6.0 * a * (nnz.sqrt() * s1 + nnz * s2);
             zmax += nnz.sqrt() * s2;
+            cent_err += 2.0 * eps * nnz * sinf;
+            k_abs += self.means[c].abs() * nnz;
         }
-        let box_err = 4.0 * (hh + ww + 4) as f64 * eps * self.s_total;
-        let sum_err = 8.0 * eps * (sum_t2 + self.s_total + zmax);
-        (map, fft_err + box_err + sum_err)
+        let k_err = (th * tw + 8) as f64 * e64 * k_abs;
+        let box_err = 4.0 * (hh + ww + 4) as f64 * e64 * self.s_total;
+        let sum_err = 8.0 * e64 * (sum_t2 + self.s_total + zmax + k_abs);
+        let est = 2.0 * eps * levels.sqrt() * zmax;
+        (map, fft_err + cent_err + k_err + box_err + sum_err, est)
     }
 
     /// Greedy exact best matches on a prepared template.
@@ -598,7 +762,7 @@ impl SsdIndex {
         if k == 0 {
             return Vec::new();
         }
-        let (map, bound) = self.fft_map(t, mask);
+        let (map, bound) = self.fft_map_f64(t, mask);
         let mut exact_cache: HashMap<usize, f64> = HashMap::new();
         let mut excluded = if k > 1 { vec![false; n] } else { Vec::new() };
         let allowed = |ex: &[bool], i: usize| ex.is_empty() || !ex[i];
@@ -675,13 +839,17 @@ pub fn ssd_maps(
     let (_, h, w, _) = templates.dim();
     let (mh, mw) = index.map_dim(h, w);
     let mut out = Array3::<f32>::zeros((ts.len(), mh, mw));
+    if ts.is_empty() {
+        return Ok(out);
+    }
+    index.ensure::<f32>(m.is_some());
     out.axis_iter_mut(Axis(0))
         .into_par_iter()
         .zip(ts.par_iter())
         .for_each(|(mut o, t)| {
-            let (map, _) = index.fft_map(t, m.as_deref());
+            let map = index.fft_map_f32(t, m.as_deref());
             for (d, s) in o.iter_mut().zip(map) {
-                *d = s as f32;
+                *d = s;
             }
         });
     Ok(out)
@@ -696,6 +864,9 @@ pub fn best_matches_many(
     exclude_radius: usize,
 ) -> Result<Vec<Vec<Match>>> {
     let (ts, m) = prepare_many(index, templates, mask)?;
+    if !ts.is_empty() && k > 0 {
+        index.ensure::<f64>(m.is_some());
+    }
     Ok(ts
         .par_iter()
         .map(|t| index.best_prepared(t, m.as_deref(), k, exclude_radius))
@@ -851,6 +1022,34 @@ fn lane_sums(it: impl Iterator<Item = f64>) -> (f64, f64) {
     (fold(sq), fold(ab))
 }
 
+/// For `d = v - shift`: `(sum d, sum |d|, sum d^2, max |d|)` with 8 interleaved partial sums (a fixed
+/// order, so deterministic, and vectorisable).
+fn lane_stats(v: &[f64], shift: f64) -> (f64, f64, f64, f64) {
+    let (mut s, mut a, mut q, mut m) = ([0.0f64; 8], [0.0f64; 8], [0.0f64; 8], [0.0f64; 8]);
+    let mut chunks = v.chunks_exact(8);
+    for ch in &mut chunks {
+        for l in 0..8 {
+            let d = ch[l] - shift;
+            let ad = d.abs();
+            s[l] += d;
+            a[l] += ad;
+            q[l] += d * d;
+            m[l] = if ad > m[l] { ad } else { m[l] };
+        }
+    }
+    for (l, &x) in chunks.remainder().iter().enumerate() {
+        let d = x - shift;
+        let ad = d.abs();
+        s[l] += d;
+        a[l] += ad;
+        q[l] += d * d;
+        m[l] = if ad > m[l] { ad } else { m[l] };
+    }
+    let fold = |x: [f64; 8]| ((x[0] + x[4]) + (x[2] + x[6])) + ((x[1] + x[5]) + (x[3] + x[7]));
+    let mx = m.iter().fold(0.0f64, |p, &x| p.max(x));
+    (fold(s), fold(a), fold(q), mx)
+}
+
 fn ceil_log2(n: usize) -> u32 {
     n.next_power_of_two().trailing_zeros()
 }
@@ -878,194 +1077,220 @@ where
     }
 }
 
-/// Real FFTs (length `w`) of `rows` rows of each of `np` planes; `fill(plane, y, buf)` writes the real row.
-/// Returns the `wc = w/2 + 1` spectrum columns in a row-blocked layout `[plane][y / RB][kx][y % RB]`
-/// (`RB = ROW_BLOCK`; rows past `rows` in the last block are zero), so that the column stage reads
-/// contiguous runs instead of one element per row.
-fn row_spectra(
-    plans: &Plans,
-    np: usize,
+/// Fills row `y` (all `W` entries) of plane `q`.
+type Fill<'a, T> = dyn Fn(usize, usize, &mut [T]) + Sync + 'a;
+
+/// 2-D FFT of the complex plane `a + ib` (planes `qa`, `qb` from `fill`; rows `>= rows` are zero) into
+/// `cols`, laid out `[kx][ky]` (`W` columns of length `H`). Only the `rows` non-zero rows are transformed.
+#[allow(clippy::too_many_arguments)]
+fn fwd_pair<T: Real>(
+    p: &Plans<T>,
+    hh: usize,
+    ww: usize,
     rows: usize,
-    w: usize,
-    wc: usize,
     par: bool,
-    fill: &(dyn Fn(usize, usize, &mut [f64]) + Sync),
-) -> Vec<C64> {
-    let nyb = rows.div_ceil(ROW_BLOCK);
-    let mut rt = vec![CZERO; np * nyb * wc * ROW_BLOCK];
-    let scratch_len = plans.scratch_len();
-    let ts = wc + ROW_PAD;
+    fill: &Fill<T>,
+    qa: usize,
+    qb: usize,
+    cols: &mut [Complex<T>],
+) {
+    let zero = Complex::<T>::zero();
+    let mut zr = vec![zero; rows * ww];
     for_each_block(
-        &mut rt,
-        wc * ROW_BLOCK,
+        &mut zr,
+        ROW_BLOCK * ww,
         par,
         || {
             (
-                vec![0.0f64; w],
-                vec![CZERO; ROW_BLOCK * ts],
-                vec![CZERO; scratch_len],
+                vec![T::zero(); ww],
+                vec![T::zero(); ww],
+                vec![zero; p.scratch],
             )
         },
-        |(buf, tmp, scratch), bi, out| {
-            let (plane, yb) = (bi / nyb, bi % nyb);
-            let nr = ROW_BLOCK.min(rows - yb * ROW_BLOCK);
-            for j in 0..nr {
-                fill(plane, yb * ROW_BLOCK + j, buf);
-                let res =
-                    plans
-                        .fwd_w
-                        .process_with_scratch(buf, &mut tmp[j * ts..j * ts + wc], scratch);
-                debug_assert!(res.is_ok());
+        |(a, b, scratch), bi, blk| {
+            for (j, row) in blk.chunks_exact_mut(ww).enumerate() {
+                let y = bi * ROW_BLOCK + j;
+                fill(qa, y, a);
+                fill(qb, y, b);
+                for ((o, &x), &v) in row.iter_mut().zip(a.iter()).zip(b.iter()) {
+                    *o = Complex::new(x, v);
+                }
             }
-            for (kx, o) in out.chunks_exact_mut(ROW_BLOCK).enumerate() {
-                for (j, v) in o[..nr].iter_mut().enumerate() {
-                    *v = tmp[j * ts + kx];
+            p.fwd_w.process_with_scratch(blk, scratch);
+        },
+    );
+    for_each_block(
+        &mut cols[..ww * hh],
+        COL_BLOCK * hh,
+        par,
+        || vec![zero; p.scratch],
+        |scratch, bi, blk| {
+            let kx0 = bi * COL_BLOCK;
+            let nb = blk.len() / hh;
+            for y in 0..rows {
+                for (j, &v) in zr[y * ww + kx0..][..nb].iter().enumerate() {
+                    blk[j * hh + y] = v;
+                }
+            }
+            if rows < hh {
+                for col in blk.chunks_exact_mut(hh) {
+                    col[rows..].fill(zero);
+                }
+            }
+            p.fwd_h.process_with_scratch(blk, scratch);
+        },
+    );
+}
+
+/// Half spectrum (`kx < W/2 + 1`, all `ky`, laid out `[kx][ky]`) of the real plane `q` (rows `>= rows`
+/// zero): rows are transformed two at a time as one complex row, then split by Hermitian symmetry.
+#[allow(clippy::too_many_arguments)]
+fn fwd_real<T: Real>(
+    p: &Plans<T>,
+    hh: usize,
+    ww: usize,
+    rows: usize,
+    par: bool,
+    fill: &Fill<T>,
+    q: usize,
+    cols: &mut [Complex<T>],
+) {
+    let zero = Complex::<T>::zero();
+    let wc = ww / 2 + 1;
+    let pairs = rows.div_ceil(2);
+    let mut zr = vec![zero; pairs * ww];
+    for_each_block(
+        &mut zr,
+        ROW_BLOCK * ww,
+        par,
+        || {
+            (
+                vec![T::zero(); ww],
+                vec![T::zero(); ww],
+                vec![zero; p.scratch],
+            )
+        },
+        |(a, b, scratch), bi, blk| {
+            for (j, row) in blk.chunks_exact_mut(ww).enumerate() {
+                let y = 2 * (bi * ROW_BLOCK + j);
+                fill(q, y, a);
+                if y + 1 < rows {
+                    fill(q, y + 1, b);
+                } else {
+                    b.fill(T::zero());
+                }
+                for ((o, &x), &v) in row.iter_mut().zip(a.iter()).zip(b.iter()) {
+                    *o = Complex::new(x, v);
+                }
+            }
+            p.fwd_w.process_with_scratch(blk, scratch);
+        },
+    );
+    let half = T::of(0.5);
+    for_each_block(
+        &mut cols[..wc * hh],
+        COL_BLOCK * hh,
+        par,
+        || vec![zero; p.scratch],
+        |scratch, bi, blk| {
+            let kx0 = bi * COL_BLOCK;
+            let nb = blk.len() / hh;
+            for jr in 0..pairs {
+                let z = &zr[jr * ww..(jr + 1) * ww];
+                let y = 2 * jr;
+                let odd = y + 1 < rows;
+                for j in 0..nb {
+                    let kx = kx0 + j;
+                    let a = z[kx];
+                    let b = z[(ww - kx) % ww].conj();
+                    // Even row: (a + b) / 2; odd row: (a - b) / 2i.
+                    blk[j * hh + y] = Complex::new((a.re + b.re) * half, (a.im + b.im) * half);
+                    if odd {
+                        blk[j * hh + y + 1] =
+                            Complex::new((a.im - b.im) * half, (b.re - a.re) * half);
+                    }
+                }
+            }
+            if rows < hh {
+                for col in blk.chunks_exact_mut(hh) {
+                    col[rows..].fill(zero);
+                }
+            }
+            p.fwd_h.process_with_scratch(blk, scratch);
+        },
+    );
+}
+
+/// `g[k] += conj(Z[k]) U[k] + Z[-k] V[k]` over the half spectrum (`Z`: all `W` columns).
+fn accumulate_pair<T: Real>(
+    g: &mut [Complex<T>],
+    zc: &[Complex<T>],
+    u: &[Complex<T>],
+    v: &[Complex<T>],
+    hh: usize,
+    ww: usize,
+    par: bool,
+) {
+    #[inline(always)]
+    fn step<T: Real>(
+        g: &mut Complex<T>,
+        z1: Complex<T>,
+        z2: Complex<T>,
+        u: Complex<T>,
+        v: Complex<T>,
+    ) {
+        g.re = g.re + (z1.re * u.re + z1.im * u.im) + (z2.re * v.re - z2.im * v.im);
+        g.im = g.im + (z1.re * u.im - z1.im * u.re) + (z2.re * v.im + z2.im * v.re);
+    }
+    for_each_block(
+        g,
+        COL_BLOCK * hh,
+        par,
+        || (),
+        |_, bi, blk| {
+            for (j, gk) in blk.chunks_exact_mut(hh).enumerate() {
+                let kx = bi * COL_BLOCK + j;
+                let z1 = &zc[kx * hh..(kx + 1) * hh];
+                let z2 = &zc[((ww - kx) % ww) * hh..][..hh];
+                let uu = &u[kx * hh..(kx + 1) * hh];
+                let vv = &v[kx * hh..(kx + 1) * hh];
+                step(&mut gk[0], z1[0], z2[0], uu[0], vv[0]);
+                for ((((gv, &a), &b), &uv), &vv) in gk[1..]
+                    .iter_mut()
+                    .zip(&z1[1..])
+                    .zip(z2[1..].iter().rev())
+                    .zip(&uu[1..])
+                    .zip(&vv[1..])
+                {
+                    step(gv, a, b, uv, vv);
                 }
             }
         },
     );
-    rt
 }
 
-/// Buffers of one worker of a column stage.
-struct ColWork {
-    h: usize,
-    hc: usize,
-    /// Distance between gathered columns: `h + COL_PAD` (the padding avoids 4 KiB aliasing of the
-    /// columns, which made the strided gather slow).
-    stride: usize,
-    /// Real and imaginary parts of `COL_BLOCK` gathered columns, each of length `h`.
-    re: Vec<f64>,
-    im: Vec<f64>,
-    /// Half spectra `A | B` of one column.
-    ab: Vec<C64>,
-    /// Accumulated `G[k] | G[H - k]` of `COL_BLOCK` columns (turned into `P | Q` by `inverse_pq`).
-    pq: Vec<C64>,
-    /// Inverse outputs.
-    out_re: Vec<f64>,
-    out_im: Vec<f64>,
-    scratch: Vec<C64>,
-}
-
-impl ColWork {
-    fn new(h: usize, hc: usize, scratch_len: usize) -> ColWork {
-        ColWork {
-            h,
-            hc,
-            stride: h + COL_PAD,
-            re: vec![0.0; COL_BLOCK * (h + COL_PAD)],
-            im: vec![0.0; COL_BLOCK * (h + COL_PAD)],
-            ab: vec![CZERO; 2 * hc],
-            pq: vec![CZERO; COL_BLOCK * 2 * hc],
-            out_re: vec![0.0; h],
-            out_im: vec![0.0; h],
-            scratch: vec![CZERO; scratch_len],
-        }
-    }
-
-    /// Gathers columns `kx0 .. kx0 + nb` of plane `plane` of the row spectra `rt` (`[plane][y][kx]` with
-    /// `rows` rows), zero-padded to the full height.
-    #[allow(clippy::too_many_arguments)]
-    fn gather(
-        &mut self,
-        rt: &[C64],
-        plane: usize,
-        rows: usize,
-        wc: usize,
-        kx0: usize,
-        nb: usize,
-        h: usize,
-    ) {
-        debug_assert_eq!(h, self.h);
-        let st = self.stride;
-        let nyb = rows.div_ceil(ROW_BLOCK);
-        for yb in 0..nyb {
-            let y0 = yb * ROW_BLOCK;
-            let nr = ROW_BLOCK.min(rows - y0);
-            let block = &rt[((plane * nyb + yb) * wc + kx0) * ROW_BLOCK..][..nb * ROW_BLOCK];
-            for (j, run) in block.chunks_exact(ROW_BLOCK).enumerate() {
-                let (re, im) = (&mut self.re[j * st + y0..], &mut self.im[j * st + y0..]);
-                for (i, v) in run[..nr].iter().enumerate() {
-                    re[i] = v.re;
-                    im[i] = v.im;
-                }
+/// `g[k] += conj(X[k]) I[k]` over the half spectrum.
+fn accumulate_lone<T: Real>(
+    g: &mut [Complex<T>],
+    xc: &[Complex<T>],
+    img: &[Complex<T>],
+    hh: usize,
+    par: bool,
+) {
+    for_each_block(
+        g,
+        COL_BLOCK * hh,
+        par,
+        || (),
+        |_, bi, blk| {
+            let o = bi * COL_BLOCK * hh;
+            let (x, i) = (&xc[o..o + blk.len()], &img[o..o + blk.len()]);
+            for ((gv, &a), &b) in blk.iter_mut().zip(x).zip(i) {
+                gv.re = gv.re + (a.re * b.re + a.im * b.im);
+                gv.im = gv.im + (a.re * b.im - a.im * b.re);
             }
-        }
-        if rows < h {
-            for j in 0..nb {
-                self.re[j * st + rows..j * st + h].fill(0.0);
-                self.im[j * st + rows..j * st + h].fill(0.0);
-            }
-        }
-    }
-
-    /// Forward column transforms of gathered column `j`: `oa = A` (real part), `ob = B` (imaginary part).
-    fn forward(&mut self, plans: &Plans, j: usize, oa: &mut [C64], ob: &mut [C64]) {
-        let h = self.h;
-        let r1 = plans.fwd_h.process_with_scratch(
-            &mut self.re[j * self.stride..j * self.stride + h],
-            oa,
-            &mut self.scratch,
-        );
-        let r2 = plans.fwd_h.process_with_scratch(
-            &mut self.im[j * self.stride..j * self.stride + h],
-            ob,
-            &mut self.scratch,
-        );
-        debug_assert!(r1.is_ok() && r2.is_ok());
-    }
-
-    /// Forward column transforms of gathered column `j` into `self.ab`.
-    fn forward_to_ab(&mut self, plans: &Plans, j: usize) {
-        let mut ab = std::mem::take(&mut self.ab);
-        let (oa, ob) = ab.split_at_mut(self.hc);
-        self.forward(plans, j, oa, ob);
-        self.ab = ab;
-    }
-
-    /// Inverse column transforms of column `j`: `G` to `2P`, `2Q`, then real inverse FFTs (unnormalised).
-    fn inverse_pq(&mut self, plans: &Plans, j: usize) -> (&[f64], &[f64]) {
-        let (h, hc) = (self.h, self.hc);
-        let (p, q) = self.pq[j * 2 * hc..(j + 1) * 2 * hc].split_at_mut(hc);
-        // From G[k], G[H - k] to the half spectra of the real and imaginary parts of the column
-        // correlation (times 2): P = G[k] + conj(G[H - k]),  Q = -i (G[k] - conj(G[H - k])).
-        for (gk, gm) in p.iter_mut().zip(q.iter_mut()) {
-            let (k, m) = (*gk, *gm);
-            *gk = C64::new(k.re + m.re, k.im - m.im);
-            *gm = C64::new(k.im + m.im, m.re - k.re);
-        }
-        for s in [&mut *p, &mut *q] {
-            s[0].im = 0.0;
-            if h % 2 == 0 {
-                s[hc - 1].im = 0.0;
-            }
-        }
-        let r1 = plans
-            .inv_h
-            .process_with_scratch(p, &mut self.out_re, &mut self.scratch);
-        let r2 = plans
-            .inv_h
-            .process_with_scratch(q, &mut self.out_im, &mut self.scratch);
-        debug_assert!(r1.is_ok() && r2.is_ok());
-        (&self.out_re, &self.out_im)
-    }
-}
-
-/// Buffers of one worker of the inverse row stage.
-struct RowInvWork {
-    rows: Vec<C64>,
-    out: Vec<f64>,
-    scratch: Vec<C64>,
-}
-
-impl RowInvWork {
-    fn new(w: usize, wc: usize, scratch_len: usize) -> RowInvWork {
-        RowInvWork {
-            rows: vec![CZERO; ROW_BLOCK * (wc + ROW_PAD)],
-            out: vec![0.0; w],
-            scratch: vec![CZERO; scratch_len],
-        }
-    }
+        },
+    );
 }
 
 #[cfg(test)]

@@ -10,7 +10,8 @@ Quick start::
     ts.save_image("gravel-1024.png", texture)
 
 Kernels (Rust, GIL released, thread-count independent): :func:`patch_ssd`, :func:`best_matches`,
-:func:`grid_mincut`, :func:`kwatra_weights`, :func:`omega_cuts`, :func:`tile_copy`.
+:func:`grid_mincut`, :func:`kwatra_weights`, :func:`omega_cuts`, :func:`tile_copy`,
+:class:`PopulationEvaluator` / :func:`evaluate_population` (the ω-tile objective E for GA populations).
 """
 
 from __future__ import annotations
@@ -24,7 +25,17 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
 
 from .errors import ParameterError, ShapeError, TileSetFormatError, TilesynthError
 from .io import load_image, save_image
-from .kernels import SsdIndex, best_matches, grid_mincut, kwatra_weights, omega_cuts, patch_ssd, tile_copy
+from .kernels import (
+    PopulationEvaluator,
+    SsdIndex,
+    best_matches,
+    evaluate_population,
+    grid_mincut,
+    kwatra_weights,
+    omega_cuts,
+    patch_ssd,
+    tile_copy,
+)
 from .omega import build_omega, energy
 from .render import contact_sheet
 from .synthesis import source_map, synthesize
@@ -38,6 +49,7 @@ load = TileSet.load
 __all__ = [
     "TILESET_NAMES",
     "ParameterError",
+    "PopulationEvaluator",
     "ShapeError",
     "SsdIndex",
     "TileSet",
@@ -48,6 +60,7 @@ __all__ = [
     "build_omega",
     "contact_sheet",
     "energy",
+    "evaluate_population",
     "get_tileset",
     "grid_mincut",
     "kwatra_weights",

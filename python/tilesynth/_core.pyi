@@ -24,6 +24,25 @@ class SsdIndex:
         threads: int | None = None,
     ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]: ...
 
+class PopulationEvaluator:
+    def __init__(
+        self,
+        exemplar: npt.NDArray[np.float32],
+        tile_size: int,
+        tile_patches: npt.NDArray[np.int64],
+        n_patches: int,
+        lam: float = 0.8,
+        normalise: bool = False,
+        cache_bytes: int = 268435456,
+    ) -> None: ...
+    @property
+    def dims(self) -> tuple[int, int, int]: ...
+    def evaluate(
+        self, genes: npt.NDArray[np.int64], threads: int | None = None
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def cache_stats(self) -> dict[str, int]: ...
+    def clear_cache(self) -> None: ...
+
 def grid_mincut(
     wx: npt.NDArray[np.float64],
     wy: npt.NDArray[np.float64],

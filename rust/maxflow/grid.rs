@@ -182,6 +182,65 @@ impl Topology for GridTopo {
     }
 }
 
+/// A grid network assembled directly by a caller that has already folded its hard pixels into terminal
+/// links (the ω cut builds one per quadrant). Node `p` is the local pixel `(p / w, p % w)`; nodes never
+/// given an arc or a terminal link stay isolated and end on the sink side.
+#[derive(Debug, Clone)]
+pub(crate) struct GridNetwork {
+    net: Network<GridTopo>,
+}
+
+impl GridNetwork {
+    /// An `h x w` grid without arcs or terminal links. The caller guarantees `4 h w <= MAX_INDEX`.
+    pub(crate) fn new(h: usize, w: usize) -> GridNetwork {
+        let np = h * w;
+        GridNetwork {
+            net: Network {
+                topo: GridTopo {
+                    w: w as u32,
+                    dirs: vec![0u8; np],
+                },
+                rcap: vec![0.0f64; 4 * np],
+                tr: vec![0.0f64; np],
+                flow: 0.0,
+            },
+        }
+    }
+
+    /// The edge `p`–`p + 1` with capacity `c > 0` in both directions (`p + 1` in the same row).
+    #[inline]
+    pub(crate) fn set_right(&mut self, p: usize, c: f64) {
+        self.net.rcap[4 * p] = c;
+        self.net.rcap[4 * p + 1] = c;
+        self.net.topo.dirs[p] |= 1;
+        self.net.topo.dirs[p + 1] |= 4;
+    }
+
+    /// The edge `p`–`p + w` with capacity `c > 0` in both directions.
+    #[inline]
+    pub(crate) fn set_down(&mut self, p: usize, c: f64) {
+        let w = self.net.topo.w as usize;
+        self.net.rcap[4 * p + 2] = c;
+        self.net.rcap[4 * p + 3] = c;
+        self.net.topo.dirs[p] |= 2;
+        self.net.topo.dirs[p + w] |= 8;
+    }
+
+    /// The terminal links of `p` (set once per node): `cs` from the source, `ck` to the sink, finite.
+    #[inline]
+    pub(crate) fn set_terminal(&mut self, p: usize, cs: f64, ck: f64) {
+        self.net.flow += cs.min(ck);
+        self.net.tr[p] = cs - ck;
+    }
+
+    /// Solves the network: the flow value and the sink-side flag of every node (labelling rule of
+    /// [`super`]).
+    pub(crate) fn solve(mut self) -> (f64, Vec<bool>) {
+        let sol = self.net.solve();
+        (sol.flow, sol.sink_side)
+    }
+}
+
 /// Builds the reduced residual network (hard pixels folded into terminal links and constant flow).
 #[allow(clippy::too_many_arguments)]
 fn build(

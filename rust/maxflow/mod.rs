@@ -34,6 +34,7 @@
 
 mod grid;
 
+pub(crate) use grid::GridNetwork;
 pub use grid::{grid_cut_cost, grid_mincut, GridCut};
 
 use std::collections::VecDeque;
@@ -125,7 +126,7 @@ impl<T: Topology> Network<T> {
             flags: vec![0; n],
             active: VecDeque::with_capacity(n),
             orphans: VecDeque::new(),
-            path: Vec::new(),
+            path: vec![(0, 0); n],
             time: 0,
             flow: self.flow,
             net: self,
@@ -241,33 +242,39 @@ impl<T: Topology> Bk<'_, T> {
     fn augment(&mut self, a: u32, s_node: u32, t_node: u32) {
         let net = &mut *self.net;
         let parent = &mut self.parent;
-        let path = &mut self.path;
-        path.clear();
-        // Walk both tree paths once, collecting the bottleneck and the flow arcs: in S the flow runs
-        // parent -> x (arc pa ^ 1), in T x -> parent (arc pa).
-        let mut b = net.rcap[a as usize];
+        let path = &mut self.path[..];
+        // Walk both tree paths once, collecting the flow arcs: in S the flow runs parent -> x (arc
+        // pa ^ 1), in T x -> parent (arc pa). The walk is a pure chain of `parent` loads; the bottleneck
+        // is taken afterwards over independent loads. The two paths are disjoint, so `len <= n`.
+        let mut len = 0;
         let mut x = s_node;
         let s_root = loop {
             let pa = parent[x as usize];
             if pa == TERMINAL {
-                b = min(b, net.tr[x as usize]);
                 break x;
             }
-            b = min(b, net.rcap[(pa ^ 1) as usize]);
-            path.push((x, pa ^ 1));
+            path[len] = (x, pa ^ 1);
+            len += 1;
             x = net.topo.head(pa);
         };
         let mut x = t_node;
         let t_root = loop {
             let pa = parent[x as usize];
             if pa == TERMINAL {
-                b = min(b, -net.tr[x as usize]);
                 break x;
             }
-            b = min(b, net.rcap[pa as usize]);
-            path.push((x, pa));
+            path[len] = (x, pa);
+            len += 1;
             x = net.topo.head(pa);
         };
+        let path = &path[..len];
+        let mut b = min(
+            net.rcap[a as usize],
+            min(net.tr[s_root as usize], -net.tr[t_root as usize]),
+        );
+        for &(_, fa) in path {
+            b = min(b, net.rcap[fa as usize]);
+        }
         // Push. `b` is one of the residual capacities on the path, so the saturated ones become exactly 0;
         // the node below a saturated tree arc becomes an orphan.
         net.rcap[a as usize] -= b;

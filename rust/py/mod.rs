@@ -4,7 +4,7 @@
 mod convert;
 mod errors;
 
-use crate::{maxflow, omega, parallel, ssd, synth};
+use crate::{maxflow, omega, parallel, population, ssd, synth};
 use convert::contiguous;
 use errors::to_pyerr;
 use ndarray::{Array2, Array3};
@@ -13,6 +13,7 @@ use numpy::{
     PyReadonlyArray4, PyReadwriteArray3, PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
 /// Runs a core kernel without the GIL on a pool of `threads` workers and maps its error.
 fn run<R: Send>(
@@ -53,7 +54,11 @@ struct PySsdIndex {
 impl PySsdIndex {
     #[new]
     #[pyo3(signature = (image, threads=None))]
-    fn new(py: Python<'_>, image: PyReadonlyArray3<'_, f32>, threads: Option<usize>) -> PyResult<Self> {
+    fn new(
+        py: Python<'_>,
+        image: PyReadonlyArray3<'_, f32>,
+        threads: Option<usize>,
+    ) -> PyResult<Self> {
         contiguous("image", &image)?;
         let image = image.as_array();
         let inner = run(py, threads, || ssd::SsdIndex::new(image))?;
@@ -106,6 +111,90 @@ impl PySsdIndex {
             ssd::best_matches_many(&self.inner, templates, mask, k, exclude_radius)
         })?;
         Ok(pack_matches(py, found))
+    }
+}
+
+/// `E` `(P,)` and `D` `(P, m)` of a population.
+type EnergyArrays<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray2<f64>>);
+
+/// The ω-tile objective E = λ·ΣD_j + (1−λ)·Var(D_j) for whole populations of gene vectors, exact, with the
+/// per-(patch position, role) SSD maps cached across calls (bounded by `cache_bytes`).
+#[pyclass(name = "PopulationEvaluator", module = "tilesynth._core", frozen)]
+struct PyPopulationEvaluator {
+    inner: population::PopulationEvaluator,
+}
+
+#[pymethods]
+impl PyPopulationEvaluator {
+    #[new]
+    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (exemplar, tile_size, tile_patches, n_patches, lam=population::DEFAULT_LAMBDA, normalise=false, cache_bytes=population::DEFAULT_CACHE_BYTES))]
+    fn new(
+        py: Python<'_>,
+        exemplar: PyReadonlyArray3<'_, f32>,
+        tile_size: usize,
+        tile_patches: PyReadonlyArray2<'_, i64>,
+        n_patches: usize,
+        lam: f64,
+        normalise: bool,
+        cache_bytes: usize,
+    ) -> PyResult<Self> {
+        contiguous("exemplar", &exemplar)?;
+        contiguous("tile_patches", &tile_patches)?;
+        let (exemplar, tile_patches) = (exemplar.as_array(), tile_patches.as_array());
+        let inner = run(py, None, || {
+            population::PopulationEvaluator::new(
+                exemplar,
+                tile_size,
+                tile_patches,
+                n_patches,
+                lam,
+                normalise,
+                cache_bytes,
+            )
+        })?;
+        Ok(PyPopulationEvaluator { inner })
+    }
+
+    /// E (float64 `(P,)`) and D (float64 `(P, m)`) of `P` gene vectors `(P, n, 2)` int64.
+    #[pyo3(signature = (genes, threads=None))]
+    fn evaluate<'py>(
+        &self,
+        py: Python<'py>,
+        genes: PyReadonlyArray3<'py, i64>,
+        threads: Option<usize>,
+    ) -> PyResult<EnergyArrays<'py>> {
+        contiguous("genes", &genes)?;
+        let genes = genes.as_array();
+        let (e, d) = run(py, threads, || self.inner.evaluate(genes))?;
+        Ok((e.into_pyarray(py), d.into_pyarray(py)))
+    }
+
+    /// Cache counters: entries, bytes, limit, hits, misses.
+    fn cache_stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = self.inner.cache_stats();
+        let d = PyDict::new(py);
+        d.set_item("entries", s.entries)?;
+        d.set_item("bytes", s.bytes)?;
+        d.set_item("limit", s.limit)?;
+        d.set_item("hits", s.hits)?;
+        d.set_item("misses", s.misses)?;
+        Ok(d)
+    }
+
+    /// Drops every cached map (the counters are kept).
+    fn clear_cache(&self) {
+        self.inner.clear_cache()
+    }
+
+    /// `(tile_size, n_patches, n_tiles)`.
+    #[getter]
+    fn dims(&self) -> (usize, usize, usize) {
+        (
+            self.inner.tile_size(),
+            self.inner.n_patches(),
+            self.inner.n_tiles(),
+        )
     }
 }
 
@@ -224,6 +313,7 @@ fn resolve_threads(threads: Option<usize>) -> PyResult<usize> {
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<PySsdIndex>()?;
+    m.add_class::<PyPopulationEvaluator>()?;
     m.add_function(wrap_pyfunction!(grid_mincut, m)?)?;
     m.add_function(wrap_pyfunction!(kwatra_weights, m)?)?;
     m.add_function(wrap_pyfunction!(omega_cuts, m)?)?;
