@@ -852,10 +852,10 @@ def run_cut(texture: FloatImage, plan: Plan, report: dict[str, Any], targets: li
             a4, b4 = a[None], b[None]
 
             def ours(a4: FloatImage = a4, b4: FloatImage = b4) -> object:
-                return ts.omega_cuts(a4, b4, threads=1)
+                return ts.omega_cuts(a4, b4, threads=1, keep_border=False)
 
             try:
-                masks, costs = ts.omega_cuts(a4, b4, threads=1)
+                masks, costs = ts.omega_cuts(a4, b4, threads=1, keep_border=False)
                 flow = float(np.asarray(costs)[0])
                 mask = np.asarray(masks)[0]
             except Exception as exc:
@@ -880,7 +880,7 @@ def run_cut(texture: FloatImage, plan: Plan, report: dict[str, Any], targets: li
                 methods.append(Method(ours_name, ours))
 
                 def ours2(a4: FloatImage = a4, b4: FloatImage = b4) -> object:
-                    return ts.omega_cuts(a4, b4, threads=2)
+                    return ts.omega_cuts(a4, b4, threads=2, keep_border=False)
 
                 methods.append(Method(ours2_name, ours2))
         if not methods:

@@ -74,7 +74,7 @@ fn bench_cut(c: &mut Criterion) {
             |bench, _| {
                 bench.iter(|| {
                     install(Some(1), || {
-                        omega_cut(black_box(a.view()), b.view(), DEFAULT_EPS, None).unwrap()
+                        omega_cut(black_box(a.view()), b.view(), DEFAULT_EPS, None, false).unwrap()
                     })
                     .unwrap()
                 })
@@ -87,7 +87,7 @@ fn bench_cut(c: &mut Criterion) {
             |bench, _| {
                 bench.iter(|| {
                     install(Some(2), || {
-                        omega_cut(black_box(a.view()), b.view(), DEFAULT_EPS, None).unwrap()
+                        omega_cut(black_box(a.view()), b.view(), DEFAULT_EPS, None, false).unwrap()
                     })
                     .unwrap()
                 })

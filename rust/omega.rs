@@ -15,8 +15,16 @@
 //! reference data in `shared/reference/mincut80.npz`. Edges with both ends outside the circle join two source
 //! pixels and get weight 0 (they can never be cut).
 //!
-//! Because the curve is confined to the circle, the tile border keeps `I`'s pixels except where the sink cross
-//! reaches the four side midpoints, so ω-tiles that share corner patches stay seamless.
+//! **The tile border.** The inscribed circle touches the tile border at the four side midpoints, and taken
+//! literally (as in the reference data) the sink cross and the pixels inside the circle reach the border there:
+//! `O` then shows on the border over a stretch of about `√N` pixels on each side of each midpoint, and, because
+//! `O` differs from tile to tile, neighbouring ω-tiles no longer continue each other's content there (a short
+//! visible seam across the tile border, measured at ~10% of border pixels for 188-pixel tiles). The paper wants the
+//! curve to *pass through* the midpoints, i.e. to touch the border only there. With `keep_border = true` (the
+//! default of the ω construction) every pixel of the one-pixel border ring is a source as well, and the cross
+//! pixels on it are not sinks: `O` never reaches the border, so tiles that share corner patches are continuous
+//! exemplar content across every border pixel; what remains of the cross seam is its last border pixel (a
+//! one-pixel stub, the same on both sides of the border). `keep_border = false` is the literal definition above.
 
 use crate::error::{fmt_shape, Result, TilesynthError};
 use crate::maxflow::{GridNetwork, MAX_INDEX};
@@ -25,6 +33,12 @@ use rayon::prelude::*;
 
 /// Default epsilon in the denominator of the Kwatra weight.
 pub const DEFAULT_EPS: f64 = 1e-6;
+
+/// Whether pixel `(y, x)` lies on the one-pixel border ring of an `n x n` tile.
+#[inline]
+pub fn on_border(n: usize, y: usize, x: usize) -> bool {
+    y == 0 || x == 0 || y + 1 == n || x + 1 == n
+}
 
 /// Pixels of an `n x n` tile inside the inscribed circle `(y−c)² + (x−c)² ≤ (n/2)²`, `c = (n−1)/2`.
 pub fn circle_mask(n: usize) -> Array2<bool> {
@@ -36,13 +50,17 @@ pub fn circle_mask(n: usize) -> Array2<bool> {
     })
 }
 
-/// The sink cross: rows and columns `n/2 − 1` and `n/2`, restricted to the inscribed circle.
-pub fn cross_mask(n: usize) -> Array2<bool> {
-    let inside = circle_mask(n);
-    let (a, b) = (n / 2 - 1, n / 2);
-    Array2::from_shape_fn((n, n), |(y, x)| {
-        inside[(y, x)] && (y == a || y == b || x == a || x == b)
-    })
+/// The sink cross: rows and columns `n/2 − 1` and `n/2`, restricted to the inscribed circle, and with
+/// `keep_border` also to pixels off the border ring.
+pub fn cross_mask(n: usize, keep_border: bool) -> Array2<bool> {
+    let c = classes(n, keep_border);
+    Array2::from_shape_fn((n, n), |(y, x)| c[y * n + x] == SINK)
+}
+
+/// The source pixels: outside the inscribed circle, and with `keep_border` also the border ring.
+pub fn source_mask(n: usize, keep_border: bool) -> Array2<bool> {
+    let c = classes(n, keep_border);
+    Array2::from_shape_fn((n, n), |(y, x)| c[y * n + x] == SOURCE)
 }
 
 fn check_pair(i: &ArrayView3<f32>, o: &ArrayView3<f32>) -> Result<()> {
@@ -196,11 +214,14 @@ pub struct OmegaCut {
 /// gradient across its own cross seam is large, which makes every edge next to the sink cross cheap, and the
 /// min-cut then hugs the cross (thin strips of `O` along the seams instead of a curve around them). The ω
 /// construction therefore passes the gradients of the sample patches each pixel came from.
+///
+/// `keep_border` ties the whole border ring to the source (see the module documentation).
 pub fn omega_cut(
     i: ArrayView3<f32>,
     o: ArrayView3<f32>,
     eps: f64,
     i_grad: Option<ArrayView3<f64>>,
+    keep_border: bool,
 ) -> Result<OmegaCut> {
     check_pair(&i, &o)?;
     let (h, w, c) = i.dim();
@@ -235,7 +256,7 @@ pub fn omega_cut(
             .as_ref()
             .map(|g| g.as_slice().expect("standard layout")),
         eps,
-        class: classes(n),
+        class: classes(n, keep_border),
     };
     // The sink cross separates the free pixels (inside the circle, off the cross) into four quadrants that
     // share no edge: four independent networks, solved in parallel and merged in a fixed order.
@@ -298,14 +319,15 @@ const SOURCE: u8 = 1;
 /// On the sink cross.
 const SINK: u8 = 2;
 
-/// The class of every pixel of an `n x n` tile (row-major), as [`circle_mask`] and [`cross_mask`].
-fn classes(n: usize) -> Vec<u8> {
+/// The class of every pixel of an `n x n` tile (row-major): outside the circle (or, with `keep_border`, on the
+/// border ring) a source, else on the central cross a sink, else free.
+fn classes(n: usize, keep_border: bool) -> Vec<u8> {
     let inside = circle_mask(n);
     let (a, b) = (n / 2 - 1, n / 2);
     inside
         .indexed_iter()
         .map(|((y, x), &v)| {
-            if !v {
+            if !v || (keep_border && on_border(n, y, x)) {
                 SOURCE
             } else if y == a || y == b || x == a || x == b {
                 SINK
@@ -550,6 +572,7 @@ pub fn omega_cuts(
     matching: ArrayView4<f32>,
     eps: f64,
     intermediate_grad: Option<ArrayView4<f64>>,
+    keep_border: bool,
 ) -> Result<(Array3<bool>, Vec<f64>)> {
     if let Some(g) = &intermediate_grad {
         let (k, n, m, _) = intermediate.dim();
@@ -580,6 +603,7 @@ pub fn omega_cuts(
                 matching.index_axis(Axis(0), t),
                 eps,
                 intermediate_grad.as_ref().map(|g| g.index_axis(Axis(0), t)),
+                keep_border,
             )
         })
         .collect();
@@ -642,9 +666,19 @@ mod tests {
         let inside = circle_mask(n);
         assert!(!inside[(0, 0)]);
         assert!(inside[(39, 0)] && inside[(40, 79)] && inside[(0, 39)]);
-        let cross = cross_mask(n);
+        let cross = cross_mask(n, false);
         assert_eq!(cross.iter().filter(|&&v| v).count(), 4 * 80 - 4);
         assert!(cross.iter().zip(inside.iter()).all(|(&c, &i)| !c || i));
+        // keep_border: the eight cross pixels on the border ring become sources, the ring is all source.
+        let kept = cross_mask(n, true);
+        assert_eq!(kept.iter().filter(|&&v| v).count(), 4 * 80 - 4 - 8);
+        let src = source_mask(n, true);
+        for i in 0..n {
+            assert!(src[(0, i)] && src[(n - 1, i)] && src[(i, 0)] && src[(i, n - 1)]);
+        }
+        assert!(!src[(1, 39)] && kept[(1, 39)]);
+        let literal = source_mask(n, false);
+        assert_eq!(literal, inside.mapv(|v| !v));
     }
 
     #[test]
@@ -704,7 +738,7 @@ mod tests {
     #[test]
     fn identical_images_cut_for_free() {
         let a = lcg_image(16, 16, 3, 7);
-        let cut = omega_cut(a.view(), a.view(), DEFAULT_EPS, None).unwrap();
+        let cut = omega_cut(a.view(), a.view(), DEFAULT_EPS, None, true).unwrap();
         assert_eq!(cut.cost, 0.0);
     }
 
@@ -713,18 +747,27 @@ mod tests {
         let n = 32;
         let a = lcg_image(n, n, 3, 3);
         let b = lcg_image(n, n, 3, 4);
-        let cut = omega_cut(a.view(), b.view(), DEFAULT_EPS, None).unwrap();
-        let inside = circle_mask(n);
-        let cross = cross_mask(n);
-        for ((&t, &i), &c) in cut.takes_o.iter().zip(inside.iter()).zip(cross.iter()) {
-            if !i {
-                assert!(!t);
+        for keep_border in [false, true] {
+            let cut = omega_cut(a.view(), b.view(), DEFAULT_EPS, None, keep_border).unwrap();
+            let src = source_mask(n, keep_border);
+            let cross = cross_mask(n, keep_border);
+            for ((&t, &s), &c) in cut.takes_o.iter().zip(src.iter()).zip(cross.iter()) {
+                if s {
+                    assert!(!t);
+                }
+                if c {
+                    assert!(t);
+                }
             }
-            if c {
-                assert!(t);
+            assert!(cut.cost > 0.0);
+            if keep_border {
+                for i in 0..n {
+                    assert!(!cut.takes_o[(0, i)] && !cut.takes_o[(i, 0)]);
+                    assert!(!cut.takes_o[(n - 1, i)] && !cut.takes_o[(i, n - 1)]);
+                }
             }
         }
-        assert!(cut.cost > 0.0);
+        let cut = omega_cut(a.view(), b.view(), DEFAULT_EPS, None, true).unwrap();
         let composed = compose(a.view(), b.view(), cut.takes_o.view()).unwrap();
         assert_eq!(composed[(0, 0, 0)], a[(0, 0, 0)]);
         assert_eq!(composed[(n / 2, n / 2, 1)], b[(n / 2, n / 2, 1)]);
@@ -743,12 +786,12 @@ mod tests {
                 .assign(&lcg_image(n, n, 3, 20 + t as u64));
         }
         let one = crate::parallel::install(Some(1), || {
-            omega_cuts(ii.view(), oo.view(), DEFAULT_EPS, None)
+            omega_cuts(ii.view(), oo.view(), DEFAULT_EPS, None, true)
         })
         .unwrap()
         .unwrap();
         let two = crate::parallel::install(Some(2), || {
-            omega_cuts(ii.view(), oo.view(), DEFAULT_EPS, None)
+            omega_cuts(ii.view(), oo.view(), DEFAULT_EPS, None, true)
         })
         .unwrap()
         .unwrap();
@@ -760,6 +803,7 @@ mod tests {
                 oo.index_axis(Axis(0), t),
                 DEFAULT_EPS,
                 None,
+                true,
             )
             .unwrap();
             assert_eq!(single.cost, one.1[t]);
@@ -783,22 +827,26 @@ mod tests {
             let grad = Array3::from_shape_fn((n, n, 2), |(y, x, k)| {
                 ((y * 7 + x * 3 + k) % 5) as f64 * 0.1
             });
-            for g in [None, Some(grad.view())] {
+            for (g, keep_border) in [
+                (None, false),
+                (Some(grad.view()), false),
+                (None, true),
+                (Some(grad.view()), true),
+            ] {
                 let inside = circle_mask(n);
                 let (wx, wy) =
                     kwatra_weights(a.view(), b.view(), Some(inside.view()), DEFAULT_EPS, g)
                         .unwrap();
-                let outside = inside.mapv(|v| !v);
                 let want = crate::maxflow::grid_mincut(
                     wx.view(),
                     wy.view(),
-                    outside.view(),
-                    cross_mask(n).view(),
+                    source_mask(n, keep_border).view(),
+                    cross_mask(n, keep_border).view(),
                     None,
                     None,
                 )
                 .unwrap();
-                let got = omega_cut(a.view(), b.view(), DEFAULT_EPS, g).unwrap();
+                let got = omega_cut(a.view(), b.view(), DEFAULT_EPS, g, keep_border).unwrap();
                 assert_eq!(got.takes_o, want.sink_side, "n {n}");
                 assert!(
                     (got.cost - want.flow).abs() <= 1e-12 * want.flow.abs().max(1.0),
@@ -813,10 +861,10 @@ mod tests {
     #[test]
     fn errors_name_the_parameter() {
         let a = lcg_image(5, 5, 3, 1);
-        let e = omega_cut(a.view(), a.view(), DEFAULT_EPS, None).unwrap_err();
+        let e = omega_cut(a.view(), a.view(), DEFAULT_EPS, None, true).unwrap_err();
         assert!(e.to_string().contains("intermediate"), "{e}");
         let b = lcg_image(6, 6, 3, 1);
-        let e = omega_cut(b.view(), a.view(), DEFAULT_EPS, None).unwrap_err();
+        let e = omega_cut(b.view(), a.view(), DEFAULT_EPS, None, true).unwrap_err();
         assert!(e.to_string().contains("matching"), "{e}");
         let e = kwatra_weights(b.view(), b.view(), None, 0.0, None).unwrap_err();
         assert!(e.to_string().contains("eps"), "{e}");

@@ -17,8 +17,8 @@ import pytest
 import tilesynth
 
 GOLDEN = {
-    "16a": ("33ecd0cb92b9d48753920158", "77bed0df9c523e40007564c2"),
-    "32": ("9faf7b88843676217fb3296f", "cce863337bd5ca53b969b7a5"),
+    "16a": ("f5211b4c119fa520391a5852", "f5e2e60b6f773c7e5ad52ac6"),
+    "32": ("ca3eeabbc9434580a9a7e192", "1c03f497c969cdcd621b4f07"),
 }
 
 

@@ -117,10 +117,23 @@ def test_reference_weights_mincut80(mincut80):
 
 def test_omega_cut_reproduces_reference(mincut80):
     d = mincut80
-    masks, costs = tilesynth.omega_cuts(d["A"][None], d["B"][None])
+    masks, costs = tilesynth.omega_cuts(d["A"][None], d["B"][None], keep_border=False)
     assert costs[0] == pytest.approx(float(d["flow"]), rel=1e-9)
     assert masks.shape == (1, 80, 80)
     assert not masks[0][~d["inside"]].any() and masks[0][d["sink_mask"]].all()
+
+
+def test_omega_cut_keep_border(mincut80):
+    """keep_border (the default): O never reaches the border ring; the cut costs at least the literal one."""
+    d = mincut80
+    masks, costs = tilesynth.omega_cuts(d["A"][None], d["B"][None])
+    m = masks[0]
+    assert not (m[0].any() or m[-1].any() or m[:, 0].any() or m[:, -1].any())
+    inner_sinks = d["sink_mask"].copy()
+    inner_sinks[[0, -1], :] = False
+    inner_sinks[:, [0, -1]] = False
+    assert m[inner_sinks].all() and not m[~d["inside"]].any()
+    assert costs[0] >= float(d["flow"]) * (1 - 1e-9)
 
 
 def test_maxflow_errors():

@@ -54,12 +54,16 @@ def test_cut_region_and_matching_patch(built, small_exemplar):
     cross = np.zeros((n, n), bool)
     cross[n // 2 - 1 : n // 2 + 1] = True
     cross[:, n // 2 - 1 : n // 2 + 1] = True
+    border = np.zeros((n, n), bool)
+    border[[0, -1], :] = True
+    border[:, [0, -1]] = True
     defn = built.definition
     colour = {col: i for i, col in enumerate(defn.colours)}
     for k in range(built.n_tiles):
         m = built.cut_masks[k]
         assert not m[~inside].any(), "the curve stays inside the inscribed circle"
-        assert m[cross & inside].all(), "the central cross takes O"
+        assert not m[border].any(), "keep_border: O never reaches the tile border"
+        assert m[cross & inside & ~border].all(), "the central cross takes O"
         r, cc = built.match_offsets[k]
         np.testing.assert_array_equal(built.tiles[k][m], small_exemplar[r : r + n, cc : cc + n][m])
         patches = [colour[x] for x in defn.tiles[k]]
@@ -96,10 +100,14 @@ def test_32_set_has_two_distinct_matches_per_intermediate_tile(small_exemplar):
     assert ts.E == pytest.approx(energy(ts.D[np.asarray(defn.variants) == 0]), rel=1e-12)
 
 
+@pytest.mark.parametrize("keep_border", [True, False])
 @pytest.mark.parametrize("name", ["4", "8", "16a", "16b", "32"])
-def test_synthesis_is_continuous_exemplar_content_across_tile_borders(name, small_exemplar):
-    """Across every tile border, pixels kept from the intermediate tile continue the same exemplar patch."""
-    ts = tilesynth.build_omega(small_exemplar, tileset=name, tile_size=16, seed=11)
+def test_synthesis_is_continuous_exemplar_content_across_tile_borders(name, keep_border, small_exemplar):
+    """Across every tile border, pixels kept from the intermediate tile continue the same exemplar patch.
+
+    With keep_border (the default) that is every border pixel; with the literal definition O reaches the border
+    near the side midpoints, and only the pixels kept from I are continuous."""
+    ts = tilesynth.build_omega(small_exemplar, tileset=name, tile_size=16, seed=11, keep_border=keep_border)
     n = 16
     W, H = 16 * 9 + 5, 16 * 7 + 3
     img, imap = tilesynth.synthesize(ts, W, H, seed=3)
@@ -118,8 +126,12 @@ def test_synthesis_is_continuous_exemplar_content_across_tile_borders(name, smal
         np.testing.assert_array_equal(src[y, keep, 0], src[y - 1, keep, 0] + 1)
         np.testing.assert_array_equal(src[y, keep, 1], src[y - 1, keep, 1])
         checked += keep.sum()
-    # at N = 16 the inscribed circle meets each side over 6 of 16 pixels, so at least 10/16 are kept from I
-    assert checked >= 0.6 * ((W // n) * H + (H // n) * W)
+    total = ((W - 1) // n) * H + ((H - 1) // n) * W
+    if keep_border:
+        assert checked == total
+    else:
+        # at N = 16 the inscribed circle meets each side over 6 of 16 pixels, so at least 10/16 are kept from I
+        assert checked >= 0.6 * total
 
 
 def test_genes_interface(small_exemplar):

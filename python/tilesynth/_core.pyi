@@ -64,6 +64,7 @@ def omega_cuts(
     eps: float = 1e-6,
     threads: int | None = None,
     intermediate_grad: npt.NDArray[np.float64] | None = None,
+    keep_border: bool = True,
 ) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]: ...
 def tile_copy(
     atlas: npt.NDArray[np.generic],

@@ -183,17 +183,21 @@ def omega_cuts(
     eps: float = DEFAULT_EPS,
     threads: int | None = None,
     intermediate_grad: np.ndarray | None = None,
+    keep_border: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """ω cutting curves for a stack of intermediate tiles and their matching patches, ``(K, N, N, C)`` each.
 
-    Sources are the pixels outside the inscribed circle, sinks the two central rows and columns inside it, edge
+    Sources are the pixels outside the inscribed circle, sinks the two central rows and columns inside it (with
+    ``keep_border``, the default, the one-pixel border ring is a source too and its cross pixels are not sinks,
+    so the matching patch never reaches the tile border; ``keep_border=False`` is 002's literal definition, the
+    one of the reference data ``mincut80.npz``), edge
     weights those of :func:`kwatra_weights`; ``intermediate_grad`` (``(K, N, N, 2)``) optionally replaces the
     gradients of the intermediate tiles. Returns bool masks ``(K, N, N)`` (True = the pixel takes the matching
     patch) and the float64 cut costs (= max-flow values).
     """
     i, _ = _templates(intermediate, "intermediate")
     o, _ = _templates(matching, "matching")
-    return _core.omega_cuts(i, o, float(eps), threads, _grad(intermediate_grad))
+    return _core.omega_cuts(i, o, float(eps), threads, _grad(intermediate_grad), bool(keep_border))
 
 
 def tile_copy(atlas: np.ndarray, index_map: np.ndarray, out: np.ndarray, threads: int | None = None) -> np.ndarray:

@@ -245,7 +245,7 @@ fn kwatra_weights<'py>(
 
 /// ω cutting curves for K tiles: bool masks `(K, N, N)` (True = takes the matching patch) and float64 costs.
 #[pyfunction]
-#[pyo3(signature = (intermediate, matching, eps=omega::DEFAULT_EPS, threads=None, intermediate_grad=None))]
+#[pyo3(signature = (intermediate, matching, eps=omega::DEFAULT_EPS, threads=None, intermediate_grad=None, keep_border=true))]
 #[allow(clippy::type_complexity)]
 fn omega_cuts<'py>(
     py: Python<'py>,
@@ -254,12 +254,13 @@ fn omega_cuts<'py>(
     eps: f64,
     threads: Option<usize>,
     intermediate_grad: Option<PyReadonlyArray4<'py, f64>>,
+    keep_border: bool,
 ) -> PyResult<(Bound<'py, PyArray3<bool>>, Bound<'py, PyArray1<f64>>)> {
     contiguous("intermediate", &intermediate)?;
     contiguous("matching", &matching)?;
     let (i, o) = (intermediate.as_array(), matching.as_array());
     let g = intermediate_grad.as_ref().map(|g| g.as_array());
-    let (masks, costs) = run(py, threads, || omega::omega_cuts(i, o, eps, g))?;
+    let (masks, costs) = run(py, threads, || omega::omega_cuts(i, o, eps, g, keep_border))?;
     Ok((masks.into_pyarray(py), costs.into_pyarray(py)))
 }
 
