@@ -478,7 +478,7 @@ def test_polish_reaches_coordinatewise_optimum() -> None:
     shape, tile, n = (16, 18), 8, 4
     region = Region.of(shape, tile)
     obj = Landscape(smooth_landscape(region.rows, region.cols, 3), n, coupling=1.0)
-    res = select_genes("random", obj, shape, n, tile, 5, polish=True, polish_batch=7)
+    res = select_genes("random", obj, shape, n, tile, 5, polish=True, polish_batch=7, polish_min_distance=0)
     assert_valid(res.genes, n, shape, tile)
     assert res.polish is not None and res.polish["converged"]
     assert res.E <= res.polish["E_before"]
@@ -493,6 +493,32 @@ def test_polish_reaches_coordinatewise_optimum() -> None:
     assert res.evaluations == 1 + res.polish["evaluations"]
     assert res.generations == 1 and len(res.history["best"]) == 1
     assert res.params["polish"] is True and res.params["polish_batch"] == 7
+
+
+def test_polish_min_distance_keeps_patches_apart() -> None:
+    """One deep well attracts every gene; the polish keeps moved genes min_distance apart (Chebyshev), and the
+    result is a coordinate-wise optimum over the allowed positions."""
+    shape, tile, n, d = (40, 40), 8, 4, 5
+    region = Region.of(shape, tile)
+    yy, xx = np.mgrid[0 : region.rows, 0 : region.cols]
+    obj = Landscape(np.hypot(yy - 16.0, xx - 16.0) + 1.0, n)
+    start = np.array([[0, 0], [0, 32], [32, 0], [32, 32]], dtype=np.int64)
+    genes, E, _, info = polish_genes(obj, start, shape, tile, min_distance=d)
+    assert info["min_distance"] == d and info["converged"] and info["moves"] > 0
+    cheb = np.abs(genes[:, None] - genes[None]).max(-1)
+    assert cheb[~np.eye(n, dtype=bool)].min() >= d
+    for k in range(n):
+        others = np.delete(genes, k, axis=0)
+        pos = np.stack([yy.ravel(), xx.ravel()], -1)
+        ok = np.abs(pos[:, None] - others[None]).max(-1).min(1) >= d
+        pop = np.repeat(genes[None], ok.sum(), axis=0)
+        pop[:, k] = pos[ok]
+        assert obj(pop)[0].min() >= E
+    # without the constraint the genes crowd into the well
+    g0, E0, _, _ = polish_genes(obj, start, shape, tile, min_distance=0)
+    assert E0 < E and np.abs(g0[:, None] - g0[None]).max(-1)[~np.eye(n, dtype=bool)].min() < d
+    # the default is tile_size // 4
+    assert polish_genes(obj, start, shape, tile, max_sweeps=1)[3]["min_distance"] == tile // 4
 
 
 def test_polish_max_sweeps_and_direct_call() -> None:

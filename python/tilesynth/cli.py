@@ -59,9 +59,31 @@ def _pos(text: str) -> int:
     return v
 
 
+def _set_name(text: str) -> str:
+    from .tilesets import get_tileset
+
+    try:
+        get_tileset(text)
+    except (ValueError, KeyError) as exc:
+        raise argparse.ArgumentTypeError(str(exc).strip("'\"")) from None
+    return text
+
+
+def _method(text: str) -> str:
+    from .select import METHODS
+
+    name = text.strip().lower().replace("_", "-")
+    if name not in METHODS:
+        raise argparse.ArgumentTypeError(f"--select = {text!r}: expected one of {', '.join(METHODS)}")
+    return name
+
+
+SET_HELP = ("tile-set definition: 4, 8, 16a, 16b, 32 (002), B (the basic 8-set of the extendable rule), n1 (17 tiles), "
+            "n2 (38 tiles) or nK for any K >= 1 (default 16a)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
-    from .tilesets import TILESET_NAMES
 
     p = _Parser(prog="tilesynth", description="Tile sets from one example texture, and seamless textures of any size.")
     p.add_argument("--version", action="version", version=f"tilesynth {__version__}")
@@ -71,7 +93,7 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("build", help="build a tile set from an exemplar image")
     b.add_argument("input", help="exemplar image (PNG, JPEG, ...)")
     b.add_argument("-o", "--output", required=True, help="tile-set file to write (.tiles)")
-    b.add_argument("--set", default="16a", choices=TILESET_NAMES, help="tile-set definition (default 16a)")
+    b.add_argument("--set", default="16a", type=_set_name, metavar="SET", help=SET_HELP)
     b.add_argument("--tile-size", type=_pos, default=None, help="tile size N in pixels, even (default: half the "
                    "exemplar's shorter side, at most 256)")
     b.add_argument("--seed", type=_nonneg, default=None, help="random seed (default: a fresh one, recorded)")
@@ -79,6 +101,19 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--gradients", default="patch", choices=("patch", "tile"),
                    help="gradients of the intermediate tile in the seam weight: of the sample patches (default) or "
                    "of the assembled tile (the literal formula; cuts tend to hug the central cross)")
+    b.add_argument("--literal-border", action="store_true",
+                   help="002's literal cut: let the matching patch reach the tile border near the side midpoints "
+                   "(default: the border ring keeps the intermediate tile, so neighbouring tiles stay continuous)")
+    b.add_argument("--select", type=_method, default="random", metavar="METHOD",
+                   help="how to choose the sample patches: random (default), best-of (best of 100 random sets), "
+                   "ga (000's genetic algorithm) or ais (003's immune system), all minimising E")
+    b.add_argument("--polish", action="store_true",
+                   help="after the selection, move one patch at a time to its best position until E stops falling")
+    b.add_argument("--generations", type=_pos, default=None, help="N_g of ga/ais (default 50)")
+    b.add_argument("--population", type=_pos, default=None,
+                   help="population of ga/ais (default 40), count of best-of (default 100)")
+    b.add_argument("--normalise", action="store_true",
+                   help="optimise 003's normalised objective (SSD divided by the tile's pixel count)")
     b.add_argument("--sheet", default=None, help="also write a contact sheet of the tiles to this PNG")
     b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
@@ -105,7 +140,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     d = sub.add_parser("demo", help="build and synthesize on the bundled exemplar (lettuce leaves)")
     d.add_argument("-o", "--output-dir", default="tilesynth-demo", help="directory for the results (default ./tilesynth-demo)")
-    d.add_argument("--set", default="16a", choices=TILESET_NAMES, help="tile-set definition (default 16a)")
+    d.add_argument("--set", default="16a", type=_set_name, metavar="SET", help=SET_HELP)
     d.add_argument("--size", type=_size, default=(1024, 1024), help="texture size (default 1024x1024)")
     d.add_argument("--seed", type=_nonneg, default=1, help="seed (default 1)")
     d.add_argument("--threads", type=_pos, default=None, help="worker threads")
@@ -115,7 +150,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 # ------------------------------------------------------------------------------------------------ commands
 def _build(input_path: str, output: str, set_name: str, tile_size: int | None, seed: int | None,
-           threads: int | None, quiet: bool, sheet: str | None, gradients: str = "patch") -> "TileSet":  # noqa: F821
+           threads: int | None, quiet: bool, sheet: str | None, gradients: str = "patch",
+           literal_border: bool = False, select: str = "random", polish: bool = False,
+           generations: int | None = None, population: int | None = None,
+           normalise: bool = False) -> "TileSet":  # noqa: F821
     from .io import load_image
     from .omega import build_omega
     from .progress import Progress
@@ -125,13 +163,20 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
     _check_output_dir(output)
     if sheet:
         _check_output_dir(sheet)
+    if select in ("random", "best-of") and generations is not None:
+        raise ParameterError(f"--generations = {generations}: only used with --select ga or ais")
+    if select == "random" and population is not None:
+        raise ParameterError(f"--population = {population}: not used with --select random")
     ts = build_omega(
         image, tileset=set_name, tile_size=tile_size, seed=seed, threads=threads, progress=prog, gradients=gradients,
-        exemplar_info={"file": os.path.basename(input_path), "bits": bits},
+        keep_border=not literal_border, exemplar_info={"file": os.path.basename(input_path), "bits": bits},
+        select=select, polish=polish, generations=generations, population=population, normalise=normalise,
     )
     ts.save(output)
+    sel = ts.params.get("selection", {})
+    how = sel.get("method", "random") + (" + polish" if sel.get("params", {}).get("polish") else "")
     prog.message(
-        f"wrote {output}: {ts.n_tiles} ω-tiles of {ts.tile_size}x{ts.tile_size} (set {set_name}, seed "
+        f"wrote {output}: {ts.n_tiles} ω-tiles of {ts.tile_size}x{ts.tile_size} (set {set_name}, {how}, seed "
         f"{ts.params['seed']}), E = {ts.E:.6g}, {ts.timing['total_s']:.2f} s"
     )
     if sheet:
@@ -211,8 +256,7 @@ def _info(ts_path: str, as_json: bool) -> None:
         f"set           {p.get('set')} ({ts.n_tiles} tiles, colours {''.join(ts.layout.get('colours', []))})",
         f"tile size     {ts.tile_size}x{ts.tile_size}, {ts.channels} channel(s)",
         f"exemplar      {ex.get('file', '?')} {ex['shape'][1]}x{ex['shape'][0]}, {ex.get('bits', '?')}-bit",
-        f"selection     {sel.get('method', '?')}"
-        + "".join(f", {k}={v}" for k, v in sel.items() if k != "method"),
+        *_selection_lines(sel, ts.timing.get("selection_s")),
         f"seed          {p.get('seed')}",
         f"E             {ts.E:.6g}  (λ={p.get('lambda')}: λ·ΣD + (1−λ)·Var D over the intermediate tiles)",
         f"build time    {ts.timing.get('total_s', float('nan')):.3f} s"
@@ -230,6 +274,39 @@ def _info(ts_path: str, as_json: bool) -> None:
             f"{'(%d,%d)' % tuple(row['match_offset']):>15}  {row['D']:>12.4f}  {row['cut_cost']:>10.4f}"
         )
     print("\n".join(lines))
+
+
+def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
+    """The selection method, its parameters, its result and its convergence history, for ``info``."""
+    params = dict(sel.get("params", {}))
+    head = f"selection     {sel.get('method', '?')}"
+    if params.get("polish"):
+        head += " + polish"
+    params.pop("polish", None)
+    lines = [head + "".join(f", {k}={v}" for k, v in sorted(params.items()))]
+    if "evaluations" in sel:
+        obj = "normalised E" if sel.get("normalise") else "E"
+        lines.append(
+            f"              {sel['evaluations']} evaluations, {sel.get('generations', 0)} generation(s), "
+            f"stopped by {sel.get('stop_reason', '?')}, {seconds or 0.0:.3f} s; "
+            f"objective {obj} = {sel.get('objective_E', float('nan')):.6g}"
+        )
+    pol = sel.get("polish")
+    if pol:
+        lines.append(
+            f"              polish: E {pol.get('E_before', float('nan')):.6g} -> "
+            f"{sel.get('objective_E', float('nan')):.6g}, {pol.get('moves', 0)} moves in {pol.get('sweeps', 0)} "
+            f"sweep(s), {pol.get('evaluations', 0)} evaluations"
+        )
+    hist = sel.get("history") or {}
+    best, mean = hist.get("best", []), hist.get("mean", [])
+    if len(best) > 1:
+        lines.append("convergence   generation: best E / mean E")
+        step = max(1, len(best) // 12)
+        shown = sorted(set(range(0, len(best), step)) | {len(best) - 1})
+        for g in shown:
+            lines.append(f"              {g + 1:>4}: {best[g]:.6g} / {mean[g]:.6g}")
+    return lines
 
 
 def _demo(out_dir: str, set_name: str, size: tuple[int, int], seed: int, threads: int | None, quiet: bool) -> None:
@@ -253,7 +330,8 @@ def main(argv: list[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
         if args.command == "build":
             _build(args.input, args.output, args.set, args.tile_size, args.seed, args.threads, args.quiet, args.sheet,
-                   args.gradients)
+                   args.gradients, args.literal_border, args.select, args.polish, args.generations,
+                   args.population, args.normalise)
         elif args.command == "synth":
             _synth(args.tileset, args.output, args.size, args.seed, args.map, args.save_map, args.bits,
                    args.threads, args.quiet)

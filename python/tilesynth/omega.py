@@ -165,6 +165,41 @@ def patch_gradients(exemplar: np.ndarray, source: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.stack([gx[r, c], gy[r, c]], axis=-1))
 
 
+def _select(
+    ex: np.ndarray,
+    n: int,
+    tile_patches: np.ndarray,
+    n_colours: int,
+    rng: np.random.Generator,
+    method: str,
+    polish: bool,
+    generations: int | None,
+    population: int | None,
+    normalise: bool,
+    params: dict[str, Any],
+    threads: int | None,
+    report: Progress,
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """Genes chosen by :func:`tilesynth.select.select_genes` on the exact population objective."""
+    from .select import select_genes
+
+    # E is over the intermediate tiles: one per distinct corner tuple (the 32-set's variants share theirs).
+    uniq = np.unique(tile_patches, axis=0)
+    ev = kernels.PopulationEvaluator(ex, n, uniq, n_colours, lam=LAMBDA, normalise=bool(normalise))
+    res = select_genes(
+        method, lambda g: ev.evaluate(g, threads), ex.shape, n_colours, n, rng, polish=polish,
+        generations=generations, population=population, progress=report, **params,
+    )
+    info = res.to_dict()
+    info.pop("genes")
+    info["normalise"] = bool(normalise)
+    info["objective_E"] = info.pop("E")
+    info["objective_D"] = info.pop("D")
+    # wall time goes in the tile set's timing (selection_s), not in the content: same seed, same bytes.
+    info.pop("wall_time")
+    return res.genes, info
+
+
 def build_omega(
     exemplar: np.ndarray,
     tileset: str = "16a",
@@ -178,6 +213,12 @@ def build_omega(
     progress: Progress | None = None,
     selection: dict[str, Any] | None = None,
     exemplar_info: dict[str, Any] | None = None,
+    select: str | None = None,
+    polish: bool = False,
+    generations: int | None = None,
+    population: int | None = None,
+    normalise: bool = False,
+    select_params: dict[str, Any] | None = None,
 ) -> TileSet:
     """Build a set of ω-tiles from ``exemplar``.
 
@@ -197,8 +238,20 @@ def build_omega(
     keep_border : tie the tile's border ring to the intermediate tile, so O never reaches the border (default;
         see the module docstring). False is the literal definition of 002.
     progress : optional callback ``(stage, done, total)``.
-    selection : how the genes were chosen (stored in the tile set), default ``{"method": "random"}``.
+    selection : how given ``genes`` were chosen (stored in the tile set), default ``{"method": "given"}``.
     exemplar_info : extra facts about the exemplar to record (file name, bit depth).
+    select : choose the genes by optimising E (see :mod:`tilesynth.select`): "random" (one random vector, the
+        default without ``genes``), "best-of" (best of 100 random vectors), "ga" (000's genetic algorithm) or
+        "ais" (003's immune system). Not allowed together with ``genes``.
+    polish : follow the selection with the exact coordinate-descent polish (:func:`tilesynth.select.polish_genes`).
+    generations, population : N_g and the population size of "ga" / "ais" (count of "best-of"); None: the papers'.
+    normalise : optimise 003's normalised objective (C_j divided by the N·N pixels of the tile) instead of the
+        plain SSD; the stored E and D_j are always the plain ones, the selection's own E is in ``selection``.
+    select_params : further method parameters (alpha, p_crossover, s_min, ...; see
+        :func:`tilesynth.select.select_genes`).
+
+    With ``select``, the convergence history (best and mean E of every generation) is stored in
+    ``params["selection"]["history"]``.
     """
     t0 = time.perf_counter()
     ex = as_image(exemplar, "exemplar")
@@ -207,18 +260,27 @@ def build_omega(
     seed = seed_int(seed)
     rng = np.random.default_rng(seed)
     colours = list(defn.colours)
-    if genes is None:
-        genes_arr = random_genes(ex.shape, len(colours), n, rng)
-        sel = {"method": "random"} if selection is None else dict(selection)
-    else:
-        genes_arr = check_genes(genes, len(colours), ex.shape, n)
-        sel = {"method": "given"} if selection is None else dict(selection)
     if gradients not in ("patch", "tile"):
         raise ParameterError(f"gradients = {gradients!r}: must be 'patch' or 'tile'")
     report = progress or (lambda stage, done, total: None)
-
     index = {c: i for i, c in enumerate(colours)}
     tile_patches = np.array([[index[c] for c in t] for t in defn.tiles], dtype=np.int64)
+    optimise = (select is not None and select != "random") or polish or normalise or bool(select_params)
+    if genes is not None and (select is not None or optimise):
+        raise ParameterError("genes and select: give one (select chooses the genes)")
+    if genes is None and not optimise:
+        # One random gene vector (the original ω construction), drawn exactly as random_genes does.
+        genes_arr = random_genes(ex.shape, len(colours), n, rng)
+        sel = {"method": "random"} if selection is None else dict(selection)
+    elif genes is None:
+        genes_arr, sel = _select(
+            ex, n, tile_patches, len(colours), rng, select or "random", polish, generations, population,
+            normalise, dict(select_params or {}), threads, report,
+        )
+    else:
+        genes_arr = check_genes(genes, len(colours), ex.shape, n)
+        sel = {"method": "given"} if selection is None else dict(selection)
+    t_sel = time.perf_counter()
     variants = np.asarray(defn.variants, dtype=np.int64)
     # One intermediate tile per distinct corner tuple; variant v of a tuple takes its (v+1)-th best O.
     uniq, first, inverse = np.unique(tile_patches, axis=0, return_index=True, return_inverse=True)
@@ -232,6 +294,7 @@ def build_omega(
     report("intermediate tiles", 0, 1)
     inter, inter_src = intermediate_tiles(ex, genes_arr, uniq, n)
     t1 = time.perf_counter()
+    t0_build = t_sel
     report("intermediate tiles", 1, 1)
 
     report("matching patches", 0, 1)
@@ -297,7 +360,8 @@ def build_omega(
         },
         exemplar_info=info,
         timing={
-            "intermediate_s": t1 - t0,
+            "selection_s": t_sel - t0,
+            "intermediate_s": t1 - t0_build,
             "matching_s": t2 - t1,
             "cutting_s": t3 - t2,
             "total_s": time.perf_counter() - t0,
