@@ -78,7 +78,7 @@ def run_err(args, capsys):
         (["build", "{notimage}", "-o", "{out}"], "not a readable image"),
         (["build", "{ex}", "-o", "{out}", "--tile-size", "25"], "tile_size = 25: must be even"),
         (["build", "{ex}", "-o", "{out}", "--tile-size", "500"], "larger than the exemplar"),
-        (["build", "{ex}", "-o", "{out}", "--set", "17"], "invalid choice: '17'"),
+        (["build", "{ex}", "-o", "{out}", "--set", "17"], "unknown tile set '17'"),
         (["build", "{ex}", "-o", "{out}", "--tile-size", "-4"], "--tile-size"),
         (["synth", "{tiles}", "-o", "{out}", "--size", "100by70"], "--size"),
         (["synth", "{tiles}", "-o", "{out}", "--size", "0x70"], "--size"),
