@@ -11,6 +11,7 @@
 //! - [`synth`]: copying tiles into a large output by an index map.
 //! - [`population`]: the ω-tile objective `E` for whole populations of gene vectors (exact, cached
 //!   per-patch SSD maps).
+//! - [`png`]: PNG scanline reconstruction (16-bit colour PNGs, which Pillow truncates to 8 bits).
 //! - [`parallel`]: local thread pools (`threads` argument, `TILESYNTH_NUM_THREADS`).
 //!
 //! Conventions: images are C-contiguous `f32` `(H, W, C)` in [0, 1]; masks are `bool`; energies and
@@ -22,6 +23,7 @@ pub mod error;
 pub mod maxflow;
 pub mod omega;
 pub mod parallel;
+pub mod png;
 pub mod population;
 pub mod ssd;
 pub mod synth;

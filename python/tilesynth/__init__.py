@@ -24,7 +24,7 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
     from ._core import __version__
 
 from .errors import ParameterError, ShapeError, TileSetFormatError, TilesynthError
-from .io import load_image, save_image
+from .io import load_image, load_raster, save_image
 from .kernels import (
     PopulationEvaluator,
     SsdIndex,
@@ -38,7 +38,7 @@ from .kernels import (
 )
 from .omega import build_omega, energy
 from .render import contact_sheet
-from .synthesis import source_map, synthesize
+from .synthesis import source_map, synthesize, synthesize_map
 from .tilefile import TileSet
 from .tilesets import TILESET_NAMES, get_tileset
 from .tiling import scanline_index_map, validate_index_map
@@ -66,12 +66,14 @@ __all__ = [
     "kwatra_weights",
     "load",
     "load_image",
+    "load_raster",
     "omega_cuts",
     "patch_ssd",
     "save_image",
     "scanline_index_map",
     "source_map",
     "synthesize",
+    "synthesize_map",
     "tile_copy",
     "validate_index_map",
 ]

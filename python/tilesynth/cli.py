@@ -124,6 +124,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--seed", type=_nonneg, default=None, help="tiling seed (default: a fresh one, printed)")
     s.add_argument("--map", default=None, help="use this tile index map (.npy, int, rows x cols) instead of the tiler")
     s.add_argument("--save-map", default=None, help="write the tile index map used to this .npy file")
+    s.add_argument("--with", dest="with_maps", action="append", default=[], metavar="MAP",
+                   help="also synthesize this map, pixel-aligned with the exemplar (normal, height, roughness, "
+                   "...; PNG 8/16-bit, TIFF, or .npy uint8/uint16/float32), with the same cuts and layout; "
+                   "written next to the output as OUT-<map name>.png (.npy for float maps), same sample type; "
+                   "repeatable")
     s.add_argument("--bits", type=int, choices=(8, 16), default=None,
                    help="bits per channel of the output (default: those of the exemplar)")
     s.add_argument("--threads", type=_pos, default=None, help="copy threads")
@@ -198,8 +203,16 @@ def _check_output_dir(path: str) -> None:
         raise ParameterError(f"output = {path!r}: directory {str(parent)!r} does not exist")
 
 
+def _map_output(output: str, map_path: str, dtype: np.dtype) -> Path:
+    """``OUT-<map stem>.png`` next to ``output`` (``.npy`` for float maps)."""
+    out = Path(output)
+    ext = ".npy" if dtype == np.float32 else ".png"
+    return out.with_name(f"{out.stem}-{Path(map_path).stem}{ext}")
+
+
 def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, map_path: str | None,
-           save_map: str | None, bits: int | None, threads: int | None, quiet: bool) -> None:
+           save_map: str | None, bits: int | None, threads: int | None, quiet: bool,
+           with_maps: list[str] | None = None) -> None:
     from ._validate import seed_int
     from .io import atomic_open, save_image
     from .progress import Progress
@@ -217,6 +230,22 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
             raise ParameterError(f"--map = {map_path!r}: not a readable .npy array ({exc})") from None
     seed = seed_int(seed) if index_map is None else None
     bits = bits or int(ts.exemplar_info.get("bits", 8))
+    from .io import load_raster
+    from .synthesis import synthesize_map
+
+    maps = []  # load and check every map before writing anything
+    for mp in with_maps or []:
+        arr = load_raster(mp)
+        eh, ew = ts.exemplar.shape[:2]
+        if arr.shape[:2] != (eh, ew):
+            raise ParameterError(
+                f"--with = {mp!r}: the map is {arr.shape[1]}x{arr.shape[0]}, the exemplar {ew}x{eh}; a map must be "
+                "pixel-aligned with the exemplar"
+            )
+        target = _map_output(output, mp, arr.dtype)
+        if target.resolve() in {Path(output).resolve(), *(t.resolve() for _, _, t in maps)}:
+            raise ParameterError(f"--with = {mp!r}: its output {str(target)!r} would overwrite another output")
+        maps.append((mp, arr, target))
     t0 = time.perf_counter()
     prog("synthesis", 0, 1)
     img, imap = synthesize(ts, size[0], size[1], seed=seed, index_map=index_map,
@@ -228,6 +257,16 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
     if save_map:
         with atomic_open(save_map) as fh:
             np.save(fh, imap, allow_pickle=False)
+    for k, (mp, arr, target) in enumerate(maps):
+        prog("maps", k, len(maps))
+        out_map = synthesize_map(ts, arr, imap, size[0], size[1], threads=threads)
+        if target.suffix == ".npy":
+            with atomic_open(target) as fh:
+                np.save(fh, out_map, allow_pickle=False)
+        else:
+            save_image(target, out_map)
+        prog("maps", k + 1, len(maps))
+        prog.message(f"wrote {target}: {mp} ({arr.dtype}, {arr.shape[2]} channel(s)) through the same cuts")
     how = f"seed {seed}" if seed is not None else f"map {map_path}"
     prog.message(f"wrote {output}: {size[0]}x{size[1]}, {imap.shape[1]}x{imap.shape[0]} tiles, {how}, "
                  f"{time.perf_counter() - t0:.2f} s")
@@ -334,7 +373,7 @@ def main(argv: list[str] | None = None) -> int:
                    args.population, args.normalise)
         elif args.command == "synth":
             _synth(args.tileset, args.output, args.size, args.seed, args.map, args.save_map, args.bits,
-                   args.threads, args.quiet)
+                   args.threads, args.quiet, args.with_maps)
         elif args.command == "info":
             _info(args.tileset, args.json)
         elif args.command == "sheet":

@@ -89,3 +89,52 @@ def source_map(tileset: TileSet, index_map: np.ndarray, width: int, height: int)
     out = np.empty((height, width, 2), np.int32)
     kernels.tile_copy(tileset.source, np.ascontiguousarray(index_map, dtype=np.int32), out)
     return out
+
+
+def synthesize_map(
+    tileset: TileSet,
+    aligned: np.ndarray,
+    index_map: np.ndarray,
+    width: int,
+    height: int,
+    threads: int | None = None,
+) -> np.ndarray:
+    """Synthesize a map aligned with the exemplar (normal, height, roughness, a second photo, ...) with exactly
+    the cuts and layout of a colour synthesis.
+
+    Every tile pixel came from one exemplar pixel (the provenance ``tileset.source``); the map's tile atlas
+    takes the map's value at that pixel, and the index map of the colour output lays it out. So output pixel
+    (y, x) of the map is ``aligned[source_map(...)[y, x]]``: pixel-aligned with the colour output, and a pure
+    copy of map values (no resampling, no conversion: uint8, uint16 and float32 stay what they are).
+
+    Parameters
+    ----------
+    tileset : the tile set the colour output was synthesized with.
+    aligned : ``(H, W)`` or ``(H, W, C)`` uint8, uint16 or float32 array with the exemplar's H x W.
+    index_map : the tile index map of the colour output (as returned by :func:`synthesize`).
+    width, height : the output size (that of the colour output).
+    threads : copy threads.
+
+    Returns
+    -------
+    ``(height, width, C)`` array of ``aligned``'s dtype.
+    """
+    a = np.asarray(aligned)
+    if a.ndim == 2:
+        a = a[:, :, None]
+    eh, ew = tileset.exemplar.shape[:2]
+    if a.ndim != 3 or a.shape[:2] != (eh, ew) or a.shape[2] < 1:
+        raise ShapeError(
+            f"map has shape {np.asarray(aligned).shape}, expected ({eh}, {ew}) or ({eh}, {ew}, C): it must be "
+            "pixel-aligned with the exemplar"
+        )
+    if a.dtype not in (np.uint8, np.uint16, np.float32):
+        raise ParameterError(f"map has dtype {a.dtype}, expected uint8, uint16 or float32")
+    w = positive_int(width, "width")
+    h = positive_int(height, "height")
+    imap = np.ascontiguousarray(index_map, dtype=np.int32)
+    src = tileset.source
+    atlas = np.ascontiguousarray(a[src[..., 0], src[..., 1]])
+    out = np.empty((h, w, a.shape[2]), a.dtype)
+    kernels.tile_copy(atlas, imap, out, threads=threads)
+    return out

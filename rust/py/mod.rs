@@ -4,7 +4,7 @@
 mod convert;
 mod errors;
 
-use crate::{maxflow, omega, parallel, population, ssd, synth};
+use crate::{maxflow, omega, parallel, png, population, ssd, synth};
 use convert::contiguous;
 use errors::to_pyerr;
 use ndarray::{Array2, Array3};
@@ -303,6 +303,19 @@ fn tile_copy<'py>(
     ))
 }
 
+/// Reconstructs the filtered scanlines of a non-interlaced PNG (`height` rows of `1 + row_bytes` bytes).
+#[pyfunction]
+fn png_unfilter<'py>(
+    py: Python<'py>,
+    data: &[u8],
+    height: usize,
+    row_bytes: usize,
+    bpp: usize,
+) -> PyResult<Bound<'py, pyo3::types::PyBytes>> {
+    let raw = run(py, Some(1), || png::unfilter(data, height, row_bytes, bpp))?;
+    Ok(pyo3::types::PyBytes::new(py, &raw))
+}
+
 /// Resolved thread count (explicit value, else TILESYNTH_NUM_THREADS, else all cores).
 #[pyfunction]
 #[pyo3(signature = (threads=None))]
@@ -320,5 +333,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(omega_cuts, m)?)?;
     m.add_function(wrap_pyfunction!(tile_copy, m)?)?;
     m.add_function(wrap_pyfunction!(resolve_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(png_unfilter, m)?)?;
     Ok(())
 }

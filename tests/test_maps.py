@@ -1,0 +1,161 @@
+"""Maps that follow the cuts (`synth --with`), and exact PNG decoding of 16-bit colour images."""
+
+from __future__ import annotations
+
+import struct
+import zlib
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import tilesynth
+from tilesynth.cli import main
+from tilesynth.io import load_raster, read_png
+
+
+def _paeth(a: int, b: int, c: int) -> int:
+    p = a + b - c
+    pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+    return a if pa <= pb and pa <= pc else (b if pb <= pc else c)
+
+
+def write_png_filtered(path, arr: np.ndarray, kinds=(0, 1, 2, 3, 4)) -> None:
+    """A PNG encoder written from the specification, cycling through every filter type row by row."""
+    h, w = arr.shape[:2]
+    ch = 1 if arr.ndim == 2 else arr.shape[2]
+    depth = 16 if arr.dtype == np.uint16 else 8
+    raw = np.ascontiguousarray(arr.astype(">u2") if depth == 16 else arr).view(np.uint8).reshape(h, -1)
+    bpp = ch * depth // 8
+    out = bytearray()
+    for y in range(h):
+        k = kinds[y % len(kinds)]
+        out.append(k)
+        cur = raw[y].astype(int)
+        prev = raw[y - 1].astype(int) if y else np.zeros_like(cur)
+        for i in range(cur.size):
+            a = cur[i - bpp] if i >= bpp else 0
+            b = prev[i]
+            c = prev[i - bpp] if i >= bpp else 0
+            pred = [0, a, b, (a + b) // 2, _paeth(a, b, c)][k]
+            out.append((cur[i] - pred) & 0xFF)
+    colour = {1: 0, 2: 4, 3: 2, 4: 6}[ch]
+
+    def chunk(tag: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    with open(path, "wb") as fh:
+        fh.write(b"\x89PNG\r\n\x1a\n")
+        fh.write(chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, depth, colour, 0, 0, 0)))
+        fh.write(chunk(b"IDAT", zlib.compress(bytes(out))))
+        fh.write(chunk(b"IEND", b""))
+
+
+@pytest.mark.parametrize("channels", [1, 2, 3, 4])
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_read_png_every_filter(tmp_path, rng, channels, dtype):
+    hi = 256 if dtype == np.uint8 else 65536
+    arr = rng.integers(0, hi, (6, 9, channels)).astype(dtype)
+    # smooth content too, so predictions matter
+    arr[3:] = (np.arange(9)[None, :, None] * (hi // 16) + np.arange(3)[:, None, None] * 7).astype(dtype)
+    p = tmp_path / "f.png"
+    write_png_filtered(p, arr[..., 0] if channels == 1 else arr)
+    got = read_png(p)
+    assert got.dtype == dtype
+    np.testing.assert_array_equal(got, arr)
+
+
+@pytest.mark.parametrize("mode", ["L", "LA", "RGB", "RGBA"])
+def test_read_png_agrees_with_pillow_on_8_bit(tmp_path, small_exemplar, mode):
+    img = Image.fromarray((small_exemplar * 255).round().astype(np.uint8)).convert(mode)
+    p = tmp_path / "p.png"
+    img.save(p, optimize=True)  # Pillow picks filters per row
+    want = np.asarray(Image.open(p))
+    got = read_png(p)
+    np.testing.assert_array_equal(got, want.reshape(got.shape))
+
+
+def test_16_bit_rgb_exemplar_keeps_full_precision(tmp_path, rng):
+    a = rng.integers(0, 65536, (20, 24, 3)).astype(np.uint16)
+    p = tmp_path / "e16.png"
+    write_png_filtered(p, a)
+    img, bits = tilesynth.load_image(p)
+    assert bits == 16 and img.dtype == np.float32
+    np.testing.assert_array_equal(np.round(img * 65535).astype(np.uint16), a)
+    # Pillow alone would have truncated it to 8 bits
+    assert np.asarray(Image.open(p)).dtype == np.uint8
+
+
+def test_damaged_png_is_a_clear_error(tmp_path, rng):
+    a = rng.integers(0, 65536, (8, 8, 3)).astype(np.uint16)
+    p = tmp_path / "d.png"
+    write_png_filtered(p, a)
+    data = bytearray(p.read_bytes())
+    data[60] ^= 0xFF
+    p.write_bytes(bytes(data))
+    with pytest.raises(tilesynth.ParameterError, match="d.png"):
+        tilesynth.load_image(p)
+    p.write_bytes(bytes(data[:40]))
+    with pytest.raises(tilesynth.ParameterError, match="truncated"):
+        tilesynth.load_image(p)
+
+
+@pytest.fixture(scope="module")
+def tiles(small_exemplar):
+    return tilesynth.build_omega(small_exemplar, tileset="32", tile_size=24, seed=3)
+
+
+def test_map_follows_the_cuts(tiles, small_exemplar, rng):
+    W, H = 101, 77
+    img, imap = tilesynth.synthesize(tiles, W, H, seed=4, dtype=np.uint8)
+    # the exemplar itself as a map reproduces the colour output exactly
+    ex8 = (small_exemplar * 255).round().astype(np.uint8)
+    np.testing.assert_array_equal(tilesynth.synthesize_map(tiles, ex8, imap, W, H), img)
+    # any map: output pixel = map value at the output pixel's provenance, in the map's own dtype
+    src = tilesynth.source_map(tiles, imap, W, H)
+    for dtype, hi in ((np.uint16, 65536), (np.float32, None)):
+        m = (rng.random((96, 96, 2)) if hi is None else rng.integers(0, hi, (96, 96, 2))).astype(dtype)
+        before = m.copy()
+        out = tilesynth.synthesize_map(tiles, m, imap, W, H)
+        assert out.dtype == dtype and out.shape == (H, W, 2)
+        np.testing.assert_array_equal(out, m[src[..., 0], src[..., 1]])
+        np.testing.assert_array_equal(m, before)
+    grey = rng.random((96, 96)).astype(np.float32)
+    assert tilesynth.synthesize_map(tiles, grey, imap, W, H).shape == (H, W, 1)
+    with pytest.raises(tilesynth.ShapeError, match="pixel-aligned"):
+        tilesynth.synthesize_map(tiles, grey[:90], imap, W, H)
+    with pytest.raises(tilesynth.ParameterError, match="dtype"):
+        tilesynth.synthesize_map(tiles, grey.astype(np.float64), imap, W, H)
+
+
+def test_cli_with_maps(tiles, tmp_path, rng, capsys):
+    tf = tmp_path / "t.tiles"
+    tiles.save(tf)
+    normal = rng.integers(0, 65536, (96, 96, 3)).astype(np.uint16)
+    write_png_filtered(tmp_path / "normal.png", normal)
+    height = rng.random((96, 96)).astype(np.float32)
+    np.save(tmp_path / "height.npy", height)
+    out = tmp_path / "out.png"
+    mp = tmp_path / "m.npy"
+    assert main(["synth", str(tf), "-o", str(out), "--size", "90x60", "--seed", "2", "--save-map", str(mp),
+                 "--with", str(tmp_path / "normal.png"), "--with", str(tmp_path / "height.npy"), "-q"]) == 0
+    imap = np.load(mp)
+    src = tilesynth.source_map(tiles, imap, 90, 60)
+    n_out = load_raster(tmp_path / "out-normal.png")
+    assert n_out.dtype == np.uint16
+    np.testing.assert_array_equal(n_out, normal[src[..., 0], src[..., 1]])
+    h_out = np.load(tmp_path / "out-height.npy")
+    assert h_out.dtype == np.float32
+    np.testing.assert_array_equal(h_out[..., 0], height[src[..., 0], src[..., 1]])
+
+
+def test_cli_with_misaligned_map_fails_before_writing(tiles, tmp_path, capsys):
+    tf = tmp_path / "t.tiles"
+    tiles.save(tf)
+    np.save(tmp_path / "small.npy", np.zeros((50, 50), np.float32))
+    out = tmp_path / "o.png"
+    assert main(["synth", str(tf), "-o", str(out), "--size", "40x40", "--with", str(tmp_path / "small.npy"),
+                 "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "pixel-aligned" in err and len(err.strip().splitlines()) == 1
+    assert not out.exists() and not (tmp_path / "o-small.npy").exists()
