@@ -107,6 +107,7 @@ mod tests {
     use super::*;
 
     /// Filters `raw` rows with the given type per row (the encoder side, written from the specification).
+    #[allow(clippy::needless_range_loop)]
     fn filter(raw: &[u8], height: usize, row_bytes: usize, bpp: usize, kinds: &[u8]) -> Vec<u8> {
         let mut out = Vec::new();
         for y in 0..height {
