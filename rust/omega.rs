@@ -617,6 +617,159 @@ pub fn omega_cuts(
     Ok((masks, costs))
 }
 
+/// For every translation `t` of `image`, the sum of the Kwatra weights (as [`kwatra_weights`]) between `i`
+/// (kept, `(N, M, C)`) and the candidate `O = image[t : t + (N, M)]` over a chosen set of edges: `wx_mask[y,
+/// x]` selects edge (y,x)–(y,x+1) and `wy_mask[y, x]` edge (y,x)–(y+1,x). The candidate-selection heuristics of
+/// 002 §3.2 ("the smallest sum of weights for the pixels around the circle", "... near the middle of the four
+/// sides") rank the matching patches by this map. `i_grad` optionally replaces the gradient norms of `i`, as in
+/// [`omega_cut`]; the gradients of each candidate are its own forward differences, 0 past its last row and
+/// column (exactly the weights [`omega_cut`] would then use). Exact (direct `f64` sums, no FFT); cost
+/// `O(translations x selected edges x C)`, parallel over rows of translations. Returns `(H − N + 1, W − M + 1)`.
+pub fn edge_weight_sums(
+    i: ArrayView3<f32>,
+    i_grad: Option<ArrayView3<f64>>,
+    image: ArrayView3<f32>,
+    wx_mask: ArrayView2<bool>,
+    wy_mask: ArrayView2<bool>,
+    eps: f64,
+) -> Result<Array2<f64>> {
+    let (n, m, c) = i.dim();
+    let (h, w, ci) = image.dim();
+    if n == 0 || m == 0 || c == 0 {
+        return Err(TilesynthError::shape(
+            "template",
+            "(N, M, C) with N, M, C >= 1",
+            fmt_shape(i.shape()),
+        ));
+    }
+    if ci != c || h < n || w < m {
+        return Err(TilesynthError::shape(
+            "image",
+            format!("(H, W, {c}) with H >= {n} and W >= {m} (at least the template)"),
+            fmt_shape(image.shape()),
+        ));
+    }
+    for (name, mk) in [("wx_mask", &wx_mask), ("wy_mask", &wy_mask)] {
+        if mk.dim() != (n, m) {
+            return Err(TilesynthError::shape(
+                name,
+                fmt_shape(&[n, m]),
+                fmt_shape(mk.shape()),
+            ));
+        }
+    }
+    check_grad(i_grad.as_ref(), n, m)?;
+    check_eps(eps)?;
+    if i.iter().chain(image.iter()).any(|v| !v.is_finite()) {
+        return Err(TilesynthError::param(
+            "template/image",
+            "non-finite value",
+            "images must not contain NaN or infinity",
+        ));
+    }
+    let i = i.as_standard_layout();
+    let img = image.as_standard_layout();
+    let (iv, xv) = (
+        i.as_slice().expect("standard layout"),
+        img.as_slice().expect("standard layout"),
+    );
+    let d2 = |a: &[f32], b: &[f32]| -> f64 {
+        a.iter()
+            .zip(b)
+            .map(|(&u, &v)| {
+                let d = u as f64 - v as f64;
+                d * d
+            })
+            .sum::<f64>()
+            .sqrt()
+    };
+    // Gradient norms of the template (given, or its own forward differences) and of the image.
+    let grad_i: Vec<[f64; 2]> = (0..n * m)
+        .map(|p| {
+            let (y, x) = (p / m, p % m);
+            match &i_grad {
+                Some(g) => [g[(y, x, 0)], g[(y, x, 1)]],
+                None => [
+                    if x + 1 < m {
+                        d2(&iv[(p + 1) * c..(p + 2) * c], &iv[p * c..p * c + c])
+                    } else {
+                        0.0
+                    },
+                    if y + 1 < n {
+                        d2(&iv[(p + m) * c..(p + m + 1) * c], &iv[p * c..p * c + c])
+                    } else {
+                        0.0
+                    },
+                ],
+            }
+        })
+        .collect();
+    let grad_x: Vec<[f64; 2]> = (0..h * w)
+        .map(|p| {
+            let (y, x) = (p / w, p % w);
+            [
+                if x + 1 < w {
+                    d2(&xv[(p + 1) * c..(p + 2) * c], &xv[p * c..p * c + c])
+                } else {
+                    0.0
+                },
+                if y + 1 < h {
+                    d2(&xv[(p + w) * c..(p + w + 1) * c], &xv[p * c..p * c + c])
+                } else {
+                    0.0
+                },
+            ]
+        })
+        .collect();
+    // The selected edges as (local pixel s, local pixel t, axis).
+    let mut edges: Vec<(usize, usize, usize)> = Vec::new();
+    for y in 0..n {
+        for x in 0..m {
+            if wx_mask[(y, x)] && x + 1 < m {
+                edges.push((y * m + x, y * m + x + 1, 0));
+            }
+            if wy_mask[(y, x)] && y + 1 < n {
+                edges.push((y * m + x, (y + 1) * m + x, 1));
+            }
+        }
+    }
+    let (th, tw) = (h - n + 1, w - m + 1);
+    let rows: Vec<Vec<f64>> = (0..th)
+        .into_par_iter()
+        .map(|ty| {
+            (0..tw)
+                .map(|tx| {
+                    let at = |p: usize| (ty + p / m) * w + tx + p % m;
+                    // gradient of O at local pixel p along axis: 0 on O's last column / row
+                    let go = |p: usize, axis: usize| -> f64 {
+                        let last = if axis == 0 {
+                            p % m + 1 == m
+                        } else {
+                            p / m + 1 == n
+                        };
+                        if last {
+                            0.0
+                        } else {
+                            grad_x[at(p)][axis]
+                        }
+                    };
+                    let mut sum = 0.0f64;
+                    for &(s, t, axis) in &edges {
+                        let (gs, gt) = (at(s), at(t));
+                        let num = d2(&iv[s * c..s * c + c], &xv[gs * c..gs * c + c])
+                            + d2(&iv[t * c..t * c + c], &xv[gt * c..gt * c + c]);
+                        let den =
+                            grad_i[s][axis] + grad_i[t][axis] + go(s, axis) + go(t, axis) + eps;
+                        sum += num / den;
+                    }
+                    sum
+                })
+                .collect()
+        })
+        .collect();
+    Ok(Array2::from_shape_vec((th, tw), rows.concat()).expect("th * tw sums"))
+}
+
 /// The ω-tile: `o` where `takes_o`, else `i`.
 pub fn compose(
     i: ArrayView3<f32>,
@@ -856,6 +1009,43 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The map equals the masked sum of `kwatra_weights` of the template and each cut-out candidate.
+    #[test]
+    fn edge_weight_sums_equal_masked_kwatra_sums() {
+        let (n, m) = (6, 5);
+        let img = lcg_image(11, 9, 3, 41);
+        let t = lcg_image(n, m, 3, 42);
+        let grad = Array3::from_shape_fn((n, m, 2), |(y, x, k)| ((y + 2 * x + k) % 4) as f64 * 0.2);
+        let wxm = Array2::from_shape_fn((n, m), |(y, x)| (y + x) % 3 != 0);
+        let wym = Array2::from_shape_fn((n, m), |(y, x)| (y * x) % 2 == 0);
+        for g in [None, Some(grad.view())] {
+            let got =
+                edge_weight_sums(t.view(), g, img.view(), wxm.view(), wym.view(), 1e-6).unwrap();
+            assert_eq!(got.dim(), (11 - n + 1, 9 - m + 1));
+            for ty in 0..=11 - n {
+                for tx in 0..=9 - m {
+                    let o = img
+                        .slice(ndarray::s![ty..ty + n, tx..tx + m, ..])
+                        .to_owned();
+                    let (wx, wy) = kwatra_weights(t.view(), o.view(), None, 1e-6, g).unwrap();
+                    let want: f64 = wx
+                        .iter()
+                        .zip(wxm.iter())
+                        .chain(wy.iter().zip(wym.iter()))
+                        .filter(|(_, &k)| k)
+                        .map(|(v, _)| v)
+                        .sum();
+                    let v = got[(ty, tx)];
+                    assert!((v - want).abs() <= 1e-12 * want.max(1.0), "{v} vs {want}");
+                }
+            }
+        }
+        let bad = Array2::from_elem((n, m + 1), true);
+        let e =
+            edge_weight_sums(t.view(), None, img.view(), bad.view(), wym.view(), 1e-6).unwrap_err();
+        assert!(e.to_string().contains("wx_mask"), "{e}");
     }
 
     #[test]

@@ -74,3 +74,21 @@ def tile_copy(
 ) -> None: ...
 def resolve_threads(threads: int | None = None) -> int: ...
 def png_unfilter(data: bytes, height: int, row_bytes: int, bpp: int) -> bytes: ...
+def edge_weight_sums(
+    template: npt.NDArray[np.float32],
+    image: npt.NDArray[np.float32],
+    wx_mask: npt.NDArray[np.bool_],
+    wy_mask: npt.NDArray[np.bool_],
+    eps: float = 1e-6,
+    template_grad: npt.NDArray[np.float64] | None = None,
+    threads: int | None = None,
+) -> npt.NDArray[np.float64]: ...
+def weighted_ssd_map(
+    image: npt.NDArray[np.float32],
+    image_grad: npt.NDArray[np.float64],
+    template: npt.NDArray[np.float32],
+    template_grad: npt.NDArray[np.float64],
+    mu: float,
+    eps: float,
+    threads: int | None = None,
+) -> npt.NDArray[np.float64]: ...

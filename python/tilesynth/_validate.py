@@ -61,6 +61,25 @@ def as_image(image: Any, name: str = "image") -> np.ndarray:
     return np.ascontiguousarray(out)
 
 
+def as_features(image: Any, name: str = "image") -> np.ndarray:
+    """Return a feature image (any channel count, any finite values) as C-contiguous float32 ``(H, W, C)``.
+
+    For images that are not colours, e.g. the gradient-augmented exemplar of 000's eq. 3 (colour, then √μ times
+    the signed x and y differences of every channel): only the shape and finiteness are checked.
+    """
+    arr = np.asarray(image)
+    if arr.ndim == 2:
+        arr = arr[:, :, None]
+    if arr.ndim != 3 or 0 in arr.shape:
+        raise ShapeError(f"{name} has shape {arr.shape}, expected non-empty (H, W) or (H, W, C)")
+    if arr.dtype.kind not in "fiub":
+        raise TypeError(f"{name} has dtype {arr.dtype}, expected a real number type")
+    out = np.ascontiguousarray(arr, dtype=np.float32)
+    if not np.isfinite(out).all():
+        raise ParameterError(f"{name} contains NaN or infinity (or values beyond float32)")
+    return out
+
+
 def to_uint(image: np.ndarray, bits: int = 8) -> np.ndarray:
     """Quantise a float image in [0, 1] to uint8 or uint16 with rounding (inverse of :func:`as_image`)."""
     if bits not in (8, 16):

@@ -114,6 +114,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help="population of ga/ais (default 40), count of best-of (default 100)")
     b.add_argument("--normalise", action="store_true",
                    help="optimise 003's normalised objective (SSD divided by the tile's pixel count)")
+    b.add_argument("--match", default="ssd", choices=("ssd", "circle", "midpoints", "best-cut"),
+                   help="how each tile's matching patch is chosen: ssd (smallest SSD, default), circle / midpoints "
+                   "(002's heuristics: smallest seam weights around the circle / near the side midpoints), "
+                   "best-cut (run the real cut for the --match-k nearest candidates, keep the cheapest)")
+    b.add_argument("--match-k", default=None, metavar="K|all",
+                   help="candidates of --match best-cut: a positive integer (default 16) or 'all'")
+    b.add_argument("--metric", default="color", choices=("color", "eq2", "eq3"),
+                   help="distance for the matching search and the objective E: color (SSD, default), eq3 (SSD + "
+                   "10 x squared gradient difference, 000 eq. 3), eq2 (SSD weighted by 1/(10 (|grad T| + "
+                   "|grad I|)), 000 eq. 2, exact but slow: direct sums, not with --select)")
     b.add_argument("--sheet", default=None, help="also write a contact sheet of the tiles to this PNG")
     b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
@@ -158,7 +168,8 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
            threads: int | None, quiet: bool, sheet: str | None, gradients: str = "patch",
            literal_border: bool = False, select: str = "random", polish: bool = False,
            generations: int | None = None, population: int | None = None,
-           normalise: bool = False) -> "TileSet":  # noqa: F821
+           normalise: bool = False, match: str = "ssd", match_k: str | None = None,
+           metric: str = "color") -> "TileSet":  # noqa: F821
     from .io import load_image
     from .omega import build_omega
     from .progress import Progress
@@ -176,6 +187,7 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
         image, tileset=set_name, tile_size=tile_size, seed=seed, threads=threads, progress=prog, gradients=gradients,
         keep_border=not literal_border, exemplar_info={"file": os.path.basename(input_path), "bits": bits},
         select=select, polish=polish, generations=generations, population=population, normalise=normalise,
+        match=match, match_k=_match_k(match_k), metric=metric,
     )
     ts.save(output)
     sel = ts.params.get("selection", {})
@@ -188,6 +200,15 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
         _write_sheet(ts, sheet, True)
         prog.message(f"wrote {sheet}: contact sheet")
     return ts
+
+
+def _match_k(text: str | None) -> int | str | None:
+    if text is None or text.strip().lower() == "all":
+        return None if text is None else "all"
+    try:
+        return int(text)
+    except ValueError:
+        raise ParameterError(f"--match-k = {text!r}: expected a positive integer or 'all'") from None
 
 
 def _write_sheet(ts, path: str, cuts: bool) -> None:  # noqa: ANN001
@@ -370,7 +391,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "build":
             _build(args.input, args.output, args.set, args.tile_size, args.seed, args.threads, args.quiet, args.sheet,
                    args.gradients, args.literal_border, args.select, args.polish, args.generations,
-                   args.population, args.normalise)
+                   args.population, args.normalise, args.match, args.match_k, args.metric)
         elif args.command == "synth":
             _synth(args.tileset, args.output, args.size, args.seed, args.map, args.save_map, args.bits,
                    args.threads, args.quiet, args.with_maps)

@@ -10,14 +10,14 @@ from __future__ import annotations
 import numpy as np
 
 from . import _core
-from ._validate import as_image, positive_int
+from ._validate import as_features, as_image, positive_int
 from .errors import ParameterError, ShapeError
 
 DEFAULT_EPS = 1e-6
 """Epsilon in the denominator of the Kwatra edge weight (guards flat regions)."""
 
 
-def _templates(templates: np.ndarray, name: str = "templates") -> tuple[np.ndarray, bool]:
+def _templates(templates: np.ndarray, name: str = "templates", features: bool = False) -> tuple[np.ndarray, bool]:
     t = np.asarray(templates)
     single = t.ndim in (2, 3)
     if t.ndim == 2:
@@ -26,7 +26,10 @@ def _templates(templates: np.ndarray, name: str = "templates") -> tuple[np.ndarr
         t = t[None]
     if t.ndim != 4:
         raise ShapeError(f"{name} has shape {np.shape(templates)}, expected (h, w, C) or (K, h, w, C)")
-    t = np.stack([as_image(x, name) for x in t]) if t.dtype != np.float32 else np.ascontiguousarray(t)
+    if features:
+        t = np.stack([as_features(x, name) for x in t])
+    else:
+        t = np.stack([as_image(x, name) for x in t]) if t.dtype != np.float32 else np.ascontiguousarray(t)
     return t, single
 
 
@@ -47,8 +50,10 @@ class SsdIndex:
     by a direct float64 sum, so its order and values are exact.
     """
 
-    def __init__(self, image: np.ndarray, threads: int | None = None) -> None:
-        self.image = as_image(image)
+    def __init__(self, image: np.ndarray, threads: int | None = None, features: bool = False) -> None:
+        # features=True: any channel count and finite values (e.g. the eq. 3 augmented exemplar)
+        self.features = bool(features)
+        self.image = as_features(image) if self.features else as_image(image)
         self._index = _core.SsdIndex(self.image, threads)
 
     @property
@@ -61,7 +66,7 @@ class SsdIndex:
 
         ``mask``: optional ``(h, w)`` bool, True where a template pixel counts.
         """
-        t, single = _templates(templates)
+        t, single = _templates(templates, features=self.features)
         maps = self._index.ssd_maps(t, _mask(mask), threads)
         return maps[0] if single else maps
 
@@ -80,7 +85,7 @@ class SsdIndex:
         values ``(K, k)``, or ``(k, 2)`` and ``(k,)`` for a single template; fewer than ``k`` columns when the
         image has fewer admissible translations.
         """
-        t, single = _templates(templates)
+        t, single = _templates(templates, features=self.features)
         offsets, values = self._index.best_matches(t, int(k), int(exclude_radius), _mask(mask), threads)
         return (offsets[0], values[0]) if single else (offsets, values)
 
@@ -200,6 +205,45 @@ def omega_cuts(
     return _core.omega_cuts(i, o, float(eps), threads, _grad(intermediate_grad), bool(keep_border))
 
 
+def edge_weight_sums(
+    template: np.ndarray,
+    image: np.ndarray,
+    wx_mask: np.ndarray,
+    wy_mask: np.ndarray,
+    eps: float = DEFAULT_EPS,
+    template_grad: np.ndarray | None = None,
+    threads: int | None = None,
+) -> np.ndarray:
+    """For every translation t of ``image``, the sum of the Kwatra weights between ``template`` and the candidate
+    ``image[t : t + template.shape[:2]]`` over the edges selected by ``wx_mask`` (edge (y,x)–(y,x+1)) and
+    ``wy_mask`` (edge (y,x)–(y+1,x)), as :func:`kwatra_weights` would give them (candidate gradients 0 past its
+    last row/column; ``template_grad`` ``(N, M, 2)`` optionally replaces the template's). Exact direct sums,
+    parallel; float64 ``(H − N + 1, W − M + 1)``. The 002 candidate heuristics rank matching patches by it.
+    """
+    t = as_image(template, "template")
+    return _core.edge_weight_sums(
+        t, as_image(image, "image"), _mask(wx_mask), _mask(wy_mask), float(eps), _grad(template_grad), threads
+    )
+
+
+def weighted_ssd_map(
+    image: np.ndarray,
+    image_grad: np.ndarray,
+    template: np.ndarray,
+    template_grad: np.ndarray,
+    mu: float = 10.0,
+    eps: float = 1e-6,
+    threads: int | None = None,
+) -> np.ndarray:
+    """000's eq. 2 over every fully-overlapping translation t, by direct summation (no FFT applies):
+    ``D(t) = Σ_p Σ_c (T(p,c) − I(p+t,c))² / (μ (g_T(p) + g_I(p+t)) + ε)``, with per-pixel gradient magnitudes
+    ``image_grad`` ``(H, W)`` and ``template_grad`` ``(N, M)``. float64 ``(H − N + 1, W − M + 1)``."""
+    return _core.weighted_ssd_map(
+        as_image(image, "image"), _grad(image_grad), as_image(template, "template"), _grad(template_grad),
+        float(mu), float(eps), threads,
+    )
+
+
 def tile_copy(atlas: np.ndarray, index_map: np.ndarray, out: np.ndarray, threads: int | None = None) -> np.ndarray:
     """Fill ``out`` ``(H, W, C)`` with tiles of ``atlas`` ``(K, th, tw, C)`` laid out by ``index_map``.
 
@@ -258,8 +302,10 @@ class PopulationEvaluator:
         lam: float = 0.8,
         normalise: bool = False,
         cache_bytes: int = 256 << 20,
+        features: bool = False,
     ) -> None:
-        self.exemplar = as_image(exemplar, "exemplar")
+        # features=True: any channel count and finite values (e.g. the eq. 3 augmented exemplar)
+        self.exemplar = as_features(exemplar, "exemplar") if features else as_image(exemplar, "exemplar")
         self.tile_patches = _int_array(tile_patches, "tile_patches", 2, "(m, 4)")
         tile_size = positive_int(tile_size, "tile_size")
         n_patches = positive_int(n_patches, "n_patches")
@@ -316,10 +362,12 @@ __all__ = [
     "PopulationEvaluator",
     "SsdIndex",
     "best_matches",
+    "edge_weight_sums",
     "evaluate_population",
     "grid_mincut",
     "kwatra_weights",
     "omega_cuts",
     "patch_ssd",
     "tile_copy",
+    "weighted_ssd_map",
 ]

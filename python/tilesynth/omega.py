@@ -52,6 +52,7 @@ from . import kernels
 from ._validate import as_image, positive_int, seed_int
 from .errors import ParameterError
 from .tilefile import TileSet, exemplar_digest
+from .matching import EQ2_EPS, MU, augmented, check_metric, check_strategy, gradient_norm, pick_distinct, strategy_edges
 from .tilesets import get_tileset
 
 LAMBDA = 0.8
@@ -165,6 +166,128 @@ def patch_gradients(exemplar: np.ndarray, source: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.stack([gx[r, c], gy[r, c]], axis=-1))
 
 
+def _distance_search(
+    ex: np.ndarray, inter: np.ndarray, inter_src: np.ndarray, metric: str, threads: int | None
+) -> tuple[list[np.ndarray], Any, Any]:
+    """Per intermediate tile, its distance map over every translation (``metric``); a callable giving the
+    exact distance of tile u at offset (r, c); and for the SSD metrics a callable ``best(k, exclude)`` giving the
+    exact k best offsets and values of every tile (:meth:`SsdIndex.best_matches`), None for eq2 (whose maps are
+    exact direct sums already)."""
+    n = inter.shape[1]
+    if metric == "eq2":
+        g = gradient_norm(ex)
+        maps = [
+            kernels.weighted_ssd_map(ex, g, inter[u], np.ascontiguousarray(g[inter_src[u, ..., 0], inter_src[u, ..., 1]]),
+                                     MU, EQ2_EPS, threads=threads)
+            for u in range(inter.shape[0])
+        ]
+        return maps, lambda u, r, c: float(maps[u][r, c]), None
+    search = augmented(ex) if metric == "eq3" else ex
+    tpl = search[inter_src[..., 0], inter_src[..., 1]] if metric == "eq3" else inter
+    index = kernels.SsdIndex(search, threads, features=True)
+    maps = list(index.ssd(np.ascontiguousarray(tpl), threads=threads))
+
+    def exact(u: int, r: int, c: int) -> float:
+        d = tpl[u].astype(np.float64) - search[r : r + n, c : c + n].astype(np.float64)
+        return float((d * d).sum())
+
+    def best(k: int, exclude: int) -> tuple[np.ndarray, np.ndarray]:
+        return index.best_matches(np.ascontiguousarray(tpl), k=k, exclude_radius=exclude, threads=threads)
+
+    return maps, exact, best
+
+
+def _choose_matches(
+    ex: np.ndarray,
+    inter: np.ndarray,
+    inter_src: np.ndarray,
+    n: int,
+    n_variants: int,
+    exclude: int,
+    strategy: str,
+    match_k: int | None,
+    metric: str,
+    gradients: str,
+    keep_border: bool,
+    eps: float,
+    threads: int | None,
+    report: Progress,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Matching patches by ``strategy`` (see :mod:`tilesynth.matching`): offsets ``(U, v, 2)``, their distances
+    ``(U, v)`` and each tile's smallest distance ``(U,)`` (for E)."""
+    U = inter.shape[0]
+    maps, exact, best = _distance_search(ex, inter, inter_src, metric, threads)
+    cols = maps[0].shape[1]
+    total = maps[0].size
+    if total < n_variants:
+        raise ParameterError(
+            f"tile_size = {n}: the exemplar has too few translations for {n_variants} matching patches per "
+            "intermediate tile; use a smaller tile size or a larger exemplar"
+        )
+    best_D = np.empty(U)
+    chosen = np.zeros((U, n_variants, 2), np.int64)
+    chosen_D = np.zeros((U, n_variants))
+    if strategy in ("circle", "midpoints"):
+        wxm, wym = strategy_edges(strategy, n, keep_border)
+    grads = patch_gradients(ex, inter_src) if gradients == "patch" else None
+    if best is not None:
+        # exact smallest distances (and, for "ssd", the exact k best far enough apart)
+        b_off, b_val = best(n_variants if strategy == "ssd" else 1, exclude if strategy == "ssd" else 0)
+        best_D[:] = b_val[:, 0]
+    else:
+        best_D[:] = [float(m.min()) for m in maps]
+    for u in range(U):
+        dist_order = np.argsort(maps[u], axis=None, kind="stable")
+        if strategy == "ssd":
+            if best is not None:
+                if b_off.shape[1] < n_variants:
+                    raise ParameterError(
+                        f"tile_size = {n}: the exemplar has too few distinct translations for {n_variants} "
+                        "matching patches per intermediate tile; use a smaller tile size or a larger exemplar"
+                    )
+                order = b_off[u, :, 0] * cols + b_off[u, :, 1]
+            else:
+                order = dist_order
+        elif strategy in ("circle", "midpoints"):
+            score = kernels.edge_weight_sums(
+                inter[u], ex, wxm, wym, eps=eps, template_grad=None if grads is None else grads[u], threads=threads
+            )
+            order = np.argsort(score, axis=None, kind="stable")
+        else:  # best-cut: the real cut for the k nearest candidates (per variant, away from earlier picks)
+            kk = total if match_k is None or match_k < 0 else min(match_k, total)
+            order_list: list[int] = []
+            for _v in range(n_variants):
+                far = [f for f in dist_order.tolist()
+                       if all(max(abs(f // cols - p // cols), abs(f % cols - p % cols)) > exclude
+                              for p in order_list)] if order_list else dist_order.tolist()
+                cand = np.asarray(far[:kk], dtype=np.int64)
+                if cand.size == 0:
+                    break
+                costs = np.empty(cand.size)
+                for s0 in range(0, cand.size, 256):
+                    chunk = cand[s0 : s0 + 256]
+                    O = np.stack([ex[r : r + n, c : c + n] for r, c in (divmod(int(f), cols) for f in chunk)])
+                    I = np.repeat(inter[u][None], len(chunk), axis=0)
+                    g = None if grads is None else np.repeat(grads[u][None], len(chunk), axis=0)
+                    _, cc = kernels.omega_cuts(I, O, eps=eps, threads=threads, intermediate_grad=g,
+                                               keep_border=keep_border)
+                    costs[s0 : s0 + len(chunk)] = cc
+                order_list.append(int(cand[int(np.argmin(costs))]))  # first of the cheapest (nearest first)
+            order = np.asarray(order_list, dtype=np.int64)
+        picks = pick_distinct(order, cols, n_variants, exclude)
+        if len(picks) < n_variants:
+            raise ParameterError(
+                f"tile_size = {n}: not enough candidates more than {exclude} pixels apart for {n_variants} "
+                f"matching patches (match = {strategy!r}, match_k = {match_k}); use a larger match_k or exemplar"
+            )
+        for v, f in enumerate(picks):
+            r, c = divmod(f, cols)
+            chosen[u, v] = (r, c)
+            chosen_D[u, v] = exact(u, r, c)
+        report("matching patches", u + 1, U)
+    return chosen, chosen_D, best_D
+
+
 def _select(
     ex: np.ndarray,
     n: int,
@@ -185,7 +308,7 @@ def _select(
 
     # E is over the intermediate tiles: one per distinct corner tuple (the 32-set's variants share theirs).
     uniq = np.unique(tile_patches, axis=0)
-    ev = kernels.PopulationEvaluator(ex, n, uniq, n_colours, lam=LAMBDA, normalise=bool(normalise))
+    ev = kernels.PopulationEvaluator(ex, n, uniq, n_colours, lam=LAMBDA, normalise=bool(normalise), features=True)
     res = select_genes(
         method, lambda g: ev.evaluate(g, threads), ex.shape, n_colours, n, rng, polish=polish,
         generations=generations, population=population, progress=report, **params,
@@ -219,6 +342,9 @@ def build_omega(
     population: int | None = None,
     normalise: bool = False,
     select_params: dict[str, Any] | None = None,
+    match: str = "ssd",
+    match_k: int | str | None = None,
+    metric: str = "color",
 ) -> TileSet:
     """Build a set of ω-tiles from ``exemplar``.
 
@@ -250,6 +376,17 @@ def build_omega(
     select_params : further method parameters (alpha, p_crossover, s_min, ...; see
         :func:`tilesynth.select.select_genes`).
 
+    match : how the matching patch O of each intermediate tile is chosen: "ssd" (smallest SSD, default),
+        "circle" / "midpoints" (002's heuristics: smallest Kwatra weight sum around the circle / near the side
+        midpoints), "best-cut" (the real min-cut for the ``match_k`` best candidates by distance, cheapest kept);
+        see :mod:`tilesynth.matching`.
+    match_k : candidates of "best-cut": a positive int (default 16) or "all" (every translation).
+    metric : distance for the matching search and for D_j / E: "color" (SSD), "eq3" (SSD plus μ·squared
+        gradient difference, 000 eq. 3) or "eq2" (gradient-weighted SSD, 000 eq. 2; not with ``select``).
+
+    D_j is the distance (``metric``) between intermediate tile j and its matching patch; E is computed from the
+    smallest distance of every intermediate tile over all translations, whatever ``match`` chose.
+
     With ``select``, the convergence history (best and mean E of every generation) is stored in
     ``params["selection"]["history"]``.
     """
@@ -262,10 +399,18 @@ def build_omega(
     colours = list(defn.colours)
     if gradients not in ("patch", "tile"):
         raise ParameterError(f"gradients = {gradients!r}: must be 'patch' or 'tile'")
+    strategy, match_k = check_strategy(match, match_k)
+    metric = check_metric(metric)
     report = progress or (lambda stage, done, total: None)
     index = {c: i for i, c in enumerate(colours)}
     tile_patches = np.array([[index[c] for c in t] for t in defn.tiles], dtype=np.int64)
     optimise = (select is not None and select != "random") or polish or normalise or bool(select_params)
+    if optimise and metric == "eq2":
+        raise ParameterError(
+            "metric = 'eq2' with select: eq. 2 has no FFT or quadrant structure (a direct sum over every "
+            "translation, ~50 M operations per 80x80 tile), too slow for a population search; select with "
+            "metric 'color' or 'eq3', or use eq2 only for the matching patches of given or random genes"
+        )
     if genes is not None and (select is not None or optimise):
         raise ParameterError("genes and select: give one (select chooses the genes)")
     if genes is None and not optimise:
@@ -274,8 +419,8 @@ def build_omega(
         sel = {"method": "random"} if selection is None else dict(selection)
     elif genes is None:
         genes_arr, sel = _select(
-            ex, n, tile_patches, len(colours), rng, select or "random", polish, generations, population,
-            normalise, dict(select_params or {}), threads, report,
+            augmented(ex) if metric == "eq3" else ex, n, tile_patches, len(colours), rng, select or "random",
+            polish, generations, population, normalise, dict(select_params or {}), threads, report,
         )
     else:
         genes_arr = check_genes(genes, len(colours), ex.shape, n)
@@ -298,20 +443,28 @@ def build_omega(
     report("intermediate tiles", 1, 1)
 
     report("matching patches", 0, 1)
-    offsets, ssd = kernels.best_matches(
-        ex, inter, k=n_variants, exclude_radius=n // 4 if n_variants > 1 else 0, threads=threads
-    )
-    if offsets.shape[1] < n_variants:
-        raise ParameterError(
-            f"tile_size = {n}: the exemplar has too few distinct translations for {n_variants} matching "
-            "patches per intermediate tile; use a smaller tile size or a larger exemplar"
+    exclude = n // 4 if n_variants > 1 else 0
+    if strategy == "ssd" and metric == "color":
+        # the plain path: exact best (and second-best, far enough) SSD translations
+        offsets, ssd = kernels.best_matches(ex, inter, k=n_variants, exclude_radius=exclude, threads=threads)
+        if offsets.shape[1] < n_variants:
+            raise ParameterError(
+                f"tile_size = {n}: the exemplar has too few distinct translations for {n_variants} matching "
+                "patches per intermediate tile; use a smaller tile size or a larger exemplar"
+            )
+        best_D = ssd[:, 0]
+        chosen, chosen_D = offsets, ssd
+    else:
+        chosen, chosen_D, best_D = _choose_matches(
+            ex, inter, inter_src, n, n_variants, exclude, strategy, match_k, metric, gradients, keep_border, eps,
+            threads, report,
         )
     t2 = time.perf_counter()
     report("matching patches", 1, 1)
 
     k = tile_patches.shape[0]
-    match_offsets = offsets[inverse, variants]
-    D = ssd[inverse, variants].astype(np.float64)
+    match_offsets = chosen[inverse, variants]
+    D = chosen_D[inverse, variants].astype(np.float64)
     I_tiles = inter[inverse]
     I_src = inter_src[inverse]
     O_tiles = np.stack([ex[r : r + n, c : c + n] for r, c in match_offsets])
@@ -328,7 +481,7 @@ def build_omega(
     tiles = np.where(masks[..., None], O_tiles, I_tiles).astype(np.float32)
     source = np.where(masks[..., None], O_src, I_src).astype(np.int32)
 
-    E = energy(ssd[:, 0])
+    E = energy(best_D)
     info = {"shape": list(ex.shape), "sha256": exemplar_digest(ex)}
     info.update(exemplar_info or {})
     from . import __version__
@@ -354,7 +507,10 @@ def build_omega(
             "keep_border": bool(keep_border),
             "lambda": LAMBDA,
             "second_match_exclude_radius": n // 4 if n_variants > 1 else None,
-            "match": "ssd",
+            "match": strategy,
+            "match_k": None if match_k is None else ("all" if match_k < 0 else match_k),
+            "metric": metric,
+            "mu": MU if metric != "color" else None,
             "seed": seed,
             "selection": sel,
         },

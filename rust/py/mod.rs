@@ -264,6 +264,53 @@ fn omega_cuts<'py>(
     Ok((masks.into_pyarray(py), costs.into_pyarray(py)))
 }
 
+/// 000's eq. 2 distance over every translation (direct sums).
+#[pyfunction]
+#[pyo3(signature = (image, image_grad, template, template_grad, mu, eps, threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn weighted_ssd_map<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArray3<'py, f32>,
+    image_grad: PyReadonlyArray2<'py, f64>,
+    template: PyReadonlyArray3<'py, f32>,
+    template_grad: PyReadonlyArray2<'py, f64>,
+    mu: f64,
+    eps: f64,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    contiguous("image", &image)?;
+    contiguous("template", &template)?;
+    let (i, t) = (image.as_array(), template.as_array());
+    let (ig, tg) = (image_grad.as_array(), template_grad.as_array());
+    let map = run(py, threads, || ssd::weighted_ssd_map(i, ig, t, tg, mu, eps))?;
+    Ok(map.into_pyarray(py))
+}
+
+/// Sums of Kwatra weights over selected edges between `template` and every translation of `image`.
+#[pyfunction]
+#[pyo3(signature = (template, image, wx_mask, wy_mask, eps=omega::DEFAULT_EPS, template_grad=None, threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn edge_weight_sums<'py>(
+    py: Python<'py>,
+    template: PyReadonlyArray3<'py, f32>,
+    image: PyReadonlyArray3<'py, f32>,
+    wx_mask: PyReadonlyArray2<'py, bool>,
+    wy_mask: PyReadonlyArray2<'py, bool>,
+    eps: f64,
+    template_grad: Option<PyReadonlyArray3<'py, f64>>,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    contiguous("template", &template)?;
+    contiguous("image", &image)?;
+    let (t, img) = (template.as_array(), image.as_array());
+    let (mx, my) = (wx_mask.as_array(), wy_mask.as_array());
+    let g = template_grad.as_ref().map(|g| g.as_array());
+    let map = run(py, threads, || {
+        omega::edge_weight_sums(t, g, img, mx, my, eps)
+    })?;
+    Ok(map.into_pyarray(py))
+}
+
 /// Writes tiles into `out` `(H, W, C)` by `index_map`; `atlas` `(K, th, tw, C)` and `out` share a dtype
 /// (uint8, uint16, float32 or int32).
 #[pyfunction]
@@ -334,5 +381,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tile_copy, m)?)?;
     m.add_function(wrap_pyfunction!(resolve_threads, m)?)?;
     m.add_function(wrap_pyfunction!(png_unfilter, m)?)?;
+    m.add_function(wrap_pyfunction!(edge_weight_sums, m)?)?;
+    m.add_function(wrap_pyfunction!(weighted_ssd_map, m)?)?;
     Ok(())
 }
