@@ -721,45 +721,59 @@ pub fn edge_weight_sums(
             ]
         })
         .collect();
-    // The selected edges as (local pixel s, local pixel t, axis).
+    // The selected edges, as indices into the list of the pixels they touch (each pixel's ‖I − O‖ and
+    // candidate gradients are computed once per translation, not once per edge end).
+    let mut slot = vec![usize::MAX; n * m];
+    let mut touched: Vec<usize> = Vec::new();
     let mut edges: Vec<(usize, usize, usize)> = Vec::new();
+    let mut index_of = |p: usize, touched: &mut Vec<usize>| -> usize {
+        if slot[p] == usize::MAX {
+            slot[p] = touched.len();
+            touched.push(p);
+        }
+        slot[p]
+    };
     for y in 0..n {
         for x in 0..m {
+            let p = y * m + x;
             if wx_mask[(y, x)] && x + 1 < m {
-                edges.push((y * m + x, y * m + x + 1, 0));
+                let (a, b) = (index_of(p, &mut touched), index_of(p + 1, &mut touched));
+                edges.push((a, b, 0));
             }
             if wy_mask[(y, x)] && y + 1 < n {
-                edges.push((y * m + x, (y + 1) * m + x, 1));
+                let (a, b) = (index_of(p, &mut touched), index_of(p + m, &mut touched));
+                edges.push((a, b, 1));
             }
         }
     }
+    // Per touched pixel: (local row, local col, its template gradients, whether it is on O's last column/row).
+    let info: Vec<(usize, usize, [f64; 2], [bool; 2])> = touched
+        .iter()
+        .map(|&p| (p / m, p % m, grad_i[p], [p % m + 1 == m, p / m + 1 == n]))
+        .collect();
     let (th, tw) = (h - n + 1, w - m + 1);
     let rows: Vec<Vec<f64>> = (0..th)
         .into_par_iter()
         .map(|ty| {
+            let mut diff = vec![0.0f64; touched.len()];
+            let mut go = vec![[0.0f64; 2]; touched.len()];
             (0..tw)
                 .map(|tx| {
-                    let at = |p: usize| (ty + p / m) * w + tx + p % m;
-                    // gradient of O at local pixel p along axis: 0 on O's last column / row
-                    let go = |p: usize, axis: usize| -> f64 {
-                        let last = if axis == 0 {
-                            p % m + 1 == m
-                        } else {
-                            p / m + 1 == n
-                        };
-                        if last {
-                            0.0
-                        } else {
-                            grad_x[at(p)][axis]
-                        }
-                    };
+                    for (k, &(y, x, _, last)) in info.iter().enumerate() {
+                        let g = (ty + y) * w + tx + x;
+                        let p = touched[k];
+                        diff[k] = d2(&iv[p * c..p * c + c], &xv[g * c..g * c + c]);
+                        let gx = grad_x[g];
+                        go[k] = [
+                            if last[0] { 0.0 } else { gx[0] },
+                            if last[1] { 0.0 } else { gx[1] },
+                        ];
+                    }
                     let mut sum = 0.0f64;
-                    for &(s, t, axis) in &edges {
-                        let (gs, gt) = (at(s), at(t));
-                        let num = d2(&iv[s * c..s * c + c], &xv[gs * c..gs * c + c])
-                            + d2(&iv[t * c..t * c + c], &xv[gt * c..gt * c + c]);
+                    for &(a, b, axis) in &edges {
+                        let num = diff[a] + diff[b];
                         let den =
-                            grad_i[s][axis] + grad_i[t][axis] + go(s, axis) + go(t, axis) + eps;
+                            info[a].2[axis] + info[b].2[axis] + go[a][axis] + go[b][axis] + eps;
                         sum += num / den;
                     }
                     sum
