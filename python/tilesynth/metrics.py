@@ -537,31 +537,47 @@ def image_metrics(
     and ``notes`` (why something was skipped). The seam score needs ``tile_size``, the coherence energy the
     ``exemplar``, the coverage the provenance ``source`` and the exemplar (its shape).
     """
+    return _measure(image, tile_size, exemplar, source, patch, stride, threads)[0]
+
+
+def _measure(
+    image: np.ndarray,
+    tile_size: int | None,
+    exemplar: np.ndarray | None,
+    source: np.ndarray | None,
+    patch: int,
+    stride: int,
+    threads: int | None,
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """:func:`image_metrics` and the metric objects themselves (for pictures: per-patch values, counts, r)."""
     img = as_image(image)
     notes: list[str] = []
+    objs: dict[str, Any] = {}
     out: dict[str, Any] = {"input": {"width": img.shape[1], "height": img.shape[0], "channels": img.shape[2]}}
-    t = time.perf_counter()
     if tile_size is None:
         out["seam"] = None
         notes.append("seam score skipped: it needs the tile grid (give the tile size)")
     else:
-        out["seam"] = seam_score(img, tile_size).to_dict()
-    out["seam_seconds"] = time.perf_counter() - t
+        objs["seam"] = seam_score(img, tile_size)
+        out["seam"] = objs["seam"].to_dict()
     if exemplar is None:
         out["coherence"] = None
         notes.append("coherence energy skipped: it needs the exemplar")
     else:
-        out["coherence"] = coherence_energy(img, exemplar, patch, stride, threads).to_dict()
+        objs["coherence"] = coherence_energy(img, exemplar, patch, stride, threads)
+        out["coherence"] = objs["coherence"].to_dict()
     if source is None or exemplar is None:
         out["coverage"] = None
         notes.append("coverage skipped: it needs the provenance of every pixel (a tile set) and the exemplar")
     else:
-        out["coverage"] = coverage(source, np.shape(exemplar)).to_dict()
+        objs["coverage"] = coverage(source, np.shape(exemplar))
+        out["coverage"] = objs["coverage"].to_dict()
     t = time.perf_counter()
-    out["repetition"] = repetition(img).to_dict()
+    objs["repetition"] = repetition(img)
+    out["repetition"] = objs["repetition"].to_dict()
     out["repetition"]["seconds"] = time.perf_counter() - t
     out["notes"] = notes
-    return out
+    return out, objs
 
 
 def tileset_metrics(
@@ -577,14 +593,29 @@ def tileset_metrics(
     """All metrics of a tile set: a ``width`` x ``height`` sample synthesized with ``seed`` (or ``index_map``)
     measured by :func:`image_metrics` with its tile size, exemplar and provenance, plus the ``objective``.
 
-    The dict also holds ``sample`` (size, seed, tiles used) and the sample itself is not kept; use
-    :func:`tilesynth.synthesize` with the same seed to see it.
+    The dict also holds ``sample`` (size, seed, tiles used) and ``tileset`` (what was measured); the sample
+    image is not kept: :func:`tilesynth.synthesize` with the same size and seed gives it back.
     """
+    return measure_tileset(tileset, width, height, seed, patch, stride, threads, index_map)[0]
+
+
+def measure_tileset(
+    tileset: Any,
+    width: int = DEFAULT_SAMPLE_SIZE[0],
+    height: int = DEFAULT_SAMPLE_SIZE[1],
+    seed: int = DEFAULT_SAMPLE_SEED,
+    patch: int = DEFAULT_PATCH,
+    stride: int = DEFAULT_STRIDE,
+    threads: int | None = None,
+    index_map: np.ndarray | None = None,
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """:func:`tileset_metrics` and what it measured: ``{"image", "index_map", "source"}`` plus the metric
+    objects (:class:`SeamScore`, :class:`Coherence`, :class:`Coverage`, :class:`Repetition`) by name."""
     from .synthesis import source_map, synthesize
 
     img, imap = synthesize(tileset, width, height, seed=seed, index_map=index_map, threads=threads)
     src = source_map(tileset, imap, width, height)
-    out = image_metrics(img, tileset.tile_size, tileset.exemplar, src, patch, stride, threads)
+    out, objs = _measure(img, tileset.tile_size, tileset.exemplar, src, patch, stride, threads)
     out["sample"] = {
         "width": int(width), "height": int(height), "seed": None if index_map is not None else int(seed),
         "tiles": [int(imap.shape[1]), int(imap.shape[0])], "distinct_tiles_used": int(np.unique(imap).size),
@@ -595,7 +626,8 @@ def tileset_metrics(
         "tile_size": tileset.tile_size, "exemplar": tileset.exemplar_info.get("file"),
         "exemplar_shape": list(tileset.exemplar.shape),
     }
-    return out
+    objs.update({"image": img, "index_map": imap, "source": src})
+    return out, objs
 
 
 def format_metrics(m: dict[str, Any]) -> str:
@@ -657,6 +689,7 @@ __all__ = [
     "coverage",
     "format_metrics",
     "image_metrics",
+    "measure_tileset",
     "objective",
     "repetition",
     "seam_profiles",
