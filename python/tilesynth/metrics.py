@@ -1,69 +1,75 @@
 """Quality metrics of synthesized textures and tile sets: the numbers to judge a result by.
 
-Every metric takes float32 ``(H, W, C)`` images in [0, 1] (anything :func:`tilesynth._validate.as_image` accepts)
-and returns a small frozen dataclass with a ``to_dict()`` (JSON-able, non-finite values become ``None``). Sums run
-over the C channels; "SSD" is Σ over pixels and channels of squared differences, as in the rest of tilesynth.
+Every metric takes float32 ``(H, W, C)`` images in [0, 1] (anything :func:`tilesynth._validate.as_image`
+accepts) and returns a small frozen dataclass with a ``to_dict()`` (JSON-able, non-finite values become
+``None``). Sums run over the C channels; "SSD" is Σ over pixels and channels of squared differences, as in the
+rest of tilesynth.
 
 **Border seam score** (:func:`seam_score`). For tiles of N x N pixels laid from the top-left corner (as
 :func:`tilesynth.synthesize` lays them), a horizontal neighbour pair (y, x)–(y, x+1) *crosses a border* when
 (x+1) is a multiple of N, otherwise it lies inside a tile; likewise vertically. With d²(p, q) = Σ_c (I_c(p) −
-I_c(q))², let B_x, B_y be the mean d² over the pairs crossing vertical / horizontal borders and I_x, I_y the mean
-over the pairs inside tiles along the same direction. The score is
+I_c(q))², let B_x, B_y be the mean d² over the pairs crossing vertical / horizontal borders and I_x, I_y the
+mean over the pairs inside tiles along the same direction. The score is
 
     S = (B_x + B_y) / (I_x + I_y),
 
-a direction is left out of both sums when the image has no border across it (an output one tile wide). S ≈ 1 means
-the tile borders look like any other pixel step of the texture (invisible); a visible seam gives S > 1. We pool
-the two directions with equal weight rather than pooling all pairs, so that an anisotropic texture (stronger
-steps along x than along y) in a non-square output, whose border pairs and interior pairs come in different
-x/y proportions, does not move S away from 1 by itself. The per-direction ratios B_x/I_x and B_y/I_y are reported
-too. Cost O(H·W·C). For ω-tiles the border pixels come from a few exemplar rows and columns only (the side
-midlines of the sample patches), so S of a valid ω tiling scatters around 1 (about 0.8-1.3 in our tests) with the
-content of those lines, while a random placement that ignores the corner colours gives S of 10 or more.
+a direction is left out of both sums when the image has no border across it (an output one tile wide). S ≈ 1
+means the tile borders look like any other pixel step of the texture (invisible); a visible seam gives S > 1.
+We pool the two directions with equal weight rather than pooling all pairs, so that an anisotropic texture
+(stronger steps along x than along y) in a non-square output, whose border pairs and interior pairs come in
+different x/y proportions, does not move S away from 1 by itself. The per-direction ratios B_x/I_x and B_y/I_y
+are reported too. Cost O(H·W·C). For ω-tiles the border pixels come from a few exemplar rows and columns only
+(the side midlines of the sample patches), so S of a valid ω tiling scatters around 1 (about 0.8-1.3 in our
+tests) with the content of those lines, while a random placement that ignores the corner colours gives S well
+above 1 (about 3 on the 128x128 gravel, 15 on the lettuce crop of the tests: the busier the texture, the smaller
+a seam is against its own steps).
 
 **Coherence energy** (:func:`coherence_energy`): Kwatra et al.'s texture energy, which 000 says its objective
-resembles. For every output patch P of p x p pixels at the positions (y, x) ∈ {0, s, 2s, ...} (the last
-H−p mod s rows / columns are not the top-left of any patch), e(P) = min over every fully-overlapping exemplar
-patch Q of SSD(P, Q); the energy is the mean of e over the patches (defaults p = 8, s = 4), and
-rms = √(energy / (p²·C)) is the same number as a root-mean-square pixel difference in [0, 1] units. The minimum is
-exact: a patch that is a bit-identical copy of some exemplar patch has e = 0 (found by a 64-bit hash of the
-patch's float bits with a random linear key, confirmed by comparing the pixels, so a hash collision can never
-produce a wrong 0); every other patch is searched exhaustively by :meth:`tilesynth.SsdIndex.best_matches` (FFT maps
-of the cached exemplar spectrum, candidates within the FFT error bound re-ranked by the direct float64 sum), in
-batches. Cost: O(H_e·W_e·p²·C) for the exemplar hash, and O(C·H_e·W_e·log(H_e·W_e)) per searched patch; an ω-tile
-output copies exemplar content everywhere but near its cutting curves, so only the patches that straddle a cut
-(typically 20-40%) are searched. About 0.4 ms per searched patch for a 128x128 exemplar and 3.6 ms for 378x378
-(2 cores): a 512x512 output (16,129 patches) costs about 2-3 s on a 128x128 exemplar.
+resembles. For every output patch P of p x p pixels at the positions (y, x) ∈ {0, s, 2s, ...} (the last H−p
+mod s rows / columns are not the top-left of any patch), e(P) = min over every fully-overlapping exemplar
+patch Q of SSD(P, Q); the energy is the mean of e over the patches (defaults p = 8, s = 4), and rms = √(energy
+/ (p²·C)) is the same number as a root-mean-square pixel difference in [0, 1] units. The minimum is exact: a
+patch that is a bit-identical copy of some exemplar patch has e = 0 (found by a 64-bit hash of the patch's
+float bits with a random linear key, confirmed by comparing the pixels, so a hash collision can never produce
+a wrong 0); every other patch is searched exhaustively by :meth:`tilesynth.SsdIndex.best_matches` (FFT maps of
+the cached exemplar spectrum, candidates within the FFT error bound re-ranked by the direct float64 sum), in
+batches. Cost: O(H_e·W_e·p²·C) for the exemplar hash, and O(C·H_e·W_e·log(H_e·W_e)) per searched patch; an
+ω-tile output copies exemplar content everywhere but near its cutting curves, so only the patches that
+straddle a cut (typically 15-40%) are searched. About 0.4 ms per searched patch for a 128x128 exemplar and
+4-8 ms for 378x378 (2 shared cores): a 512x512 output (16,129 patches) costs about 2-3 s on a 128x128
+exemplar, 15-20 s on the 378x378 lettuce.
 
 **Coverage** (:func:`coverage`), from a provenance map (the exemplar (row, col) of every output pixel, see
-:func:`tilesynth.source_map`): with n(q) the number of output pixels copied from exemplar pixel q, ``fraction`` is
-the share of exemplar pixels with n(q) > 0; ``evenness`` = H(n / Σn) / log(H_e·W_e), the Shannon entropy of the
-usage distribution over *all* exemplar pixels divided by its largest possible value (1 = every exemplar pixel used
-equally often, 0 = one pixel used for everything); ``cv`` = std(n) / mean(n) over all exemplar pixels (0 = even).
+:func:`tilesynth.source_map`): with n(q) the number of output pixels copied from exemplar pixel q,
+``fraction`` is the share of exemplar pixels with n(q) > 0; ``evenness`` = H(n / Σn) / log(H_e·W_e), the
+Shannon entropy of the usage distribution over *all* exemplar pixels divided by its largest possible value (1
+= every exemplar pixel used equally often, 0 = one pixel used for everything); ``cv`` = std(n) / mean(n) over
+all exemplar pixels (0 = even).
 
-**Repetition** (:func:`repetition`): the normalised autocorrelation of the output is, for an offset d = (dy, dx),
-the Pearson correlation between the image and itself shifted by d over their overlap, pooled over channels:
+**Repetition** (:func:`repetition`): the normalised autocorrelation of the output is, for an offset d = (dy,
+dx), the Pearson correlation between the image and itself shifted by d over their overlap, pooled over
+channels:
 
     r(d) = Σ_c cov_c(d) / √(Σ_c var_c^A(d) · Σ_c var_c^B(d)),
 
-with A the pixels p whose partner p + d is inside the image and B = A + d, each channel centred by its mean over
-A (resp. B). r(0) = 1 and |r| ≤ 1; an image periodic with period d has r(d) = 1. Offsets are limited to |dy| ≤
-H/2, |dx| ≤ W/2 (at least a quarter of the image overlaps). The reported *peak* is the largest r over the offsets
-d ≠ 0 that are local maxima of r (≥ their 8 neighbours), so the central lobe around d = 0 — high for any smooth
-texture — is never reported; its offset is given with dy > 0 or dy = 0, dx > 0 (r(d) = r(−d)); among peaks
-within 1e-9 of each other the shortest offset wins. A seamless but repetitive tiling shows a peak at a multiple
-of the tile size. Cost: FFTs of size (H + H/2) x (W + W/2) per channel plus O(1) per offset from summed-area
-tables.
+with A the pixels p whose partner p + d is inside the image and B = A + d, each channel centred by its mean
+over A (resp. B). r(0) = 1 and |r| ≤ 1; an image periodic with period d has r(d) = 1. Offsets are limited to
+|dy| ≤ H/2, |dx| ≤ W/2 (at least a quarter of the image overlaps). The reported *peak* is the largest r over
+the offsets d ≠ 0 that are local maxima of r (≥ their 8 neighbours), so the central lobe around d = 0 — high
+for any smooth texture — is never reported; its offset is given with dy > 0 or dy = 0, dx > 0 (r(d) = r(−d));
+among peaks within 1e-9 of each other the shortest offset wins. A seamless but repetitive tiling shows a peak
+at a multiple of the tile size. Cost: FFTs of size (H + H/2) x (W + W/2) per channel plus O(1) per offset from
+summed-area tables.
 
-**Objective** (:func:`objective`): of a tile set, E = λ·ΣD_j + (1−λ)·Var(D_j) over its intermediate tiles
-(λ = 0.8, the stored ``TileSet.E``), f = 1/E, the same with 003's normalisation (D_j divided by the N·N pixels of
-the tile: ``E_normalised``, ``f_normalised``, the affinity 003's Table 2 reports), the spread of D_j (min, max,
-mean, std, max/min) and the cut costs (min, max, mean, sum).
+**Objective** (:func:`objective`): of a tile set, E = λ·ΣD_j + (1−λ)·Var(D_j) over its intermediate tiles (λ =
+0.8, the stored ``TileSet.E``), f = 1/E, the same with 003's normalisation (D_j divided by the N·N pixels of
+the tile: ``E_normalised``, ``f_normalised``, the affinity 003's Table 2 reports), the spread of D_j (min,
+max, mean, std, max/min) and the cut costs (min, max, mean, sum).
 
-:func:`tileset_metrics` and :func:`image_metrics` compute everything that can be computed for a tile set (after
-synthesizing a sample, default 512x512 with seed 1) or for a plain image (seam score only with a tile size,
-coherence only with an exemplar, coverage only with a provenance map, objective never); what was skipped and why
-is listed in ``notes``. ``tilesynth metrics`` is the command line of these two.
+:func:`tileset_metrics` and :func:`image_metrics` compute everything that can be computed for a tile set
+(after synthesizing a sample, default 512x512 with seed 1) or for a plain image (seam score only with a tile
+size, coherence only with an exemplar, coverage only with a provenance map, objective never); what was skipped
+and why is listed in ``notes``. ``tilesynth metrics`` is the command line of these two.
 """
 
 from __future__ import annotations
