@@ -196,6 +196,7 @@ def table2(found: list, seeds: list[int], threads: int, log: Callable[[str], Non
         paper = [p_rand, p_semi] + [v for v, _ in p_ais]
         ours = [mean[c] for c in cols[:-1]]
         data[tex.file] = {"paper_name": tex.paper, "shape": list(ex.shape), "tile": n, "f": f, "seconds": secs,
+                          "variance": float(ex.astype(np.float64).var(axis=(0, 1)).sum()),
                           "generations": gens, "mean_f": mean, "paper_f": paper,
                           "paper_s": [t for _, t in p_ais]}
         label = f"{tex.paper} ({tex.file}, {ex.shape[1]}x{ex.shape[0]}, N={n})"
@@ -230,6 +231,15 @@ def ordering_text(data: dict[str, Any], cols: list[str]) -> str:
         rank_p = [names[i] for i in np.argsort(paper)[::-1]]
         lines.append(f"- {c}: textures by f, ours {' > '.join(rank_o)}; 003 {' > '.join(rank_p)} "
                      f"(Spearman {spearman(ours, paper):+.2f})")
+    # what our texture ordering is: random f is nearly 1 / (the exemplar's variance), texture by texture
+    var = [v["variance"] for v in data.values()]
+    f_r = [v["mean_f"]["random"] for v in data.values()]
+    p_r = [v["paper_f"][0] for v in data.values()]
+    fv = [a * b for a, b in zip(f_r, var)]
+    lines += ["", f"- Exemplar variance V (per pixel, summed over RGB): our random f·V = {min(fv):.4f}-{max(fv):.4f} "
+              f"over the textures, so our texture order is that of 1/V (Spearman of our random f with 1/V "
+              f"{spearman(f_r, [1 / x for x in var]):+.2f}); 003's random f against 1/V: "
+              f"{spearman(p_r, [1 / x for x in var]):+.2f}."]
     lines.append("")
     for v in data.values():
         ours = [v["mean_f"][c] for c in cols[:-1]]

@@ -299,13 +299,13 @@ def coherence_energy(
         return ex[r[:, None, None] + ii, q[:, None, None] + jj]
 
     # exact copies: confirm the first key match by the pixels; on a (never seen) collision try the others
-    hit = np.nonzero(hi > lo)[0]
-    if hit.size:
+    hits = np.nonzero(hi > lo)[0]
+    for b0 in range(0, hits.size, 4096):  # in chunks: bounded memory for large outputs
+        hit = hits[b0 : b0 + 4096]
         cand = order[lo[hit]]
         same = (out_patches(hit) == ex_patches(cand)).all(axis=(1, 2, 3))
-        for q, k in zip(hit[same], cand[same]):
-            values[q] = 0.0
-            offsets[q] = divmod(int(k), rx)
+        values[hit[same]] = 0.0
+        offsets[hit[same]] = np.stack(np.divmod(cand[same], rx), axis=1)
         for q in hit[~same]:
             for k in order[lo[q] + 1 : hi[q]]:
                 if np.array_equal(out_patches(np.array([q]))[0], ex_patches(np.array([k]))[0]):
