@@ -318,7 +318,7 @@ th { background: #f0f0f0; text-align: left; } td.num { text-align: right; font-f
 figure { display: inline-block; margin: 8px 16px 8px 0; vertical-align: top; }
 figcaption { font-size: 0.9em; color: #444; max-width: 600px; }
 img { image-rendering: pixelated; border: 1px solid #999; }
-.note { color: #844; }
+.note { color: #844; } td.sub { padding-left: 24px; }
 """
 
 
@@ -353,7 +353,9 @@ def _page(tileset: Any, m: dict[str, Any], files: dict[str, str], tileset_name: 
         rows.insert(3, ("  reference: random placement", _fmt(reference, ".4f"),
                         "S of the same tiles on the same grid placed at random (seed 0), ignoring corner colours"))
     for name, value, meaning in rows:
-        parts.append(f"<tr><td>{esc(name)}</td><td class=num>{esc(value)}</td><td>{esc(meaning)}</td></tr>")
+        cls = ' class="sub"' if name.startswith("  ") else ""
+        parts.append(f"<tr><td{cls}>{esc(name.strip())}</td><td class=num>{esc(value)}</td><td>{esc(meaning)}</td>"
+                     "</tr>")
     parts.append("</table>")
     parts.append('<p>All numbers as JSON: <a href="metrics.json">metrics.json</a>.</p>')
     parts.append("<h2>Tiles</h2>")
