@@ -499,7 +499,9 @@ def objective(tileset: Any) -> dict[str, Any]:
     from .omega import LAMBDA, energy
 
     lam = float(tileset.params.get("lambda", LAMBDA))
-    variants = np.asarray(tileset.definition.variants)
+    variants = getattr(tileset.definition, "variants", None)
+    if variants is None:  # a set without variants: every tile has its own D_j
+        variants = [0] * tileset.n_tiles
     per_tuple: dict[tuple[int, ...], float] = {}
     for k in range(tileset.n_tiles):
         if variants[k] == 0:
