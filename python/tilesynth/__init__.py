@@ -36,8 +36,10 @@ from .kernels import (
     patch_ssd,
     tile_copy,
 )
+from .metrics import coherence_energy, image_metrics, seam_score, tileset_metrics
 from .omega import build_omega, energy
 from .render import contact_sheet
+from .report import write_report
 from .synthesis import source_map, synthesize, synthesize_map
 from .tilefile import TileSet
 from .tilesets import TILESET_NAMES, get_tileset
@@ -58,11 +60,13 @@ __all__ = [
     "__version__",
     "best_matches",
     "build_omega",
+    "coherence_energy",
     "contact_sheet",
     "energy",
     "evaluate_population",
     "get_tileset",
     "grid_mincut",
+    "image_metrics",
     "kwatra_weights",
     "load",
     "load_image",
@@ -71,9 +75,12 @@ __all__ = [
     "patch_ssd",
     "save_image",
     "scanline_index_map",
+    "seam_score",
     "source_map",
     "synthesize",
     "synthesize_map",
     "tile_copy",
+    "tileset_metrics",
     "validate_index_map",
+    "write_report",
 ]

@@ -160,7 +160,90 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=_nonneg, default=1, help="seed (default 1)")
     d.add_argument("--threads", type=_pos, default=None, help="worker threads")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    _add_metrics_parsers(sub)
     return p
+
+
+def _add_metrics_parsers(sub) -> None:  # noqa: ANN001
+    """``metrics`` and ``report`` (issue 6; implemented in :mod:`tilesynth.metrics` / :mod:`tilesynth.report`)."""
+    from .metrics import DEFAULT_PATCH, DEFAULT_SAMPLE_SEED, DEFAULT_SAMPLE_SIZE, DEFAULT_STRIDE
+
+    size = "x".join(map(str, DEFAULT_SAMPLE_SIZE))
+    m = sub.add_parser("metrics", help="quality metrics of a tile set (on a synthesized sample) or of an image")
+    m.add_argument("input", metavar="OUTPUT_OR_TILESET", help="a tile set (.tiles) or an image (an output)")
+    m.add_argument("--json", action="store_true", help="machine-readable output")
+    m.add_argument("--size", type=_size, default=None,
+                   help=f"tile set: size of the sample to synthesize and measure (default {size})")
+    m.add_argument("--seed", type=_nonneg, default=None,
+                   help=f"tile set: tiling seed of the sample (default {DEFAULT_SAMPLE_SEED})")
+    m.add_argument("--tile-size", type=_pos, default=None,
+                   help="image: tile size of the grid the image was laid on (the seam score needs it)")
+    m.add_argument("--exemplar", default=None, help="image: the exemplar (the coherence energy needs it)")
+    m.add_argument("--patch", type=_pos, default=DEFAULT_PATCH, help=f"coherence patch size (default {DEFAULT_PATCH})")
+    m.add_argument("--stride", type=_pos, default=DEFAULT_STRIDE,
+                   help=f"coherence patch stride (default {DEFAULT_STRIDE})")
+    m.add_argument("--threads", type=_pos, default=None, help="worker threads")
+
+    r = sub.add_parser("report", help="write a visual report (PNG figures and one offline HTML page) of a tile set")
+    r.add_argument("tileset", help="tile-set file (.tiles)")
+    r.add_argument("-o", "--output-dir", required=True, help="directory for the report (created if missing)")
+    r.add_argument("--size", type=_size, default=DEFAULT_SAMPLE_SIZE,
+                   help=f"size of the synthesized sample (default {size})")
+    r.add_argument("--seed", type=_nonneg, default=DEFAULT_SAMPLE_SEED,
+                   help=f"tiling seed of the sample (default {DEFAULT_SAMPLE_SEED})")
+    r.add_argument("--no-borders", action="store_true", help="do not write the sample with the tile borders outlined")
+    r.add_argument("--threads", type=_pos, default=None, help="worker threads")
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+
+
+def _metrics(args: argparse.Namespace) -> None:
+    import zipfile
+
+    from . import metrics
+    from .io import load_image
+    from .tilefile import TileSet
+
+    path = args.input
+    if not os.path.isfile(path):
+        raise ParameterError(f"input = {path!r}: no such file")
+    if zipfile.is_zipfile(path):
+        if args.tile_size is not None or args.exemplar is not None:
+            raise ParameterError("--tile-size and --exemplar are for images; a tile set has both")
+        ts = TileSet.load(path)
+        w, h = args.size or metrics.DEFAULT_SAMPLE_SIZE
+        seed = metrics.DEFAULT_SAMPLE_SEED if args.seed is None else args.seed
+        result = metrics.tileset_metrics(ts, w, h, seed, args.patch, args.stride, args.threads)
+        result["input"]["path"] = path
+    else:
+        if args.size is not None or args.seed is not None:
+            raise ParameterError("--size and --seed are for tile sets (the sample to synthesize)")
+        image, _ = load_image(path)
+        exemplar = None
+        if args.exemplar is not None:
+            try:
+                exemplar = load_image(args.exemplar)[0]
+            except ParameterError as exc:
+                raise ParameterError(f"--exemplar: {exc}") from None
+        result = metrics.image_metrics(image, args.tile_size, exemplar, None, args.patch, args.stride, args.threads)
+        result["input"]["path"] = path
+    if args.json:
+        print(json.dumps(result, indent=1, sort_keys=True, allow_nan=False))
+    else:
+        print(metrics.format_metrics(result))
+
+
+def _report(args: argparse.Namespace) -> None:
+    from .progress import Progress
+    from .report import write_report
+    from .tilefile import TileSet
+
+    prog = Progress(args.quiet)
+    ts = TileSet.load(args.tileset)
+    prog("report", 0, 1)
+    res = write_report(ts, args.output_dir, args.size[0], args.size[1], args.seed, not args.no_borders,
+                       args.threads, name=os.path.basename(args.tileset))
+    prog("report", 1, 1)
+    prog.message(f"wrote {res['files']['page']} ({len(res['files'])} files)")
 
 
 # ------------------------------------------------------------------------------------------------ commands
@@ -403,6 +486,10 @@ def main(argv: list[str] | None = None) -> int:
             _write_sheet(TileSet.load(args.tileset), args.output, not args.no_cuts)
         elif args.command == "demo":
             _demo(args.output_dir, args.set, args.size, args.seed, args.threads, args.quiet)
+        elif args.command == "metrics":
+            _metrics(args)
+        elif args.command == "report":
+            _report(args)
         return EXIT_OK
     except UsageError as exc:
         print(f"{exc} (see 'tilesynth --help')", file=sys.stderr)

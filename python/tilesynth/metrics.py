@@ -1,0 +1,706 @@
+"""Quality metrics of synthesized textures and tile sets: the numbers to judge a result by.
+
+Every metric takes float32 ``(H, W, C)`` images in [0, 1] (anything :func:`tilesynth._validate.as_image`
+accepts) and returns a small frozen dataclass with a ``to_dict()`` (JSON-able, non-finite values become
+``None``). Sums run over the C channels; "SSD" is Σ over pixels and channels of squared differences, as in the
+rest of tilesynth.
+
+**Border seam score** (:func:`seam_score`). For tiles of N x N pixels laid from the top-left corner (as
+:func:`tilesynth.synthesize` lays them), a horizontal neighbour pair (y, x)–(y, x+1) *crosses a border* when
+(x+1) is a multiple of N, otherwise it lies inside a tile; likewise vertically. With d²(p, q) = Σ_c (I_c(p) −
+I_c(q))², let B_x, B_y be the mean d² over the pairs crossing vertical / horizontal borders and I_x, I_y the
+mean over the pairs inside tiles along the same direction. The score is
+
+    S = (B_x + B_y) / (I_x + I_y),
+
+a direction is left out of both sums when the image has no border across it (an output one tile wide). S ≈ 1
+means the tile borders look like any other pixel step of the texture (invisible); a visible seam gives S > 1.
+We pool the two directions with equal weight rather than pooling all pairs, so that an anisotropic texture
+(stronger steps along x than along y) in a non-square output, whose border pairs and interior pairs come in
+different x/y proportions, does not move S away from 1 by itself. The per-direction ratios B_x/I_x and B_y/I_y
+are reported too. Cost O(H·W·C). For ω-tiles the border pixels come from a few exemplar rows and columns only
+(the side midlines of the sample patches), so S of a valid ω tiling scatters around 1 (about 0.8-1.3 in our
+tests) with the content of those lines, while a random placement that ignores the corner colours gives S well
+above 1 (about 3 on the 128x128 gravel, 15 on the lettuce crop of the tests: the busier the texture, the smaller
+a seam is against its own steps).
+
+**Coherence energy** (:func:`coherence_energy`): Kwatra et al.'s texture energy, which 000 says its objective
+resembles. For every output patch P of p x p pixels at the positions (y, x) ∈ {0, s, 2s, ...} (the last H−p
+mod s rows / columns are not the top-left of any patch), e(P) = min over every fully-overlapping exemplar
+patch Q of SSD(P, Q); the energy is the mean of e over the patches (defaults p = 8, s = 4), and rms = √(energy
+/ (p²·C)) is the same number as a root-mean-square pixel difference in [0, 1] units. The minimum is exact: a
+patch that is a bit-identical copy of some exemplar patch has e = 0 (found by a 64-bit hash of the patch's
+float bits with a random linear key, confirmed by comparing the pixels, so a hash collision can never produce
+a wrong 0); every other patch is searched exhaustively by :meth:`tilesynth.SsdIndex.best_matches` (FFT maps of
+the cached exemplar spectrum, candidates within the FFT error bound re-ranked by the direct float64 sum), in
+batches. Cost: O(H_e·W_e·p²·C) for the exemplar hash, and O(C·H_e·W_e·log(H_e·W_e)) per searched patch; an
+ω-tile output copies exemplar content everywhere but near its cutting curves, so only the patches that
+straddle a cut (typically 15-40%) are searched. About 0.4 ms per searched patch for a 128x128 exemplar and
+4-8 ms for 378x378 (2 shared cores): a 512x512 output (16,129 patches) costs about 2-3 s on a 128x128
+exemplar, 15-20 s on the 378x378 lettuce.
+
+**Coverage** (:func:`coverage`), from a provenance map (the exemplar (row, col) of every output pixel, see
+:func:`tilesynth.source_map`): with n(q) the number of output pixels copied from exemplar pixel q,
+``fraction`` is the share of exemplar pixels with n(q) > 0; ``evenness`` = H(n / Σn) / log(H_e·W_e), the
+Shannon entropy of the usage distribution over *all* exemplar pixels divided by its largest possible value (1
+= every exemplar pixel used equally often, 0 = one pixel used for everything); ``cv`` = std(n) / mean(n) over
+all exemplar pixels (0 = even).
+
+**Repetition** (:func:`repetition`): the normalised autocorrelation of the output is, for an offset d = (dy,
+dx), the Pearson correlation between the image and itself shifted by d over their overlap, pooled over
+channels:
+
+    r(d) = Σ_c cov_c(d) / √(Σ_c var_c^A(d) · Σ_c var_c^B(d)),
+
+with A the pixels p whose partner p + d is inside the image and B = A + d, each channel centred by its mean
+over A (resp. B). r(0) = 1 and |r| ≤ 1; an image periodic with period d has r(d) = 1. Offsets are limited to
+|dy| ≤ H/2, |dx| ≤ W/2 (at least a quarter of the image overlaps). The reported *peak* is the largest r over
+the offsets d ≠ 0 that are local maxima of r (≥ their 8 neighbours), so the central lobe around d = 0 — high
+for any smooth texture — is never reported; its offset is given with dy > 0 or dy = 0, dx > 0 (r(d) = r(−d));
+among peaks within 1e-9 of each other the shortest offset wins. A seamless but repetitive tiling shows a peak
+at a multiple of the tile size. Cost: FFTs of size (H + H/2) x (W + W/2) per channel plus O(1) per offset from
+summed-area tables.
+
+**Objective** (:func:`objective`): of a tile set, E = λ·ΣD_j + (1−λ)·Var(D_j) over its intermediate tiles (λ =
+0.8, the stored ``TileSet.E``), f = 1/E, the same with 003's normalisation (D_j divided by the N·N pixels of
+the tile: ``E_normalised``, ``f_normalised``, the affinity 003's Table 2 reports), the spread of D_j (min,
+max, mean, std, max/min) and the cut costs (min, max, mean, sum).
+
+:func:`tileset_metrics` and :func:`image_metrics` compute everything that can be computed for a tile set
+(after synthesizing a sample, default 512x512 with seed 1) or for a plain image (seam score only with a tile
+size, coherence only with an exemplar, coverage only with a provenance map, objective never); what was skipped
+and why is listed in ``notes``. ``tilesynth metrics`` is the command line of these two.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ._validate import as_image, positive_int
+from .errors import ParameterError, ShapeError
+
+DEFAULT_PATCH = 8
+"""Side p of the coherence patches."""
+DEFAULT_STRIDE = 4
+"""Stride s between coherence patches."""
+DEFAULT_SAMPLE_SIZE = (512, 512)
+"""(width, height) of the sample :func:`tileset_metrics` synthesizes."""
+DEFAULT_SAMPLE_SEED = 1
+"""Tiling seed of that sample."""
+COHERENCE_BATCH = 64
+"""Templates per :meth:`SsdIndex.best_matches` call (bounds the memory of the SSD maps)."""
+
+_HASH_SEED = 0x5EED_C0DE
+
+
+def _finite(v: Any) -> Any:
+    """JSON-able copy: numpy scalars to Python, non-finite floats to None, arrays dropped by the callers."""
+    if isinstance(v, dict):
+        return {k: _finite(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_finite(x) for x in v]
+    if isinstance(v, (np.integer,)):
+        return int(v)
+    if isinstance(v, (float, np.floating)):
+        f = float(v)
+        return f if math.isfinite(f) else None
+    return v
+
+
+def _ratio(num: float, den: float) -> float:
+    if den > 0:
+        return num / den
+    return math.inf if num > 0 else math.nan
+
+
+# ---------------------------------------------------------------------------------------------- seam score
+def _pair_differences(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """d² of every horizontal pair ``(H, W-1)`` and every vertical pair ``(H-1, W)``, float64."""
+    x = image.astype(np.float64)
+    dx2 = ((x[:, 1:] - x[:, :-1]) ** 2).sum(axis=2)
+    dy2 = ((x[1:] - x[:-1]) ** 2).sum(axis=2)
+    return dx2, dy2
+
+
+def _border_pairs(length: int, tile: int) -> np.ndarray:
+    """bool ``(length-1,)``: pair (i, i+1) crosses a tile border."""
+    return (np.arange(1, length) % tile) == 0
+
+
+@dataclass(frozen=True)
+class SeamScore:
+    """Border seam score S (see the module docstring) and its parts.
+
+    ``ratio_x`` = B_x / I_x is for the vertical borders (pairs of horizontal neighbours), ``ratio_y`` for the
+    horizontal ones; a direction without border is ``None`` (its parts too).
+    """
+
+    score: float
+    ratio_x: float | None
+    ratio_y: float | None
+    border_x: float | None
+    border_y: float | None
+    interior_x: float | None
+    interior_y: float | None
+    border_pairs: int
+    interior_pairs: int
+    tile_size: int
+
+    def to_dict(self) -> dict[str, Any]:
+        return _finite(asdict(self))
+
+
+def seam_score(image: np.ndarray, tile_size: int) -> SeamScore:
+    """Border seam score of ``image`` tiled with ``tile_size`` x ``tile_size`` tiles from its top-left corner.
+
+    Raises ShapeError when the image holds no tile border (at most one tile in each direction).
+    """
+    img = as_image(image)
+    n = positive_int(tile_size, "tile_size", minimum=2)
+    h, w = img.shape[:2]
+    if h <= n and w <= n:
+        raise ShapeError(f"tile_size = {n}: the {w}x{h} image holds no tile border (one tile or less)")
+    dx2, dy2 = _pair_differences(img)
+    bx_mask, by_mask = _border_pairs(w, n), _border_pairs(h, n)
+    parts: dict[str, float | None] = {}
+    num = den = 0.0
+    nb = ni = 0
+    for axis, d2, mask in (("x", dx2, bx_mask), ("y", dy2.T, by_mask)):
+        # d2 is (lines, pairs); mask selects the border pairs along the last axis
+        if not mask.any():
+            parts.update({f"border_{axis}": None, f"interior_{axis}": None, f"ratio_{axis}": None})
+            continue
+        b = float(d2[:, mask].mean())
+        inner = d2[:, ~mask]
+        i = float(inner.mean()) if inner.size else math.nan
+        parts.update({f"border_{axis}": b, f"interior_{axis}": i, f"ratio_{axis}": _ratio(b, i)})
+        num += b
+        den += i if inner.size else 0.0
+        nb += int(d2[:, mask].size)
+        ni += int(inner.size)
+    return SeamScore(score=_ratio(num, den), border_pairs=nb, interior_pairs=ni, tile_size=n, **parts)
+
+
+def seam_profiles(image: np.ndarray, tile_size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per-pixel border terms, for pictures: d² across each border divided by the interior mean of its direction.
+
+    Returns ``vertical`` float64 ``(H, n_v)`` (column k: the pairs across the border between pixel columns
+    (k+1)·N − 1 and (k+1)·N) and ``horizontal`` ``(n_h, W)``; their means are ``ratio_x`` and ``ratio_y`` of
+    :func:`seam_score`.
+    """
+    img = as_image(image)
+    n = positive_int(tile_size, "tile_size", minimum=2)
+    s = seam_score(img, n)
+    dx2, dy2 = _pair_differences(img)
+    bx, by = _border_pairs(img.shape[1], n), _border_pairs(img.shape[0], n)
+    v = dx2[:, bx] / s.interior_x if s.interior_x else np.zeros((img.shape[0], int(bx.sum())))
+    hz = dy2[by] / s.interior_y if s.interior_y else np.zeros((int(by.sum()), img.shape[1]))
+    return v, hz
+
+
+# ----------------------------------------------------------------------------------------- coherence energy
+@dataclass(frozen=True)
+class Coherence:
+    """Coherence energy (see the module docstring) with the per-patch minima and where they are.
+
+    ``values`` float64 ``(rows, cols)``: e of the patch at (i·stride, j·stride); ``offsets`` int64
+    ``(rows, cols, 2)``: top-left (row, col) of an exemplar patch reaching it (for ties, the smallest (row, col)
+    among exact copies, otherwise the one :meth:`SsdIndex.best_matches` ranks first). ``exact_copies`` patches
+    were bit-identical copies (e = 0), ``searched`` were matched exhaustively.
+    """
+
+    energy: float
+    rms: float
+    max: float
+    patch: int
+    stride: int
+    n_patches: int
+    exact_copies: int
+    searched: int
+    seconds: float
+    values: np.ndarray = field(repr=False)
+    offsets: np.ndarray = field(repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {k: getattr(self, k) for k in ("energy", "rms", "max", "patch", "stride", "n_patches",
+                                           "exact_copies", "searched", "seconds")}
+        return _finite(d)
+
+
+def _patch_keys(bits: np.ndarray, p: int, rows: int, cols: int, step: int, weights: np.ndarray) -> np.ndarray:
+    """Σ_{i,j,c} w[i,j,c]·bits[y+i, x+j, c] mod 2^64 at y = 0, step, ..., x likewise: uint64 ``(rows, cols)``."""
+    key = np.zeros((rows, cols), np.uint64)
+    ylen, xlen = step * (rows - 1) + 1, step * (cols - 1) + 1
+    for i in range(p):
+        for j in range(p):
+            for c in range(bits.shape[2]):
+                key += bits[i : i + ylen : step, j : j + xlen : step, c] * weights[i, j, c]
+    return key
+
+
+def _float_bits(img: np.ndarray) -> np.ndarray:
+    # + 0.0 turns −0.0 into +0.0, so equal values have equal bits (images hold no NaN: as_image refuses them)
+    return np.ascontiguousarray(img + np.float32(0.0)).view(np.uint32).astype(np.uint64)
+
+
+def coherence_energy(
+    image: np.ndarray,
+    exemplar: np.ndarray,
+    patch: int = DEFAULT_PATCH,
+    stride: int = DEFAULT_STRIDE,
+    threads: int | None = None,
+    index: Any = None,
+) -> Coherence:
+    """Exact coherence energy of ``image`` against ``exemplar`` (see the module docstring).
+
+    ``index``: optionally a prebuilt :class:`tilesynth.SsdIndex` of ``exemplar`` (reused across calls).
+    """
+    from .kernels import SsdIndex
+
+    t0 = time.perf_counter()
+    img = as_image(image)
+    ex = as_image(exemplar, "exemplar")
+    p = positive_int(patch, "patch")
+    s = positive_int(stride, "stride")
+    if img.shape[2] != ex.shape[2]:
+        raise ShapeError(f"exemplar has {ex.shape[2]} channel(s), the image {img.shape[2]}")
+    for name, a in (("image", img), ("exemplar", ex)):
+        if p > a.shape[0] or p > a.shape[1]:
+            raise ParameterError(f"patch = {p}: larger than the {a.shape[1]}x{a.shape[0]} {name}")
+    h, w, c = img.shape
+    rows, cols = (h - p) // s + 1, (w - p) // s + 1
+    ry, rx = ex.shape[0] - p + 1, ex.shape[1] - p + 1
+
+    weights = np.random.default_rng(_HASH_SEED).integers(0, 2**63, size=(p, p, c), dtype=np.uint64) * 2 + 1
+    ex_keys = _patch_keys(_float_bits(ex), p, ry, rx, 1, weights).ravel()
+    out_keys = _patch_keys(_float_bits(img), p, rows, cols, s, weights).ravel()
+    order = np.argsort(ex_keys, kind="stable")  # equal keys stay in increasing (row, col) order
+    sorted_keys = ex_keys[order]
+    lo = np.searchsorted(sorted_keys, out_keys, side="left")
+    hi = np.searchsorted(sorted_keys, out_keys, side="right")
+
+    m = rows * cols
+    values = np.full(m, np.nan)
+    offsets = np.zeros((m, 2), np.int64)
+    py, px = np.divmod(np.arange(m), cols)
+    py, px = py * s, px * s
+    ii, jj = np.mgrid[0:p, 0:p]
+
+    def out_patches(idx: np.ndarray) -> np.ndarray:
+        return img[py[idx, None, None] + ii, px[idx, None, None] + jj]
+
+    def ex_patches(flat: np.ndarray) -> np.ndarray:
+        r, q = np.divmod(flat, rx)
+        return ex[r[:, None, None] + ii, q[:, None, None] + jj]
+
+    # exact copies: confirm the first key match by the pixels; on a (never seen) collision try the others
+    hits = np.nonzero(hi > lo)[0]
+    for b0 in range(0, hits.size, 4096):  # in chunks: bounded memory for large outputs
+        hit = hits[b0 : b0 + 4096]
+        cand = order[lo[hit]]
+        same = (out_patches(hit) == ex_patches(cand)).all(axis=(1, 2, 3))
+        values[hit[same]] = 0.0
+        offsets[hit[same]] = np.stack(np.divmod(cand[same], rx), axis=1)
+        for q in hit[~same]:
+            for k in order[lo[q] + 1 : hi[q]]:
+                if np.array_equal(out_patches(np.array([q]))[0], ex_patches(np.array([k]))[0]):
+                    values[q] = 0.0
+                    offsets[q] = divmod(int(k), rx)
+                    break
+    todo = np.nonzero(np.isnan(values))[0]
+    if todo.size:
+        idx = index if index is not None else SsdIndex(ex, threads)
+        for b in range(0, todo.size, COHERENCE_BATCH):
+            sel = todo[b : b + COHERENCE_BATCH]
+            off, val = idx.best_matches(np.ascontiguousarray(out_patches(sel)), k=1, threads=threads)
+            values[sel] = np.maximum(val[:, 0], 0.0)
+            offsets[sel] = off[:, 0]
+    energy = float(values.mean())
+    return Coherence(
+        energy=energy,
+        rms=math.sqrt(energy / (p * p * c)),
+        max=float(values.max()),
+        patch=p,
+        stride=s,
+        n_patches=m,
+        exact_copies=int(m - todo.size),
+        searched=int(todo.size),
+        seconds=time.perf_counter() - t0,
+        values=values.reshape(rows, cols),
+        offsets=offsets.reshape(rows, cols, 2),
+    )
+
+
+# ------------------------------------------------------------------------------------------------- coverage
+@dataclass(frozen=True)
+class Coverage:
+    """Exemplar coverage of one output (see the module docstring); ``counts`` int64 ``(H_e, W_e)`` = n(q)."""
+
+    fraction: float
+    evenness: float
+    cv: float
+    used: int
+    pixels: int
+    output_pixels: int
+    counts: np.ndarray = field(repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        return _finite({k: getattr(self, k) for k in ("fraction", "evenness", "cv", "used", "pixels",
+                                                       "output_pixels")})
+
+
+def coverage(source: np.ndarray, exemplar_shape: tuple[int, ...]) -> Coverage:
+    """Coverage of an exemplar of ``exemplar_shape`` by an output whose provenance is ``source`` ``(H, W, 2)``."""
+    src = np.asarray(source)
+    if src.ndim != 3 or src.shape[2] != 2 or not np.issubdtype(src.dtype, np.integer):
+        raise ShapeError(f"source has shape {src.shape} and dtype {src.dtype}, expected integer (H, W, 2)")
+    he, we = int(exemplar_shape[0]), int(exemplar_shape[1])
+    r, c = src[..., 0].ravel().astype(np.int64), src[..., 1].ravel().astype(np.int64)
+    if r.size == 0:
+        raise ShapeError("source is empty")
+    if r.min() < 0 or c.min() < 0 or r.max() >= he or c.max() >= we:
+        raise ParameterError(
+            f"source: positions in rows [{r.min()}, {r.max()}], cols [{c.min()}, {c.max()}] outside the "
+            f"{we}x{he} exemplar"
+        )
+    counts = np.bincount(r * we + c, minlength=he * we).astype(np.int64)
+    total = counts.sum()
+    pr = counts[counts > 0] / total
+    entropy = float(-(pr * np.log(pr)).sum())
+    evenness = entropy / math.log(he * we) if he * we > 1 else 1.0
+    return Coverage(
+        fraction=float((counts > 0).mean()),
+        evenness=evenness,
+        cv=float(counts.std() / counts.mean()),
+        used=int((counts > 0).sum()),
+        pixels=he * we,
+        output_pixels=int(total),
+        counts=counts.reshape(he, we),
+    )
+
+
+# ----------------------------------------------------------------------------------------------- repetition
+@dataclass(frozen=True)
+class Repetition:
+    """Strongest secondary peak of the normalised autocorrelation (see the module docstring).
+
+    ``peak`` / ``offset`` are None when r has no local maximum besides d = 0. ``correlation`` float64
+    ``(2·Hm+1, 2·Wm+1)`` holds r(dy, dx) at index (dy + Hm, dx + Wm), Hm = H // 2, Wm = W // 2 (NaN where the
+    overlap has no variance).
+    """
+
+    peak: float | None
+    offset: tuple[int, int] | None
+    max_offset: tuple[int, int]
+    correlation: np.ndarray = field(repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        return _finite({"peak": self.peak, "offset": None if self.offset is None else list(self.offset),
+                        "max_offset": list(self.max_offset)})
+
+
+def _fft_size(n: int) -> int:
+    """Smallest 2^a·3^b·5^c >= n (fast FFT lengths)."""
+    best = 1 << max(0, (n - 1).bit_length())
+    f5 = 1
+    while f5 < best:
+        f3 = f5
+        while f3 < best:
+            v = f3
+            while v < n:
+                v *= 2
+            best = min(best, v)
+            f3 *= 3
+        f5 *= 5
+    return best
+
+
+def _box_sums(sat: np.ndarray, r0: np.ndarray, r1: np.ndarray, c0: np.ndarray, c1: np.ndarray) -> np.ndarray:
+    """Sums over rows [r0, r1) x cols [c0, c1) from a summed-area table ``(H+1, W+1, C)``; broadcast."""
+    return sat[r1, c1] - sat[r0, c1] - sat[r1, c0] + sat[r0, c0]
+
+
+def autocorrelation(image: np.ndarray, max_dy: int, max_dx: int) -> np.ndarray:
+    """r(dy, dx) of the module docstring for |dy| <= max_dy, |dx| <= max_dx: ``(2·max_dy+1, 2·max_dx+1)``."""
+    x = as_image(image).astype(np.float64)
+    h, w, _ = x.shape
+    if not (0 <= max_dy < h and 0 <= max_dx < w):
+        raise ParameterError(f"max offset ({max_dy}, {max_dx}): must be below the image size ({h}, {w})")
+    x -= x.mean(axis=(0, 1))  # conditioning only: r does not depend on a constant per channel
+    fh, fw = _fft_size(h + max_dy), _fft_size(w + max_dx)
+    spec = np.fft.rfft2(x, s=(fh, fw), axes=(0, 1))
+    auto = np.fft.irfft2((spec * spec.conj()).real.sum(axis=2), s=(fh, fw))  # Σ_c Σ_p x_c(p) x_c(p + d)
+    dy = np.arange(-max_dy, max_dy + 1)[:, None]
+    dx = np.arange(-max_dx, max_dx + 1)[None, :]
+    cross = auto[dy % fh, dx % fw]
+    sat1 = np.zeros((h + 1, w + 1, x.shape[2]))
+    sat1[1:, 1:] = x.cumsum(0).cumsum(1)
+    sat2 = np.zeros_like(sat1)
+    sat2[1:, 1:] = (x * x).cumsum(0).cumsum(1)
+    # A: pixels p with p + d inside; B = A + d
+    ar0, ar1 = np.maximum(0, -dy), h - np.maximum(0, dy)
+    ac0, ac1 = np.maximum(0, -dx), w - np.maximum(0, dx)
+    br0, br1, bc0, bc1 = ar0 + dy, ar1 + dy, ac0 + dx, ac1 + dx
+    n = ((ar1 - ar0) * (ac1 - ac0)).astype(np.float64)[..., None]
+    ma = _box_sums(sat1, ar0, ar1, ac0, ac1) / n
+    mb = _box_sums(sat1, br0, br1, bc0, bc1) / n
+    va = (_box_sums(sat2, ar0, ar1, ac0, ac1) / n - ma * ma).sum(axis=2)
+    vb = (_box_sums(sat2, br0, br1, bc0, bc1) / n - mb * mb).sum(axis=2)
+    cov = cross / n[..., 0] - (ma * mb).sum(axis=2)
+    den = np.sqrt(np.maximum(va, 0.0) * np.maximum(vb, 0.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = np.where(den > 1e-12 * max(float((x * x).sum(axis=2).mean()), 1e-300), cov / den, np.nan)
+    return np.clip(r, -1.0, 1.0)
+
+
+def repetition(image: np.ndarray) -> Repetition:
+    """Strongest non-zero peak of the normalised autocorrelation of ``image`` (at least 4x4 pixels)."""
+    img = as_image(image)
+    h, w = img.shape[:2]
+    if h < 4 or w < 4:
+        raise ShapeError(f"image is {w}x{h}: repetition needs at least 4x4 pixels")
+    hm, wm = h // 2, w // 2
+    r = autocorrelation(img, hm + 1, wm + 1)  # one ring more, so every candidate has its 8 neighbours
+    core = r[1:-1, 1:-1]
+    filled = np.where(np.isnan(r), -np.inf, r)
+    is_max = np.isfinite(core)
+    for ddy in (-1, 0, 1):
+        for ddx in (-1, 0, 1):
+            if ddy or ddx:
+                is_max &= core >= filled[1 + ddy : r.shape[0] - 1 + ddy, 1 + ddx : r.shape[1] - 1 + ddx]
+    is_max[hm, wm] = False
+    if not is_max.any():
+        return Repetition(peak=None, offset=None, max_offset=(hm, wm), correlation=core)
+    ys, xs = np.nonzero(is_max)
+    vals = core[ys, xs]
+    dys, dxs = ys - hm, xs - wm
+    # strongest first; ties (within 1e-9, FFT rounding): the shortest offset, then the smallest (dy, dx)
+    tied = vals >= vals.max() - 1e-9
+    ys, xs, vals, dys, dxs = ys[tied], xs[tied], vals[tied], dys[tied], dxs[tied]
+    best = np.lexsort((dxs, dys, dys * dys + dxs * dxs))[0]
+    oy, ox = int(dys[best]), int(dxs[best])
+    if oy < 0 or (oy == 0 and ox < 0):
+        oy, ox = -oy, -ox
+    return Repetition(peak=float(vals[best]), offset=(oy, ox), max_offset=(hm, wm), correlation=core)
+
+
+# ------------------------------------------------------------------------------------------------ objective
+def objective(tileset: Any) -> dict[str, Any]:
+    """E, f = 1/E (plain and with 003's normalisation), the spread of D_j and the cut costs of a tile set.
+
+    E is over the intermediate tiles, i.e. the D_j of the variant-0 tile of every distinct corner tuple (a
+    tile set's variants share their intermediate tile); it equals the stored ``tileset.E``.
+    """
+    from .omega import LAMBDA, energy
+
+    lam = float(tileset.params.get("lambda", LAMBDA))
+    variants = getattr(tileset.definition, "variants", None)
+    if variants is None:  # a set without variants: every tile has its own D_j
+        variants = [0] * tileset.n_tiles
+    per_tuple: dict[tuple[int, ...], float] = {}
+    for k in range(tileset.n_tiles):
+        if variants[k] == 0:
+            per_tuple.setdefault(tuple(int(v) for v in tileset.tile_patches[k]), float(tileset.D[k]))
+    d = np.array(list(per_tuple.values()), dtype=np.float64)
+    n2 = float(tileset.tile_size) ** 2
+    e = energy(d, lam)
+    en = energy(d / n2, lam)
+    costs = np.asarray(tileset.cut_costs, dtype=np.float64)
+    return _finite({
+        "E": e,
+        "f": _ratio(1.0, e),
+        "E_stored": float(tileset.E),
+        "E_normalised": en,
+        "f_normalised": _ratio(1.0, en),
+        "lambda": lam,
+        "intermediate_tiles": int(d.size),
+        "D": {
+            "min": float(d.min()), "max": float(d.max()), "mean": float(d.mean()), "std": float(d.std()),
+            "max_over_min": _ratio(float(d.max()), float(d.min())),
+        },
+        "cut_costs": {"min": float(costs.min()), "max": float(costs.max()), "mean": float(costs.mean()),
+                      "sum": float(costs.sum())},
+        "selection": tileset.params.get("selection", {}).get("method"),
+    })
+
+
+# ---------------------------------------------------------------------------------------------- everything
+def image_metrics(
+    image: np.ndarray,
+    tile_size: int | None = None,
+    exemplar: np.ndarray | None = None,
+    source: np.ndarray | None = None,
+    patch: int = DEFAULT_PATCH,
+    stride: int = DEFAULT_STRIDE,
+    threads: int | None = None,
+) -> dict[str, Any]:
+    """Every metric that the given facts allow, as a JSON-able dict.
+
+    Keys ``input``, ``seam``, ``coherence``, ``coverage``, ``repetition`` (a dict each, or None when skipped)
+    and ``notes`` (why something was skipped). The seam score needs ``tile_size``, the coherence energy the
+    ``exemplar``, the coverage the provenance ``source`` and the exemplar (its shape).
+    """
+    return _measure(image, tile_size, exemplar, source, patch, stride, threads)[0]
+
+
+def _measure(
+    image: np.ndarray,
+    tile_size: int | None,
+    exemplar: np.ndarray | None,
+    source: np.ndarray | None,
+    patch: int,
+    stride: int,
+    threads: int | None,
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """:func:`image_metrics` and the metric objects themselves (for pictures: per-patch values, counts, r)."""
+    img = as_image(image)
+    notes: list[str] = []
+    objs: dict[str, Any] = {}
+    out: dict[str, Any] = {"input": {"width": img.shape[1], "height": img.shape[0], "channels": img.shape[2]}}
+    if tile_size is None:
+        out["seam"] = None
+        notes.append("seam score skipped: it needs the tile grid (give the tile size)")
+    else:
+        objs["seam"] = seam_score(img, tile_size)
+        out["seam"] = objs["seam"].to_dict()
+    if exemplar is None:
+        out["coherence"] = None
+        notes.append("coherence energy skipped: it needs the exemplar")
+    else:
+        objs["coherence"] = coherence_energy(img, exemplar, patch, stride, threads)
+        out["coherence"] = objs["coherence"].to_dict()
+    if source is None or exemplar is None:
+        out["coverage"] = None
+        notes.append("coverage skipped: it needs the provenance of every pixel (a tile set) and the exemplar")
+    else:
+        objs["coverage"] = coverage(source, np.shape(exemplar))
+        out["coverage"] = objs["coverage"].to_dict()
+    t = time.perf_counter()
+    objs["repetition"] = repetition(img)
+    out["repetition"] = objs["repetition"].to_dict()
+    out["repetition"]["seconds"] = time.perf_counter() - t
+    out["notes"] = notes
+    return out, objs
+
+
+def tileset_metrics(
+    tileset: Any,
+    width: int = DEFAULT_SAMPLE_SIZE[0],
+    height: int = DEFAULT_SAMPLE_SIZE[1],
+    seed: int = DEFAULT_SAMPLE_SEED,
+    patch: int = DEFAULT_PATCH,
+    stride: int = DEFAULT_STRIDE,
+    threads: int | None = None,
+    index_map: np.ndarray | None = None,
+) -> dict[str, Any]:
+    """All metrics of a tile set: a ``width`` x ``height`` sample synthesized with ``seed`` (or ``index_map``)
+    measured by :func:`image_metrics` with its tile size, exemplar and provenance, plus the ``objective``.
+
+    The dict also holds ``sample`` (size, seed, tiles used) and ``tileset`` (what was measured); the sample
+    image is not kept: :func:`tilesynth.synthesize` with the same size and seed gives it back.
+    """
+    return measure_tileset(tileset, width, height, seed, patch, stride, threads, index_map)[0]
+
+
+def measure_tileset(
+    tileset: Any,
+    width: int = DEFAULT_SAMPLE_SIZE[0],
+    height: int = DEFAULT_SAMPLE_SIZE[1],
+    seed: int = DEFAULT_SAMPLE_SEED,
+    patch: int = DEFAULT_PATCH,
+    stride: int = DEFAULT_STRIDE,
+    threads: int | None = None,
+    index_map: np.ndarray | None = None,
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """:func:`tileset_metrics` and what it measured: ``{"image", "index_map", "source"}`` plus the metric
+    objects (:class:`SeamScore`, :class:`Coherence`, :class:`Coverage`, :class:`Repetition`) by name."""
+    from .synthesis import source_map, synthesize
+
+    img, imap = synthesize(tileset, width, height, seed=seed, index_map=index_map, threads=threads)
+    src = source_map(tileset, imap, width, height)
+    out, objs = _measure(img, tileset.tile_size, tileset.exemplar, src, patch, stride, threads)
+    out["sample"] = {
+        "width": int(width), "height": int(height), "seed": None if index_map is not None else int(seed),
+        "tiles": [int(imap.shape[1]), int(imap.shape[0])], "distinct_tiles_used": int(np.unique(imap).size),
+    }
+    out["objective"] = objective(tileset)
+    out["tileset"] = {
+        "scheme": tileset.scheme, "set": tileset.params.get("set"), "n_tiles": tileset.n_tiles,
+        "tile_size": tileset.tile_size, "exemplar": tileset.exemplar_info.get("file"),
+        "exemplar_shape": list(tileset.exemplar.shape),
+    }
+    objs.update({"image": img, "index_map": imap, "source": src})
+    return out, objs
+
+
+def format_metrics(m: dict[str, Any]) -> str:
+    """Human-readable lines of a dict from :func:`image_metrics` / :func:`tileset_metrics`."""
+
+    def num(v: Any, fmt: str = ".4g") -> str:
+        return "n/a" if v is None else format(v, fmt)
+
+    lines = []
+    inp = m["input"]
+    if "tileset" in m:
+        t, s = m["tileset"], m["sample"]
+        how = f"seed {s['seed']}" if s["seed"] is not None else "given map"
+        lines.append(f"tile set      {t['scheme']} {t['set']}, {t['n_tiles']} tiles of {t['tile_size']}x"
+                     f"{t['tile_size']}, exemplar {t['exemplar'] or '?'}")
+        lines.append(f"sample        {s['width']}x{s['height']}, {how}, {s['tiles'][0]}x{s['tiles'][1]} tiles, "
+                     f"{s['distinct_tiles_used']} distinct")
+    else:
+        lines.append(f"image         {inp['width']}x{inp['height']}, {inp['channels']} channel(s)")
+    sm = m.get("seam")
+    if sm:
+        lines.append(f"seam score    {num(sm['score'], '.4f')}  (border / interior mean squared step; x "
+                     f"{num(sm['ratio_x'], '.4f')}, y {num(sm['ratio_y'], '.4f')}; tile {sm['tile_size']})")
+    co = m.get("coherence")
+    if co:
+        lines.append(f"coherence     {num(co['energy'], '.5g')}  (mean min SSD of {co['patch']}x{co['patch']} "
+                     f"patches, stride {co['stride']}; rms {num(co['rms'], '.4f')}; {co['n_patches']} patches, "
+                     f"{co['exact_copies']} exact copies, {co['searched']} searched, {co['seconds']:.2f} s)")
+    cv = m.get("coverage")
+    if cv:
+        lines.append(f"coverage      {num(cv['fraction'], '.4f')} of exemplar pixels used  (evenness "
+                     f"{num(cv['evenness'], '.4f')}, cv {num(cv['cv'], '.3f')})")
+    rp = m.get("repetition")
+    if rp:
+        where = "none" if rp["offset"] is None else f"at (dy, dx) = ({rp['offset'][0]}, {rp['offset'][1]})"
+        lines.append(f"repetition    {num(rp['peak'], '.4f')}  (strongest non-zero autocorrelation peak, {where})")
+    ob = m.get("objective")
+    if ob:
+        d, c = ob["D"], ob["cut_costs"]
+        lines.append(f"objective     E {num(ob['E'], '.6g')}, f = 1/E {num(ob['f'], '.4g')}; normalised (003) E "
+                     f"{num(ob['E_normalised'], '.4g')}, f {num(ob['f_normalised'], '.4f')}  "
+                     f"({ob['intermediate_tiles']} intermediate tiles, selection {ob['selection']})")
+        lines.append(f"D_j           min {num(d['min'])}, max {num(d['max'])}, mean {num(d['mean'])}, std "
+                     f"{num(d['std'])}, max/min {num(d['max_over_min'], '.3g')}")
+        lines.append(f"cut costs     min {num(c['min'])}, max {num(c['max'])}, mean {num(c['mean'])}, "
+                     f"sum {num(c['sum'])}")
+    for note in m.get("notes", []):
+        lines.append(f"note          {note}")
+    return "\n".join(lines)
+
+
+__all__ = [
+    "Coherence",
+    "Coverage",
+    "Repetition",
+    "SeamScore",
+    "autocorrelation",
+    "coherence_energy",
+    "coverage",
+    "format_metrics",
+    "image_metrics",
+    "measure_tileset",
+    "objective",
+    "repetition",
+    "seam_profiles",
+    "seam_score",
+    "tileset_metrics",
+]
