@@ -79,7 +79,8 @@ def _method(text: str) -> str:
 
 
 SET_HELP = ("tile-set definition: 4, 8, 16a, 16b, 32 (002), B (the basic 8-set of the extendable rule), n1 (17 tiles), "
-            "n2 (38 tiles) or nK for any K >= 1 (default 16a)")
+            "n2 (38 tiles) or nK for any K >= 1; append x2, x3 or x4 (e.g. 16bx2, n2x2) for 2-4 omega-tiles per "
+            "intermediate tile, i.e. at least that many choices at every tiling step (default 16a)")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -48,6 +48,7 @@ __all__ = [
     "CornerTileSet",
     "DeadEnd",
     "get_tileset",
+    "with_variants",
     "BASIC_SET_NAME",
     "EXTENDABLE_TILESET_NAMES",
     "BasicSetCandidate",
@@ -960,7 +961,11 @@ def get_tileset(name: str) -> CornerTileSet:
         ``"n<K>"`` for any ``K >= 1`` without leading zeros (the extended set ``NK``,
         see :func:`extendable_tileset`: ``"n1"`` has 17 tiles, ``"n2"`` 38).
         :data:`TILESET_NAMES` lists the first five, :data:`EXTENDABLE_TILESET_NAMES`
-        ``"B"`` and ``"n1"`` .. ``"n4"``.
+        ``"B"`` and ``"n1"`` .. ``"n4"``. Any of these followed by ``"x2"``, ``"x3"`` or
+        ``"x4"`` (e.g. ``"16bx2"``, ``"n2x2"``) is that set with every tile repeated as
+        variants 0 .. K−1: the ω construction gives variant v the (v+1)-th best matching
+        patch, so every tiling step has at least K choices (002 §4.1–4.2 for any set;
+        ``"32"`` is ``"16ax2"``), see :func:`with_variants`.
 
     Returns
     -------
@@ -973,6 +978,9 @@ def get_tileset(name: str) -> CornerTileSet:
         If ``name`` is not a known set; the message lists the valid names.
     """
     key = str(name)
+    times = _VARIANTS_PATTERN.fullmatch(key)
+    if times is not None and times.group(1) not in ("", "32"):
+        return with_variants(get_tileset(times.group(1)), int(times.group(2)))
     if key in _FACTORIES:
         return _FACTORIES[key]()
     if key == BASIC_SET_NAME:
@@ -982,7 +990,30 @@ def get_tileset(name: str) -> CornerTileSet:
         return extendable_tileset(int(match.group(1)))
     raise ValueError(
         f"unknown tile set {name!r}; valid names are: "
-        f"{', '.join(TILESET_NAMES + EXTENDABLE_TILESET_NAMES)} (and n<K> for any K >= 1)"
+        f"{', '.join(TILESET_NAMES + EXTENDABLE_TILESET_NAMES)} (and n<K> for any K >= 1; any of them "
+        "with x2, x3 or x4 appended for 2-4 variants of every tile)"
+    )
+
+
+_VARIANTS_PATTERN = re.compile(r"(.*)x([234])")
+
+
+@functools.lru_cache(maxsize=None)
+def with_variants(base: CornerTileSet, k: int) -> CornerTileSet:
+    """``base`` with every tile repeated ``k`` times as variants 0 .. k−1 (tiles ``v·m + j``, m = len(base)).
+
+    The variants share their corner tuple, so the tiling rule is that of ``base`` and every step that had c
+    candidates has k·c; the ω construction makes variant v of a tuple from its (v+1)-th best matching patch
+    (each more than N/4 pixels from the others), so the variants are different tiles with the same corners.
+    """
+    if base.variants and any(v != 0 for v in base.variants):
+        raise ValueError(f"tile set {base.name!r} already has variants")
+    m = len(base)
+    return CornerTileSet(
+        name=f"{base.name}x{k}",
+        colours=base.colours,
+        tiles=tuple(base.tiles) * k,
+        variants=tuple(v for v in range(k) for _ in range(m)),
     )
 
 
