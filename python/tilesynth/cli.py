@@ -402,7 +402,12 @@ def _info(ts_path: str, as_json: bool) -> None:
         f"exemplar      {ex.get('file', '?')} {ex['shape'][1]}x{ex['shape'][0]}, {ex.get('bits', '?')}-bit",
         *_selection_lines(sel, ts.timing.get("selection_s")),
         f"seed          {p.get('seed')}",
-        f"E             {ts.E:.6g}  (λ={p.get('lambda')}: λ·ΣD + (1−λ)·Var D over the intermediate tiles)",
+        f"matching      {p.get('match', 'ssd')}"
+        + (f" (k = {p['match_k']})" if p.get("match_k") is not None else "")
+        + f", distance {p.get('metric', 'color')}"
+        + ("" if p.get("keep_border", False) else ", literal border (002's cut may reach the tile border)"),
+        f"E             {ts.E:.6g}  (λ={p.get('lambda')}: λ·ΣD + (1−λ)·Var D over the intermediate tiles"
+        + (f", D in {p.get('metric')}" if p.get("metric", "color") != "color" else "") + ")",
         f"build time    {ts.timing.get('total_s', float('nan')):.3f} s"
         + "".join(f", {k[:-2]} {v:.3f}" for k, v in ts.timing.items() if k != "total_s"),
         f"version       tilesynth {ts.version}, content sha256 {data['content_sha256'][:16]}",
