@@ -11,6 +11,8 @@
 //! - [`synth`]: copying tiles into a large output by an index map.
 //! - [`population`]: the ω-tile objective `E` for whole populations of gene vectors (exact, cached
 //!   per-patch SSD maps).
+//! - [`wang`]: Wang tiles: Cohen's diamond samples joined by minimum-error cuts (DP or graph cut) with the
+//!   improved match and objective of 001 for whole populations, and the closed cut of strict Wang tiles (004).
 //! - [`parallel`]: local thread pools (`threads` argument, `TILESYNTH_NUM_THREADS`).
 //!
 //! Conventions: images are C-contiguous `f32` `(H, W, C)` in [0, 1]; masks are `bool`; energies and
@@ -25,6 +27,7 @@ pub mod parallel;
 pub mod population;
 pub mod ssd;
 pub mod synth;
+pub mod wang;
 
 #[cfg(feature = "python")]
 mod py;
