@@ -556,6 +556,7 @@ def build_swang(
         raise ParameterError(f"gradients = {gradients!r}: must be 'patch' or 'tile'")
     k = len(defn)
     given_supp: np.ndarray | None = None
+    method = supplementary if isinstance(supplementary, str) else "given"
     if isinstance(supplementary, str):
         if supplementary not in SUPPLEMENTARY_METHODS:
             raise ParameterError(f"supplementary = {supplementary!r}: must be 'ssd', 'cut' or a (K, 2) array")
@@ -596,7 +597,7 @@ def build_swang(
     report("supplementary patches", 0, 1)
     index = kernels.SsdIndex(ex, threads)
     if given_supp is None:
-        want = 1 if supplementary == "ssd" else candidates
+        want = 1 if method == "ssd" else candidates
         offsets, ssd = index.best_matches(I_tiles, k=want, exclude_radius=n // 4 if want > 1 else 0, threads=threads)
         if offsets.shape[1] < want:
             raise ParameterError(
@@ -661,8 +662,8 @@ def build_swang(
             "tile_size": n,
             "sample_size": n,
             "samples": "diamond",
-            "supplementary": supplementary if given_supp is None else "given",
-            "candidates": candidates if supplementary == "cut" else None,
+            "supplementary": method,
+            "candidates": candidates if method == "cut" else None,
             "eps": float(eps),
             "gradients": gradients,
             "lambda": LAMBDA,
