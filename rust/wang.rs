@@ -79,7 +79,8 @@ pub const SOUTH: usize = 2;
 pub const WEST: usize = 3;
 
 /// The four cuts of a tile, in this order: (A, B) roles of NE, ES, SW, WN.
-pub const CUT_ROLES: [(usize, usize); 4] = [(NORTH, EAST), (SOUTH, EAST), (SOUTH, WEST), (NORTH, WEST)];
+pub const CUT_ROLES: [(usize, usize); 4] =
+    [(NORTH, EAST), (SOUTH, EAST), (SOUTH, WEST), (NORTH, WEST)];
 
 /// Number of values per cut in [`WangTiles::stats`].
 pub const N_STATS: usize = 6;
@@ -293,7 +294,11 @@ impl Geometry {
                     ));
                 }
                 let w = (o / 2) as i64;
-                let margin = if params.corners == Corners::Free { w } else { 0 };
+                let margin = if params.corners == Corners::Free {
+                    w
+                } else {
+                    0
+                };
                 (margin, n + o as i64)
             }
         };
@@ -317,7 +322,7 @@ impl Geometry {
             let mut hi = None;
             let mut count = 0i64;
             let mut d = -(s - 1);
-            while d <= s - 1 {
+            while d < s {
                 if g.in_band(s, d) {
                     if lo.is_none() {
                         lo = Some(d);
@@ -1096,7 +1101,13 @@ mod tests {
         })
     }
 
-    fn params(n: usize, overlap: usize, corners: Corners, samples: Samples, cut: CutMethod) -> WangParams {
+    fn params(
+        n: usize,
+        overlap: usize,
+        corners: Corners,
+        samples: Samples,
+        cut: CutMethod,
+    ) -> WangParams {
         WangParams {
             tile_size: n,
             overlap,
@@ -1123,7 +1134,14 @@ mod tests {
 
     #[test]
     fn band_geometry() {
-        let g = Geometry::new(&params(16, 4, Corners::Pinned, Samples::Diamond, CutMethod::Dp)).unwrap();
+        let g = Geometry::new(&params(
+            16,
+            4,
+            Corners::Pinned,
+            Samples::Diamond,
+            CutMethod::Dp,
+        ))
+        .unwrap();
         assert_eq!(g.n_lines(), 15);
         assert_eq!(g.line(1), Some((0, 0)));
         assert_eq!(g.line(15), Some((0, 0)));
@@ -1132,18 +1150,60 @@ mod tests {
         assert_eq!(g.line(8), Some((-1, 1)));
         assert_eq!(g.line(7), Some((-2, 2)));
         assert_eq!(g.sample_size(), 16);
-        let f = Geometry::new(&params(16, 4, Corners::Free, Samples::Diamond, CutMethod::Dp)).unwrap();
+        let f = Geometry::new(&params(
+            16,
+            4,
+            Corners::Free,
+            Samples::Diamond,
+            CutMethod::Dp,
+        ))
+        .unwrap();
         assert_eq!(f.sample_size(), 20);
         // the free band runs past the corner by w = 2 lines (up to s = N + w)
         assert_eq!(f.n_lines(), 18);
         assert_eq!(f.line(15), Some((-2, 2)));
-        let sq = Geometry::new(&params(16, 0, Corners::Pinned, Samples::Square, CutMethod::Dp)).unwrap();
+        let sq = Geometry::new(&params(
+            16,
+            0,
+            Corners::Pinned,
+            Samples::Square,
+            CutMethod::Dp,
+        ))
+        .unwrap();
         // the whole quadrant: |d| <= min(s - 1, N - 1 - s), right edge excluded
         assert_eq!(sq.line(8), Some((-7, 5)));
-        assert!(Geometry::new(&params(16, 4, Corners::Free, Samples::Square, CutMethod::Dp)).is_err());
-        assert!(Geometry::new(&params(16, 3, Corners::Free, Samples::Diamond, CutMethod::Dp)).is_err());
-        assert!(Geometry::new(&params(6, 0, Corners::Free, Samples::Diamond, CutMethod::Dp)).is_err());
-        assert!(Geometry::new(&params(7, 2, Corners::Free, Samples::Diamond, CutMethod::Dp)).is_err());
+        assert!(Geometry::new(&params(
+            16,
+            4,
+            Corners::Free,
+            Samples::Square,
+            CutMethod::Dp
+        ))
+        .is_err());
+        assert!(Geometry::new(&params(
+            16,
+            3,
+            Corners::Free,
+            Samples::Diamond,
+            CutMethod::Dp
+        ))
+        .is_err());
+        assert!(Geometry::new(&params(
+            6,
+            0,
+            Corners::Free,
+            Samples::Diamond,
+            CutMethod::Dp
+        ))
+        .is_err());
+        assert!(Geometry::new(&params(
+            7,
+            2,
+            Corners::Free,
+            Samples::Diamond,
+            CutMethod::Dp
+        ))
+        .is_err());
     }
 
     #[test]
@@ -1230,7 +1290,10 @@ mod tests {
                         }
                     }
                 }
-                assert!((cut.d_path - best).abs() <= 1e-12 * best.max(1.0), "{corners:?} {q}");
+                assert!(
+                    (cut.d_path - best).abs() <= 1e-12 * best.max(1.0),
+                    "{corners:?} {q}"
+                );
             }
         }
     }
@@ -1238,7 +1301,8 @@ mod tests {
     #[test]
     fn evaluator_matches_build_and_thread_count() {
         let ex = lcg_image(48, 48, 3, 4);
-        let genes = Array3::from_shape_fn((5, 4, 2), |(i, g, c)| ((i * 7 + g * 5 + c * 3) % 20) as i64);
+        let genes =
+            Array3::from_shape_fn((5, 4, 2), |(i, g, c)| ((i * 7 + g * 5 + c * 3) % 20) as i64);
         for cut in [CutMethod::Dp, CutMethod::Graph] {
             let p = params(16, 6, Corners::Free, Samples::Diamond, cut);
             let ev = WangEvaluator::new(ex.view(), set8().view(), 4, p.clone()).unwrap();

@@ -347,7 +347,11 @@ fn wang_tiles<'py>(
     contiguous("genes", &genes)?;
     contiguous("tile_samples", &tile_samples)?;
     let p = wang_params(tile_size, overlap, corners, samples, cut, omega, eps)?;
-    let (ex, g, t) = (exemplar.as_array(), genes.as_array(), tile_samples.as_array());
+    let (ex, g, t) = (
+        exemplar.as_array(),
+        genes.as_array(),
+        tile_samples.as_array(),
+    );
     let built = run(py, threads, || wang::wang_tiles(ex, g, t, &p))?;
     Ok((built.labels.into_pyarray(py), built.stats.into_pyarray(py)))
 }
@@ -380,7 +384,9 @@ impl PyWangEvaluator {
         contiguous("tile_samples", &tile_samples)?;
         let p = wang_params(tile_size, overlap, corners, samples, cut, omega, eps)?;
         let (ex, t) = (exemplar.as_array(), tile_samples.as_array());
-        let inner = run(py, Some(1), || wang::WangEvaluator::new(ex, t, n_samples, p))?;
+        let inner = run(py, Some(1), || {
+            wang::WangEvaluator::new(ex, t, n_samples, p)
+        })?;
         Ok(PyWangEvaluator { inner })
     }
 
