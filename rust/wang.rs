@@ -183,6 +183,8 @@ pub struct WangParams {
 /// The exemplar, contiguous.
 struct Exemplar {
     data: Vec<f32>,
+    /// Luminance of every pixel ([`luminance`]).
+    lum: Vec<f64>,
     h: usize,
     w: usize,
     c: usize,
@@ -206,7 +208,8 @@ impl Exemplar {
                 format!("all values must be finite (found at flat index {i})"),
             ));
         }
-        Ok(Exemplar { data, h, w, c })
+        let lum = data.chunks_exact(c).map(luminance).collect();
+        Ok(Exemplar { data, lum, h, w, c })
     }
 
     #[inline(always)]
@@ -242,6 +245,9 @@ pub struct Geometry {
     start: Vec<usize>,
     /// Number of band pixels.
     nband: usize,
+    /// Tile coordinates of the band pixels of each cut (NE, ES, SW, WN), in band order (line by line, `d`
+    /// increasing).
+    band_px: [Vec<(i64, i64)>; 4],
 }
 
 impl Geometry {
@@ -312,6 +318,7 @@ impl Geometry {
             lines: Vec::new(),
             start: Vec::new(),
             nband: 0,
+            band_px: Default::default(),
         };
         let s_cap = match params.corners {
             Corners::Pinned => n - 1,
@@ -362,6 +369,20 @@ impl Geometry {
                 "internal: the band is shorter than the diagonal",
             ));
         }
+        let mut band_px: [Vec<(i64, i64)>; 4] = Default::default();
+        for (q, px) in band_px.iter_mut().enumerate() {
+            px.reserve(g.nband);
+            for (k, &(lo, hi)) in g.lines.iter().enumerate() {
+                let s = k as i64 + 1;
+                let mut d = lo;
+                while d <= hi {
+                    let (yc, xc) = g.canon(s, d);
+                    px.push(g.flip(q, yc, xc));
+                    d += 2;
+                }
+            }
+        }
+        g.band_px = band_px;
         Ok(g)
     }
 
@@ -515,21 +536,32 @@ impl Solver<'_> {
 
     fn dp(&self, q: usize, ga: (i64, i64), gb: (i64, i64), labels: bool) -> Cut {
         let geo = self.geo;
+        let ex = self.ex;
         let nb = geo.nband;
         let mut ey = vec![0.0f64; nb];
         let mut d_overlap = 0.0f64;
-        for (k, &(lo, hi)) in geo.lines.iter().enumerate() {
-            let s = k as i64 + 1;
-            let base = geo.start[k];
-            let mut d = lo;
-            while d <= hi {
-                let (yc, xc) = geo.canon(s, d);
-                let (a, b) = self.pair(q, ga, gb, yc, xc);
-                let (rgb, lum) = Self::errors(a, b);
-                d_overlap += rgb;
-                ey[base + ((d - lo) / 2) as usize] = lum;
-                d += 2;
+        // Pixel (y, x) of the sample of role r with gene g is exemplar pixel origin_r + y W + x.
+        let (ra, rb) = CUT_ROLES[q];
+        let width = ex.w as i64;
+        let origin = |role: usize, g: (i64, i64)| {
+            let (r, c) = geo.at(role, g, 0, 0);
+            r * width + c
+        };
+        let (oa, ob) = (origin(ra, ga), origin(rb, gb));
+        let c = ex.c;
+        for (i, &(y, x)) in geo.band_px[q].iter().enumerate() {
+            let rel = y * width + x;
+            let (pa, pb) = ((oa + rel) as usize, (ob + rel) as usize);
+            debug_assert!(pa < ex.h * ex.w && pb < ex.h * ex.w);
+            let (a, b) = (&ex.data[pa * c..pa * c + c], &ex.data[pb * c..pb * c + c]);
+            let mut rgb = 0.0f64;
+            for (&u, &v) in a.iter().zip(b) {
+                let d = u as f64 - v as f64;
+                rgb += d * d;
             }
+            d_overlap += rgb;
+            let dl = ex.lum[pa] - ex.lum[pb];
+            ey[i] = dl * dl;
         }
         // Cumulative minimum error; back[i] = true when the predecessor is d + 1 (else d - 1).
         let mut cum = vec![f64::INFINITY; nb];
