@@ -16,25 +16,40 @@ the tile) reads the exemplar at
 
 with (r, c) the gene and the margin m = (P − N) / 2. A *diamond* sample (Cohen) is the part of its square with
 |Y − cy| + |X − cx| ≤ h + w around the edge midpoint (cy, cx) (an N x N square of exemplar content rotated 45°
-when w = 0, its diagonal along the tile edge), w = overlap / 2::
+when w = 0, its diagonal along the tile edge), w = overlap / 2. The tile and its samples (schematic)::
 
-                 N sample (P x P, centred on the top-edge midpoint; its upper half is the tile above's S)
-            ┌───────────────────────────┐
-            │             /\            │
-            │           /    \          │            ─── tile border      / \  diamond of the sample
-      (0,0) ┼─────────/────────\────────┼ (0, N−1)
-            │\ ·    /     N      \    · /│
-            │  \  ·/              \ ·  / │     · · · band of the NE cut: pixels in both the N and the
-            │ W  \/ ·            · \/ E  │           E diamond, |d| ≤ w around the diagonal (and past the
-            │    / \   ·      ·   / \    │           corner by w when corners are free)
-            │        \    centre  /      │
-            │          \ ·    · /        │
-            │          / ·    · \        │
-            │        /            \      │
-            │      /      S         \    │
-            │    /                    \  │
-            │  /                        \│
-     (N−1,0)┼───────────────────────────┼ (N−1, N−1)
+                      ┌─────────────────┐
+                      │   (tile above)  │
+         (0,0) ┌──────┼─────────────────┼──────┐ (0, N−1)
+               │╲                             ╱│   N sample: a P x P square centred on the top edge's
+               │  ╲                         ╱  │   midpoint; its upper half is the S sample of the
+               │    ╲                     ╱    │   tile above, its lower half overlaps this tile
+               │      ╲       N         ╱      │
+               │         ╲           ╱         │   ╲ ╱ the two diagonals: the four cuts follow them
+               │           ╲       ╱           │       in bands of width 2w, from the centre (·)
+               │             ╲   ╱             │       to the corners
+               │   W           · centre    E   │
+               │             ╱   ╲             │   W, E and S samples: the same, centred on the
+               │           ╱       ╲           │   midpoints of their edges
+               │         ╱           ╲         │
+               │      ╱        S        ╲      │
+               │    ╱                     ╲    │
+               │  ╱                         ╲  │
+               │╱                             ╲│
+      (N−1,0)  └───────────────────────────────┘ (N−1, N−1)
+
+The band of the NE cut (N = 12, h = 6, w = 2; rows y = −2 .. h − 1, columns x = h .. N + 1)::
+
+         x =  6  7  8  9 10 11 12 13
+      y = −2                 ·  ·          o  the diagonal d = 0; the cut starts at (h − 1, h) and, with
+      y = −1              ·  ·  ·  ·          pinned corners, ends at the corner pixel (0, N − 1)
+      y =  0  A  A  A  a  a  o  ·  ·       a b band pixels (|d| ≤ w) on the A = N and the B = E side
+      y =  1  A  A  a  a  o  b  ·          ·  band past the corner: free corners only (with pinned
+      y =  2  A  a  a  o  b  b                corners the band also leaves out the right-edge pixel (1, 11))
+      y =  3  a  a  o  b  b  B             A B pixels outside the band: always N / always E
+      y =  4  a  o  b  b  B  B
+      y =  5  o  b  b  B  B  B             lines s = x − y run up and to the right; a cut takes one pixel
+                                           per line, d changing by ±1: a 4-connected staircase
 
 The tile's two diagonals split it into four triangles N, E, S, W. Each quadrant is cut between its
 horizontal-edge sample A (N or S) and its vertical-edge sample B (E or W) by a 4-connected staircase from the
