@@ -44,8 +44,8 @@ The band of the NE cut (N = 12, h = 6, w = 2; rows y = −2 .. h − 1, columns 
       y = −2                 ·  ·          o  the diagonal d = 0; the cut starts at (h − 1, h) and, with
       y = −1              ·  ·  ·  ·          pinned corners, ends at the corner pixel (0, N − 1)
       y =  0  A  A  A  a  a  o  ·  ·       a b band pixels (|d| ≤ w) on the A = N and the B = E side
-      y =  1  A  A  a  a  o  b  ·          ·  band past the corner: free corners only (with pinned
-      y =  2  A  a  a  o  b  b                corners the band also leaves out the right-edge pixel (1, 11))
+      y =  1  A  A  a  a  o  b  ·          ·  band past the corner: free corners only (with pinned corners
+      y =  2  A  a  a  o  b  b                the band also leaves out the right-edge pixels (1, 11), (2, 11))
       y =  3  a  a  o  b  b  B             A B pixels outside the band: always N / always E
       y =  4  a  o  b  b  B  B
       y =  5  o  b  b  B  B  B             lines s = x − y run up and to the right; a cut takes one pixel
