@@ -12,6 +12,8 @@
 //! - [`population`]: the ω-tile objective `E` for whole populations of gene vectors (exact, cached
 //!   per-patch SSD maps).
 //! - [`png`]: PNG scanline reconstruction (16-bit colour PNGs, which Pillow truncates to 8 bits).
+//! - [`wang`]: Wang tiles: Cohen's diamond samples joined by minimum-error cuts (DP or graph cut) with the
+//!   improved match and objective of 001 for whole populations, and the closed cut of strict Wang tiles (004).
 //! - [`parallel`]: local thread pools (`threads` argument, `TILESYNTH_NUM_THREADS`).
 //!
 //! Conventions: images are C-contiguous `f32` `(H, W, C)` in [0, 1]; masks are `bool`; energies and
@@ -27,6 +29,7 @@ pub mod png;
 pub mod population;
 pub mod ssd;
 pub mod synth;
+pub mod wang;
 
 #[cfg(feature = "python")]
 mod py;

@@ -9,6 +9,10 @@ Quick start::
     texture, index_map = ts.synthesize(tiles, 1024, 1024, seed=7)
     ts.save_image("gravel-1024.png", texture)
 
+Wang tiles: :func:`build_wang` (Cohen et al. with 001's match and GA, Burke's variant) and :func:`build_swang`
+(strict Wang tiles, 004) with the edge-coloured sets ``wang8`` / ``wang18`` (:func:`get_wang_tileset`);
+:func:`build` dispatches on ``scheme="omega" | "wang" | "swang"``.
+
 Kernels (Rust, GIL released, thread-count independent): :func:`patch_ssd`, :func:`best_matches`,
 :func:`grid_mincut`, :func:`kwatra_weights`, :func:`omega_cuts`, :func:`tile_copy`,
 :class:`PopulationEvaluator` / :func:`evaluate_population` (the ω-tile objective E for GA populations).
@@ -28,28 +32,36 @@ from .io import load_image, load_raster, save_image
 from .kernels import (
     PopulationEvaluator,
     SsdIndex,
+    WangEvaluator,
     best_matches,
     evaluate_population,
     grid_mincut,
     kwatra_weights,
     omega_cuts,
     patch_ssd,
+    swang_cuts,
     tile_copy,
+    wang_tiles,
 )
 from .metrics import coherence_energy, image_metrics, seam_score, tileset_metrics
 from .omega import build_omega, energy
 from .render import contact_sheet
 from .report import write_report
+from .schemes import SCHEMES, build
 from .synthesis import source_map, synthesize, synthesize_map
 from .tilefile import TileSet
 from .tilesets import TILESET_NAMES, get_tileset
 from .tiling import scanline_index_map, validate_index_map
+from .wang import build_swang, build_wang
+from .wangsets import WANG_TILESET_NAMES, WangTileSet, get_wang_tileset
 
 load = TileSet.load
 """Load a ``.tiles`` file (alias of :meth:`TileSet.load`)."""
 
 __all__ = [
+    "SCHEMES",
     "TILESET_NAMES",
+    "WANG_TILESET_NAMES",
     "ParameterError",
     "PopulationEvaluator",
     "ShapeError",
@@ -57,14 +69,20 @@ __all__ = [
     "TileSet",
     "TileSetFormatError",
     "TilesynthError",
+    "WangEvaluator",
+    "WangTileSet",
     "__version__",
     "best_matches",
+    "build",
     "build_omega",
     "coherence_energy",
+    "build_swang",
+    "build_wang",
     "contact_sheet",
     "energy",
     "evaluate_population",
     "get_tileset",
+    "get_wang_tileset",
     "grid_mincut",
     "image_metrics",
     "kwatra_weights",
@@ -77,10 +95,12 @@ __all__ = [
     "scanline_index_map",
     "seam_score",
     "source_map",
+    "swang_cuts",
     "synthesize",
     "synthesize_map",
     "tile_copy",
     "tileset_metrics",
     "validate_index_map",
     "write_report",
+    "wang_tiles",
 ]

@@ -92,3 +92,44 @@ def weighted_ssd_map(
     eps: float,
     threads: int | None = None,
 ) -> npt.NDArray[np.float64]: ...
+
+class WangEvaluator:
+    def __init__(
+        self,
+        exemplar: npt.NDArray[np.float32],
+        tile_samples: npt.NDArray[np.int64],
+        n_samples: int,
+        tile_size: int,
+        overlap: int,
+        corners: str = "free",
+        samples: str = "diamond",
+        cut: str = "dp",
+        omega: float = 0.8,
+        eps: float = 1e-6,
+    ) -> None: ...
+    @property
+    def dims(self) -> tuple[int, int, int]: ...
+    def evaluate(
+        self, genes: npt.NDArray[np.int64], threads: int | None = None
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+
+def wang_tiles(
+    exemplar: npt.NDArray[np.float32],
+    genes: npt.NDArray[np.int64],
+    tile_samples: npt.NDArray[np.int64],
+    tile_size: int,
+    overlap: int,
+    corners: str = "free",
+    samples: str = "diamond",
+    cut: str = "dp",
+    omega: float = 0.8,
+    eps: float = 1e-6,
+    threads: int | None = None,
+) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.float64]]: ...
+def swang_cuts(
+    initial: npt.NDArray[np.float32],
+    supplementary: npt.NDArray[np.float32],
+    eps: float = 1e-6,
+    threads: int | None = None,
+    initial_grad: npt.NDArray[np.float64] | None = None,
+) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]: ...

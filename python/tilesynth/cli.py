@@ -1,6 +1,6 @@
 """The ``tilesynth`` command line.
 
-Subcommands: ``build`` (exemplar -> tile set), ``synth`` (tile set -> texture of any size), ``info`` (what a tile
+Subcommands: ``build`` (exemplar -> tile set of ``--scheme omega | wang | swang``), ``synth`` (tile set -> texture of any size), ``info`` (what a tile
 set holds), ``sheet`` (contact sheet of the tiles), ``demo`` (all of it on the bundled exemplar).
 
 Exit status: 0 success; 2 usage or input error (one line on stderr naming the problem, no traceback, no partial
@@ -61,11 +61,16 @@ def _pos(text: str) -> int:
 
 def _set_name(text: str) -> str:
     from .tilesets import get_tileset
+    from .wangsets import is_wang_set_name
 
+    if is_wang_set_name(text):
+        return text
     try:
         get_tileset(text)
     except (ValueError, KeyError) as exc:
-        raise argparse.ArgumentTypeError(str(exc).strip("'\"")) from None
+        raise argparse.ArgumentTypeError(
+            str(exc).strip("'\"") + "; Wang sets (--scheme wang|swang): wang8, wang18, wang<2k²>"
+        ) from None
     return text
 
 
@@ -80,7 +85,8 @@ def _method(text: str) -> str:
 
 SET_HELP = ("tile-set definition: 4, 8, 16a, 16b, 32 (002), B (the basic 8-set of the extendable rule), n1 (17 tiles), "
             "n2 (38 tiles) or nK for any K >= 1; append x2, x3 or x4 (e.g. 16bx2, n2x2) for 2-4 omega-tiles per "
-            "intermediate tile, i.e. at least that many choices at every tiling step (default 16a)")
+            "intermediate tile, i.e. at least that many choices at every tiling step (default 16a); with --scheme "
+            "wang or swang the edge-coloured wang8 (default, 2+2 colours) or wang18 (3+3 colours)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -94,7 +100,10 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("build", help="build a tile set from an exemplar image")
     b.add_argument("input", help="exemplar image (PNG, JPEG, ...)")
     b.add_argument("-o", "--output", required=True, help="tile-set file to write (.tiles)")
-    b.add_argument("--set", default="16a", type=_set_name, metavar="SET", help=SET_HELP)
+    b.add_argument("--scheme", default="omega", choices=("omega", "wang", "swang"),
+                   help="omega (ω-tiles, 002; default), wang (Cohen et al.'s Wang tiles with 001's match) or swang "
+                   "(strict Wang tiles, 004)")
+    b.add_argument("--set", default=None, type=_set_name, metavar="SET", help=SET_HELP)
     b.add_argument("--tile-size", type=_pos, default=None, help="tile size N in pixels, even (default: half the "
                    "exemplar's shorter side, at most 256)")
     b.add_argument("--seed", type=_nonneg, default=None, help="random seed (default: a fresh one, recorded)")
@@ -125,6 +134,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="distance for the matching search and the objective E: color (SSD, default), eq3 (SSD + "
                    "10 x squared gradient difference, 000 eq. 3), eq2 (SSD weighted by 1/(10 (|grad T| + "
                    "|grad I|)), 000 eq. 2, exact but slow: direct sums, not with --select)")
+    b.add_argument("--cut", default="dp", choices=("dp", "graph"),
+                   help="wang: minimum-error boundary cuts by dynamic programming (default) or graph cuts")
+    b.add_argument("--overlap", type=_pos, default=None,
+                   help="wang: width of the overlap band of two diamonds, even (default N/4)")
+    b.add_argument("--corners", default=None, choices=("free", "pinned"),
+                   help="wang: free (Cohen: the cut may miss the corner; default for diamonds) or pinned (the cut "
+                   "ends at the corner, edges match exactly)")
+    b.add_argument("--samples", default="diamond", choices=("diamond", "square"),
+                   help="wang: diamond samples (Cohen, default) or N x N square samples (Burke, 002 section 2)")
+    b.add_argument("--supplementary", default="ssd", choices=("ssd", "cut"),
+                   help="swang: the supplementary patch with the smallest SSD to the initial tile (default), or the "
+                   "one with the cheapest closed cut among the 8 best SSD candidates")
     b.add_argument("--sheet", default=None, help="also write a contact sheet of the tiles to this PNG")
     b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
@@ -253,12 +274,23 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
            literal_border: bool = False, select: str = "random", polish: bool = False,
            generations: int | None = None, population: int | None = None,
            normalise: bool = False, match: str = "ssd", match_k: str | None = None,
-           metric: str = "color") -> "TileSet":  # noqa: F821
+           metric: str = "color", scheme: str = "omega", cut: str = "dp", overlap: int | None = None,
+           corners: str | None = None, samples: str = "diamond",
+           supplementary: str = "ssd") -> "TileSet":  # noqa: F821
     from .io import load_image
-    from .omega import build_omega
     from .progress import Progress
+    from .schemes import DEFAULT_SETS, build
+    from .wangsets import is_wang_set_name
 
     prog = Progress(quiet)
+    set_name = set_name or DEFAULT_SETS[scheme]
+    if is_wang_set_name(set_name) != (scheme != "omega"):
+        want = "a corner set (4, 8, 16a, ...)" if scheme == "omega" else "an edge-coloured set (wang8, wang18)"
+        raise ParameterError(f"--set = {set_name!r}: --scheme {scheme} needs {want}")
+    _scheme_options(scheme, gradients=gradients != "patch", literal_border=literal_border, normalise=normalise,
+                    cut=cut != "dp", overlap=overlap is not None, corners=corners is not None,
+                    samples=samples != "diamond", supplementary=supplementary != "ssd", match=match != "ssd",
+                    match_k=match_k is not None, metric=metric != "color")
     image, bits = load_image(input_path)
     _check_output_dir(output)
     if sheet:
@@ -267,17 +299,25 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
         raise ParameterError(f"--generations = {generations}: only used with --select ga or ais")
     if select == "random" and population is not None:
         raise ParameterError(f"--population = {population}: not used with --select random")
-    ts = build_omega(
-        image, tileset=set_name, tile_size=tile_size, seed=seed, threads=threads, progress=prog, gradients=gradients,
-        keep_border=not literal_border, exemplar_info={"file": os.path.basename(input_path), "bits": bits},
-        select=select, polish=polish, generations=generations, population=population, normalise=normalise,
-        match=match, match_k=_match_k(match_k), metric=metric,
+    common: dict = dict(
+        tileset=set_name, tile_size=tile_size, seed=seed, threads=threads, progress=prog,
+        exemplar_info={"file": os.path.basename(input_path), "bits": bits},
+        select=select, polish=polish, generations=generations, population=population,
     )
+    if scheme == "omega":
+        extra: dict = dict(gradients=gradients, keep_border=not literal_border, normalise=normalise, match=match,
+                           match_k=_match_k(match_k), metric=metric)
+    elif scheme == "wang":
+        extra = dict(cut=cut, overlap=overlap, corners=corners, samples=samples)
+    else:
+        extra = dict(gradients=gradients, supplementary=supplementary)
+    ts = build(image, scheme=scheme, **common, **extra)
     ts.save(output)
     sel = ts.params.get("selection", {})
     how = sel.get("method", "random") + (" + polish" if sel.get("params", {}).get("polish") else "")
+    kind = {"omega": "ω-tiles", "wang": "Wang tiles", "swang": "s-Wang tiles"}[scheme]
     prog.message(
-        f"wrote {output}: {ts.n_tiles} ω-tiles of {ts.tile_size}x{ts.tile_size} (set {set_name}, {how}, seed "
+        f"wrote {output}: {ts.n_tiles} {kind} of {ts.tile_size}x{ts.tile_size} (set {set_name}, {how}, seed "
         f"{ts.params['seed']}), E = {ts.E:.6g}, {ts.timing['total_s']:.2f} s"
     )
     if sheet:
@@ -293,6 +333,29 @@ def _match_k(text: str | None) -> int | str | None:
         return int(text)
     except ValueError:
         raise ParameterError(f"--match-k = {text!r}: expected a positive integer or 'all'") from None
+
+
+_SCHEME_OPTIONS = {
+    "gradients": ("--gradients", ("omega", "swang")),
+    "literal_border": ("--literal-border", ("omega",)),
+    "normalise": ("--normalise", ("omega",)),
+    "match": ("--match", ("omega",)),
+    "match_k": ("--match-k", ("omega",)),
+    "metric": ("--metric", ("omega",)),
+    "cut": ("--cut", ("wang",)),
+    "overlap": ("--overlap", ("wang",)),
+    "corners": ("--corners", ("wang",)),
+    "samples": ("--samples", ("wang",)),
+    "supplementary": ("--supplementary", ("swang",)),
+}
+
+
+def _scheme_options(scheme: str, **given: bool) -> None:
+    """Reject an option given for a scheme that does not use it (one line, exit 2)."""
+    for key, used in given.items():
+        flag, schemes = _SCHEME_OPTIONS[key]
+        if used and scheme not in schemes:
+            raise ParameterError(f"{flag}: not used with --scheme {scheme} (only with {' or '.join(schemes)})")
 
 
 def _write_sheet(ts, path: str, cuts: bool) -> None:  # noqa: ANN001
@@ -397,32 +460,74 @@ def _info(ts_path: str, as_json: bool) -> None:
     lines = [
         f"tile set      {ts_path}",
         f"scheme        {ts.scheme}",
-        f"set           {p.get('set')} ({ts.n_tiles} tiles, colours {''.join(ts.layout.get('colours', []))})",
+        f"set           {p.get('set')} ({ts.n_tiles} tiles, colours {''.join(_colours(ts.layout))})",
         f"tile size     {ts.tile_size}x{ts.tile_size}, {ts.channels} channel(s)",
         f"exemplar      {ex.get('file', '?')} {ex['shape'][1]}x{ex['shape'][0]}, {ex.get('bits', '?')}-bit",
         *_selection_lines(sel, ts.timing.get("selection_s")),
         f"seed          {p.get('seed')}",
-        f"matching      {p.get('match', 'ssd')}"
-        + (f" (k = {p['match_k']})" if p.get("match_k") is not None else "")
-        + f", distance {p.get('metric', 'color')}"
-        + ("" if p.get("keep_border", False) else ", literal border (002's cut may reach the tile border)"),
-        f"E             {ts.E:.6g}  (λ={p.get('lambda')}: λ·ΣD + (1−λ)·Var D over the intermediate tiles"
-        + (f", D in {p.get('metric')}" if p.get("metric", "color") != "color" else "") + ")",
+        *([f"matching      {p.get('match', 'ssd')}"
+           + (f" (k = {p['match_k']})" if p.get("match_k") is not None else "")
+           + f", distance {p.get('metric', 'color')}"
+           + ("" if p.get("keep_border", False) else ", literal border (002's cut may reach the tile border)")]
+          if ts.scheme == "omega" else []),
+        _energy_line(ts),
         f"build time    {ts.timing.get('total_s', float('nan')):.3f} s"
         + "".join(f", {k[:-2]} {v:.3f}" for k, v in ts.timing.items() if k != "total_s"),
         f"version       tilesynth {ts.version}, content sha256 {data['content_sha256'][:16]}",
         "genes (row, col): " + ", ".join(
-            f"{c}=({r0},{c0})" for c, (r0, c0) in zip(ts.layout.get("colours", []), ts.genes.tolist())
+            f"{c}=({r0},{c0})" for c, (r0, c0) in zip(_colours(ts.layout), ts.genes.tolist())
         ),
         "",
-        f"{'tile':>4}  {'TL BL TR BR':<11}  {'var':>3}  {'match (row,col)':>15}  {'D_j':>12}  {'cut cost':>10}",
     ]
+    if ts.layout.get("kind", "corner") == "wang":
+        lines += _wang_lines(ts)
+        print("\n".join(lines))
+        return
+    lines.append(
+        f"{'tile':>4}  {'TL BL TR BR':<11}  {'var':>3}  {'match (row,col)':>15}  {'D_j':>12}  {'cut cost':>10}"
+    )
     for row in ts.per_tile():
         lines.append(
             f"{row['index']:>4}  {' '.join(row['corners']):<11}  {row['variant']:>3}  "
             f"{'(%d,%d)' % tuple(row['match_offset']):>15}  {row['D']:>12.4f}  {row['cut_cost']:>10.4f}"
         )
     print("\n".join(lines))
+
+
+def _energy_line(ts) -> str:  # noqa: ANN001
+    p = ts.params
+    if ts.scheme == "wang":
+        return (f"E             {ts.E:.6g}  (ω={p.get('omega')}: ω·ΣD_sum + (1−ω)·Var D_sum, 001; "
+                f"{p.get('samples')} samples, overlap {p.get('overlap')}, {p.get('corners')} corners, "
+                f"{p.get('cut')} cuts)")
+    what = "initial tiles" if ts.scheme == "swang" else "intermediate tiles"
+    metric = f", D in {p.get('metric')}" if p.get("metric", "color") != "color" else ""
+    return f"E             {ts.E:.6g}  (λ={p.get('lambda')}: λ·ΣD + (1−λ)·Var D over the {what}{metric})"
+
+
+def _wang_lines(ts) -> list[str]:  # noqa: ANN001
+    """Per-tile table of a Wang or s-Wang set."""
+    if ts.scheme == "wang":
+        out = [f"{'tile':>4}  {'N E S W':<7}  {'D_sum':>10}  {'cut cost':>10}  "
+               f"{'D_boundary NE / ES / SW / WN':>36}"]
+        for row in ts.per_tile():
+            cuts = row.get("cuts", {})
+            db = " / ".join(f"{cuts[q]['D_boundary']:.4f}" for q in ("NE", "ES", "SW", "WN")) if cuts else ""
+            out.append(f"{row['index']:>4}  {' '.join(row['edges']):<7}  {row['D']:>10.4f}  "
+                       f"{row['cut_cost']:>10.4f}  {db:>36}")
+        return out
+    out = [f"{'tile':>4}  {'N E S W':<7}  {'supplementary':>15}  {'D_j':>12}  {'cut cost':>10}"]
+    for row in ts.per_tile():
+        out.append(f"{row['index']:>4}  {' '.join(row['edges']):<7}  "
+                   f"{'(%d,%d)' % tuple(row['match_offset']):>15}  {row['D']:>12.4f}  {row['cut_cost']:>10.4f}")
+    return out
+
+
+def _colours(layout: dict) -> list[str]:
+    """The sample colours of a layout, in gene order (Wang sets: horizontal-edge colours, then vertical)."""
+    if layout.get("kind", "corner") == "wang":
+        return [*layout.get("horizontal", []), *layout.get("vertical", [])]
+    return list(layout.get("colours", []))
 
 
 def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
@@ -480,7 +585,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "build":
             _build(args.input, args.output, args.set, args.tile_size, args.seed, args.threads, args.quiet, args.sheet,
                    args.gradients, args.literal_border, args.select, args.polish, args.generations,
-                   args.population, args.normalise, args.match, args.match_k, args.metric)
+                   args.population, args.normalise, args.match, args.match_k, args.metric, scheme=args.scheme,
+                   cut=args.cut, overlap=args.overlap, corners=args.corners, samples=args.samples,
+                   supplementary=args.supplementary)
         elif args.command == "synth":
             _synth(args.tileset, args.output, args.size, args.seed, args.map, args.save_map, args.bits,
                    args.threads, args.quiet, args.with_maps)

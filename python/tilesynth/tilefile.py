@@ -6,7 +6,7 @@ A ``.tiles`` file is a ZIP archive (readable with any zip tool and ``numpy.load`
 member              content
 ==================  =========================================================================================
 ``manifest.json``   ``format`` = "tilesynth-tileset", ``format_version``, ``tilesynth_version``, ``scheme``
-                    ("omega"), ``layout`` (the tile-set definition: name, colours, one entry per tile), ``params``
+                    ("omega", "wang" or "swang"), ``layout`` (the tile-set definition: name, colours, one entry per tile), ``params``
                     (tile size, eps, selection method and its parameters, seed), ``per_tile`` table (colours,
                     patch numbers, matching offset, D_j, cut cost), ``E``, ``exemplar`` (file name, shape, bits,
                     SHA-256 of its float32 pixels), ``arrays`` (name -> dtype and shape, for checking)
@@ -23,6 +23,27 @@ member              content
 ``exemplar.npy``    float32 ``(H, W, C)`` the exemplar itself (so provenance can be resolved and maps that follow
                     the cuts can be synthesised without the original file)
 ==================  =========================================================================================
+
+**Schemes.** ``scheme`` is ``"omega"`` (ω-tiles, :mod:`tilesynth.omega`), ``"wang"`` (Cohen et al.'s Wang tiles,
+:mod:`tilesynth.wang`) or ``"swang"`` (strict Wang tiles of 004). The ``layout`` of an ω set has ``kind`` "corner"
+(⟨TL, BL, TR, BR⟩ tuples, :class:`~tilesynth.tilesets.CornerTileSet`); a Wang or s-Wang set has ``kind`` "wang"
+(⟨N, E, S, W⟩ tuples, :class:`~tilesynth.wangsets.WangTileSet`). The members mean, for the Wang schemes:
+
+* ``genes``: top-left (row, col) of the P x P sample squares, one per edge colour in the order of the layout's
+  ``horizontal`` then ``vertical`` colours (P = ``params["sample_size"]``); ``tile_patches``: gene index of
+  each tile's ⟨N, E, S, W⟩ sample;
+* ``cut_masks``: "wang": True where the pixel came from a vertical-edge (E or W) sample, so the mask's
+  boundary is the tile's four cuts; "swang": True where it came from the supplementary patch (as for ω);
+* ``match_offsets``: "swang": top-left of each tile's supplementary patch; "wang": (-1, -1) (no such patch);
+* ``D``: "wang": D_sum of 001 (the sum of the four D_boundary); "swang": exact SSD between the initial tile and
+  the supplementary patch; ``cut_costs``: the sum of the four cut costs / the closed cut's cost.
+
+Optional members (written only by the Wang schemes, so ω files are unchanged; a reader that does not know them
+ignores them, and their absence is valid): ``labels.npy`` uint8 ``(K, N, N)``, the sample each pixel came from
+(0 N, 1 E, 2 S, 3 W, 4 the supplementary patch); ``cut_stats.npy`` float64 ``(K, 4, 6)`` ("wang" only): for the
+cuts NE, ES, SW, WN of every tile ``[D_overlap, n_overlap, D_path, n_path, D_boundary, cost]`` (see
+:mod:`tilesynth.wang`). They were added without changing ``format_version`` (still 1): every version-1 file
+stays valid and loads as before.
 
 Members are written in a fixed order with a fixed timestamp (1980-01-01) and deflate level 6, so the bytes
 depend only on the content. Arrays use the ``.npy`` format, floats in JSON use Python's shortest round-trip repr:
@@ -59,6 +80,17 @@ _ARRAYS: dict[str, str] = {
     "exemplar": "float32",
 }
 
+#: Optional members (Wang schemes), written after the others when present.
+_OPTIONAL: dict[str, str] = {
+    "labels": "uint8",
+    "cut_stats": "float64",
+}
+
+#: Names of the four cuts of a Wang tile, in the order of ``cut_stats``.
+CUT_NAMES: tuple[str, ...] = ("NE", "ES", "SW", "WN")
+#: The six values per cut in ``cut_stats``.
+CUT_STAT_NAMES: tuple[str, ...] = ("D_overlap", "n_overlap", "D_path", "n_path", "D_boundary", "cost")
+
 
 @dataclass(eq=False)
 class TileSet:
@@ -84,14 +116,22 @@ class TileSet:
     exemplar_info: dict[str, Any]
     timing: dict[str, float] = field(default_factory=dict)
     version: str = ""
+    labels: np.ndarray | None = None
+    cut_stats: np.ndarray | None = None
 
     # ----------------------------------------------------------------------------------------------- views
     @property
-    def definition(self):  # noqa: ANN201 - CornerTileSet
+    def definition(self):  # noqa: ANN201 - CornerTileSet | WangTileSet
         """The tile-set definition object (colours and matching rule)."""
-        from .tilesets import CornerTileSet
+        from .tilesets import tileset_from_dict
 
-        return CornerTileSet.from_dict(self.layout)
+        return tileset_from_dict(self.layout)
+
+    def _arrays(self) -> dict[str, str]:
+        """Name -> dtype of every member array this tile set holds (the optional ones only when present)."""
+        out = dict(_ARRAYS)
+        out.update({k: v for k, v in _OPTIONAL.items() if getattr(self, k) is not None})
+        return out
 
     @property
     def n_tiles(self) -> int:
@@ -109,6 +149,23 @@ class TileSet:
         """One JSON-able row per tile: colours, variant, patches, matching offset, D_j, cut cost."""
         defn = self.definition
         rows = []
+        if self.layout.get("kind", "corner") == "wang":
+            for k in range(self.n_tiles):
+                row: dict[str, Any] = {
+                    "index": k,
+                    "edges": "".join(defn.tiles[k]),
+                    "patches": [int(v) for v in self.tile_patches[k]],
+                    "match_offset": [int(v) for v in self.match_offsets[k]],
+                    "D": float(self.D[k]),
+                    "cut_cost": float(self.cut_costs[k]),
+                }
+                if self.cut_stats is not None:
+                    row["cuts"] = {
+                        name: dict(zip(CUT_STAT_NAMES, (float(v) for v in self.cut_stats[k, q])))
+                        for q, name in enumerate(CUT_NAMES)
+                    }
+                rows.append(row)
+            return rows
         for k in range(self.n_tiles):
             rows.append(
                 {
@@ -136,7 +193,7 @@ class TileSet:
             "exemplar": self.exemplar_info,
             "per_tile": self.per_tile(),
             "arrays": {
-                name: {"dtype": dt, "shape": list(getattr(self, name).shape)} for name, dt in _ARRAYS.items()
+                name: {"dtype": dt, "shape": list(getattr(self, name).shape)} for name, dt in self._arrays().items()
             },
         }
 
@@ -144,7 +201,7 @@ class TileSet:
         """SHA-256 over everything but the timing: equal digests mean equal tile sets."""
         h = hashlib.sha256()
         h.update(_json_bytes(self.manifest()))
-        for name in _ARRAYS:
+        for name in self._arrays():
             h.update(_npy_bytes(getattr(self, name)))
         return h.hexdigest()
 
@@ -155,7 +212,7 @@ class TileSet:
         with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w") as zf:
             _write_member(zf, "manifest.json", _json_bytes(self.manifest()))
             _write_member(zf, "timing.json", _json_bytes(self.timing))
-            for name in _ARRAYS:
+            for name in self._arrays():
                 _write_member(zf, f"{name}.npy", _npy_bytes(getattr(self, name)))
 
     @classmethod
@@ -173,7 +230,9 @@ class TileSet:
                 manifest = json.loads(zf.read("manifest.json"))
                 timing = json.loads(zf.read("timing.json")) if "timing.json" in names else {}
                 arrays = {
-                    a: np.load(io.BytesIO(zf.read(f"{a}.npy")), allow_pickle=False) for a in _ARRAYS
+                    a: np.load(io.BytesIO(zf.read(f"{a}.npy")), allow_pickle=False)
+                    for a in [*_ARRAYS, *_OPTIONAL]
+                    if a in _ARRAYS or f"{a}.npy" in names
                 }
         except (zipfile.BadZipFile, json.JSONDecodeError, ValueError, OSError, KeyError) as exc:
             if isinstance(exc, TileSetFormatError):
@@ -204,7 +263,7 @@ class TileSet:
 
     def _check(self) -> None:
         """Consistency of dtypes and shapes (raises TileSetFormatError)."""
-        for name, dt in _ARRAYS.items():
+        for name, dt in self._arrays().items():
             a = getattr(self, name)
             if not isinstance(a, np.ndarray) or a.dtype != np.dtype(dt):
                 raise TileSetFormatError(f"array {name} must be {dt}, got {getattr(a, 'dtype', type(a))}")
@@ -217,6 +276,10 @@ class TileSet:
             "D": (k,),
             "cut_costs": (k,),
         }
+        if self.labels is not None:
+            expect["labels"] = (k, n, n)
+        if self.cut_stats is not None:
+            expect["cut_stats"] = (k, 4, len(CUT_STAT_NAMES))
         if n != n2:
             raise TileSetFormatError(f"tiles must be square, got shape {self.tiles.shape}")
         for name, shape in expect.items():

@@ -354,7 +354,8 @@ def tileset_from_dict(data: Mapping[str, Any]) -> TileSetLike:
     Parameters
     ----------
     data : mapping
-        A description with a ``kind`` entry (``"corner"`` assumed when absent).
+        A description with a ``kind`` entry (``"corner"`` assumed when absent; ``"wang"`` for the
+        edge-coloured sets of :mod:`tilesynth.wangsets`).
 
     Returns
     -------
@@ -368,7 +369,11 @@ def tileset_from_dict(data: Mapping[str, Any]) -> TileSetLike:
     kind = data.get("kind", "corner") if isinstance(data, Mapping) else None
     if kind == "corner":
         return CornerTileSet.from_dict(data)
-    raise ValueError(f"unknown tile set kind {kind!r}; known kinds: 'corner'")
+    if kind == "wang":
+        from .wangsets import WangTileSet
+
+        return WangTileSet.from_dict(data)
+    raise ValueError(f"unknown tile set kind {kind!r}; known kinds: 'corner', 'wang'")
 
 
 # ---------------------------------------------------------------------------

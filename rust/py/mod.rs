@@ -4,7 +4,7 @@
 mod convert;
 mod errors;
 
-use crate::{maxflow, omega, parallel, png, population, ssd, synth};
+use crate::{maxflow, omega, parallel, png, population, ssd, synth, wang};
 use convert::contiguous;
 use errors::to_pyerr;
 use ndarray::{Array2, Array3};
@@ -363,6 +363,137 @@ fn png_unfilter<'py>(
     Ok(pyo3::types::PyBytes::new(py, &raw))
 }
 
+/// Parses the string options of a Wang construction.
+#[allow(clippy::too_many_arguments)]
+fn wang_params(
+    tile_size: usize,
+    overlap: usize,
+    corners: &str,
+    samples: &str,
+    cut: &str,
+    omega: f64,
+    eps: f64,
+) -> PyResult<wang::WangParams> {
+    Ok(wang::WangParams {
+        tile_size,
+        overlap,
+        corners: wang::Corners::parse(corners).map_err(to_pyerr)?,
+        samples: wang::Samples::parse(samples).map_err(to_pyerr)?,
+        cut: wang::CutMethod::parse(cut).map_err(to_pyerr)?,
+        omega,
+        eps,
+    })
+}
+
+/// Wang tiles (Cohen / Burke): labels `(K, N, N)` uint8 (0 N, 1 E, 2 S, 3 W) and per-cut facts `(K, 4, 6)`.
+#[pyfunction]
+#[pyo3(signature = (exemplar, genes, tile_samples, tile_size, overlap, corners="free", samples="diamond", cut="dp", omega=wang::DEFAULT_OMEGA, eps=omega::DEFAULT_EPS, threads=None))]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+fn wang_tiles<'py>(
+    py: Python<'py>,
+    exemplar: PyReadonlyArray3<'py, f32>,
+    genes: PyReadonlyArray2<'py, i64>,
+    tile_samples: PyReadonlyArray2<'py, i64>,
+    tile_size: usize,
+    overlap: usize,
+    corners: &str,
+    samples: &str,
+    cut: &str,
+    omega: f64,
+    eps: f64,
+    threads: Option<usize>,
+) -> PyResult<(Bound<'py, PyArray3<u8>>, Bound<'py, PyArray3<f64>>)> {
+    contiguous("exemplar", &exemplar)?;
+    contiguous("genes", &genes)?;
+    contiguous("tile_samples", &tile_samples)?;
+    let p = wang_params(tile_size, overlap, corners, samples, cut, omega, eps)?;
+    let (ex, g, t) = (
+        exemplar.as_array(),
+        genes.as_array(),
+        tile_samples.as_array(),
+    );
+    let built = run(py, threads, || wang::wang_tiles(ex, g, t, &p))?;
+    Ok((built.labels.into_pyarray(py), built.stats.into_pyarray(py)))
+}
+
+/// The objective of 001 for populations: E = ω·ΣD_sum + (1−ω)·Var(D_sum) and D_sum of every tile.
+#[pyclass(name = "WangEvaluator", module = "tilesynth._core", frozen)]
+struct PyWangEvaluator {
+    inner: wang::WangEvaluator,
+}
+
+#[pymethods]
+impl PyWangEvaluator {
+    #[new]
+    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (exemplar, tile_samples, n_samples, tile_size, overlap, corners="free", samples="diamond", cut="dp", omega=wang::DEFAULT_OMEGA, eps=omega::DEFAULT_EPS))]
+    fn new(
+        py: Python<'_>,
+        exemplar: PyReadonlyArray3<'_, f32>,
+        tile_samples: PyReadonlyArray2<'_, i64>,
+        n_samples: usize,
+        tile_size: usize,
+        overlap: usize,
+        corners: &str,
+        samples: &str,
+        cut: &str,
+        omega: f64,
+        eps: f64,
+    ) -> PyResult<Self> {
+        contiguous("exemplar", &exemplar)?;
+        contiguous("tile_samples", &tile_samples)?;
+        let p = wang_params(tile_size, overlap, corners, samples, cut, omega, eps)?;
+        let (ex, t) = (exemplar.as_array(), tile_samples.as_array());
+        let inner = run(py, Some(1), || {
+            wang::WangEvaluator::new(ex, t, n_samples, p)
+        })?;
+        Ok(PyWangEvaluator { inner })
+    }
+
+    /// E (float64 `(P,)`) and D_sum (float64 `(P, m)`) of `P` gene vectors `(P, n, 2)` int64.
+    #[pyo3(signature = (genes, threads=None))]
+    fn evaluate<'py>(
+        &self,
+        py: Python<'py>,
+        genes: PyReadonlyArray3<'py, i64>,
+        threads: Option<usize>,
+    ) -> PyResult<EnergyArrays<'py>> {
+        contiguous("genes", &genes)?;
+        let genes = genes.as_array();
+        let (e, d) = run(py, threads, || self.inner.evaluate(genes))?;
+        Ok((e.into_pyarray(py), d.into_pyarray(py)))
+    }
+
+    /// `(sample_size, n_samples, n_tiles)`.
+    #[getter]
+    fn dims(&self) -> (usize, usize, usize) {
+        self.inner.dims()
+    }
+}
+
+/// 004's closed cuts for K tiles: bool masks `(K, N, N)` (True = supplementary patch) and float64 costs.
+#[pyfunction]
+#[pyo3(signature = (initial, supplementary, eps=omega::DEFAULT_EPS, threads=None, initial_grad=None))]
+#[allow(clippy::type_complexity)]
+fn swang_cuts<'py>(
+    py: Python<'py>,
+    initial: PyReadonlyArray4<'py, f32>,
+    supplementary: PyReadonlyArray4<'py, f32>,
+    eps: f64,
+    threads: Option<usize>,
+    initial_grad: Option<PyReadonlyArray4<'py, f64>>,
+) -> PyResult<(Bound<'py, PyArray3<bool>>, Bound<'py, PyArray1<f64>>)> {
+    contiguous("initial", &initial)?;
+    contiguous("supplementary", &supplementary)?;
+    if let Some(g) = &initial_grad {
+        contiguous("initial_grad", g)?;
+    }
+    let (i, o) = (initial.as_array(), supplementary.as_array());
+    let g = initial_grad.as_ref().map(|g| g.as_array());
+    let (masks, costs) = run(py, threads, || wang::swang_cuts(i, o, eps, g))?;
+    Ok((masks.into_pyarray(py), costs.into_pyarray(py)))
+}
+
 /// Resolved thread count (explicit value, else TILESYNTH_NUM_THREADS, else all cores).
 #[pyfunction]
 #[pyo3(signature = (threads=None))]
@@ -375,10 +506,13 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<PySsdIndex>()?;
     m.add_class::<PyPopulationEvaluator>()?;
+    m.add_class::<PyWangEvaluator>()?;
     m.add_function(wrap_pyfunction!(grid_mincut, m)?)?;
     m.add_function(wrap_pyfunction!(kwatra_weights, m)?)?;
     m.add_function(wrap_pyfunction!(omega_cuts, m)?)?;
     m.add_function(wrap_pyfunction!(tile_copy, m)?)?;
+    m.add_function(wrap_pyfunction!(wang_tiles, m)?)?;
+    m.add_function(wrap_pyfunction!(swang_cuts, m)?)?;
     m.add_function(wrap_pyfunction!(resolve_threads, m)?)?;
     m.add_function(wrap_pyfunction!(png_unfilter, m)?)?;
     m.add_function(wrap_pyfunction!(edge_weight_sums, m)?)?;

@@ -1,0 +1,263 @@
+"""Edge-coloured (Wang) tile sets.
+
+A Wang tile is identified by the colours of its four edges, written ⟨N, E, S, W⟩ (north, east, south, west).
+Horizontal edges (N, S) and vertical edges (W, E) use separate alphabets: a colour of a horizontal edge never
+has to match a vertical one. Tiles laid in a grid must agree on every shared edge:
+
+* right neighbour ``X`` of tile ``A``: ``X.W == A.E``;
+* bottom neighbour ``X`` of tile ``A``: ``X.N == A.S``.
+
+For the scan-line tiler (:mod:`tilesynth.tiling`) the side keys are ``left = W``, ``right = E``, ``top = N``,
+``bottom = S``, so the same tiler and the same completeness checks (:func:`tilesynth.tilesets.dead_ends`,
+:func:`~tilesynth.tilesets.choices_summary`) serve corner-coloured ω-tiles and edge-coloured Wang tiles: one
+tiler, two matching rules (corner keys ``(TL, BL)`` … for ω-tiles, single edge colours here).
+
+Named sets (:func:`get_wang_tileset`)
+-------------------------------------
+``"wang8"``
+    2 horizontal-edge colours (``R``, ``G``) and 2 vertical-edge colours (``Y``, ``C``), two tiles for every
+    (N, W) pair: 8 tiles, 4 samples (Cohen et al. 2003; the set of 004).
+``"wang18"``
+    3 + 3 colours (``R``, ``G``, ``B`` and ``Y``, ``C``, ``M``), two tiles for every (N, W) pair: 18 tiles,
+    6 samples (the set 001 uses for all its results).
+``"wang<2k²>"``
+    the same construction with ``k`` colours per direction for any ``k >= 2`` (``"wang32"``: k = 4, ...).
+
+The construction (:func:`complete_choice_set`): with colours indexed ``0 .. k-1`` in each alphabet, the tiles
+of the pair (N = n, W = w) are, for j = 0 and 1,
+
+    ⟨N, E, S, W⟩ = ⟨n, (w + j) mod k, (n + j) mod k, w⟩.
+
+So in the interior the tiler always has exactly two candidates (Cohen's "complete choice": every (N, W) pair
+has two tiles), and they differ in *both* the colour they pass to the right (E) and the one they pass down
+(S); every (S, E) pair is produced by exactly two tiles, so all colours stay equally likely. It reproduces
+every tile 004 names for its 8-set (T_yrbg, T_bgyr and T_bgbg, written anticlockwise from the top: N, W, S,
+E, with horizontal colours y = 0, b = 1 and vertical colours r = 0, g = 1): T_bgbg is j = 0 of the pair
+(b, g), T_bgyr is j = 1 of the same pair (004's example of "two choices") and T_yrbg is j = 1 of (y, r).
+Cohen's paper gives its 8-tile set only as a picture; 001 gives none.
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "HORIZONTAL_COLOURS",
+    "VERTICAL_COLOURS",
+    "WANG_TILESET_NAMES",
+    "WangTileSet",
+    "complete_choice_set",
+    "get_wang_tileset",
+    "is_wang_set_name",
+]
+
+#: Colours of horizontal edges (N, S), in order; the first ``k`` are used.
+HORIZONTAL_COLOURS: tuple[str, ...] = ("R", "G", "B", "K", "O", "P", "Q", "T")
+#: Colours of vertical edges (W, E), in order; the first ``k`` are used.
+VERTICAL_COLOURS: tuple[str, ...] = ("Y", "C", "M", "L", "U", "V", "X", "Z")
+
+#: The named sets meant for listings (:func:`get_wang_tileset` accepts ``"wang<2k²>"`` for 2 <= k <= 8).
+WANG_TILESET_NAMES: tuple[str, ...] = ("wang8", "wang18")
+
+_NAME = re.compile(r"wang([1-9][0-9]*)")
+
+EdgeTuple = tuple[str, str, str, str]
+
+
+@dataclass(frozen=True)
+class WangTileSet:
+    """A set of Wang tiles identified by their edge colours ⟨N, E, S, W⟩.
+
+    Parameters
+    ----------
+    name : str
+    horizontal : sequence of str
+        Colours of horizontal edges (N and S), distinct, non-empty.
+    vertical : sequence of str
+        Colours of vertical edges (W and E), distinct, non-empty. May share names with ``horizontal``: the two
+        alphabets are separate.
+    tiles : sequence of 4-sequences of str
+        One ⟨N, E, S, W⟩ tuple per tile (a 4-letter string is accepted when colours are single letters).
+
+    Raises
+    ------
+    ValueError
+        If an alphabet is empty or has repeated colours, a tile does not have four edges or uses a colour
+        outside its alphabet, the set is empty, or two tiles are equal.
+    """
+
+    name: str
+    horizontal: tuple[str, ...]
+    vertical: tuple[str, ...]
+    tiles: tuple[EdgeTuple, ...]
+
+    def __post_init__(self) -> None:
+        h = tuple(str(c) for c in self.horizontal)
+        v = tuple(str(c) for c in self.vertical)
+        for label, alphabet in (("horizontal", h), ("vertical", v)):
+            if not alphabet or any(c == "" for c in alphabet):
+                raise ValueError(f"{label} colours must be non-empty strings, got {alphabet!r}")
+            if len(set(alphabet)) != len(alphabet):
+                raise ValueError(f"{label} colours must be distinct, got {alphabet!r}")
+        tiles: list[EdgeTuple] = []
+        for k, tile in enumerate(self.tiles):
+            edges = tuple(str(c) for c in tile)
+            if len(edges) != 4:
+                raise ValueError(f"tile {k} must have four edges <N, E, S, W>, got {tile!r}")
+            n, e, s, w = edges
+            for side, c, alphabet in (("N", n, h), ("E", e, v), ("S", s, h), ("W", w, v)):
+                if c not in alphabet:
+                    raise ValueError(f"tile {k} {tile!r}: {side} colour {c!r} is not one of {alphabet!r}")
+            tiles.append((n, e, s, w))
+        if not tiles:
+            raise ValueError("a tile set needs at least one tile")
+        if len(set(tiles)) != len(tiles):
+            raise ValueError("tiles must be distinct")
+        object.__setattr__(self, "name", str(self.name))
+        object.__setattr__(self, "horizontal", h)
+        object.__setattr__(self, "vertical", v)
+        object.__setattr__(self, "tiles", tuple(tiles))
+
+    # ------------------------------------------------------------------ basics
+    def __len__(self) -> int:
+        """Number of tiles."""
+        return len(self.tiles)
+
+    @property
+    def colours(self) -> tuple[str, ...]:
+        """All sample colours, horizontal first: the order of the genes (one sample per colour)."""
+        return self.horizontal + self.vertical
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples a construction needs (one per colour)."""
+        return len(self.horizontal) + len(self.vertical)
+
+    def edges(self, index: int) -> EdgeTuple:
+        """Edge tuple ⟨N, E, S, W⟩ of tile ``index``."""
+        return self.tiles[index]
+
+    def tile_label(self, index: int) -> str:
+        """Label such as ``"<N=R,E=Y,S=G,W=C>"``."""
+        n, e, s, w = self.tiles[index]
+        return f"<N={n},E={e},S={s},W={w}>"
+
+    # --------------------------------------------------------------- side keys
+    def left_key(self, index: int) -> str:
+        """Left side key: the W colour."""
+        return self.tiles[index][3]
+
+    def right_key(self, index: int) -> str:
+        """Right side key: the E colour."""
+        return self.tiles[index][1]
+
+    def top_key(self, index: int) -> str:
+        """Top side key: the N colour."""
+        return self.tiles[index][0]
+
+    def bottom_key(self, index: int) -> str:
+        """Bottom side key: the S colour."""
+        return self.tiles[index][2]
+
+    # ----------------------------------------------------------------- helpers
+    def sample_indices(self) -> np.ndarray:
+        """Gene index of every tile's ⟨N, E, S, W⟩ sample: int64 ``(K, 4)``.
+
+        Genes are ordered as :attr:`colours`: horizontal colours ``0 .. kh-1``, then vertical colours.
+        """
+        hi = {c: i for i, c in enumerate(self.horizontal)}
+        vi = {c: len(self.horizontal) + i for i, c in enumerate(self.vertical)}
+        return np.array(
+            [[hi[n], vi[e], hi[s], vi[w]] for n, e, s, w in self.tiles], dtype=np.int64
+        ).reshape(len(self.tiles), 4)
+
+    # ----------------------------------------------------------- serialisation
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able description: ``{"kind": "wang", "name", "horizontal", "vertical", "tiles": [[N, E, S, W],
+        ...]}``."""
+        return {
+            "kind": "wang",
+            "name": self.name,
+            "horizontal": list(self.horizontal),
+            "vertical": list(self.vertical),
+            "tiles": [list(t) for t in self.tiles],
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> WangTileSet:
+        """Rebuild a set written by :meth:`to_dict` (raises ValueError on a bad description)."""
+        if not isinstance(data, Mapping):
+            raise ValueError(f"expected a mapping, got {type(data).__name__}")
+        if data.get("kind") != "wang":
+            raise ValueError(f"expected a Wang tile set (kind 'wang'), got kind {data.get('kind')!r}")
+        missing = [k for k in ("name", "horizontal", "vertical", "tiles") if k not in data]
+        if missing:
+            raise ValueError(f"tile set description lacks {', '.join(missing)}")
+        tiles_raw = data["tiles"]
+        if isinstance(tiles_raw, (str, bytes)) or not isinstance(tiles_raw, Sequence):
+            raise ValueError("'tiles' must be a list of [N, E, S, W] lists")
+        tiles = []
+        for t in tiles_raw:
+            if isinstance(t, bytes) or not isinstance(t, Sequence):
+                raise ValueError(f"bad tile entry {t!r}: expected [N, E, S, W]")
+            tiles.append(tuple(str(c) for c in t))
+        return cls(
+            name=str(data["name"]),
+            horizontal=tuple(str(c) for c in data["horizontal"]),
+            vertical=tuple(str(c) for c in data["vertical"]),
+            tiles=tuple(tiles),  # type: ignore[arg-type]
+        )
+
+
+def complete_choice_set(k: int, name: str | None = None) -> WangTileSet:
+    """The complete-choice set with ``k`` colours per direction: 2k² tiles, two per (N, W) pair.
+
+    Tiles are listed by N, then W, then j (see the module docstring for the rule and why).
+
+    Raises
+    ------
+    ValueError
+        If ``k`` is not an integer in [2, 8].
+    """
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 2 <= k <= len(HORIZONTAL_COLOURS):
+        raise ValueError(f"k = {k!r}: must be an integer in [2, {len(HORIZONTAL_COLOURS)}]")
+    k = int(k)
+    h, v = HORIZONTAL_COLOURS[:k], VERTICAL_COLOURS[:k]
+    tiles = [
+        (h[n], v[(w + j) % k], h[(n + j) % k], v[w]) for n in range(k) for w in range(k) for j in range(2)
+    ]
+    return WangTileSet(name=name or f"wang{2 * k * k}", horizontal=h, vertical=v, tiles=tuple(tiles))
+
+
+def is_wang_set_name(name: str) -> bool:
+    """Whether ``name`` names a Wang set (``"wang<2k²>"``), without building it."""
+    m = _NAME.fullmatch(str(name))
+    if m is None:
+        return False
+    size = int(m.group(1))
+    k = int(round((size / 2) ** 0.5))
+    return 2 * k * k == size and 2 <= k <= len(HORIZONTAL_COLOURS)
+
+
+@functools.lru_cache(maxsize=None)
+def get_wang_tileset(name: str) -> WangTileSet:
+    """Return a named Wang tile set: ``"wang8"``, ``"wang18"`` or ``"wang<2k²>"`` (2 <= k <= 8).
+
+    Raises
+    ------
+    ValueError
+        If ``name`` is not such a name; the message lists the valid names.
+    """
+    if not is_wang_set_name(name):
+        raise ValueError(
+            f"unknown Wang tile set {name!r}; valid names are: {', '.join(WANG_TILESET_NAMES)} "
+            "(and wang<2k²> for k = 2 .. 8: wang8, wang18, wang32, ...)"
+        )
+    size = int(str(name)[4:])
+    return complete_choice_set(int(round((size / 2) ** 0.5)), name=str(name))
