@@ -10,6 +10,7 @@ output file); 1 internal error (a short message; set ``TILESYNTH_DEBUG=1`` for t
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import re
@@ -610,6 +611,10 @@ def main(argv: list[str] | None = None) -> int:
     except TilesynthError as exc:
         print(f"tilesynth: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except BrokenPipeError:  # stdout closed early (``tilesynth info x.tiles | head``): not an error
+        with contextlib.suppress(OSError):
+            sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - keep the interpreter from flushing to the pipe
+        return EXIT_OK
     except OSError as exc:  # unwritable output, full disk, ...
         print(f"tilesynth: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "), file=sys.stderr)
         return EXIT_USAGE
