@@ -12,6 +12,7 @@
 //! - [`population`]: the ω-tile objective `E` for whole populations of gene vectors (exact, cached
 //!   per-patch SSD maps).
 //! - [`parallel`]: local thread pools (`threads` argument, `TILESYNTH_NUM_THREADS`).
+//! - [`png`]: PNG scanline unfiltering, for the 16-bit PNG reader of the Python layer.
 //!
 //! Conventions: images are C-contiguous `f32` `(H, W, C)` in [0, 1]; masks are `bool`; energies and
 //! capacities are `f64`. Results never depend on the number of threads.
@@ -22,6 +23,7 @@ pub mod error;
 pub mod maxflow;
 pub mod omega;
 pub mod parallel;
+pub mod png;
 pub mod population;
 pub mod ssd;
 pub mod synth;

@@ -23,7 +23,7 @@ try:
 except PackageNotFoundError:  # pragma: no cover - running from a source tree
     from ._core import __version__
 
-from .errors import ParameterError, ShapeError, TileSetFormatError, TilesynthError
+from .errors import InternalError, ParameterError, ShapeError, TileSetFormatError, TilesynthError
 from .io import load_image, save_image
 from .kernels import (
     PopulationEvaluator,
@@ -48,6 +48,7 @@ load = TileSet.load
 
 __all__ = [
     "TILESET_NAMES",
+    "InternalError",
     "ParameterError",
     "PopulationEvaluator",
     "ShapeError",

@@ -1,9 +1,21 @@
 """Input conversion, following scikit-image's data-type rules.
 
-Images inside tilesynth are C-contiguous ``float32`` arrays of shape ``(H, W, C)`` with values in [0, 1].
-Integer images are scaled by their type's maximum (uint8 / 255, uint16 / 65535), never cast blindly; float32
-input is kept as is; float64 is converted to float32 after the range check. Grey ``(H, W)`` images become
-``(H, W, 1)``.
+Images inside tilesynth are C-contiguous ``float32`` arrays of shape ``(H, W, C)`` with values in [0, 1]: the
+Rust core only ever receives such arrays (or other validated, contiguous, native-endian arrays). The rules:
+
+- **uint8 / uint16** are scaled by their type's maximum (/ 255, / 65535), never cast blindly; **bool** gives
+  0 and 1.
+- **float16 / float32 / float64** must be finite and in [0, 1] (else :class:`ParameterError` with the range
+  found); float32 is kept as is, the others are converted after the check.
+- **Other integer types** (int8..int64, uint32, uint64: e.g. ``np.array([[0, 255]])``, whose dtype is int64)
+  are refused with a ``TypeError``: their range says nothing about the data's (is int64 data 0..255 or
+  0..65535?), so guessing would silently give a black or a white image. The message says how to convert.
+- **Complex, object, string** dtypes are refused (``TypeError``).
+- **Any memory layout** is accepted: Fortran order, strided views, negative strides, read-only and
+  non-native byte order (big-endian) arrays are copied into a C-contiguous native array. The input is never
+  modified (a C-contiguous float32 input in range is passed through without a copy).
+- **Shapes**: ``(H, W)`` becomes ``(H, W, 1)``; ``(H, W, C)`` with C in 1..4; anything else, or an empty array,
+  is a :class:`ShapeError`.
 """
 
 from __future__ import annotations
@@ -27,7 +39,12 @@ def as_image(image: Any, name: str = "image") -> np.ndarray:
     ParameterError
         For float input with NaN, infinity or values outside [0, 1].
     """
-    arr = np.asarray(image)
+    try:
+        arr = np.asarray(image)
+    except (ValueError, TypeError) as exc:  # ragged nested lists and the like
+        raise ShapeError(f"{name} is not an array ({exc})") from None
+    if not arr.dtype.isnative:
+        arr = arr.astype(arr.dtype.newbyteorder("="))
     if arr.ndim == 2:
         arr = arr[:, :, None]
     if arr.ndim != 3:
@@ -38,6 +55,8 @@ def as_image(image: Any, name: str = "image") -> np.ndarray:
         raise ShapeError(
             f"{name} has {arr.shape[2]} channels, expected 1 to 4 (channels last: (H, W, C))"
         )
+    if arr.dtype.kind == "V" or arr.dtype.names:
+        raise TypeError(f"{name} has dtype {arr.dtype}, expected uint8, uint16, bool or float in [0, 1]")
     if arr.dtype == np.bool_:
         out = arr.astype(np.float32)
     elif arr.dtype == np.uint8:
@@ -54,11 +73,72 @@ def as_image(image: Any, name: str = "image") -> np.ndarray:
                 "(divide integer data by its maximum first)"
             )
         out = arr.astype(np.float32, copy=False)
+    elif arr.dtype.kind in "iu":
+        raise TypeError(
+            f"{name} has dtype {arr.dtype}, expected uint8, uint16, bool or float in [0, 1] (convert "
+            "explicitly: arr.astype(np.uint8) for data in [0, 255], arr / arr_max for any other range)"
+        )
     else:
         raise TypeError(
             f"{name} has dtype {arr.dtype}, expected uint8, uint16, bool or float in [0, 1]"
         )
     return np.ascontiguousarray(out)
+
+
+def as_image_stack(images: Any, name: str = "templates") -> tuple[np.ndarray, bool]:
+    """``(h, w[, C])`` or ``(K, h, w, C)`` images as one C-contiguous float32 ``(K, h, w, C)`` stack, each
+    image converted and checked by :func:`as_image`. Returns the stack and whether a single image was given.
+    ``K = 0`` is allowed (an empty stack)."""
+    try:
+        t = np.asarray(images)
+    except (ValueError, TypeError) as exc:
+        raise ShapeError(f"{name} is not an array ({exc})") from None
+    single = t.ndim in (2, 3)
+    if t.ndim == 2:
+        t = t[:, :, None]
+    if single:
+        t = t[None]
+    if t.ndim != 4:
+        raise ShapeError(f"{name} has shape {t.shape}, expected (h, w, C) or (K, h, w, C)")
+    if t.shape[0] == 0:
+        if 0 in t.shape[1:] or t.shape[3] > 4:
+            raise ShapeError(f"{name} has shape {t.shape}, expected (K, h, w, C) with h, w >= 1, C in 1..4")
+        if t.dtype.kind not in "fbu" or t.dtype.kind == "u" and t.dtype.itemsize > 2:
+            raise TypeError(f"{name} has dtype {t.dtype}, expected uint8, uint16, bool or float in [0, 1]")
+        return np.zeros(t.shape, np.float32), single
+    # one conversion for the whole stack (same rules as as_image, on the (K*h, w, C) view)
+    k, h, w, c = t.shape
+    flat = as_image(t.reshape(k * h, w, c), name)
+    return flat.reshape(k, h, w, c), single
+
+
+def threads_arg(threads: Any) -> int | None:
+    """``None`` or a thread count in [1, MAX_THREADS] (``tilesynth._core`` caps it at 1024)."""
+    if threads is None:
+        return None
+    n = positive_int(threads, "threads")
+    if n > MAX_THREADS:
+        raise ParameterError(f"threads = {n}: must be at most {MAX_THREADS}")
+    return n
+
+
+MAX_THREADS = 1024
+"""The largest thread count the Rust core accepts (``rust/parallel.rs``, ``MAX_THREADS``)."""
+
+
+def nonneg_int(value: Any, name: str) -> int:
+    """``value`` as an int >= 0 (see :func:`positive_int`)."""
+    return positive_int(value, name, minimum=0)
+
+
+def finite_float(value: Any, name: str, *, positive: bool = False) -> float:
+    """``value`` as a finite float (> 0 with ``positive``) or raise :class:`ParameterError` naming ``name``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ParameterError(f"{name} = {value!r}: must be a number")
+    v = float(value)
+    if not np.isfinite(v) or (positive and v <= 0):
+        raise ParameterError(f"{name} = {v!r}: must be finite{' and > 0' if positive else ''}")
+    return v
 
 
 def to_uint(image: np.ndarray, bits: int = 8) -> np.ndarray:
