@@ -20,6 +20,7 @@ Rust core only ever receives such arrays (or other validated, contiguous, native
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import numpy as np
@@ -150,13 +151,53 @@ def to_uint(image: np.ndarray, bits: int = 8) -> np.ndarray:
     return np.clip(np.rint(np.asarray(image, np.float32) * top), 0, top).astype(dtype)
 
 
-def positive_int(value: Any, name: str, *, minimum: int = 1) -> int:
-    """Return ``value`` as an int >= ``minimum`` or raise :class:`ParameterError` naming ``name``."""
+INT_MAX = 2**63 - 1
+"""The largest integer parameter accepted anywhere (the Rust core takes ``usize`` / ``i64``; a larger value
+is a mistake, and pyo3 would reject it with an ``OverflowError`` that names nothing)."""
+
+
+def positive_int(value: Any, name: str, *, minimum: int = 1, maximum: int = INT_MAX) -> int:
+    """Return ``value`` as an int in [``minimum``, ``maximum``] or raise :class:`ParameterError` naming ``name``."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
         raise ParameterError(f"{name} = {value!r}: must be an integer")
     if value < minimum:
         raise ParameterError(f"{name} = {value}: must be >= {minimum}")
+    if value > maximum:
+        raise ParameterError(f"{name} = {value}: must be <= {maximum}")
     return int(value)
+
+
+MAX_BYTES_ENV = "TILESYNTH_MAX_BYTES"
+"""Environment variable overriding the memory limit of large outputs (bytes, a positive integer)."""
+
+
+def memory_limit(max_bytes: Any = None) -> int:
+    """The memory one large output (a synthesis, an index map, a source map) may take: ``max_bytes`` if
+    given, else ``TILESYNTH_MAX_BYTES``, else half the physical memory (8 GiB where it cannot be read). Half,
+    because the output usually has to be encoded or copied once more, and the machine has other work."""
+    if max_bytes is not None:
+        return positive_int(max_bytes, "max_bytes")
+    env = os.environ.get(MAX_BYTES_ENV, "").strip()
+    if env:
+        try:
+            n = int(env)
+        except ValueError:
+            n = 0
+        if n < 1:
+            raise ParameterError(f"{MAX_BYTES_ENV} = {env!r}: must be a positive integer (bytes)")
+        return n
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") // 2
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - not Linux/macOS
+        return 8 << 30
+
+
+def fmt_bytes(n: int) -> str:
+    """``n`` bytes for people: ``"1.5 GiB"``."""
+    for unit, size in (("TiB", 1 << 40), ("GiB", 1 << 30), ("MiB", 1 << 20), ("KiB", 1 << 10)):
+        if n >= size:
+            return f"{n / size:.1f} {unit}"
+    return f"{n} bytes"
 
 
 def seed_int(seed: Any) -> int:

@@ -101,7 +101,7 @@ def load_image(path: str | os.PathLike[str], max_pixels: int | None = None) -> t
         If the file does not exist, cannot be read, is not an image, cannot be decoded (truncated, corrupt),
         has zero pixels or too many, or holds 32-bit / floating-point samples (the message names the path).
     """
-    from PIL import Image, ImageOps, UnidentifiedImageError
+    from PIL import Image, UnidentifiedImageError
 
     limit = pixel_limit(max_pixels)
     p = Path(path)
@@ -112,59 +112,71 @@ def load_image(path: str | os.PathLike[str], max_pixels: int | None = None) -> t
         raise ParameterError(f"{where}: is a directory, expected an image file")
     if not p.is_file():
         raise ParameterError(f"{where}: not a regular file")
-    try:
-        with warnings.catch_warnings():
-            # we apply our own limit below; Pillow's warning between its limit and twice it is redundant
-            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            im = Image.open(p)
-    except Image.DecompressionBombError as exc:
-        raise ParameterError(
-            f"{where}: refused, {exc} (tilesynth's limit is {limit} pixels; see max_pixels / {MAX_PIXELS_ENV})"
-        ) from None
-    except UnidentifiedImageError:
-        raise ParameterError(f"{where}: not a readable image (not an image format Pillow knows)") from None
-    except OSError as exc:
-        raise ParameterError(f"{where}: cannot read ({exc.strerror or exc})") from None
-    try:
-        with im:
-            w, h = im.size
-            if w * h > limit:
-                raise ParameterError(
-                    f"{where}: {w}x{h} = {w * h} pixels exceeds the limit of {limit} pixels (an exemplar is "
-                    f"small; a tiny file declaring a huge size is a decompression bomb). Raise it with "
-                    f"max_pixels or {MAX_PIXELS_ENV} if you mean it"
-                )
-            if w == 0 or h == 0:
-                raise ShapeError(f"{where}: the image is {w}x{h} pixels, expected at least 1x1")
-            if im.format == "PNG":
-                arr16 = _read_png16(p, limit)
-                if arr16 is not None:
-                    return as_image(_exif_orient(im, arr16), "input"), 16
-            if getattr(im, "n_frames", 1) > 1:
-                im.seek(0)  # animated / multi-page: the first frame
-            im.load()
-            im = ImageOps.exif_transpose(im)
-            mode = im.mode
-            if mode in ("I;16", "I;16B", "I;16L", "I"):
-                arr = np.asarray(im, dtype=np.int64)
-                if arr.min() < 0 or arr.max() > 65535:
-                    raise ParameterError(f"{where}: 32-bit integer images are not supported")
-                return as_image(arr.astype(np.uint16), "input"), 16
-            if mode == "F":
-                raise ParameterError(f"{where}: floating-point image files are not supported")
-            if mode == "1":
-                im = im.convert("L")
-            elif mode in ("RGBa", "PA") or (mode == "P" and "transparency" in im.info):
-                im = im.convert("RGBA")
-            elif mode == "La":
-                im = im.convert("LA")
-            elif mode not in ("L", "LA", "RGB", "RGBA"):
-                im = im.convert("RGBA" if "A" in mode or "transparency" in im.info else "RGB")
-            arr = np.asarray(im)
-    except (UnidentifiedImageError, OSError, SyntaxError, ValueError, struct.error, EOFError, zlib.error) as exc:
-        if isinstance(exc, (ParameterError, ShapeError)):
+    if not os.access(p, os.R_OK):
+        raise ParameterError(f"{where}: cannot read (permission denied)")
+    with warnings.catch_warnings():
+        # We apply our own pixel limit; Pillow's other warnings are about odd but decodable metadata of real
+        # files (camera EXIF, TIFF tags): what decodes is returned, what does not raises below.
+        warnings.filterwarnings("ignore", module=r"PIL(\.|$)")
+        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+        try:
+            return _load(p, where, limit)
+        except (ParameterError, ShapeError, MemoryError):
             raise
-        raise ParameterError(f"{where}: not a readable image ({exc})") from None
+        except Image.DecompressionBombError as exc:
+            raise ParameterError(
+                f"{where}: refused, {exc} (tilesynth's limit is {limit} pixels; see max_pixels / {MAX_PIXELS_ENV})"
+            ) from None
+        except UnidentifiedImageError:
+            raise ParameterError(f"{where}: not a readable image (not an image format Pillow knows)") from None
+        except PermissionError as exc:
+            raise ParameterError(f"{where}: cannot read ({exc.strerror or exc})") from None
+        except Exception as exc:  # noqa: BLE001
+            # Pillow parses untrusted bytes: a corrupt or truncated file can fail with OSError, ValueError,
+            # SyntaxError, struct.error, IndexError, ... all of which mean the same thing to the user.
+            raise ParameterError(f"{where}: not a readable image ({type(exc).__name__}: {exc})") from None
+
+
+def _load(p: Path, where: str, limit: int) -> tuple[np.ndarray, int]:
+    """The body of :func:`load_image` (its errors are mapped by the caller)."""
+    from PIL import Image, ImageOps
+
+    im = Image.open(p)
+    with im:
+        w, h = im.size
+        if w * h > limit:
+            raise ParameterError(
+                f"{where}: {w}x{h} = {w * h} pixels exceeds the limit of {limit} pixels (an exemplar is "
+                f"small; a tiny file declaring a huge size is a decompression bomb). Raise it with "
+                f"max_pixels or {MAX_PIXELS_ENV} if you mean it"
+            )
+        if w == 0 or h == 0:
+            raise ShapeError(f"{where}: the image is {w}x{h} pixels, expected at least 1x1")
+        if im.format == "PNG":
+            arr16 = _read_png16(p, limit)
+            if arr16 is not None:
+                return as_image(_exif_orient(im, arr16), "input"), 16
+        if getattr(im, "n_frames", 1) > 1:
+            im.seek(0)  # animated / multi-page: the first frame
+        im.load()
+        im = ImageOps.exif_transpose(im)
+        mode = im.mode
+        if mode in ("I;16", "I;16B", "I;16L", "I"):
+            arr = np.asarray(im, dtype=np.int64)
+            if arr.min() < 0 or arr.max() > 65535:
+                raise ParameterError(f"{where}: 32-bit integer images are not supported")
+            return as_image(arr.astype(np.uint16), "input"), 16
+        if mode == "F":
+            raise ParameterError(f"{where}: floating-point image files are not supported")
+        if mode == "1":
+            im = im.convert("L")
+        elif mode in ("RGBa", "PA") or (mode == "P" and "transparency" in im.info):
+            im = im.convert("RGBA")
+        elif mode == "La":
+            im = im.convert("LA")
+        elif mode not in ("L", "LA", "RGB", "RGBA"):
+            im = im.convert("RGBA" if "A" in mode or "transparency" in im.info else "RGB")
+        arr = np.asarray(im)
     return as_image(arr, "input"), 8
 
 
@@ -272,6 +284,8 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     parent = target.parent if str(target.parent) else Path(".")
     if not parent.is_dir():
         raise ParameterError(f"output = {str(target)!r}: directory {str(parent)!r} does not exist")
+    if target.is_dir():
+        raise ParameterError(f"output = {str(target)!r}: is a directory, expected a file name")
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=parent)
     os.close(fd)
     tmp_path = Path(tmp)
@@ -301,13 +315,25 @@ def save_image(path: str | os.PathLike[str], image: np.ndarray, bits: int = 8) -
     ``bits=16`` writes 16-bit PNG (greyscale and RGB; Pillow cannot write 16-bit RGB, so RGB(A) 16-bit data is
     written with the ``png`` writer of :func:`_write_png16`).
     """
-    arr = np.asarray(image)
-    if arr.dtype not in (np.uint8, np.uint16):
+    if isinstance(bits, (bool, np.bool_)) or bits not in (8, 16):
+        raise ParameterError(f"bits = {bits!r}: must be 8 or 16")
+    try:
+        arr = np.asarray(image)
+    except (ValueError, TypeError) as exc:
+        raise ShapeError(f"image is not an array ({exc})") from None
+    if not arr.dtype.isnative:
+        arr = arr.astype(arr.dtype.newbyteorder("="))
+    if arr.dtype in (np.uint8, np.uint16):
+        as_image(arr[:1, :1] if arr.ndim in (2, 3) else arr, "image")  # the shape rules of as_image
+        if 0 in arr.shape:
+            raise ShapeError(f"image has shape {arr.shape}, expected non-empty (H, W, C)")
+    else:
         arr = to_uint(as_image(arr, "image"), bits)
     if arr.ndim == 3 and arr.shape[2] == 1:
         arr = arr[:, :, 0]
     target = Path(path)
     fmt = _format_for(target)
+    channels = 1 if arr.ndim == 2 else arr.shape[2]
     with atomic_path(target) as tmp:
         if arr.dtype == np.uint16:
             if fmt != "PNG":
@@ -316,7 +342,16 @@ def save_image(path: str | os.PathLike[str], image: np.ndarray, bits: int = 8) -
         else:
             from PIL import Image
 
-            Image.fromarray(np.ascontiguousarray(arr)).save(tmp, format=fmt)
+            try:
+                Image.fromarray(np.ascontiguousarray(arr)).save(tmp, format=fmt)
+            except (OSError, ValueError, KeyError) as exc:
+                if isinstance(exc, OSError) and exc.errno is not None:
+                    raise  # a real I/O error (disk full, permissions): the caller's business
+                # Pillow cannot write this mode in this format (e.g. RGBA or grey+alpha as JPEG)
+                raise ParameterError(
+                    f"output = {str(target)!r}: cannot write a {channels}-channel image as {fmt} ({exc}); "
+                    "use .png"
+                ) from None
 
 
 def _format_for(path: Path) -> str:

@@ -130,7 +130,18 @@ def check_genes(genes: Any, n: int, shape: tuple[int, ...], tile_size: int) -> n
 
 def energy(D: np.ndarray, lam: float = LAMBDA) -> float:
     """E = λ·ΣD_j + (1−λ)·Var(D_j) with the population variance."""
-    d = np.asarray(D, dtype=np.float64)
+    try:
+        d = np.asarray(D)
+    except (ValueError, TypeError) as exc:
+        raise ParameterError(f"D: expected real numbers ({exc})") from None
+    if d.dtype.kind not in "biuf":
+        raise TypeError(f"D has dtype {d.dtype}, expected real numbers")
+    d = d.astype(np.float64)
+    if d.ndim != 1 or d.size == 0 or not np.isfinite(d).all():
+        raise ParameterError(f"D has shape {d.shape}: expected a non-empty 1-d array of finite values")
+    lam = finite_float(lam, "lam")
+    if not 0.0 <= lam <= 1.0:
+        raise ParameterError(f"lam = {lam}: must be in [0, 1]")
     return float(lam * d.sum() + (1.0 - lam) * d.var())
 
 

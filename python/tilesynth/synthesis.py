@@ -14,61 +14,30 @@ a bigger map gives the matching piece).
 
 from __future__ import annotations
 
-import os
 from typing import Any
 
 import numpy as np
 
 from . import kernels
-from ._validate import positive_int, seed_int, threads_arg, to_uint
+from ._validate import MAX_BYTES_ENV, fmt_bytes, memory_limit, positive_int, seed_int, threads_arg, to_uint
 from .errors import ParameterError, ShapeError
 from .tilefile import TileSet
 from .tiling import scanline_index_map, validate_index_map
 
 
-MAX_BYTES_ENV = "TILESYNTH_MAX_BYTES"
-"""Environment variable overriding the memory limit of a synthesis (bytes, a positive integer)."""
-
-
-def memory_limit(max_bytes: int | None = None) -> int:
-    """The memory a synthesis may use: ``max_bytes`` if given, else ``TILESYNTH_MAX_BYTES``, else half the
-    physical memory (8 GiB where it cannot be read). Half, because the output usually has to be encoded or
-    copied once more, and the machine has other work."""
-    if max_bytes is not None:
-        return positive_int(max_bytes, "max_bytes")
-    env = os.environ.get(MAX_BYTES_ENV, "").strip()
-    if env:
-        try:
-            n = int(env)
-        except ValueError:
-            n = 0
-        if n < 1:
-            raise ParameterError(f"{MAX_BYTES_ENV} = {env!r}: must be a positive integer (bytes)")
-        return n
-    try:
-        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") // 2
-    except (ValueError, OSError, AttributeError):  # pragma: no cover - not Linux/macOS
-        return 8 << 30
-
-
 def synthesis_bytes(tileset: TileSet, width: int, height: int, dtype: Any = np.float32, out: bool = True) -> int:
     """Estimated peak bytes of :func:`synthesize`: the output ``height x width x C`` of ``dtype`` (unless the
-    caller gives ``out``), the int32 index map and the tiler's int64 working copy of it (12 bytes a cell),
-    and the atlas converted to ``dtype``."""
+    caller gives ``out``), the index map with the tiler's working memory
+    (:data:`tilesynth.tiling.TILER_BYTES_PER_CELL` a cell), and the atlas converted to ``dtype``."""
+    from .tiling import TILER_BYTES_PER_CELL
+
     n = tileset.tile_size
     cells = -(-int(height) // n) * -(-int(width) // n)
     item = np.dtype(dtype).itemsize
-    total = cells * 12 + tileset.tiles.size * item
+    total = cells * TILER_BYTES_PER_CELL + tileset.tiles.size * item
     if out:
         total += int(height) * int(width) * tileset.channels * item
     return total
-
-
-def _fmt_bytes(n: int) -> str:
-    for unit, size in (("TiB", 1 << 40), ("GiB", 1 << 30), ("MiB", 1 << 20)):
-        if n >= size:
-            return f"{n / size:.1f} {unit}"
-    return f"{n} bytes"
 
 
 def check_size(tileset: TileSet, width: int, height: int, dtype: Any = np.float32, out: bool = True,
@@ -82,9 +51,9 @@ def check_size(tileset: TileSet, width: int, height: int, dtype: Any = np.float3
     limit = memory_limit(max_bytes)
     if est > limit:
         raise ParameterError(
-            f"width x height = {width}x{height}: the output needs about {_fmt_bytes(est)} ({width}x{height}x"
+            f"width x height = {width}x{height}: the output needs about {fmt_bytes(est)} ({width}x{height}x"
             f"{tileset.channels} {np.dtype(dtype)} and the tile index map), more than the limit of "
-            f"{_fmt_bytes(limit)} (max_bytes / {MAX_BYTES_ENV}; default half the physical memory). "
+            f"{fmt_bytes(limit)} (max_bytes / {MAX_BYTES_ENV}; default half the physical memory). "
             "Synthesize smaller pieces with explicit index maps"
         )
     return est
@@ -187,8 +156,8 @@ def source_map(
     need, limit = h * w * 8, memory_limit(max_bytes)
     if need > limit:
         raise ParameterError(
-            f"width x height = {w}x{h}: the source map needs {_fmt_bytes(need)}, more than the limit of "
-            f"{_fmt_bytes(limit)} (max_bytes / {MAX_BYTES_ENV})"
+            f"width x height = {w}x{h}: the source map needs {fmt_bytes(need)}, more than the limit of "
+            f"{fmt_bytes(limit)} (max_bytes / {MAX_BYTES_ENV})"
         )
     out = np.empty((h, w, 2), np.int32)
     kernels.tile_copy(tileset.source, kernels._index_map(index_map), out)
