@@ -13,8 +13,9 @@ install:
 ## The whole test suite: Rust unit tests, then pytest against the installed build of this tree.
 test: test-rust test-python
 
+## Rust tests with overflow checks and debug assertions on (the test-checked profile of Cargo.toml).
 test-rust:
-	cargo test --release
+	cargo test --profile test-checked
 
 test-python: install
 	$(PYTHON) -m pytest -q

@@ -15,6 +15,7 @@
 //! - [`wang`]: Wang tiles: Cohen's diamond samples joined by minimum-error cuts (DP or graph cut) with the
 //!   improved match and objective of 001 for whole populations, and the closed cut of strict Wang tiles (004).
 //! - [`parallel`]: local thread pools (`threads` argument, `TILESYNTH_NUM_THREADS`).
+//! - [`png`]: PNG scanline unfiltering, for the 16-bit PNG reader of the Python layer.
 //!
 //! Conventions: images are C-contiguous `f32` `(H, W, C)` in [0, 1]; masks are `bool`; energies and
 //! capacities are `f64`. Results never depend on the number of threads.

@@ -11,6 +11,15 @@ use std::sync::{Arc, Mutex};
 /// Environment variable read when no explicit thread count is given.
 pub const THREADS_ENV: &str = "TILESYNTH_NUM_THREADS";
 
+/// The largest thread count accepted (explicit or from [`THREADS_ENV`]). More than any machine tilesynth is
+/// meant for; a larger count is a mistake (a typo, an unsigned wrap-around) that would otherwise try to spawn
+/// that many threads, each reserving a stack.
+pub const MAX_THREADS: usize = 1024;
+
+/// How many thread pools (one per distinct thread count) are kept alive between calls; the least recently
+/// used one is dropped beyond that, so a caller cycling through thread counts cannot accumulate threads.
+pub const MAX_POOLS: usize = 4;
+
 /// Resolves the thread count: the explicit value if any, else `TILESYNTH_NUM_THREADS`, else all cores.
 pub fn resolve_threads(threads: Option<usize>) -> Result<usize> {
     match threads {
@@ -19,14 +28,19 @@ pub fn resolve_threads(threads: Option<usize>) -> Result<usize> {
             0,
             "must be at least 1 (or None for all cores)",
         )),
+        Some(n) if n > MAX_THREADS => Err(TilesynthError::param(
+            "threads",
+            n,
+            format!("must be at most {MAX_THREADS}"),
+        )),
         Some(n) => Ok(n),
         None => match std::env::var(THREADS_ENV) {
             Ok(s) if !s.trim().is_empty() => match s.trim().parse::<usize>() {
-                Ok(n) if n >= 1 => Ok(n),
+                Ok(n) if (1..=MAX_THREADS).contains(&n) => Ok(n),
                 _ => Err(TilesynthError::param(
                     THREADS_ENV,
                     format!("{s:?}"),
-                    "must be a positive integer",
+                    format!("must be an integer in [1, {MAX_THREADS}]"),
                 )),
             },
             _ => Ok(std::thread::available_parallelism()
@@ -37,14 +51,31 @@ pub fn resolve_threads(threads: Option<usize>) -> Result<usize> {
 }
 
 /// Runs `f` on a local pool of `threads` workers (see [`resolve_threads`]). Pools are created once per
-/// thread count and kept, so a kernel call does not pay for spawning threads.
+/// thread count and kept (at most [`MAX_POOLS`] of them, least recently used dropped first), so a kernel
+/// call does not pay for spawning threads.
 pub fn install<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> Result<R> {
     let n = resolve_threads(threads)?;
     let pool = {
         let mut pools = POOLS.lock().unwrap_or_else(|e| e.into_inner());
-        match pools.get(&n) {
-            Some(p) => Arc::clone(p),
+        pools.tick += 1;
+        let tick = pools.tick;
+        match pools.map.get_mut(&n) {
+            Some((p, used)) => {
+                *used = tick;
+                Arc::clone(p)
+            }
             None => {
+                if pools.map.len() >= MAX_POOLS {
+                    let oldest = pools
+                        .map
+                        .iter()
+                        .min_by_key(|(_, (_, used))| *used)
+                        .map(|(&k, _)| k);
+                    if let Some(k) = oldest {
+                        // Dropping our handle; a pool still running another call lives until it ends.
+                        pools.map.remove(&k);
+                    }
+                }
                 let p = Arc::new(
                     rayon::ThreadPoolBuilder::new()
                         .num_threads(n)
@@ -58,7 +89,7 @@ pub fn install<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) ->
                             )
                         })?,
                 );
-                pools.insert(n, Arc::clone(&p));
+                pools.map.insert(n, (Arc::clone(&p), tick));
                 p
             }
         }
@@ -66,7 +97,21 @@ pub fn install<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) ->
     Ok(pool.install(f))
 }
 
-static POOLS: Mutex<BTreeMap<usize, Arc<rayon::ThreadPool>>> = Mutex::new(BTreeMap::new());
+/// The kept pools: thread count -> (pool, last use), and the use counter.
+struct Pools {
+    map: BTreeMap<usize, (Arc<rayon::ThreadPool>, u64)>,
+    tick: u64,
+}
+
+static POOLS: Mutex<Pools> = Mutex::new(Pools {
+    map: BTreeMap::new(),
+    tick: 0,
+});
+
+/// Number of thread pools currently kept (for tests).
+pub fn pools_kept() -> usize {
+    POOLS.lock().unwrap_or_else(|e| e.into_inner()).map.len()
+}
 
 #[cfg(test)]
 mod tests {
@@ -78,5 +123,20 @@ mod tests {
         assert!(resolve_threads(Some(0)).is_err());
         assert_eq!(install(Some(2), rayon::current_num_threads).unwrap(), 2);
         assert_eq!(install(Some(1), rayon::current_num_threads).unwrap(), 1);
+        assert!(resolve_threads(Some(MAX_THREADS)).is_ok());
+        let e = resolve_threads(Some(MAX_THREADS + 1)).unwrap_err();
+        assert!(e.to_string().contains("at most 1024"), "{e}");
+        assert!(install(Some(usize::MAX), || ()).is_err());
+    }
+
+    #[test]
+    fn pool_cache_is_bounded() {
+        for n in 1..=(MAX_POOLS + 3) {
+            assert_eq!(install(Some(n), rayon::current_num_threads).unwrap(), n);
+            assert!(pools_kept() <= MAX_POOLS);
+        }
+        // an evicted count is simply rebuilt
+        assert_eq!(install(Some(1), rayon::current_num_threads).unwrap(), 1);
+        assert!(pools_kept() <= MAX_POOLS);
     }
 }

@@ -755,6 +755,11 @@ impl SsdIndex {
     }
 
     /// Greedy exact best matches on a prepared template.
+    ///
+    /// The translations are sorted once by their FFT value (NaN last, ties by index), and a pointer walks
+    /// past the excluded ones: the smallest allowed FFT value and every allowed candidate within the error
+    /// bound of it are a run of that order, so `k` matches cost O(n log n) plus the candidates, not O(k n)
+    /// (which made `k` = all translations of a 120 x 120 map take minutes).
     fn best_prepared(&self, t: &Tmpl, mask: Option<&[bool]>, k: usize, r: usize) -> Vec<Match> {
         let (mh, mw) = self.map_dim(t.h, t.w);
         let n = mh * mw;
@@ -763,33 +768,41 @@ impl SsdIndex {
             return Vec::new();
         }
         let (map, bound) = self.fft_map_f64(t, mask);
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_unstable_by(|&a, &b| {
+            let (fa, fb) = (map[a], map[b]);
+            fa.is_nan()
+                .cmp(&fb.is_nan())
+                .then(fa.partial_cmp(&fb).unwrap_or(std::cmp::Ordering::Equal))
+                .then(a.cmp(&b))
+        });
         let mut exact_cache: HashMap<usize, f64> = HashMap::new();
         let mut excluded = if k > 1 { vec![false; n] } else { Vec::new() };
         let allowed = |ex: &[bool], i: usize| ex.is_empty() || !ex[i];
         let mut out = Vec::with_capacity(k);
+        let mut first = 0; // every entry of `order` before it is excluded
         for _ in 0..k {
-            // The smallest FFT value among the allowed translations.
-            let mut i0 = usize::MAX;
-            let mut f0 = f64::INFINITY;
-            for (i, &f) in map.iter().enumerate() {
-                if f < f0 && allowed(&excluded, i) {
-                    f0 = f;
-                    i0 = i;
-                }
+            // The smallest FFT value among the allowed translations (never NaN or +inf).
+            while first < n && !allowed(&excluded, order[first]) {
+                first += 1;
             }
-            if i0 == usize::MAX {
+            if first == n
+                || map[order[first]].partial_cmp(&f64::INFINITY) != Some(std::cmp::Ordering::Less)
+            {
                 break;
             }
+            let i0 = order[first];
             let e0 = *exact_cache
                 .entry(i0)
                 .or_insert_with(|| self.exact(t, mask, i0 / mw, i0 % mw));
-            // Every allowed translation that could beat (e0, i0) exactly.
+            // Every allowed translation that could beat (e0, i0) exactly: a run of `order` (NaN compares
+            // false, so the run stops before them).
             let thr = e0 + bound;
-            let cands: Vec<usize> = map
+            let cands: Vec<usize> = order[first + 1..]
                 .iter()
-                .enumerate()
-                .filter(|&(i, &f)| f <= thr && i != i0 && allowed(&excluded, i))
-                .map(|(i, _)| i)
+                .copied()
+                .take_while(|&i| map[i] <= thr)
+                .filter(|&i| allowed(&excluded, i))
                 .collect();
             let todo: Vec<usize> = cands
                 .iter()
@@ -1581,6 +1594,45 @@ mod tests {
                 check_best(&img, &t, Some(&m), k, r);
             }
         }
+    }
+
+    #[test]
+    fn best_matches_all_translations() {
+        // k beyond the number of translations: every translation, in exact (ssd, row, col) order
+        let mut rng = Rng(6);
+        for &(hh, ww, h, w, c) in &SIZES[..6] {
+            let img = rand3(&mut rng, (hh, ww, c));
+            let t = rand3(&mut rng, (h, w, c));
+            check_best(&img, &t, None, usize::MAX, 0);
+            check_best(&img, &t, None, usize::MAX, 1);
+        }
+        // a larger map: sorted, complete, distinct (the greedy walk is O(n log n), not O(k n))
+        let img = rand3(&mut rng, (120, 110, 3));
+        let t = rand3(&mut rng, (8, 9, 3));
+        let idx = SsdIndex::new(img.view()).unwrap();
+        let got = idx.best_matches(t.view(), None, usize::MAX, 0).unwrap();
+        assert_eq!(got.len(), 113 * 102);
+        assert!(got
+            .windows(2)
+            .all(|p| (p[0].ssd, p[0].row, p[0].col) <= (p[1].ssd, p[1].row, p[1].col)));
+        let mut seen = vec![false; 113 * 102];
+        for m in &got {
+            assert!(!std::mem::replace(&mut seen[m.row * 102 + m.col], true));
+        }
+        // a constant image: all tie, (row, col) order throughout
+        let flat = Array3::from_elem((9, 8, 2), 0.5f32);
+        let idx = SsdIndex::new(flat.view()).unwrap();
+        let got = idx
+            .best_matches(
+                Array3::from_elem((3, 3, 2), 0.25f32).view(),
+                None,
+                usize::MAX,
+                0,
+            )
+            .unwrap();
+        let pos: Vec<(usize, usize)> = got.iter().map(|m| (m.row, m.col)).collect();
+        let want: Vec<(usize, usize)> = (0..7).flat_map(|y| (0..6).map(move |x| (y, x))).collect();
+        assert_eq!(pos, want);
     }
 
     #[test]

@@ -27,7 +27,7 @@ try:
 except PackageNotFoundError:  # pragma: no cover - running from a source tree
     from ._core import __version__
 
-from .errors import ParameterError, ShapeError, TileSetFormatError, TilesynthError
+from .errors import InternalError, ParameterError, ShapeError, TileSetFormatError, TilesynthError
 from .io import load_image, load_raster, save_image
 from .kernels import (
     PopulationEvaluator,
@@ -61,6 +61,7 @@ load = TileSet.load
 __all__ = [
     "SCHEMES",
     "TILESET_NAMES",
+    "InternalError",
     "WANG_TILESET_NAMES",
     "ParameterError",
     "PopulationEvaluator",

@@ -1,13 +1,26 @@
 """Input conversion, following scikit-image's data-type rules.
 
-Images inside tilesynth are C-contiguous ``float32`` arrays of shape ``(H, W, C)`` with values in [0, 1].
-Integer images are scaled by their type's maximum (uint8 / 255, uint16 / 65535), never cast blindly; float32
-input is kept as is; float64 is converted to float32 after the range check. Grey ``(H, W)`` images become
-``(H, W, 1)``.
+Images inside tilesynth are C-contiguous ``float32`` arrays of shape ``(H, W, C)`` with values in [0, 1]: the
+Rust core only ever receives such arrays (or other validated, contiguous, native-endian arrays). The rules:
+
+- **uint8 / uint16** are scaled by their type's maximum (/ 255, / 65535), never cast blindly; **bool** gives
+  0 and 1.
+- **float16 / float32 / float64** must be finite and in [0, 1] (else :class:`ParameterError` with the range
+  found); float32 is kept as is, the others are converted after the check.
+- **Other integer types** (int8..int64, uint32, uint64: e.g. ``np.array([[0, 255]])``, whose dtype is int64)
+  are refused with a ``TypeError``: their range says nothing about the data's (is int64 data 0..255 or
+  0..65535?), so guessing would silently give a black or a white image. The message says how to convert.
+- **Complex, object, string** dtypes are refused (``TypeError``).
+- **Any memory layout** is accepted: Fortran order, strided views, negative strides, read-only and
+  non-native byte order (big-endian) arrays are copied into a C-contiguous native array. The input is never
+  modified (a C-contiguous float32 input in range is passed through without a copy).
+- **Shapes**: ``(H, W)`` becomes ``(H, W, 1)``; ``(H, W, C)`` with C in 1..4; anything else, or an empty array,
+  is a :class:`ShapeError`.
 """
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import numpy as np
@@ -27,7 +40,12 @@ def as_image(image: Any, name: str = "image") -> np.ndarray:
     ParameterError
         For float input with NaN, infinity or values outside [0, 1].
     """
-    arr = np.asarray(image)
+    try:
+        arr = np.asarray(image)
+    except (ValueError, TypeError) as exc:  # ragged nested lists and the like
+        raise ShapeError(f"{name} is not an array ({exc})") from None
+    if not arr.dtype.isnative:
+        arr = arr.astype(arr.dtype.newbyteorder("="))
     if arr.ndim == 2:
         arr = arr[:, :, None]
     if arr.ndim != 3:
@@ -38,6 +56,8 @@ def as_image(image: Any, name: str = "image") -> np.ndarray:
         raise ShapeError(
             f"{name} has {arr.shape[2]} channels, expected 1 to 4 (channels last: (H, W, C))"
         )
+    if arr.dtype.kind == "V" or arr.dtype.names:
+        raise TypeError(f"{name} has dtype {arr.dtype}, expected uint8, uint16, bool or float in [0, 1]")
     if arr.dtype == np.bool_:
         out = arr.astype(np.float32)
     elif arr.dtype == np.uint8:
@@ -54,6 +74,11 @@ def as_image(image: Any, name: str = "image") -> np.ndarray:
                 "(divide integer data by its maximum first)"
             )
         out = arr.astype(np.float32, copy=False)
+    elif arr.dtype.kind in "iu":
+        raise TypeError(
+            f"{name} has dtype {arr.dtype}, expected uint8, uint16, bool or float in [0, 1] (convert "
+            "explicitly: arr.astype(np.uint8) for data in [0, 255], arr / arr_max for any other range)"
+        )
     else:
         raise TypeError(
             f"{name} has dtype {arr.dtype}, expected uint8, uint16, bool or float in [0, 1]"
@@ -80,6 +105,62 @@ def as_features(image: Any, name: str = "image") -> np.ndarray:
     return out
 
 
+def as_image_stack(images: Any, name: str = "templates") -> tuple[np.ndarray, bool]:
+    """``(h, w[, C])`` or ``(K, h, w, C)`` images as one C-contiguous float32 ``(K, h, w, C)`` stack, each
+    image converted and checked by :func:`as_image`. Returns the stack and whether a single image was given.
+    ``K = 0`` is allowed (an empty stack)."""
+    try:
+        t = np.asarray(images)
+    except (ValueError, TypeError) as exc:
+        raise ShapeError(f"{name} is not an array ({exc})") from None
+    single = t.ndim in (2, 3)
+    if t.ndim == 2:
+        t = t[:, :, None]
+    if single:
+        t = t[None]
+    if t.ndim != 4:
+        raise ShapeError(f"{name} has shape {t.shape}, expected (h, w, C) or (K, h, w, C)")
+    if t.shape[0] == 0:
+        if 0 in t.shape[1:] or t.shape[3] > 4:
+            raise ShapeError(f"{name} has shape {t.shape}, expected (K, h, w, C) with h, w >= 1, C in 1..4")
+        if t.dtype.kind not in "fbu" or t.dtype.kind == "u" and t.dtype.itemsize > 2:
+            raise TypeError(f"{name} has dtype {t.dtype}, expected uint8, uint16, bool or float in [0, 1]")
+        return np.zeros(t.shape, np.float32), single
+    # one conversion for the whole stack (same rules as as_image, on the (K*h, w, C) view)
+    k, h, w, c = t.shape
+    flat = as_image(t.reshape(k * h, w, c), name)
+    return flat.reshape(k, h, w, c), single
+
+
+def threads_arg(threads: Any) -> int | None:
+    """``None`` or a thread count in [1, MAX_THREADS] (``tilesynth._core`` caps it at 1024)."""
+    if threads is None:
+        return None
+    n = positive_int(threads, "threads")
+    if n > MAX_THREADS:
+        raise ParameterError(f"threads = {n}: must be at most {MAX_THREADS}")
+    return n
+
+
+MAX_THREADS = 1024
+"""The largest thread count the Rust core accepts (``rust/parallel.rs``, ``MAX_THREADS``)."""
+
+
+def nonneg_int(value: Any, name: str) -> int:
+    """``value`` as an int >= 0 (see :func:`positive_int`)."""
+    return positive_int(value, name, minimum=0)
+
+
+def finite_float(value: Any, name: str, *, positive: bool = False) -> float:
+    """``value`` as a finite float (> 0 with ``positive``) or raise :class:`ParameterError` naming ``name``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ParameterError(f"{name} = {value!r}: must be a number")
+    v = float(value)
+    if not np.isfinite(v) or (positive and v <= 0):
+        raise ParameterError(f"{name} = {v!r}: must be finite{' and > 0' if positive else ''}")
+    return v
+
+
 def to_uint(image: np.ndarray, bits: int = 8) -> np.ndarray:
     """Quantise a float image in [0, 1] to uint8 or uint16 with rounding (inverse of :func:`as_image`)."""
     if bits not in (8, 16):
@@ -89,13 +170,53 @@ def to_uint(image: np.ndarray, bits: int = 8) -> np.ndarray:
     return np.clip(np.rint(np.asarray(image, np.float32) * top), 0, top).astype(dtype)
 
 
-def positive_int(value: Any, name: str, *, minimum: int = 1) -> int:
-    """Return ``value`` as an int >= ``minimum`` or raise :class:`ParameterError` naming ``name``."""
+INT_MAX = 2**63 - 1
+"""The largest integer parameter accepted anywhere (the Rust core takes ``usize`` / ``i64``; a larger value
+is a mistake, and pyo3 would reject it with an ``OverflowError`` that names nothing)."""
+
+
+def positive_int(value: Any, name: str, *, minimum: int = 1, maximum: int = INT_MAX) -> int:
+    """Return ``value`` as an int in [``minimum``, ``maximum``] or raise :class:`ParameterError` naming ``name``."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
         raise ParameterError(f"{name} = {value!r}: must be an integer")
     if value < minimum:
         raise ParameterError(f"{name} = {value}: must be >= {minimum}")
+    if value > maximum:
+        raise ParameterError(f"{name} = {value}: must be <= {maximum}")
     return int(value)
+
+
+MAX_BYTES_ENV = "TILESYNTH_MAX_BYTES"
+"""Environment variable overriding the memory limit of large outputs (bytes, a positive integer)."""
+
+
+def memory_limit(max_bytes: Any = None) -> int:
+    """The memory one large output (a synthesis, an index map, a source map) may take: ``max_bytes`` if
+    given, else ``TILESYNTH_MAX_BYTES``, else half the physical memory (8 GiB where it cannot be read). Half,
+    because the output usually has to be encoded or copied once more, and the machine has other work."""
+    if max_bytes is not None:
+        return positive_int(max_bytes, "max_bytes")
+    env = os.environ.get(MAX_BYTES_ENV, "").strip()
+    if env:
+        try:
+            n = int(env)
+        except ValueError:
+            n = 0
+        if n < 1:
+            raise ParameterError(f"{MAX_BYTES_ENV} = {env!r}: must be a positive integer (bytes)")
+        return n
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") // 2
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - not Linux/macOS
+        return 8 << 30
+
+
+def fmt_bytes(n: int) -> str:
+    """``n`` bytes for people: ``"1.5 GiB"``."""
+    for unit, size in (("TiB", 1 << 40), ("GiB", 1 << 30), ("MiB", 1 << 20), ("KiB", 1 << 10)):
+        if n >= size:
+            return f"{n / size:.1f} {unit}"
+    return f"{n} bytes"
 
 
 def seed_int(seed: Any) -> int:

@@ -22,7 +22,7 @@ from typing import NoReturn
 
 import numpy as np
 
-from .errors import ParameterError, TilesynthError
+from .errors import InternalError, ParameterError, TilesynthError
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
@@ -608,6 +608,11 @@ def main(argv: list[str] | None = None) -> int:
     except UsageError as exc:
         print(f"{exc} (see 'tilesynth --help')", file=sys.stderr)
         return EXIT_USAGE
+    except InternalError as exc:  # a caught Rust panic: a bug, not bad input
+        if os.environ.get("TILESYNTH_DEBUG"):
+            raise
+        print(f"tilesynth: {exc}", file=sys.stderr)
+        return EXIT_INTERNAL
     except TilesynthError as exc:
         print(f"tilesynth: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

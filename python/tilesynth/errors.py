@@ -24,4 +24,10 @@ class TileSetFormatError(TilesynthError, ValueError):
     """A tile-set file is unreadable, of an unknown version, or inconsistent."""
 
 
-__all__ = ["TilesynthError", "ShapeError", "ParameterError", "TileSetFormatError"]
+class InternalError(TilesynthError, RuntimeError):
+    """A bug in tilesynth, not in the input: the Rust core panicked (the bindings catch every panic and raise
+    this instead of pyo3's ``PanicException``, which ``except Exception`` would miss). The CLI exits with
+    status 1 on it. Please report it with the inputs that caused it."""
+
+
+__all__ = ["TilesynthError", "ShapeError", "ParameterError", "TileSetFormatError", "InternalError"]

@@ -1,8 +1,11 @@
 """Typed wrappers around the Rust kernels of :mod:`tilesynth._core`.
 
-Each function validates and converts its inputs (C-contiguous arrays of the one dtype the kernel accepts),
-releases the GIL inside the kernel and returns numpy arrays. ``threads=None`` uses ``TILESYNTH_NUM_THREADS`` or
-all cores; results never depend on the thread count.
+Each function validates and converts its inputs (C-contiguous, native-endian arrays of the one dtype the
+kernel accepts; images by :func:`tilesynth._validate.as_image`), releases the GIL inside the kernel and returns
+new numpy arrays; no input is ever modified (``tile_copy`` writes only into ``out``). Bad input raises
+:class:`ShapeError` / :class:`ParameterError` (``ValueError``) or ``TypeError`` naming the parameter.
+``threads=None`` uses ``TILESYNTH_NUM_THREADS`` or all cores (at most 1024); results never depend on the thread
+count.
 """
 
 from __future__ import annotations
@@ -10,7 +13,15 @@ from __future__ import annotations
 import numpy as np
 
 from . import _core
-from ._validate import as_features, as_image, positive_int
+from ._validate import (
+    as_features,
+    as_image,
+    as_image_stack,
+    finite_float,
+    nonneg_int,
+    positive_int,
+    threads_arg,
+)
 from .errors import ParameterError, ShapeError
 
 DEFAULT_EPS = 1e-6
@@ -18,6 +29,8 @@ DEFAULT_EPS = 1e-6
 
 
 def _templates(templates: np.ndarray, name: str = "templates", features: bool = False) -> tuple[np.ndarray, bool]:
+    if not features:
+        return as_image_stack(templates, name)
     t = np.asarray(templates)
     single = t.ndim in (2, 3)
     if t.ndim == 2:
@@ -26,15 +39,42 @@ def _templates(templates: np.ndarray, name: str = "templates", features: bool = 
         t = t[None]
     if t.ndim != 4:
         raise ShapeError(f"{name} has shape {np.shape(templates)}, expected (h, w, C) or (K, h, w, C)")
-    if features:
-        t = np.stack([as_features(x, name) for x in t])
-    else:
-        t = np.stack([as_image(x, name) for x in t]) if t.dtype != np.float32 else np.ascontiguousarray(t)
-    return t, single
+    return np.stack([as_features(x, name) for x in t]), single
 
 
-def _mask(mask: np.ndarray | None) -> np.ndarray | None:
-    return None if mask is None else np.ascontiguousarray(mask, dtype=bool)
+def _asarray(value: object, name: str) -> np.ndarray:
+    try:
+        a = np.asarray(value)
+    except (ValueError, TypeError) as exc:
+        raise ShapeError(f"{name} is not an array ({exc})") from None
+    return a
+
+
+def _mask(mask: object, name: str = "mask") -> np.ndarray | None:
+    """A bool ``(h, w)`` mask: bool arrays as they are, integer or float arrays only if every value is 0 or 1
+    (anything else is more likely a weight map passed by mistake than a mask)."""
+    if mask is None:
+        return None
+    m = _asarray(mask, name)
+    if m.ndim != 2:
+        raise ShapeError(f"{name} has shape {m.shape}, expected a 2-d (h, w) mask")
+    if m.dtype != np.bool_:
+        if m.dtype.kind not in "iuf":
+            raise TypeError(f"{name} has dtype {m.dtype}, expected bool")
+        if m.size and not np.isin(m, (0, 1)).all():
+            raise ParameterError(f"{name} has dtype {m.dtype} with values other than 0 and 1, expected a bool mask")
+    return np.ascontiguousarray(m, dtype=bool)
+
+
+def _real(value: object, name: str, ndim: int, shape_text: str) -> np.ndarray:
+    """A C-contiguous float64 array of ``ndim`` dimensions from any real (bool, integer, float) input; the
+    kernels check the values (finite, >= 0, ...)."""
+    a = _asarray(value, name)
+    if a.ndim != ndim:
+        raise ShapeError(f"{name} has shape {a.shape}, expected {shape_text}")
+    if a.dtype.kind not in "biuf":
+        raise TypeError(f"{name} has dtype {a.dtype}, expected real numbers (float64)")
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 class SsdIndex:
@@ -54,7 +94,7 @@ class SsdIndex:
         # features=True: any channel count and finite values (e.g. the eq. 3 augmented exemplar)
         self.features = bool(features)
         self.image = as_features(image) if self.features else as_image(image)
-        self._index = _core.SsdIndex(self.image, threads)
+        self._index = _core.SsdIndex(self.image, threads_arg(threads))
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -67,7 +107,7 @@ class SsdIndex:
         ``mask``: optional ``(h, w)`` bool, True where a template pixel counts.
         """
         t, single = _templates(templates, features=self.features)
-        maps = self._index.ssd_maps(t, _mask(mask), threads)
+        maps = self._index.ssd_maps(t, _mask(mask), threads_arg(threads))
         return maps[0] if single else maps
 
     def best_matches(
@@ -86,7 +126,8 @@ class SsdIndex:
         image has fewer admissible translations.
         """
         t, single = _templates(templates, features=self.features)
-        offsets, values = self._index.best_matches(t, int(k), int(exclude_radius), _mask(mask), threads)
+        k, r = nonneg_int(k, "k"), nonneg_int(exclude_radius, "exclude_radius")
+        offsets, values = self._index.best_matches(t, k, r, _mask(mask), threads_arg(threads))
         return (offsets[0], values[0]) if single else (offsets, values)
 
 
@@ -148,21 +189,21 @@ def grid_mincut(
     Returns ``(labels, flow)``: bool ``(H, W)``, True on the sink side, and the max-flow value (= the cut cost).
     """
 
-    def f64(a: np.ndarray | None) -> np.ndarray | None:
-        return None if a is None else np.ascontiguousarray(a, dtype=np.float64)
+    def f64(a: np.ndarray | None, name: str) -> np.ndarray | None:
+        return None if a is None else _real(a, name, 2, "(H, W)")
 
     return _core.grid_mincut(
-        f64(wx),
-        f64(wy),
-        np.ascontiguousarray(source, dtype=bool),
-        np.ascontiguousarray(sink, dtype=bool),
-        f64(source_cap),
-        f64(sink_cap),
+        f64(wx, "wx"),
+        f64(wy, "wy"),
+        _mask(source, "source"),
+        _mask(sink, "sink"),
+        f64(source_cap, "source_cap"),
+        f64(sink_cap, "sink_cap"),
     )
 
 
-def _grad(g: np.ndarray | None) -> np.ndarray | None:
-    return None if g is None else np.ascontiguousarray(g, dtype=np.float64)
+def _grad(g: np.ndarray | None, name: str, ndim: int, shape_text: str) -> np.ndarray | None:
+    return None if g is None else _real(g, name, ndim, shape_text)
 
 
 def kwatra_weights(
@@ -179,7 +220,10 @@ def kwatra_weights(
     weights edge (y,x)–(y,x+1), ``wy[y, x]`` edge (y,x)–(y+1,x); edges with both ends outside ``region`` get 0.
     ``a_grad`` (``(H, W, 2)``: ‖g_a‖ along x, along y) replaces the gradients of ``a`` (see :mod:`tilesynth.omega`).
     """
-    return _core.kwatra_weights(as_image(a, "a"), as_image(b, "b"), _mask(region), float(eps), _grad(a_grad))
+    return _core.kwatra_weights(
+        as_image(a, "a"), as_image(b, "b"), _mask(region, "region"), finite_float(eps, "eps", positive=True),
+        _grad(a_grad, "a_grad", 3, "(H, W, 2)"),
+    )
 
 
 def omega_cuts(
@@ -202,7 +246,9 @@ def omega_cuts(
     """
     i, _ = _templates(intermediate, "intermediate")
     o, _ = _templates(matching, "matching")
-    return _core.omega_cuts(i, o, float(eps), threads, _grad(intermediate_grad), bool(keep_border))
+    g = _grad(intermediate_grad, "intermediate_grad", 4, "(K, N, N, 2)")
+    eps = finite_float(eps, "eps", positive=True)
+    return _core.omega_cuts(i, o, eps, threads_arg(threads), g, bool(keep_border))
 
 
 def edge_weight_sums(
@@ -222,7 +268,8 @@ def edge_weight_sums(
     """
     t = as_image(template, "template")
     return _core.edge_weight_sums(
-        t, as_image(image, "image"), _mask(wx_mask), _mask(wy_mask), float(eps), _grad(template_grad), threads
+        t, as_image(image, "image"), _mask(wx_mask), _mask(wy_mask), float(eps),
+        _grad(template_grad, "template_grad", 3, "(N, M, 2)"), threads_arg(threads),
     )
 
 
@@ -239,29 +286,66 @@ def weighted_ssd_map(
     ``D(t) = Σ_p Σ_c (T(p,c) − I(p+t,c))² / (μ (g_T(p) + g_I(p+t)) + ε)``, with per-pixel gradient magnitudes
     ``image_grad`` ``(H, W)`` and ``template_grad`` ``(N, M)``. float64 ``(H − N + 1, W − M + 1)``."""
     return _core.weighted_ssd_map(
-        as_image(image, "image"), _grad(image_grad), as_image(template, "template"), _grad(template_grad),
-        float(mu), float(eps), threads,
+        as_image(image, "image"), _grad(image_grad, "image_grad", 2, "(H, W)"), as_image(template, "template"),
+        _grad(template_grad, "template_grad", 2, "(N, M)"), float(mu), float(eps), threads_arg(threads),
     )
 
 
 def tile_copy(atlas: np.ndarray, index_map: np.ndarray, out: np.ndarray, threads: int | None = None) -> np.ndarray:
     """Fill ``out`` ``(H, W, C)`` with tiles of ``atlas`` ``(K, th, tw, C)`` laid out by ``index_map``.
 
-    ``atlas`` and ``out`` must share a dtype (uint8, uint16 or float32) and ``out`` must be C-contiguous; the map
-    may cover more than ``out`` (cropped). Returns ``out``.
+    ``atlas`` and ``out`` must share a dtype (uint8, uint16, float32, or int32 for provenance maps), ``out`` must
+    be a writable, C-contiguous array that does not overlap ``atlas``; the map may cover more than ``out``
+    (cropped). Returns ``out``.
     """
+    kinds = (np.uint8, np.uint16, np.float32, np.int32)
+    a = _asarray(atlas, "atlas")
+    if a.ndim != 4:
+        raise ShapeError(f"atlas has shape {a.shape}, expected (K, th, tw, C)")
+    if not isinstance(out, np.ndarray):
+        raise TypeError(f"out is a {type(out).__name__}, expected a numpy array")
+    if out.ndim != 3:
+        raise ShapeError(f"out has shape {out.shape}, expected (H, W, C)")
+    if a.dtype not in kinds or out.dtype != a.dtype or not out.dtype.isnative:
+        raise TypeError(
+            f"atlas has dtype {a.dtype} and out {out.dtype}: expected the same dtype, uint8, uint16, float32 or "
+            "int32 (native byte order)"
+        )
+    if not out.flags.c_contiguous or not out.flags.writeable:
+        raise TypeError("out: array must be C-contiguous and writeable")
+    if np.may_share_memory(a, out):
+        raise ParameterError("out: must not share memory with atlas")
     _core.tile_copy(
-        np.ascontiguousarray(atlas), np.ascontiguousarray(index_map, dtype=np.int32), out, threads
+        np.ascontiguousarray(a, dtype=a.dtype.newbyteorder("=")), _index_map(index_map), out, threads_arg(threads)
     )
     return out
 
 
+def _index_map(value: object) -> np.ndarray:
+    """An int32 ``(rows, cols)`` tile index map; integers only, none beyond the int32 range (no silent wrap)."""
+    m = _asarray(value, "index_map")
+    if m.ndim != 2:
+        raise ShapeError(f"index_map has shape {m.shape}, expected (rows, cols)")
+    if m.dtype.kind not in "iu":
+        if m.size or m.dtype.kind not in "bf":
+            raise TypeError(f"index_map has dtype {m.dtype}, expected integers")
+    if m.size and m.dtype.kind in "iu" and m.dtype.itemsize >= 4:
+        lo, hi = int(m.min()), int(m.max())
+        if lo < -(2**31) or hi >= 2**31:
+            raise ParameterError(f"index_map has values in [{lo}, {hi}], expected tile indices")
+    return np.ascontiguousarray(m, dtype=np.int32)
+
+
 def _int_array(value: object, name: str, ndim: int, shape_text: str) -> np.ndarray:
-    a = np.asarray(value)
+    a = _asarray(value, name)
     if a.ndim != ndim:
         raise ShapeError(f"{name} has shape {a.shape}, expected {shape_text}")
     if a.size and not (np.issubdtype(a.dtype, np.integer) or a.dtype == np.bool_):
         raise ParameterError(f"{name} has dtype {a.dtype}, expected integers")
+    if a.size == 0 and a.dtype.kind not in "biuf":
+        raise ParameterError(f"{name} has dtype {a.dtype}, expected integers")
+    if a.size and a.dtype.kind == "u" and a.dtype.itemsize == 8 and int(a.max()) >= 2**63:
+        raise ParameterError(f"{name} has values up to {int(a.max())}, beyond int64")
     return np.ascontiguousarray(a, dtype=np.int64)
 
 
@@ -312,6 +396,8 @@ class PopulationEvaluator:
         cache_bytes = positive_int(cache_bytes, "cache_bytes", minimum=0)
         if isinstance(lam, (bool, np.bool_)) or not isinstance(lam, (int, float, np.integer, np.floating)):
             raise ParameterError(f"lam = {lam!r}: must be a number in [0, 1]")
+        if not 0.0 <= float(lam) <= 1.0:
+            raise ParameterError(f"lam = {lam!r}: must be a number in [0, 1]")
         self.lam = float(lam)
         self.normalise = bool(normalise)
         self._ev = _core.PopulationEvaluator(
@@ -325,7 +411,7 @@ class PopulationEvaluator:
         Returns float64 ``E`` ``(P,)`` and ``D`` ``(P, m)``.
         """
         g = _int_array(genes, "genes", 3, f"(P, {self.n_patches}, 2)")
-        return self._ev.evaluate(g, threads)
+        return self._ev.evaluate(g, threads_arg(threads))
 
     def cache_stats(self) -> dict[str, int]:
         """Partial-map cache counters: ``entries``, ``bytes``, ``limit``, ``hits``, ``misses``."""
@@ -455,7 +541,9 @@ def swang_cuts(
     """
     i, _ = _templates(initial, "initial")
     o, _ = _templates(supplementary, "supplementary")
-    return _core.swang_cuts(i, o, float(eps), threads, _grad(initial_grad))
+    return _core.swang_cuts(
+        i, o, float(eps), threads_arg(threads), _grad(initial_grad, "initial_grad", 4, "(K, N, N, 2)")
+    )
 
 
 __all__ = [

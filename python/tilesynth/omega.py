@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 
 from . import kernels
-from ._validate import as_image, positive_int, seed_int
+from ._validate import as_image, finite_float, positive_int, seed_int, threads_arg
 from .errors import ParameterError
 from .tilefile import TileSet, exemplar_digest
 from .matching import EQ2_EPS, MU, augmented, check_metric, check_strategy, gradient_norm, pick_distinct, strategy_edges
@@ -62,16 +62,30 @@ Progress = Callable[[str, int, int], None]
 """Progress callback: (stage, done, total)."""
 
 
+MIN_TILE_SIZE = 4
+"""The smallest tile: 4 x 4 (2 x 2 quadrants; the cut needs a border ring and a cross inside it)."""
+
+
 def default_tile_size(shape: tuple[int, ...]) -> int:
-    """Half the exemplar's shorter side, rounded down to even, capped at 256 (002 used 64 on 128 inputs)."""
+    """Half the exemplar's shorter side, rounded down to even, capped at 256 (002 used 64 on 128 inputs), and
+    at least :data:`MIN_TILE_SIZE` (exemplars of 4 to 7 pixels a side get 4: the whole-side tile)."""
     n = min(shape[0], shape[1]) // 2
     n -= n % 2
-    return max(2, min(n, 256))
+    return max(MIN_TILE_SIZE, min(n, 256))
+
+
+def check_exemplar_size(shape: tuple[int, ...]) -> None:
+    """Refuse exemplars smaller than the smallest tile (a 1x1 image is a valid file, not a texture)."""
+    if min(shape[0], shape[1]) < MIN_TILE_SIZE:
+        raise ParameterError(
+            f"exemplar has shape {tuple(shape)}: too small, at least {MIN_TILE_SIZE}x{MIN_TILE_SIZE} pixels are "
+            f"needed (the smallest tile is {MIN_TILE_SIZE}x{MIN_TILE_SIZE})"
+        )
 
 
 def check_tile_size(tile_size: Any, shape: tuple[int, ...]) -> int:
     """Validate ``tile_size`` against an exemplar of ``shape`` (even, >= 4, fits inside the exemplar)."""
-    n = positive_int(tile_size, "tile_size", minimum=4)
+    n = positive_int(tile_size, "tile_size", minimum=MIN_TILE_SIZE)
     if n % 2:
         raise ParameterError(f"tile_size = {n}: must be even (the tile is cut from the centre of a 2x2 block)")
     if n > shape[0] or n > shape[1]:
@@ -117,7 +131,18 @@ def check_genes(genes: Any, n: int, shape: tuple[int, ...], tile_size: int) -> n
 
 def energy(D: np.ndarray, lam: float = LAMBDA) -> float:
     """E = λ·ΣD_j + (1−λ)·Var(D_j) with the population variance."""
-    d = np.asarray(D, dtype=np.float64)
+    try:
+        d = np.asarray(D)
+    except (ValueError, TypeError) as exc:
+        raise ParameterError(f"D: expected real numbers ({exc})") from None
+    if d.dtype.kind not in "biuf":
+        raise TypeError(f"D has dtype {d.dtype}, expected real numbers")
+    d = d.astype(np.float64)
+    if d.ndim != 1 or d.size == 0 or not np.isfinite(d).all():
+        raise ParameterError(f"D has shape {d.shape}: expected a non-empty 1-d array of finite values")
+    lam = finite_float(lam, "lam")
+    if not 0.0 <= lam <= 1.0:
+        raise ParameterError(f"lam = {lam}: must be in [0, 1]")
     return float(lam * d.sum() + (1.0 - lam) * d.var())
 
 
@@ -392,9 +417,20 @@ def build_omega(
     """
     t0 = time.perf_counter()
     ex = as_image(exemplar, "exemplar")
+    if np.may_share_memory(ex, exemplar):
+        ex = ex.copy()  # the tile set keeps the exemplar: never alias the caller's array
+    check_exemplar_size(ex.shape)
+    if not isinstance(tileset, str):
+        raise ParameterError(f"tileset = {tileset!r}: expected a tile-set name such as '16a' or 'n2'")
     defn = get_tileset(tileset)
     n = default_tile_size(ex.shape) if tile_size is None else check_tile_size(tile_size, ex.shape)
     seed = seed_int(seed)
+    threads = threads_arg(threads)
+    eps = finite_float(eps, "eps", positive=True)
+    if progress is not None and not callable(progress):
+        raise ParameterError(f"progress = {progress!r}: must be a callable (stage, done, total) or None")
+    if exemplar_info is not None and not isinstance(exemplar_info, dict):
+        raise ParameterError(f"exemplar_info = {exemplar_info!r}: must be a dict or None")
     rng = np.random.default_rng(seed)
     colours = list(defn.colours)
     if gradients not in ("patch", "tile"):

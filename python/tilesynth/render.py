@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validate import to_uint
+from ._validate import positive_int, to_uint
 from .tilefile import TileSet
 
 # Display colours for corner labels; colours beyond these get a grey ramp.
@@ -45,8 +45,12 @@ def contact_sheet(tileset: TileSet, columns: int | None = None, show_cuts: bool 
     """
     from PIL import Image, ImageDraw
 
+    if not isinstance(tileset, TileSet):
+        raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet")
     k, n = tileset.n_tiles, tileset.tile_size
-    cols = columns or int(np.ceil(np.sqrt(k)))
+    # more columns than tiles would only add empty space (and a huge columns value a huge image)
+    cols = min(k, positive_int(columns, "columns")) if columns is not None else int(np.ceil(np.sqrt(k)))
+    gap = positive_int(gap, "gap", minimum=0, maximum=1024)
     rows = -(-k // cols)
     label_h = 14
     cell_w, cell_h = n + gap, n + gap + label_h

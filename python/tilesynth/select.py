@@ -194,6 +194,17 @@ def _region(shape: Any, n: Any, tile_size: Any) -> tuple[tuple[int, int], int, i
     return (dims[0], dims[1]), n_, t, reg
 
 
+MAX_POPULATION = 10_000
+"""Largest population (GA, AIS) or count (best-of): every generation evaluates the whole population exactly
+(four SSD maps per new patch position), so 10^4 individuals already take minutes a generation on a 512-pixel
+exemplar; a larger value is a mistake that would exhaust memory (a population is P x n x 2 int64 genes plus
+P x m float64 D values, and the evaluator's working set)."""
+
+MAX_GENERATIONS = 100_000
+"""Largest number of generations: far beyond the papers' 50 (and the stop after 5 without improvement);
+bounds the run time and the stored convergence history."""
+
+
 def _int_param(name: str, value: Any, minimum: int, maximum: int | None = None) -> int:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
         raise ParameterError(f"{name} = {value!r}: must be an integer")
@@ -422,7 +433,7 @@ def run_best_of(
     """
     t0 = time.perf_counter()
     shp, n, t, _ = _region(shape, n, tile_size)
-    count = _int_param("count", count, 1)
+    count = _int_param("count", count, 1, MAX_POPULATION)
     g = as_generator(rng)
     ev = _Evaluator(evaluate, n, cache=False)
     run = _Run("best-of", 1, None, progress)
@@ -600,11 +611,11 @@ def run_ga(
     t0 = time.perf_counter()
     shp, n, t, region = _region(shape, n, tile_size)
     params: dict[str, Any] = {
-        "population": _int_param("population", population, 2),
+        "population": _int_param("population", population, 2, MAX_POPULATION),
         "alpha": _float_param("alpha", alpha, 0.0, 1.0, lo_open=True, hi_open=True),
         "p_crossover": _float_param("p_crossover", p_crossover, 0.0, 1.0),
         "p_mutation": _float_param("p_mutation", p_mutation, 0.0, 1.0),
-        "generations": _int_param("generations", generations, 1),
+        "generations": _int_param("generations", generations, 1, MAX_GENERATIONS),
         "stagnation": _int_param("stagnation", stagnation, 1),
         "elitism": _bool_param("elitism", elitism),
     }
@@ -861,7 +872,7 @@ def run_ais(
     """
     t0 = time.perf_counter()
     shp, n, t, region = _region(shape, n, tile_size)
-    size = _int_param("population", population, 2)
+    size = _int_param("population", population, 2, MAX_POPULATION)
     params: dict[str, Any] = {
         "population": size,
         "s_min": _float_param("s_min", s_min, 0.0, 1.0, lo_open=True, hi_open=True),
@@ -869,7 +880,7 @@ def run_ais(
         "alpha": _float_param("alpha", alpha, 0.0, math.inf, lo_open=True, hi_open=True),
         "beta": _float_param("beta", beta, 0.0, math.inf, lo_open=True, hi_open=True),
         "deaths": size // 4 if deaths is None else _int_param("deaths", deaths, 0, size - 1),
-        "generations": _int_param("generations", generations, 1),
+        "generations": _int_param("generations", generations, 1, MAX_GENERATIONS),
         "stagnation": _int_param("stagnation", stagnation, 1),
     }
     if params["s_min"] > params["s_max"]:

@@ -2,6 +2,14 @@
 
 The tiling rule (scan-line, seeded, see :mod:`tilesynth.tiling`) fills an index map of ⌈H/N⌉ x ⌈W/N⌉ cells; the
 Rust kernel copies tile rows into a preallocated output (the last row and column of tiles are cropped).
+
+**Output size guard.** The output is one array in memory, so a size that cannot fit is refused *up front* with
+the estimate (:func:`synthesis_bytes`), instead of dying in numpy or, worse, being killed by the kernel's OOM
+killer halfway through (``np.empty`` of 120 GB succeeds on Linux: memory is only committed when written).
+The limit (:func:`memory_limit`) is half the physical memory by default, or ``max_bytes`` /
+``TILESYNTH_MAX_BYTES``. We refuse rather than stream to disk: the API returns an array, and a texture that
+does not fit in memory is better produced in pieces with explicit index maps (``index_map`` of any window of
+a bigger map gives the matching piece).
 """
 
 from __future__ import annotations
@@ -11,10 +19,44 @@ from typing import Any
 import numpy as np
 
 from . import kernels
-from ._validate import positive_int, seed_int, to_uint
+from ._validate import MAX_BYTES_ENV, fmt_bytes, memory_limit, positive_int, seed_int, threads_arg, to_uint
 from .errors import ParameterError, ShapeError
 from .tilefile import TileSet
 from .tiling import scanline_index_map, validate_index_map
+
+
+def synthesis_bytes(tileset: TileSet, width: int, height: int, dtype: Any = np.float32, out: bool = True) -> int:
+    """Estimated peak bytes of :func:`synthesize`: the output ``height x width x C`` of ``dtype`` (unless the
+    caller gives ``out``), the index map with the tiler's working memory
+    (:data:`tilesynth.tiling.TILER_BYTES_PER_CELL` a cell), and the atlas converted to ``dtype``."""
+    from .tiling import TILER_BYTES_PER_CELL
+
+    n = tileset.tile_size
+    cells = -(-int(height) // n) * -(-int(width) // n)
+    item = np.dtype(dtype).itemsize
+    total = cells * TILER_BYTES_PER_CELL + tileset.tiles.size * item
+    if out:
+        total += int(height) * int(width) * tileset.channels * item
+    return total
+
+
+def check_size(tileset: TileSet, width: int, height: int, dtype: Any = np.float32, out: bool = True,
+               max_bytes: int | None = None, copies: int = 1) -> int:
+    """Refuse (:class:`ParameterError`) a synthesis whose estimate times ``copies`` exceeds the memory limit.
+
+    Returns the estimate. ``copies`` counts whole extra copies of the output the caller will make (the CLI's
+    PNG encoder makes one)."""
+    est = synthesis_bytes(tileset, width, height, dtype, out)
+    est += (copies - 1) * int(height) * int(width) * tileset.channels * np.dtype(dtype).itemsize
+    limit = memory_limit(max_bytes)
+    if est > limit:
+        raise ParameterError(
+            f"width x height = {width}x{height}: the output needs about {fmt_bytes(est)} ({width}x{height}x"
+            f"{tileset.channels} {np.dtype(dtype)} and the tile index map), more than the limit of "
+            f"{fmt_bytes(limit)} (max_bytes / {MAX_BYTES_ENV}; default half the physical memory). "
+            "Synthesize smaller pieces with explicit index maps"
+        )
+    return est
 
 
 def synthesize(
@@ -26,6 +68,7 @@ def synthesize(
     dtype: Any = np.float32,
     threads: int | None = None,
     out: np.ndarray | None = None,
+    max_bytes: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Synthesize a ``height`` x ``width`` texture.
 
@@ -39,14 +82,26 @@ def synthesize(
     dtype : ``numpy.float32`` (values in [0, 1]), ``numpy.uint8`` or ``numpy.uint16``.
     threads : copy threads (None: ``TILESYNTH_NUM_THREADS`` or all cores).
     out : optional preallocated C-contiguous ``(height, width, C)`` array of ``dtype`` to write into.
+    max_bytes : refuse (:class:`ParameterError`, with the estimate) if the synthesis would need more memory
+        than this; default :func:`memory_limit` (see the module docstring).
 
     Returns
     -------
     image : ``(height, width, C)`` of ``dtype``.
     index_map : int32 ``(rows, cols)``, the tile of every cell.
     """
+    if not isinstance(tileset, TileSet):
+        raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet (tilesynth.load(path))")
     w = positive_int(width, "width")
     h = positive_int(height, "height")
+    threads = threads_arg(threads)
+    try:
+        dt = np.dtype(dtype)
+    except TypeError:
+        raise ParameterError(f"dtype = {dtype!r}: must be float32, uint8 or uint16") from None
+    if dt not in (np.float32, np.uint8, np.uint16):
+        raise ParameterError(f"dtype = {dt}: must be float32, uint8 or uint16")
+    check_size(tileset, w, h, dt, out is None, max_bytes)
     n = tileset.tile_size
     rows, cols = -(-h // n), -(-w // n)
     defn = tileset.definition
@@ -66,28 +121,46 @@ def synthesize(
         except ValueError as exc:
             raise ParameterError(f"index_map: {exc}") from None
     imap = np.ascontiguousarray(imap, dtype=np.int32)
-    dt = np.dtype(dtype)
     if dt == np.float32:
         atlas = tileset.tiles
     elif dt == np.uint8:
         atlas = to_uint(tileset.tiles, 8)
-    elif dt == np.uint16:
-        atlas = to_uint(tileset.tiles, 16)
     else:
-        raise ParameterError(f"dtype = {dt}: must be float32, uint8 or uint16")
+        atlas = to_uint(tileset.tiles, 16)
     shape = (h, w, tileset.channels)
     if out is None:
         out = np.empty(shape, dt)
-    elif out.shape != shape or out.dtype != dt or not out.flags.c_contiguous:
-        raise ShapeError(f"out has shape {out.shape} and dtype {out.dtype}, expected C-contiguous {shape} {dt}")
+    elif (
+        not isinstance(out, np.ndarray) or out.shape != shape or out.dtype != dt or not out.flags.c_contiguous
+        or not out.flags.writeable
+    ):
+        raise ShapeError(
+            f"out has shape {np.shape(out)} and dtype {getattr(out, 'dtype', type(out).__name__)}, expected a "
+            f"writeable C-contiguous {shape} {dt} array"
+        )
     kernels.tile_copy(atlas, imap, out, threads=threads)
     return out, imap
 
 
-def source_map(tileset: TileSet, index_map: np.ndarray, width: int, height: int) -> np.ndarray:
-    """Exemplar (row, col) of every output pixel: int32 ``(height, width, 2)`` (provenance of a synthesis)."""
-    out = np.empty((height, width, 2), np.int32)
-    kernels.tile_copy(tileset.source, np.ascontiguousarray(index_map, dtype=np.int32), out)
+def source_map(
+    tileset: TileSet, index_map: np.ndarray, width: int, height: int, max_bytes: int | None = None
+) -> np.ndarray:
+    """Exemplar (row, col) of every output pixel: int32 ``(height, width, 2)`` (provenance of a synthesis).
+
+    Refused up front, like :func:`synthesize`, when the ``height x width x 8`` bytes exceed the memory limit.
+    """
+    if not isinstance(tileset, TileSet):
+        raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet (tilesynth.load(path))")
+    w = positive_int(width, "width")
+    h = positive_int(height, "height")
+    need, limit = h * w * 8, memory_limit(max_bytes)
+    if need > limit:
+        raise ParameterError(
+            f"width x height = {w}x{h}: the source map needs {fmt_bytes(need)}, more than the limit of "
+            f"{fmt_bytes(limit)} (max_bytes / {MAX_BYTES_ENV})"
+        )
+    out = np.empty((h, w, 2), np.int32)
+    kernels.tile_copy(tileset.source, kernels._index_map(index_map), out)
     return out
 
 

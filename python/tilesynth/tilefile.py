@@ -10,8 +10,6 @@ member              content
                     (tile size, eps, selection method and its parameters, seed), ``per_tile`` table (colours,
                     patch numbers, matching offset, D_j, cut cost), ``E``, ``exemplar`` (file name, shape, bits,
                     SHA-256 of its float32 pixels), ``arrays`` (name -> dtype and shape, for checking)
-``timing.json``     wall-clock seconds of each build stage (the only member that differs between two identical
-                    builds; everything else is byte-identical for the same inputs and seed)
 ``tiles.npy``       float32 ``(K, N, N, C)`` the tiles, values in [0, 1]
 ``source.npy``      int32 ``(K, N, N, 2)`` exemplar (row, col) each tile pixel was copied from (provenance)
 ``cut_masks.npy``   bool ``(K, N, N)`` True where the pixel came from the matching patch O
@@ -22,6 +20,8 @@ member              content
 ``cut_costs.npy``   float64 ``(K,)`` min-cut cost of each tile's cutting curve
 ``exemplar.npy``    float32 ``(H, W, C)`` the exemplar itself (so provenance can be resolved and maps that follow
                     the cuts can be synthesised without the original file)
+``timing.json``     wall-clock seconds of each build stage; the last member, and optional (``save(...,
+                    include_timing=False)``)
 ==================  =========================================================================================
 
 **Schemes.** ``scheme`` is ``"omega"`` (ω-tiles, :mod:`tilesynth.omega`), ``"wang"`` (Cohen et al.'s Wang tiles,
@@ -48,6 +48,21 @@ stays valid and loads as before.
 Members are written in a fixed order with a fixed timestamp (1980-01-01) and deflate level 6, so the bytes
 depend only on the content. Arrays use the ``.npy`` format, floats in JSON use Python's shortest round-trip repr:
 loading and saving again reproduces every array and value bit for bit.
+
+**Determinism.** The same inputs, parameters and seed give the same tile set at any thread count and in any run
+(``tests/test_golden.py``). What that means for the file: every member but ``timing.json`` is byte-identical,
+and since ``timing.json`` is written last, so is the whole file up to it; :meth:`TileSet.content_digest`
+(shown by ``tilesynth info``) is equal; and ``save(path, include_timing=False)`` writes a file that is
+byte-identical as a whole. Wall-clock times differ from run to run by nature, so they are kept apart rather
+than dropped.
+
+**Loading is safe.** ``load`` never executes code: arrays are read with ``allow_pickle=False`` (object arrays
+are refused) and JSON is plain data. It refuses, with :class:`~tilesynth.errors.TileSetFormatError` naming the
+file and the problem: files that are not ZIP archives, truncated or corrupt archives (bad CRC, bad deflate
+data), archives whose members would unpack to more than :data:`MAX_UNPACKED_BYTES`, a wrong ``format`` (the
+magic), an unknown ``format_version``, tampered JSON (not an object, wrong field types, a layout that is not a
+tile set), and arrays of the wrong dtype or shape or with impossible values (tiles outside [0, 1], provenance
+outside the exemplar, patch indices outside the genes, non-finite D or costs).
 """
 
 from __future__ import annotations
@@ -57,6 +72,7 @@ import io
 import json
 import os
 import zipfile
+import zlib
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -67,6 +83,10 @@ from .io import atomic_path
 
 FORMAT = "tilesynth-tileset"
 FORMAT_VERSION = 1
+
+MAX_UNPACKED_BYTES = 8 << 30
+"""Refuse tile-set files whose members declare more than 8 GiB unpacked (a ZIP bomb; the largest real set,
+|N16| = 5000 tiles of 256 x 256 RGBA float32, is 5.2 GiB with its provenance)."""
 
 _ARRAYS: dict[str, str] = {
     "tiles": "float32",
@@ -206,49 +226,70 @@ class TileSet:
         return h.hexdigest()
 
     # ---------------------------------------------------------------------------------------------- files
-    def save(self, path: str | os.PathLike[str]) -> None:
-        """Write the tile set to ``path`` atomically (see the module docstring for the layout)."""
+    def save(self, path: str | os.PathLike[str], include_timing: bool = True) -> None:
+        """Write the tile set to ``path`` atomically (see the module docstring for the layout).
+
+        ``include_timing=False`` leaves out ``timing.json``, so that the same build gives a byte-identical
+        file in every run (see "Determinism" in the module docstring).
+        """
         self._check()
         with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w") as zf:
             _write_member(zf, "manifest.json", _json_bytes(self.manifest()))
-            _write_member(zf, "timing.json", _json_bytes(self.timing))
             for name in self._arrays():
                 _write_member(zf, f"{name}.npy", _npy_bytes(getattr(self, name)))
+            if include_timing:
+                _write_member(zf, "timing.json", _json_bytes(self.timing))
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> TileSet:
-        """Read a ``.tiles`` file; raises :class:`TileSetFormatError` naming the path and the problem."""
+        """Read a ``.tiles`` file; raises :class:`TileSetFormatError` naming the path and the problem.
+
+        Never executes code from the file (see "Loading is safe" in the module docstring).
+        """
         p = os.fspath(path)
+        if os.path.isdir(p):
+            raise TileSetFormatError(f"tileset = {p!r}: is a directory, expected a .tiles file")
         if not os.path.isfile(p):
             raise TileSetFormatError(f"tileset = {p!r}: no such file")
         try:
             with zipfile.ZipFile(p) as zf:
-                names = set(zf.namelist())
-                missing = [m for m in ["manifest.json", *(f"{a}.npy" for a in _ARRAYS)] if m not in names]
+                infos = {i.filename: i for i in zf.infolist()}
+                missing = [m for m in ["manifest.json", *(f"{a}.npy" for a in _ARRAYS)] if m not in infos]
                 if missing:
-                    raise TileSetFormatError(f"tileset = {p!r}: missing members {missing}")
+                    raise TileSetFormatError(f"tileset = {p!r}: not a tilesynth tile set (missing members {missing})")
+                unpacked = sum(i.file_size for i in infos.values())
+                if unpacked > MAX_UNPACKED_BYTES:
+                    raise TileSetFormatError(
+                        f"tileset = {p!r}: members unpack to {unpacked} bytes, more than the limit of "
+                        f"{MAX_UNPACKED_BYTES} (MAX_UNPACKED_BYTES)"
+                    )
                 manifest = json.loads(zf.read("manifest.json"))
-                timing = json.loads(zf.read("timing.json")) if "timing.json" in names else {}
+                _check_manifest(manifest)
+                timing = json.loads(zf.read("timing.json")) if "timing.json" in infos else {}
+                if not isinstance(timing, dict) or not all(
+                    isinstance(k, str) and isinstance(v, (int, float)) and not isinstance(v, bool)
+                    for k, v in timing.items()
+                ):
+                    raise TileSetFormatError("timing.json must map stage names to seconds")
                 arrays = {
                     a: np.load(io.BytesIO(zf.read(f"{a}.npy")), allow_pickle=False)
                     for a in [*_ARRAYS, *_OPTIONAL]
-                    if a in _ARRAYS or f"{a}.npy" in names
+                    if a in _ARRAYS or f"{a}.npy" in infos
                 }
-        except (zipfile.BadZipFile, json.JSONDecodeError, ValueError, OSError, KeyError) as exc:
-            if isinstance(exc, TileSetFormatError):
+        except TileSetFormatError as exc:
+            if str(exc).startswith("tileset = "):
                 raise
-            raise TileSetFormatError(f"tileset = {p!r}: not a tilesynth tile set ({exc})") from None
-        if manifest.get("format") != FORMAT:
-            raise TileSetFormatError(f"tileset = {p!r}: not a tilesynth tile set (format {manifest.get('format')!r})")
-        if manifest.get("format_version") != FORMAT_VERSION:
-            raise TileSetFormatError(
-                f"tileset = {p!r}: format version {manifest.get('format_version')!r}, "
-                f"this tilesynth reads version {FORMAT_VERSION}"
-            )
+            raise TileSetFormatError(f"tileset = {p!r}: {exc}") from None
+        except (
+            zipfile.BadZipFile, zipfile.LargeZipFile, json.JSONDecodeError, UnicodeDecodeError, ValueError,
+            OSError, KeyError, EOFError, zlib.error, NotImplementedError, RuntimeError,
+        ) as exc:
+            # RuntimeError: an encrypted member; NotImplementedError: an unknown compression method
+            raise TileSetFormatError(f"tileset = {p!r}: not a tilesynth tile set ({type(exc).__name__}: {exc})") from None
         ts = cls(
             scheme=manifest["scheme"],
             layout=manifest["layout"],
-            E=manifest["E"],
+            E=float(manifest["E"]),
             params=manifest["params"],
             exemplar_info=manifest["exemplar"],
             timing=timing,
@@ -256,13 +297,14 @@ class TileSet:
             **arrays,
         )
         try:
-            ts._check()
+            ts._check(values=True)
         except TileSetFormatError as exc:
             raise TileSetFormatError(f"tileset = {p!r}: {exc}") from None
         return ts
 
-    def _check(self) -> None:
-        """Consistency of dtypes and shapes (raises TileSetFormatError)."""
+    def _check(self, values: bool = False) -> None:
+        """Consistency of dtypes and shapes, and with ``values`` of the array contents and the layout
+        (raises TileSetFormatError). ``load`` checks everything; ``save`` the dtypes and shapes."""
         for name, dt in self._arrays().items():
             a = getattr(self, name)
             if not isinstance(a, np.ndarray) or a.dtype != np.dtype(dt):
@@ -289,6 +331,42 @@ class TileSet:
             raise TileSetFormatError(f"layout lists {len(self.layout.get('tiles', []))} tiles, the arrays {k}")
         if self.exemplar.ndim != 3 or self.exemplar.shape[2] != c:
             raise TileSetFormatError(f"exemplar has shape {self.exemplar.shape}, expected (H, W, {c})")
+        if k == 0 or n == 0 or not 1 <= c <= 4 or 0 in self.exemplar.shape:
+            raise TileSetFormatError(f"tiles have shape {self.tiles.shape}, expected (K, N, N, C), K, N >= 1, C in 1..4")
+        if self.genes.ndim != 2 or self.genes.shape[1] != 2 or self.genes.shape[0] == 0:
+            raise TileSetFormatError(f"array genes has shape {self.genes.shape}, expected (n, 2) with n >= 1")
+        if not values:
+            return
+        try:
+            from .tilesets import tileset_from_dict
+
+            defn = tileset_from_dict(self.layout)
+        except Exception as exc:  # noqa: BLE001 - tampered content may fail in any way; it is a format error
+            raise TileSetFormatError(f"layout is not a tile-set definition ({type(exc).__name__}: {exc})") from None
+        if len(defn.tiles) != k:
+            raise TileSetFormatError(f"layout lists {len(defn.tiles)} tiles, the arrays {k}")
+        h, w = self.exemplar.shape[:2]
+        for name in ("tiles", "exemplar"):
+            a = getattr(self, name)
+            if not np.isfinite(a).all() or a.min() < 0 or a.max() > 1:
+                raise TileSetFormatError(f"array {name} has values outside [0, 1] (or NaN)")
+        for name in ("D", "cut_costs"):
+            if not np.isfinite(getattr(self, name)).all():
+                raise TileSetFormatError(f"array {name} has non-finite values")
+        src = self.source
+        if src.size and (src.min() < 0 or src[..., 0].max() >= h or src[..., 1].max() >= w):
+            raise TileSetFormatError(f"array source points outside the {w}x{h} exemplar")
+        for name in ("genes", "match_offsets"):
+            g = getattr(self, name)
+            if name == "match_offsets" and self.scheme == "wang":
+                # Cohen's Wang tiles have no matching patch: the array holds (-1, -1) for every tile
+                if not (g == -1).all():
+                    raise TileSetFormatError("array match_offsets of a Wang tile set must be all -1")
+                continue
+            if (g < 0).any() or (g[:, 0] > h - n).any() or (g[:, 1] > w - n).any():
+                raise TileSetFormatError(f"array {name} has patch positions outside the {w}x{h} exemplar")
+        if (self.tile_patches < 0).any() or (self.tile_patches >= self.genes.shape[0]).any():
+            raise TileSetFormatError(f"array tile_patches has indices outside [0, {self.genes.shape[0]})")
 
     # ------------------------------------------------------------------------------------------ synthesis
     def synthesize(self, width: int, height: int, seed: int | None = None, **kwargs: Any):  # noqa: ANN201
@@ -296,6 +374,30 @@ class TileSet:
         from .synthesis import synthesize
 
         return synthesize(self, width, height, seed=seed, **kwargs)
+
+
+def _check_manifest(m: Any) -> None:
+    """The manifest's magic, version and field types (raises TileSetFormatError without the path)."""
+    if not isinstance(m, dict):
+        raise TileSetFormatError(f"not a tilesynth tile set (manifest.json is a {type(m).__name__}, not an object)")
+    if m.get("format") != FORMAT:
+        raise TileSetFormatError(f"not a tilesynth tile set (format {m.get('format')!r}, expected {FORMAT!r})")
+    if m.get("format_version") != FORMAT_VERSION:
+        raise TileSetFormatError(
+            f"format version {m.get('format_version')!r}, this tilesynth reads version {FORMAT_VERSION}"
+        )
+    types = {"scheme": str, "layout": dict, "params": dict, "exemplar": dict, "tilesynth_version": str,
+             "E": (int, float)}
+    for key, t in types.items():
+        if key not in m:
+            raise TileSetFormatError(f"manifest.json lacks {key!r}")
+        if not isinstance(m[key], t) or isinstance(m[key], bool):
+            raise TileSetFormatError(f"manifest.json field {key!r} = {m[key]!r:.60}: wrong type")
+    if not np.isfinite(m["E"]):
+        raise TileSetFormatError(f"manifest.json field 'E' = {m['E']!r}: must be finite")
+    shape = m["exemplar"].get("shape")
+    if shape is not None and not (isinstance(shape, list) and all(isinstance(v, int) for v in shape)):
+        raise TileSetFormatError(f"manifest.json field exemplar.shape = {shape!r:.60}: expected a list of integers")
 
 
 def exemplar_digest(exemplar: np.ndarray) -> str:

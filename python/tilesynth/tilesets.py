@@ -518,6 +518,11 @@ _N2_SIZE = 38
 
 _NK_PATTERN = re.compile(r"n([1-9][0-9]*)")
 
+MAX_EXTENSION = 16
+"""Largest K of the name ``n<K>`` that :func:`get_tileset` accepts: |N16| = 5000 tiles already holds 5000 tiles
+of N x N pixels (3.7 GiB of float32 RGB at N = 256), and the size grows as K^4; a larger K is a typo or a
+mistake, which would otherwise run for hours (the extension is computed step by step)."""
+
 
 def extension_step(k: int) -> tuple[str, str]:
     """Reference colour and new colour of step ``k`` of the extendable rule.
@@ -992,7 +997,13 @@ def get_tileset(name: str) -> CornerTileSet:
         return extendable_tileset(0)
     match = _NK_PATTERN.fullmatch(key)
     if match is not None:
-        return extendable_tileset(int(match.group(1)))
+        k = int(match.group(1)) if len(match.group(1)) < 6 else MAX_EXTENSION + 1
+        if k > MAX_EXTENSION:
+            raise ValueError(
+                f"tile set {name!r}: at most n{MAX_EXTENSION} ({8 * (MAX_EXTENSION // 4 + 1) ** 4} tiles); "
+                "|N(4c)| = 8 (c + 1)^4 grows so fast that larger sets cannot be built in memory"
+            )
+        return extendable_tileset(k)
     raise ValueError(
         f"unknown tile set {name!r}; valid names are: "
         f"{', '.join(TILESET_NAMES + EXTENDABLE_TILESET_NAMES)} (and n<K> for any K >= 1; any of them "

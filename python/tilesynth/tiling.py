@@ -149,6 +149,24 @@ def _check_size(name: str, value: Any) -> int:
     return int(value)
 
 
+TILER_BYTES_PER_CELL = 64
+"""Peak bytes per cell of :func:`scanline_index_map`: the int32 map, the int64 draws and their list of Python
+ints (about 40 bytes each), rounded up."""
+
+
+def _check_memory(rows: int, cols: int) -> None:
+    """Refuse grids whose tiling would not fit (see :func:`tilesynth._validate.memory_limit`)."""
+    from ._validate import MAX_BYTES_ENV, fmt_bytes, memory_limit
+    from .errors import ParameterError
+
+    need, limit = rows * cols * TILER_BYTES_PER_CELL, memory_limit()
+    if need > limit:
+        raise ParameterError(
+            f"rows x cols = {rows}x{cols}: tiling needs about {fmt_bytes(need)}, more than the limit of "
+            f"{fmt_bytes(limit)} ({MAX_BYTES_ENV}; default half the physical memory)"
+        )
+
+
 def _as_generator(seed: SeedLike) -> np.random.Generator:
     if isinstance(seed, np.random.Generator):
         return seed
@@ -205,6 +223,7 @@ def scanline_index_map(
     """
     rows = _check_size("rows", rows)
     cols = _check_size("cols", cols)
+    _check_memory(rows, cols)
     rng = _as_generator(seed)
     plan = _plan(tileset)
     table = plan.table

@@ -6,11 +6,11 @@ mod errors;
 
 use crate::{maxflow, omega, parallel, png, population, ssd, synth, wang};
 use convert::contiguous;
-use errors::to_pyerr;
+use errors::{guard, to_pyerr};
 use ndarray::{Array2, Array3};
 use numpy::{
-    IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3,
-    PyReadonlyArray4, PyReadwriteArray3, PyUntypedArrayMethods,
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2,
+    PyReadonlyArray3, PyReadonlyArray4, PyReadwriteArray3, PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -59,10 +59,12 @@ impl PySsdIndex {
         image: PyReadonlyArray3<'_, f32>,
         threads: Option<usize>,
     ) -> PyResult<Self> {
-        contiguous("image", &image)?;
-        let image = image.as_array();
-        let inner = run(py, threads, || ssd::SsdIndex::new(image))?;
-        Ok(PySsdIndex { inner })
+        guard("SsdIndex", || {
+            contiguous("image", &image)?;
+            let image = image.as_array();
+            let inner = run(py, threads, || ssd::SsdIndex::new(image))?;
+            Ok(PySsdIndex { inner })
+        })
     }
 
     /// `(H, W, C)` of the indexed image.
@@ -80,14 +82,16 @@ impl PySsdIndex {
         mask: Option<PyReadonlyArray2<'py, bool>>,
         threads: Option<usize>,
     ) -> PyResult<Bound<'py, PyArray3<f32>>> {
-        contiguous("templates", &templates)?;
-        if let Some(m) = &mask {
-            contiguous("mask", m)?;
-        }
-        let templates = templates.as_array();
-        let mask = mask.as_ref().map(|m| m.as_array());
-        let maps = run(py, threads, || ssd::ssd_maps(&self.inner, templates, mask))?;
-        Ok(maps.into_pyarray(py))
+        guard("SsdIndex.ssd_maps", || {
+            contiguous("templates", &templates)?;
+            if let Some(m) = &mask {
+                contiguous("mask", m)?;
+            }
+            let templates = templates.as_array();
+            let mask = mask.as_ref().map(|m| m.as_array());
+            let maps = run(py, threads, || ssd::ssd_maps(&self.inner, templates, mask))?;
+            Ok(maps.into_pyarray(py))
+        })
     }
 
     /// The k best translations of each template (exact SSD): int64 `(K, k, 2)` (row, col), float64 `(K, k)`.
@@ -101,16 +105,18 @@ impl PySsdIndex {
         mask: Option<PyReadonlyArray2<'py, bool>>,
         threads: Option<usize>,
     ) -> PyResult<MatchArrays<'py>> {
-        contiguous("templates", &templates)?;
-        if let Some(m) = &mask {
-            contiguous("mask", m)?;
-        }
-        let templates = templates.as_array();
-        let mask = mask.as_ref().map(|m| m.as_array());
-        let found = run(py, threads, || {
-            ssd::best_matches_many(&self.inner, templates, mask, k, exclude_radius)
-        })?;
-        Ok(pack_matches(py, found))
+        guard("SsdIndex.best_matches", || {
+            contiguous("templates", &templates)?;
+            if let Some(m) = &mask {
+                contiguous("mask", m)?;
+            }
+            let templates = templates.as_array();
+            let mask = mask.as_ref().map(|m| m.as_array());
+            let found = run(py, threads, || {
+                ssd::best_matches_many(&self.inner, templates, mask, k, exclude_radius)
+            })?;
+            Ok(pack_matches(py, found))
+        })
     }
 }
 
@@ -139,21 +145,23 @@ impl PyPopulationEvaluator {
         normalise: bool,
         cache_bytes: usize,
     ) -> PyResult<Self> {
-        contiguous("exemplar", &exemplar)?;
-        contiguous("tile_patches", &tile_patches)?;
-        let (exemplar, tile_patches) = (exemplar.as_array(), tile_patches.as_array());
-        let inner = run(py, None, || {
-            population::PopulationEvaluator::new(
-                exemplar,
-                tile_size,
-                tile_patches,
-                n_patches,
-                lam,
-                normalise,
-                cache_bytes,
-            )
-        })?;
-        Ok(PyPopulationEvaluator { inner })
+        guard("PopulationEvaluator", || {
+            contiguous("exemplar", &exemplar)?;
+            contiguous("tile_patches", &tile_patches)?;
+            let (exemplar, tile_patches) = (exemplar.as_array(), tile_patches.as_array());
+            let inner = run(py, None, || {
+                population::PopulationEvaluator::new(
+                    exemplar,
+                    tile_size,
+                    tile_patches,
+                    n_patches,
+                    lam,
+                    normalise,
+                    cache_bytes,
+                )
+            })?;
+            Ok(PyPopulationEvaluator { inner })
+        })
     }
 
     /// E (float64 `(P,)`) and D (float64 `(P, m)`) of `P` gene vectors `(P, n, 2)` int64.
@@ -164,27 +172,34 @@ impl PyPopulationEvaluator {
         genes: PyReadonlyArray3<'py, i64>,
         threads: Option<usize>,
     ) -> PyResult<EnergyArrays<'py>> {
-        contiguous("genes", &genes)?;
-        let genes = genes.as_array();
-        let (e, d) = run(py, threads, || self.inner.evaluate(genes))?;
-        Ok((e.into_pyarray(py), d.into_pyarray(py)))
+        guard("PopulationEvaluator.evaluate", || {
+            contiguous("genes", &genes)?;
+            let genes = genes.as_array();
+            let (e, d) = run(py, threads, || self.inner.evaluate(genes))?;
+            Ok((e.into_pyarray(py), d.into_pyarray(py)))
+        })
     }
 
     /// Cache counters: entries, bytes, limit, hits, misses.
     fn cache_stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let s = self.inner.cache_stats();
-        let d = PyDict::new(py);
-        d.set_item("entries", s.entries)?;
-        d.set_item("bytes", s.bytes)?;
-        d.set_item("limit", s.limit)?;
-        d.set_item("hits", s.hits)?;
-        d.set_item("misses", s.misses)?;
-        Ok(d)
+        guard("PopulationEvaluator.cache_stats", || {
+            let s = self.inner.cache_stats();
+            let d = PyDict::new(py);
+            d.set_item("entries", s.entries)?;
+            d.set_item("bytes", s.bytes)?;
+            d.set_item("limit", s.limit)?;
+            d.set_item("hits", s.hits)?;
+            d.set_item("misses", s.misses)?;
+            Ok(d)
+        })
     }
 
     /// Drops every cached map (the counters are kept).
-    fn clear_cache(&self) {
-        self.inner.clear_cache()
+    fn clear_cache(&self) -> PyResult<()> {
+        guard("PopulationEvaluator.clear_cache", || {
+            self.inner.clear_cache();
+            Ok(())
+        })
     }
 
     /// `(tile_size, n_patches, n_tiles)`.
@@ -210,14 +225,16 @@ fn grid_mincut<'py>(
     source_cap: Option<PyReadonlyArray2<'py, f64>>,
     sink_cap: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<(Bound<'py, PyArray2<bool>>, f64)> {
-    let (wx, wy) = (wx.as_array(), wy.as_array());
-    let (src, snk) = (source_hard.as_array(), sink_hard.as_array());
-    let sc = source_cap.as_ref().map(|a| a.as_array());
-    let kc = sink_cap.as_ref().map(|a| a.as_array());
-    let cut = run(py, Some(1), || {
-        maxflow::grid_mincut(wx, wy, src, snk, sc, kc)
-    })?;
-    Ok((cut.sink_side.into_pyarray(py), cut.flow))
+    guard("grid_mincut", || {
+        let (wx, wy) = (wx.as_array(), wy.as_array());
+        let (src, snk) = (source_hard.as_array(), sink_hard.as_array());
+        let sc = source_cap.as_ref().map(|a| a.as_array());
+        let kc = sink_cap.as_ref().map(|a| a.as_array());
+        let cut = run(py, Some(1), || {
+            maxflow::grid_mincut(wx, wy, src, snk, sc, kc)
+        })?;
+        Ok((cut.sink_side.into_pyarray(py), cut.flow))
+    })
 }
 
 /// Kwatra edge weights `(wx, wy)` between `a` and `b` (`(H, W, C)`), optionally restricted to `region`.
@@ -232,15 +249,17 @@ fn kwatra_weights<'py>(
     eps: f64,
     a_grad: Option<PyReadonlyArray3<'py, f64>>,
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>)> {
-    contiguous("a", &a)?;
-    contiguous("b", &b)?;
-    let (a, b) = (a.as_array(), b.as_array());
-    let region = region.as_ref().map(|r| r.as_array());
-    let a_grad = a_grad.as_ref().map(|g| g.as_array());
-    let (wx, wy) = run(py, Some(1), || {
-        omega::kwatra_weights(a, b, region, eps, a_grad)
-    })?;
-    Ok((wx.into_pyarray(py), wy.into_pyarray(py)))
+    guard("kwatra_weights", || {
+        contiguous("a", &a)?;
+        contiguous("b", &b)?;
+        let (a, b) = (a.as_array(), b.as_array());
+        let region = region.as_ref().map(|r| r.as_array());
+        let a_grad = a_grad.as_ref().map(|g| g.as_array());
+        let (wx, wy) = run(py, Some(1), || {
+            omega::kwatra_weights(a, b, region, eps, a_grad)
+        })?;
+        Ok((wx.into_pyarray(py), wy.into_pyarray(py)))
+    })
 }
 
 /// ω cutting curves for K tiles: bool masks `(K, N, N)` (True = takes the matching patch) and float64 costs.
@@ -256,12 +275,14 @@ fn omega_cuts<'py>(
     intermediate_grad: Option<PyReadonlyArray4<'py, f64>>,
     keep_border: bool,
 ) -> PyResult<(Bound<'py, PyArray3<bool>>, Bound<'py, PyArray1<f64>>)> {
-    contiguous("intermediate", &intermediate)?;
-    contiguous("matching", &matching)?;
-    let (i, o) = (intermediate.as_array(), matching.as_array());
-    let g = intermediate_grad.as_ref().map(|g| g.as_array());
-    let (masks, costs) = run(py, threads, || omega::omega_cuts(i, o, eps, g, keep_border))?;
-    Ok((masks.into_pyarray(py), costs.into_pyarray(py)))
+    guard("omega_cuts", || {
+        contiguous("intermediate", &intermediate)?;
+        contiguous("matching", &matching)?;
+        let (i, o) = (intermediate.as_array(), matching.as_array());
+        let g = intermediate_grad.as_ref().map(|g| g.as_array());
+        let (masks, costs) = run(py, threads, || omega::omega_cuts(i, o, eps, g, keep_border))?;
+        Ok((masks.into_pyarray(py), costs.into_pyarray(py)))
+    })
 }
 
 /// 000's eq. 2 distance over every translation (direct sums).
@@ -278,12 +299,14 @@ fn weighted_ssd_map<'py>(
     eps: f64,
     threads: Option<usize>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    contiguous("image", &image)?;
-    contiguous("template", &template)?;
-    let (i, t) = (image.as_array(), template.as_array());
-    let (ig, tg) = (image_grad.as_array(), template_grad.as_array());
-    let map = run(py, threads, || ssd::weighted_ssd_map(i, ig, t, tg, mu, eps))?;
-    Ok(map.into_pyarray(py))
+    guard("weighted_ssd_map", || {
+        contiguous("image", &image)?;
+        contiguous("template", &template)?;
+        let (i, t) = (image.as_array(), template.as_array());
+        let (ig, tg) = (image_grad.as_array(), template_grad.as_array());
+        let map = run(py, threads, || ssd::weighted_ssd_map(i, ig, t, tg, mu, eps))?;
+        Ok(map.into_pyarray(py))
+    })
 }
 
 /// Sums of Kwatra weights over selected edges between `template` and every translation of `image`.
@@ -300,15 +323,17 @@ fn edge_weight_sums<'py>(
     template_grad: Option<PyReadonlyArray3<'py, f64>>,
     threads: Option<usize>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    contiguous("template", &template)?;
-    contiguous("image", &image)?;
-    let (t, img) = (template.as_array(), image.as_array());
-    let (mx, my) = (wx_mask.as_array(), wy_mask.as_array());
-    let g = template_grad.as_ref().map(|g| g.as_array());
-    let map = run(py, threads, || {
-        omega::edge_weight_sums(t, g, img, mx, my, eps)
-    })?;
-    Ok(map.into_pyarray(py))
+    guard("edge_weight_sums", || {
+        contiguous("template", &template)?;
+        contiguous("image", &image)?;
+        let (t, img) = (template.as_array(), image.as_array());
+        let (mx, my) = (wx_mask.as_array(), wy_mask.as_array());
+        let g = template_grad.as_ref().map(|g| g.as_array());
+        let map = run(py, threads, || {
+            omega::edge_weight_sums(t, g, img, mx, my, eps)
+        })?;
+        Ok(map.into_pyarray(py))
+    })
 }
 
 /// Writes tiles into `out` `(H, W, C)` by `index_map`; `atlas` `(K, th, tw, C)` and `out` share a dtype
@@ -322,45 +347,35 @@ fn tile_copy<'py>(
     out: &Bound<'py, PyAny>,
     threads: Option<usize>,
 ) -> PyResult<()> {
-    contiguous("index_map", &index_map)?;
-    let map = index_map.as_array();
-    macro_rules! dispatch {
-        ($t:ty) => {
-            if let (Ok(a), Ok(mut o)) = (
-                atlas.extract::<PyReadonlyArray4<'py, $t>>(),
-                out.extract::<PyReadwriteArray3<'py, $t>>(),
-            ) {
-                contiguous("atlas", &a)?;
-                if !o.is_c_contiguous() {
-                    return Err(errors::layout_error("out", "array must be C-contiguous"));
+    guard("tile_copy", || {
+        contiguous("index_map", &index_map)?;
+        let map = index_map.as_array();
+        macro_rules! dispatch {
+            ($t:ty) => {
+                if let (Ok(a), Ok(mut o)) = (
+                    atlas.extract::<PyReadonlyArray4<'py, $t>>(),
+                    out.extract::<PyReadwriteArray3<'py, $t>>(),
+                ) {
+                    contiguous("atlas", &a)?;
+                    if !o.is_c_contiguous() {
+                        return Err(errors::layout_error("out", "array must be C-contiguous"));
+                    }
+                    let a = a.as_array();
+                    let o = o.as_array_mut();
+                    return run(py, threads, || synth::tile_copy_into(a, map, o));
                 }
-                let a = a.as_array();
-                let o = o.as_array_mut();
-                return run(py, threads, || synth::tile_copy_into(a, map, o));
-            }
-        };
-    }
-    dispatch!(u8);
-    dispatch!(u16);
-    dispatch!(f32);
-    dispatch!(i32);
-    Err(errors::layout_error(
-        "atlas/out",
-        "expected a 4-d atlas and a 3-d writable out of the same dtype, uint8, uint16, float32 or int32",
-    ))
-}
-
-/// Reconstructs the filtered scanlines of a non-interlaced PNG (`height` rows of `1 + row_bytes` bytes).
-#[pyfunction]
-fn png_unfilter<'py>(
-    py: Python<'py>,
-    data: &[u8],
-    height: usize,
-    row_bytes: usize,
-    bpp: usize,
-) -> PyResult<Bound<'py, pyo3::types::PyBytes>> {
-    let raw = run(py, Some(1), || png::unfilter(data, height, row_bytes, bpp))?;
-    Ok(pyo3::types::PyBytes::new(py, &raw))
+            };
+        }
+        dispatch!(u8);
+        dispatch!(u16);
+        dispatch!(f32);
+        dispatch!(i32);
+        Err(errors::layout_error(
+            "atlas/out",
+            "expected a 4-d atlas and a 3-d writable out (not sharing memory with atlas) of the same \
+             native-endian dtype, uint8, uint16, float32 or int32",
+        ))
+    })
 }
 
 /// Parses the string options of a Wang construction.
@@ -403,17 +418,19 @@ fn wang_tiles<'py>(
     eps: f64,
     threads: Option<usize>,
 ) -> PyResult<(Bound<'py, PyArray3<u8>>, Bound<'py, PyArray3<f64>>)> {
-    contiguous("exemplar", &exemplar)?;
-    contiguous("genes", &genes)?;
-    contiguous("tile_samples", &tile_samples)?;
-    let p = wang_params(tile_size, overlap, corners, samples, cut, omega, eps)?;
-    let (ex, g, t) = (
-        exemplar.as_array(),
-        genes.as_array(),
-        tile_samples.as_array(),
-    );
-    let built = run(py, threads, || wang::wang_tiles(ex, g, t, &p))?;
-    Ok((built.labels.into_pyarray(py), built.stats.into_pyarray(py)))
+    guard("wang_tiles", || {
+        contiguous("exemplar", &exemplar)?;
+        contiguous("genes", &genes)?;
+        contiguous("tile_samples", &tile_samples)?;
+        let p = wang_params(tile_size, overlap, corners, samples, cut, omega, eps)?;
+        let (ex, g, t) = (
+            exemplar.as_array(),
+            genes.as_array(),
+            tile_samples.as_array(),
+        );
+        let built = run(py, threads, || wang::wang_tiles(ex, g, t, &p))?;
+        Ok((built.labels.into_pyarray(py), built.stats.into_pyarray(py)))
+    })
 }
 
 /// The objective of 001 for populations: E = ω·ΣD_sum + (1−ω)·Var(D_sum) and D_sum of every tile.
@@ -440,14 +457,16 @@ impl PyWangEvaluator {
         omega: f64,
         eps: f64,
     ) -> PyResult<Self> {
-        contiguous("exemplar", &exemplar)?;
-        contiguous("tile_samples", &tile_samples)?;
-        let p = wang_params(tile_size, overlap, corners, samples, cut, omega, eps)?;
-        let (ex, t) = (exemplar.as_array(), tile_samples.as_array());
-        let inner = run(py, Some(1), || {
-            wang::WangEvaluator::new(ex, t, n_samples, p)
-        })?;
-        Ok(PyWangEvaluator { inner })
+        guard("WangEvaluator", || {
+            contiguous("exemplar", &exemplar)?;
+            contiguous("tile_samples", &tile_samples)?;
+            let p = wang_params(tile_size, overlap, corners, samples, cut, omega, eps)?;
+            let (ex, t) = (exemplar.as_array(), tile_samples.as_array());
+            let inner = run(py, Some(1), || {
+                wang::WangEvaluator::new(ex, t, n_samples, p)
+            })?;
+            Ok(PyWangEvaluator { inner })
+        })
     }
 
     /// E (float64 `(P,)`) and D_sum (float64 `(P, m)`) of `P` gene vectors `(P, n, 2)` int64.
@@ -458,10 +477,12 @@ impl PyWangEvaluator {
         genes: PyReadonlyArray3<'py, i64>,
         threads: Option<usize>,
     ) -> PyResult<EnergyArrays<'py>> {
-        contiguous("genes", &genes)?;
-        let genes = genes.as_array();
-        let (e, d) = run(py, threads, || self.inner.evaluate(genes))?;
-        Ok((e.into_pyarray(py), d.into_pyarray(py)))
+        guard("WangEvaluator.evaluate", || {
+            contiguous("genes", &genes)?;
+            let genes = genes.as_array();
+            let (e, d) = run(py, threads, || self.inner.evaluate(genes))?;
+            Ok((e.into_pyarray(py), d.into_pyarray(py)))
+        })
     }
 
     /// `(sample_size, n_samples, n_tiles)`.
@@ -483,22 +504,60 @@ fn swang_cuts<'py>(
     threads: Option<usize>,
     initial_grad: Option<PyReadonlyArray4<'py, f64>>,
 ) -> PyResult<(Bound<'py, PyArray3<bool>>, Bound<'py, PyArray1<f64>>)> {
-    contiguous("initial", &initial)?;
-    contiguous("supplementary", &supplementary)?;
-    if let Some(g) = &initial_grad {
-        contiguous("initial_grad", g)?;
-    }
-    let (i, o) = (initial.as_array(), supplementary.as_array());
-    let g = initial_grad.as_ref().map(|g| g.as_array());
-    let (masks, costs) = run(py, threads, || wang::swang_cuts(i, o, eps, g))?;
-    Ok((masks.into_pyarray(py), costs.into_pyarray(py)))
+    guard("swang_cuts", || {
+        contiguous("initial", &initial)?;
+        contiguous("supplementary", &supplementary)?;
+        if let Some(g) = &initial_grad {
+            contiguous("initial_grad", g)?;
+        }
+        let (i, o) = (initial.as_array(), supplementary.as_array());
+        let g = initial_grad.as_ref().map(|g| g.as_array());
+        let (masks, costs) = run(py, threads, || wang::swang_cuts(i, o, eps, g))?;
+        Ok((masks.into_pyarray(py), costs.into_pyarray(py)))
+    })
 }
 
 /// Resolved thread count (explicit value, else TILESYNTH_NUM_THREADS, else all cores).
 #[pyfunction]
 #[pyo3(signature = (threads=None))]
 fn resolve_threads(threads: Option<usize>) -> PyResult<usize> {
-    parallel::resolve_threads(threads).map_err(to_pyerr)
+    guard("resolve_threads", || {
+        parallel::resolve_threads(threads).map_err(to_pyerr)
+    })
+}
+
+/// PNG scanline unfiltering: `data` (uint8, `rows * (row_bytes + 1)` bytes: a filter byte, then the row) ->
+/// the raw bytes, uint8 `(rows, row_bytes)`; `bpp` bytes per pixel (1 to 8).
+#[pyfunction]
+fn png_unfilter<'py>(
+    py: Python<'py>,
+    data: PyReadonlyArray1<'py, u8>,
+    rows: usize,
+    row_bytes: usize,
+    bpp: usize,
+) -> PyResult<Bound<'py, PyArray2<u8>>> {
+    guard("png_unfilter", || {
+        contiguous("data", &data)?;
+        let d = data
+            .as_slice()
+            .map_err(|_| errors::layout_error("data", "array must be C-contiguous"))?;
+        let raw = run(py, Some(1), || png::unfilter(d, rows, row_bytes, bpp))?;
+        let arr = Array2::from_shape_vec((rows, row_bytes), raw)
+            .map_err(|e| errors::layout_error("data", &e.to_string()))?;
+        Ok(arr.into_pyarray(py))
+    })
+}
+
+/// Panics with `message` inside the kernel runner (on a pool worker). Exists only to test that a panic
+/// comes out of the bindings as `tilesynth.InternalError` with a clear message (see `errors::guard`).
+#[pyfunction]
+fn _raise_panic(py: Python<'_>, message: &str) -> PyResult<()> {
+    let message = message.to_string();
+    guard("_raise_panic", || {
+        run(py, Some(1), move || -> crate::Result<()> {
+            panic!("{message}");
+        })
+    })
 }
 
 #[pymodule]
@@ -517,5 +576,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(png_unfilter, m)?)?;
     m.add_function(wrap_pyfunction!(edge_weight_sums, m)?)?;
     m.add_function(wrap_pyfunction!(weighted_ssd_map, m)?)?;
+    m.add_function(wrap_pyfunction!(_raise_panic, m)?)?;
     Ok(())
 }
