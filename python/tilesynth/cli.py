@@ -203,7 +203,7 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
     from ._validate import seed_int
     from .io import atomic_open, save_image
     from .progress import Progress
-    from .synthesis import synthesize
+    from .synthesis import check_size, synthesize
     from .tilefile import TileSet
 
     prog = Progress(quiet)
@@ -212,11 +212,14 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
     index_map = None
     if map_path is not None:
         try:
-            index_map = np.load(map_path, allow_pickle=False)
+            # memory-mapped first: a header that declares more data than the file holds fails here, cheaply
+            index_map = np.array(np.load(map_path, mmap_mode="r", allow_pickle=False))
         except (OSError, ValueError) as exc:
             raise ParameterError(f"--map = {map_path!r}: not a readable .npy array ({exc})") from None
     seed = seed_int(seed) if index_map is None else None
     bits = bits or int(ts.exemplar_info.get("bits", 8))
+    # refuse up front what cannot fit: the image, plus the copy the PNG encoder makes
+    check_size(ts, size[0], size[1], np.uint16 if bits == 16 else np.uint8, copies=2)
     t0 = time.perf_counter()
     prog("synthesis", 0, 1)
     img, imap = synthesize(ts, size[0], size[1], seed=seed, index_map=index_map,
