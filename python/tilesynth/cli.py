@@ -209,6 +209,8 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
     prog = Progress(quiet)
     ts = TileSet.load(ts_path)
     _check_output_dir(output)
+    if save_map:
+        _check_output_dir(save_map)
     index_map = None
     if map_path is not None:
         try:
