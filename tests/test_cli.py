@@ -94,6 +94,7 @@ def run_err(args, capsys):
         (["build", "{ex}", "-o", "{out}", "--select", "ga", "--population", "0"], "--population"),
         (["build", "{ex}", "-o", "{out}", "--select", "ais", "--generations", "-1"], "--generations"),
         (["build", "{bomb}", "-o", "{out}"], "exceeds the limit"),
+        (["synth", "{tiles}", "-o", "{out}", "--size", "10x10", "--map", "{bigmap}"], "--map"),
         (["synth", "{notimage}", "-o", "{out}", "--size", "10x10"], "not a tilesynth tile set"),
         (["synth", "{tiles}", "-o", "{out}", "--size", "10x10", "--map", "{notimage}"], "--map"),
         (["build", "{ex}", "-o", "{nodir}"], "does not exist"),
@@ -112,6 +113,7 @@ def test_bad_input_is_one_line_exit_2_no_output(args, words, tmp_path, exemplar_
         "{tiles}": str(built_file),
         "{nodir}": str(tmp_path / "no" / "such" / "dir.tiles"),
         "{bomb}": str(_bomb(tmp_path)),
+        "{bigmap}": str(_big_map(tmp_path)),
     }
     code, err = run_err([subst.get(a, a) for a in args], capsys)
     assert code == 2
@@ -167,6 +169,14 @@ def _bomb(tmp_path):
     p = tmp_path / "bomb.png"
     p.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 100000, 100000, 8, 2, 0, 0, 0))
                   + chunk(b"IDAT", zlib.compress(b"")) + chunk(b"IEND", b""))
+    return p
+
+
+def _big_map(tmp_path):
+    """A .npy whose header declares a 100000 x 100000 int64 map, with no data after it."""
+    p = tmp_path / "big.npy"
+    with open(p, "wb") as fh:
+        np.lib.format.write_array_header_1_0(fh, {"descr": "<i8", "fortran_order": False, "shape": (100000, 100000)})
     return p
 
 

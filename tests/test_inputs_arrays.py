@@ -271,3 +271,14 @@ def test_kernel_parameters_are_named(ex):
     ro.setflags(write=False)
     with pytest.raises(TypeError, match="out: array must be C-contiguous and writeable"):
         ts.tile_copy(a, np.zeros((1, 1), np.int32), ro)
+
+
+def test_tile_set_does_not_alias_the_exemplar(ex):
+    """A C-contiguous float32 exemplar passes validation without a copy; the tile set keeps its own copy, so
+    changing the caller's array afterwards changes nothing in the set."""
+    a = np.ascontiguousarray(ex, dtype=np.float32)
+    tiles = ts.build_omega(a, tileset="4", tile_size=16, seed=3)
+    digest = tiles.content_digest()
+    assert not np.shares_memory(tiles.exemplar, a)
+    a[:] = 0
+    assert tiles.content_digest() == digest
