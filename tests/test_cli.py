@@ -82,6 +82,19 @@ def run_err(args, capsys):
         (["build", "{ex}", "-o", "{out}", "--tile-size", "-4"], "--tile-size"),
         (["synth", "{tiles}", "-o", "{out}", "--size", "100by70"], "--size"),
         (["synth", "{tiles}", "-o", "{out}", "--size", "0x70"], "--size"),
+        (["synth", "{tiles}", "-o", "{out}", "--size", "-5x70"], "--size"),
+        (["synth", "{tiles}", "-o", "{out}", "--size", "1024"], "--size"),
+        (["synth", "{tiles}", "-o", "{out}", "--size", "1e3x10"], "--size"),
+        (["synth", "{tiles}", "-o", "{out}", "--size", "10x10x3"], "--size"),
+        (["synth", "{tiles}", "-o", "{out}", "--size", ""], "--size"),
+        (["synth", "{tiles}", "-o", "{out}", "--size", "100000x100000"], "the output needs about"),
+        (["synth", "{tiles}", "-o", "{out}", "--size", "10x10", "--threads", "5000"], "threads = 5000"),
+        (["build", "{ex}", "-o", "{out}", "--set", "n100"], "at most n16"),
+        (["build", "{ex}", "-o", "{out}", "--tile-size", "0"], "--tile-size"),
+        (["build", "{ex}", "-o", "{out}", "--select", "ga", "--population", "0"], "--population"),
+        (["build", "{ex}", "-o", "{out}", "--select", "ais", "--generations", "-1"], "--generations"),
+        (["build", "{bomb}", "-o", "{out}"], "exceeds the limit"),
+        (["synth", "{tiles}", "-o", "{out}", "--size", "10x10", "--map", "{bigmap}"], "--map"),
         (["synth", "{notimage}", "-o", "{out}", "--size", "10x10"], "not a tilesynth tile set"),
         (["synth", "{tiles}", "-o", "{out}", "--size", "10x10", "--map", "{notimage}"], "--map"),
         (["build", "{ex}", "-o", "{nodir}"], "does not exist"),
@@ -99,6 +112,8 @@ def test_bad_input_is_one_line_exit_2_no_output(args, words, tmp_path, exemplar_
         "{ex}": str(exemplar_png),
         "{tiles}": str(built_file),
         "{nodir}": str(tmp_path / "no" / "such" / "dir.tiles"),
+        "{bomb}": str(_bomb(tmp_path)),
+        "{bigmap}": str(_big_map(tmp_path)),
     }
     code, err = run_err([subst.get(a, a) for a in args], capsys)
     assert code == 2
@@ -141,3 +156,117 @@ def test_demo(tmp_path):
     for name in ("lettuce.tiles", "tiles.png", "texture.png", "texture-map.npy"):
         assert (d / name).is_file(), name
     assert read_png(d / "texture.png").shape[:2] == (200, 300)
+
+
+def _bomb(tmp_path):
+    """A 100-byte PNG that declares 100000 x 100000 pixels."""
+    import struct
+    import zlib
+
+    def chunk(tag: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    p = tmp_path / "bomb.png"
+    p.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 100000, 100000, 8, 2, 0, 0, 0))
+                  + chunk(b"IDAT", zlib.compress(b"")) + chunk(b"IEND", b""))
+    return p
+
+
+def _big_map(tmp_path):
+    """A .npy whose header declares a 100000 x 100000 int64 map, with no data after it."""
+    p = tmp_path / "big.npy"
+    with open(p, "wb") as fh:
+        np.lib.format.write_array_header_1_0(fh, {"descr": "<i8", "fortran_order": False, "shape": (100000, 100000)})
+    return p
+
+
+def test_internal_error_is_exit_1_with_a_short_message(built_file, tmp_path, monkeypatch, capsys):
+    """A Rust panic (here provoked on purpose through the test entry point) is a bug: exit 1, one line."""
+    from tilesynth import _core, synthesis
+
+    def panicking(*args, **kwargs):
+        _core._raise_panic("boom in the kernel")
+
+    monkeypatch.setattr(synthesis, "synthesize", panicking)
+    out = tmp_path / "o.png"
+    code, err = run_err(["synth", str(built_file), "-o", str(out), "--size", "10x10"], capsys)
+    assert code == 1
+    assert err.strip().splitlines()[-1].startswith("tilesynth: internal error in _raise_panic: boom in the kernel")
+    assert "Traceback" not in err and not out.exists()
+    monkeypatch.setattr(synthesis, "synthesize", lambda *a, **k: 1 / 0)  # any other unexpected exception
+    code, err = run_err(["synth", str(built_file), "-o", str(out), "--size", "10x10"], capsys)
+    assert code == 1 and err.strip() == "tilesynth: internal error: ZeroDivisionError: division by zero"
+
+
+@pytest.mark.parametrize("when", ["image", "tiles", "map"])
+def test_ctrl_c_or_error_while_writing_leaves_no_partial_file(built_file, exemplar_png, tmp_path, monkeypatch,
+                                                             capsys, when):
+    """Ctrl-C (KeyboardInterrupt) in the middle of writing an output: exit 130, the output is not created,
+    a previous file of that name is left as it was, and no temporary file remains."""
+    from PIL import Image as PILImage
+
+    out = tmp_path / {"image": "o.png", "tiles": "o.tiles", "map": "m.npy"}[when]
+    out.write_bytes(b"previous content")
+
+    def interrupted(*args, **kwargs):
+        target = args[1] if len(args) > 1 and not isinstance(args[1], str) else args[0]
+        if hasattr(target, "write"):
+            target.write(b"half a file")
+        else:
+            with open(args[1] if len(args) > 1 else args[0], "ab") as fh:
+                fh.write(b"half a file")
+        raise KeyboardInterrupt
+
+    if when == "image":
+        monkeypatch.setattr(PILImage.Image, "save", lambda self, fp, *a, **k: interrupted(self, fp))
+        args = ["synth", str(built_file), "-o", str(out), "--size", "40x40", "--seed", "1"]
+    elif when == "tiles":
+        import zipfile
+
+        real = zipfile.ZipFile.writestr
+
+        def writestr(self, info, data, *a, **k):
+            real(self, info, data, *a, **k)
+            if getattr(info, "filename", info) == "tiles.npy":
+                raise KeyboardInterrupt
+
+        monkeypatch.setattr(zipfile.ZipFile, "writestr", writestr)
+        args = ["build", str(exemplar_png), "-o", str(out), "--set", "4", "--tile-size", "16", "--seed", "1"]
+    else:
+        monkeypatch.setattr(np, "save", lambda fh, *a, **k: interrupted(fh))
+        args = ["synth", str(built_file), "-o", str(tmp_path / "img.png"), "--size", "40x40", "--save-map", str(out)]
+    code, err = run_err(args, capsys)
+    assert code == 130 and "interrupted" in err
+    assert out.read_bytes() == b"previous content"
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".part")]
+
+
+def test_same_seed_same_bytes_across_runs_and_threads(exemplar_png, tmp_path):
+    """Two separate runs of the command, at 1 and 2 threads: the tile sets are identical member for member
+    except timing.json (which is last, so the files are byte-identical up to it), and the textures and maps
+    byte-identical. See tilesynth.tilefile "Determinism"."""
+    import os
+    import zipfile
+
+    files = {}
+    for threads in ("1", "2"):
+        d = tmp_path / threads
+        d.mkdir()
+        env = {**os.environ, "TILESYNTH_NUM_THREADS": threads}
+        for args in (["build", str(exemplar_png), "-o", str(d / "t.tiles"), "--set", "16a", "--tile-size", "24",
+                      "--seed", "5", "--select", "ga", "--generations", "2", "--population", "6", "-q"],
+                     ["synth", str(d / "t.tiles"), "-o", str(d / "t.png"), "--size", "150x100", "--seed", "9",
+                      "--save-map", str(d / "m.npy"), "-q"]):
+            r = subprocess.run([sys.executable, "-m", "tilesynth", *args], capture_output=True, text=True, env=env)
+            assert r.returncode == 0, r.stderr
+        files[threads] = d
+    a, b = files["1"], files["2"]
+    assert (a / "t.png").read_bytes() == (b / "t.png").read_bytes()
+    assert (a / "m.npy").read_bytes() == (b / "m.npy").read_bytes()
+    with zipfile.ZipFile(a / "t.tiles") as za, zipfile.ZipFile(b / "t.tiles") as zb:
+        assert za.namelist() == zb.namelist() and za.namelist()[-1] == "timing.json"
+        for name in za.namelist()[:-1]:
+            assert za.read(name) == zb.read(name), name
+        offset = za.getinfo("timing.json").header_offset
+    assert (a / "t.tiles").read_bytes()[:offset] == (b / "t.tiles").read_bytes()[:offset]
+    assert tilesynth.load(a / "t.tiles").content_digest() == tilesynth.load(b / "t.tiles").content_digest()

@@ -415,3 +415,49 @@ def test_public_call_gives_clear_error_or_result_and_mutates_nothing(name, data)
     call_checked(fn, args, kwargs, API_ERRORS, mutable)
     if name in ("save_image", "TileSet.save"):  # atomic writes: never a partial file left behind
         assert not [f for f in os.listdir(_tmpdir()) if f.endswith(".part")]
+
+
+def _manifest_paths(o: object, pre: tuple = ()) -> list[tuple]:
+    out = [pre]
+    if isinstance(o, dict):
+        for k, v in o.items():
+            out += _manifest_paths(v, pre + (k,))
+    elif isinstance(o, list):
+        for i, v in enumerate(o[:3]):
+            out += _manifest_paths(v, pre + (i,))
+    return out
+
+
+@given(data=st.data())
+@settings(max_examples=max(25, settings().max_examples // 2))
+def test_cli_on_a_tampered_manifest_exits_0_or_2(data):
+    """Any one field of manifest.json replaced by a value of another type: ``info``, ``synth`` and ``sheet``
+    either work or fail as bad input (exit 2, one line), never as an internal error (exit 1)."""
+    import contextlib
+    import json
+
+    from tilesynth.cli import main
+
+    good = os.path.join(_tmpdir(), "cli-good.tiles")
+    if not os.path.exists(good):
+        small_set().save(good)
+    with zipfile.ZipFile(good) as zf:
+        manifest = json.loads(zf.read("manifest.json"))
+    path = data.draw(st.sampled_from(_manifest_paths(manifest)[1:]), label="field")
+    value = data.draw(st.sampled_from([None, 1, -1, 1.5, "x", [], {}, [1, 2], {"a": 1}, True]), label="value")
+    o = manifest
+    for k in path[:-1]:
+        o = o[k]
+    o[path[-1]] = value
+    bad = os.path.join(_tmpdir(), "cli-bad.tiles")
+    with zipfile.ZipFile(good) as zin, zipfile.ZipFile(bad, "w") as zout:
+        for item in zin.infolist():
+            zout.writestr(item, json.dumps(manifest).encode() if item.filename == "manifest.json" else zin.read(item))
+    cmd = data.draw(st.sampled_from([["info", bad], ["info", bad, "--json"], ["sheet", bad, "-o", bad + ".png"],
+                                     ["synth", bad, "-o", bad + ".png", "--size", "20x20"]]), label="command")
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = main(cmd)
+    assert code in (0, 2), err.getvalue()
+    if code == 2:
+        assert len(err.getvalue().strip().splitlines()) == 1

@@ -1,4 +1,4 @@
-"""Golden results: fixed inputs and seeds must keep producing the same bytes.
+"""Golden results: fixed inputs and seeds must keep producing the same bytes, at 1 and 2 threads.
 
 The ω-tiles are pure copies of exemplar pixels chosen by exact searches (exact SSD re-ranking, exact max-flow),
 so their bytes do not depend on FFT rounding, the platform or the thread count. If a change alters these hashes
@@ -35,3 +35,30 @@ def test_golden(name, threads, small_exemplar):
     if os.environ.get("TILESYNTH_PRINT_GOLDEN"):
         print(f'\n    "{name}": ("{got[0]}", "{got[1]}"),')
     assert got == GOLDEN[name]
+
+
+# Selection (GA, AIS, best-of): the chosen genes, the tiles, a synthesis and the whole saved file
+# (without timing.json, see tilesynth.tilefile "Determinism") are fixed by the seed, at any thread count.
+# (File digests updated once when the manifest gained the matching parameters match/match_k/metric/mu: genes,
+# tiles and outputs were unchanged.)
+GOLDEN_SELECT = {
+    "ga": ("ce075d01983b617a00f529d1", "2da0f742c7bd3408718bb1ea", "dfd7b2e9b55777d4b3faf262", "9f5630cf5ae5008cd7d56f60"),
+    "ais": ("4d433eded0014d0243710a0c", "8f0ecab240ee115148399422", "948ab7194b9fda8fd771fd27", "7bd05326e9b5f853f74c9864"),
+    "best-of": ("4d433eded0014d0243710a0c", "8f0ecab240ee115148399422", "948ab7194b9fda8fd771fd27",
+                "978b60d3982a967650c78942"),
+}
+
+
+@pytest.mark.parametrize("method", ["ga", "ais", "best-of"])
+@pytest.mark.parametrize("threads", [1, 2])
+def test_golden_selection(method, threads, small_exemplar, tmp_path):
+    kw = {"population": 12} if method == "best-of" else {"population": 12, "generations": 5}
+    ts = tilesynth.build_omega(small_exemplar, tileset="8", tile_size=24, seed=5, threads=threads, select=method,
+                               **kw)
+    img, _ = tilesynth.synthesize(ts, 120, 90, seed=3, dtype=np.uint8, threads=threads)
+    path = tmp_path / "set.tiles"
+    ts.save(path, include_timing=False)
+    got = (digest(ts.genes), digest(ts.tiles), digest(img), hashlib.sha256(path.read_bytes()).hexdigest()[:24])
+    if os.environ.get("TILESYNTH_PRINT_GOLDEN"):
+        print(f'\n    "{method}": {got!r},')
+    assert got == GOLDEN_SELECT[method]

@@ -385,20 +385,25 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
     from ._validate import seed_int
     from .io import atomic_open, save_image
     from .progress import Progress
-    from .synthesis import synthesize
+    from .synthesis import check_size, synthesize
     from .tilefile import TileSet
 
     prog = Progress(quiet)
     ts = TileSet.load(ts_path)
     _check_output_dir(output)
+    if save_map:
+        _check_output_dir(save_map)
     index_map = None
     if map_path is not None:
         try:
-            index_map = np.load(map_path, allow_pickle=False)
+            # memory-mapped first: a header that declares more data than the file holds fails here, cheaply
+            index_map = np.array(np.load(map_path, mmap_mode="r", allow_pickle=False))
         except (OSError, ValueError) as exc:
             raise ParameterError(f"--map = {map_path!r}: not a readable .npy array ({exc})") from None
     seed = seed_int(seed) if index_map is None else None
     bits = bits or int(ts.exemplar_info.get("bits", 8))
+    # refuse up front what cannot fit: the image, plus the copy the PNG encoder makes
+    check_size(ts, size[0], size[1], np.uint16 if bits == 16 else np.uint8, copies=2)
     from .io import load_raster
     from .synthesis import synthesize_map
 

@@ -261,17 +261,12 @@ def _load(p: Path, where: str, limit: int) -> tuple[np.ndarray, int]:
     """The body of :func:`load_image` (its errors are mapped by the caller)."""
     from PIL import Image, ImageOps
 
+    header = _png_header(p)
+    if header is not None:  # a PNG: size checks on its header, before Pillow's own (clearer messages)
+        _check_size(where, header[0], header[1], limit)
     im = Image.open(p)
     with im:
-        w, h = im.size
-        if w * h > limit:
-            raise ParameterError(
-                f"{where}: {w}x{h} = {w * h} pixels exceeds the limit of {limit} pixels (an exemplar is "
-                f"small; a tiny file declaring a huge size is a decompression bomb). Raise it with "
-                f"max_pixels or {MAX_PIXELS_ENV} if you mean it"
-            )
-        if w == 0 or h == 0:
-            raise ShapeError(f"{where}: the image is {w}x{h} pixels, expected at least 1x1")
+        _check_size(where, *im.size, limit)
         if im.format == "PNG":
             arr16 = _read_png16(p, limit)
             if arr16 is not None:
@@ -298,6 +293,27 @@ def _load(p: Path, where: str, limit: int) -> tuple[np.ndarray, int]:
             im = im.convert("RGBA" if "A" in mode or "transparency" in im.info else "RGB")
         arr = np.asarray(im)
     return as_image(arr, "input"), 8
+
+
+def _check_size(where: str, w: int, h: int, limit: int) -> None:
+    if w * h > limit:
+        raise ParameterError(
+            f"{where}: {w}x{h} = {w * h} pixels exceeds the limit of {limit} pixels (an exemplar is small; a "
+            f"tiny file declaring a huge size is a decompression bomb). Raise it with max_pixels or "
+            f"{MAX_PIXELS_ENV} if you mean it"
+        )
+    if w == 0 or h == 0:
+        raise ShapeError(f"{where}: the image is {w}x{h} pixels, expected at least 1x1")
+
+
+def _png_header(path: Path) -> tuple[int, int, int, int, int] | None:
+    """(width, height, bit depth, colour type, interlace) from a PNG's IHDR, None if not a PNG."""
+    with open(path, "rb") as fh:
+        head = fh.read(33)
+    if head[:8] != _PNG_SIGNATURE or len(head) < 29 or head[12:16] != b"IHDR":
+        return None
+    w, h, depth, ctype, _, _, interlace = struct.unpack(">IIBBBBB", head[16:29])
+    return w, h, depth, ctype, interlace
 
 
 def _exif_orient(im: Any, arr: np.ndarray) -> np.ndarray:

@@ -331,6 +331,11 @@ class TileSet:
             raise TileSetFormatError(f"layout lists {len(self.layout.get('tiles', []))} tiles, the arrays {k}")
         if self.exemplar.ndim != 3 or self.exemplar.shape[2] != c:
             raise TileSetFormatError(f"exemplar has shape {self.exemplar.shape}, expected (H, W, {c})")
+        if values and list(self.exemplar_info.get("shape", [])) != list(self.exemplar.shape):
+            raise TileSetFormatError(
+                f"manifest exemplar.shape {self.exemplar_info.get('shape')} disagrees with the exemplar array "
+                f"{list(self.exemplar.shape)}"
+            )
         if k == 0 or n == 0 or not 1 <= c <= 4 or 0 in self.exemplar.shape:
             raise TileSetFormatError(f"tiles have shape {self.tiles.shape}, expected (K, N, N, C), K, N >= 1, C in 1..4")
         if self.genes.ndim != 2 or self.genes.shape[1] != 2 or self.genes.shape[0] == 0:
@@ -396,8 +401,12 @@ def _check_manifest(m: Any) -> None:
     if not np.isfinite(m["E"]):
         raise TileSetFormatError(f"manifest.json field 'E' = {m['E']!r}: must be finite")
     shape = m["exemplar"].get("shape")
-    if shape is not None and not (isinstance(shape, list) and all(isinstance(v, int) for v in shape)):
-        raise TileSetFormatError(f"manifest.json field exemplar.shape = {shape!r:.60}: expected a list of integers")
+    if not (isinstance(shape, list) and len(shape) == 3 and all(type(v) is int for v in shape)):
+        raise TileSetFormatError(f"manifest.json field exemplar.shape = {shape!r:.60}: expected [H, W, C]")
+    if not isinstance(m["layout"].get("tiles"), list):
+        raise TileSetFormatError("manifest.json field layout.tiles: expected a list of tiles")
+    if not isinstance(m["params"].get("selection", {}), dict):
+        raise TileSetFormatError("manifest.json field params.selection: expected an object")
 
 
 def exemplar_digest(exemplar: np.ndarray) -> str:
