@@ -786,7 +786,7 @@ impl SsdIndex {
             while first < n && !allowed(&excluded, order[first]) {
                 first += 1;
             }
-            if first == n || !(map[order[first]] < f64::INFINITY) {
+            if first == n || map[order[first]].is_nan() || map[order[first]] == f64::INFINITY {
                 break;
             }
             let i0 = order[first];
