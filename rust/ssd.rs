@@ -786,7 +786,9 @@ impl SsdIndex {
             while first < n && !allowed(&excluded, order[first]) {
                 first += 1;
             }
-            if first == n || map[order[first]].is_nan() || map[order[first]] == f64::INFINITY {
+            if first == n
+                || map[order[first]].partial_cmp(&f64::INFINITY) != Some(std::cmp::Ordering::Less)
+            {
                 break;
             }
             let i0 = order[first];
@@ -937,6 +939,105 @@ pub fn ssd_map_brute(
         *o = s;
     }
     Ok(out)
+}
+
+/// The gradient-weighted distance of 000's eq. 2 over every fully-overlapping translation `t`:
+///
+/// `D(t) = sum_p sum_c (T(p, c) - I(p + t, c))^2 / (mu (g_T(p) + g_I(p + t)) + eps)`
+///
+/// with `g_T` (`(h, w)`) and `g_I` (`(H, W)`) given per-pixel gradient magnitudes (`>= 0`, finite), `mu >= 0`
+/// and `eps > 0`. The denominator couples a template pixel with the image pixel under it, so this is not a
+/// correlation and no FFT applies: it is computed by direct `f64` summation, `O((H-h+1)(W-w+1) h w C)`,
+/// parallel over rows of translations (each value a fixed-order sum, so the result does not depend on the
+/// thread count). Returns `(H - h + 1, W - w + 1)`.
+pub fn weighted_ssd_map(
+    image: ArrayView3<f32>,
+    image_grad: ArrayView2<f64>,
+    template: ArrayView3<f32>,
+    template_grad: ArrayView2<f64>,
+    mu: f64,
+    eps: f64,
+) -> Result<Array2<f64>> {
+    let (hh, ww, c) = image.dim();
+    if hh == 0 || ww == 0 || c == 0 {
+        return Err(TilesynthError::shape(
+            "image",
+            "(H, W, C) with H, W, C >= 1",
+            fmt_shape(image.shape()),
+        ));
+    }
+    let (h, w, tc) = template.dim();
+    if h == 0 || w == 0 || h > hh || w > ww || tc != c {
+        return Err(TilesynthError::shape(
+            "template",
+            format!("(h, w, {c}) with 1 <= h <= {hh} and 1 <= w <= {ww}"),
+            fmt_shape(template.shape()),
+        ));
+    }
+    if image_grad.dim() != (hh, ww) {
+        return Err(TilesynthError::shape(
+            "image_grad",
+            fmt_shape(&[hh, ww]),
+            fmt_shape(image_grad.shape()),
+        ));
+    }
+    if template_grad.dim() != (h, w) {
+        return Err(TilesynthError::shape(
+            "template_grad",
+            fmt_shape(&[h, w]),
+            fmt_shape(template_grad.shape()),
+        ));
+    }
+    if !(mu.is_finite() && mu >= 0.0) {
+        return Err(TilesynthError::param("mu", mu, "must be finite and >= 0"));
+    }
+    if !(eps.is_finite() && eps > 0.0) {
+        return Err(TilesynthError::param("eps", eps, "must be finite and > 0"));
+    }
+    if image_grad
+        .iter()
+        .chain(template_grad.iter())
+        .any(|v| !(v.is_finite() && *v >= 0.0))
+    {
+        return Err(TilesynthError::param(
+            "image_grad/template_grad",
+            "negative or non-finite value",
+            "gradient magnitudes must be finite and >= 0",
+        ));
+    }
+    let img = contiguous_finite("image", image)?;
+    let tpl = contiguous_finite("template", template)?;
+    let ig = image_grad.as_standard_layout();
+    let tg = template_grad.as_standard_layout();
+    let (ig, tg) = (
+        ig.as_slice().expect("standard layout"),
+        tg.as_slice().expect("standard layout"),
+    );
+    let (th, tw) = (hh - h + 1, ww - w + 1);
+    let rows: Vec<Vec<f64>> = (0..th)
+        .into_par_iter()
+        .map(|ty| {
+            (0..tw)
+                .map(|tx| {
+                    let mut s = 0.0f64;
+                    for py in 0..h {
+                        let irow = (ty + py) * ww + tx;
+                        for px in 0..w {
+                            let (ip, tp) = (irow + px, py * w + px);
+                            let mut d2 = 0.0f64;
+                            for ch in 0..c {
+                                let d = tpl[tp * c + ch] as f64 - img[ip * c + ch] as f64;
+                                d2 += d * d;
+                            }
+                            s += d2 / (mu * (tg[tp] + ig[ip]) + eps);
+                        }
+                    }
+                    s
+                })
+                .collect()
+        })
+        .collect();
+    Ok(Array2::from_shape_vec((th, tw), rows.concat()).expect("th * tw values"))
 }
 
 // ----------------------------------------------------------------------------------------------------------
@@ -1590,6 +1691,51 @@ mod tests {
         assert!(best_matches_many(&idx, empty.view(), None, 1, 0)
             .unwrap()
             .is_empty());
+    }
+
+    #[test]
+    fn weighted_map_matches_definition_and_reduces_to_ssd() {
+        let img = Array3::from_shape_fn((9, 8, 2), |(y, x, c)| {
+            ((y * 7 + x * 3 + c * 5) % 11) as f32 / 11.0
+        });
+        let tpl = Array3::from_shape_fn((4, 3, 2), |(y, x, c)| ((y * 5 + x + c) % 7) as f32 / 7.0);
+        let ig = Array2::from_shape_fn((9, 8), |(y, x)| ((y + x) % 3) as f64 * 0.5);
+        let tg = Array2::from_shape_fn((4, 3), |(y, x)| ((y * x) % 4) as f64 * 0.25);
+        let got =
+            weighted_ssd_map(img.view(), ig.view(), tpl.view(), tg.view(), 10.0, 1e-6).unwrap();
+        let (ty, tx) = (3, 2);
+        let mut want = 0.0;
+        for py in 0..4 {
+            for px in 0..3 {
+                let mut d2 = 0.0;
+                for c in 0..2 {
+                    let d = tpl[(py, px, c)] as f64 - img[(ty + py, tx + px, c)] as f64;
+                    d2 += d * d;
+                }
+                want += d2 / (10.0 * (tg[(py, px)] + ig[(ty + py, tx + px)]) + 1e-6);
+            }
+        }
+        assert!((got[(ty, tx)] - want).abs() <= 1e-12 * want.max(1.0));
+        // mu = 0 and eps = 1: the plain SSD
+        let plain =
+            weighted_ssd_map(img.view(), ig.view(), tpl.view(), tg.view(), 0.0, 1.0).unwrap();
+        let brute = ssd_map_brute(img.view(), tpl.view(), None).unwrap();
+        for (a, b) in plain.iter().zip(brute.iter()) {
+            assert!((a - b).abs() <= 1e-12 * b.max(1.0));
+        }
+        let bad = Array2::from_elem((4, 4), 0.0);
+        assert!(
+            weighted_ssd_map(img.view(), ig.view(), tpl.view(), bad.view(), 1.0, 1.0)
+                .unwrap_err()
+                .to_string()
+                .contains("template_grad")
+        );
+        assert!(
+            weighted_ssd_map(img.view(), ig.view(), tpl.view(), tg.view(), -1.0, 1.0)
+                .unwrap_err()
+                .to_string()
+                .contains("mu")
+        );
     }
 
     #[test]
