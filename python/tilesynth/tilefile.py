@@ -335,6 +335,11 @@ def _check_manifest(m: Any) -> None:
     shape = m["exemplar"].get("shape")
     if not (isinstance(shape, list) and len(shape) == 3 and all(type(v) is int for v in shape)):
         raise TileSetFormatError(f"manifest.json field exemplar.shape = {shape!r:.60}: expected [H, W, C]")
+    bits = m["exemplar"].get("bits", 8)
+    if type(bits) is not int or bits not in (8, 16):
+        raise TileSetFormatError(f"manifest.json field exemplar.bits = {bits!r:.60}: expected 8 or 16")
+    if not isinstance(m["exemplar"].get("file", ""), str):
+        raise TileSetFormatError("manifest.json field exemplar.file: expected a file name")
     if not isinstance(m["layout"].get("tiles"), list):
         raise TileSetFormatError("manifest.json field layout.tiles: expected a list of tiles")
     if not isinstance(m["params"].get("selection", {}), dict):
