@@ -226,7 +226,9 @@ class TileSet:
             OSError, KeyError, EOFError, zlib.error, NotImplementedError, RuntimeError,
         ) as exc:
             # RuntimeError: an encrypted member; NotImplementedError: an unknown compression method
-            raise TileSetFormatError(f"tileset = {p!r}: not a tilesynth tile set ({type(exc).__name__}: {exc})") from None
+            raise TileSetFormatError(
+                f"tileset = {p!r}: not a tilesynth tile set ({type(exc).__name__}: {exc})"
+            ) from None
         ts = cls(
             scheme=manifest["scheme"],
             layout=manifest["layout"],
@@ -274,7 +276,9 @@ class TileSet:
                 f"{list(self.exemplar.shape)}"
             )
         if k == 0 or n == 0 or not 1 <= c <= 4 or 0 in self.exemplar.shape:
-            raise TileSetFormatError(f"tiles have shape {self.tiles.shape}, expected (K, N, N, C), K, N >= 1, C in 1..4")
+            raise TileSetFormatError(
+                f"tiles have shape {self.tiles.shape}, expected (K, N, N, C) with K, N >= 1 and C in 1..4"
+            )
         if self.genes.ndim != 2 or self.genes.shape[1] != 2 or self.genes.shape[0] == 0:
             raise TileSetFormatError(f"array genes has shape {self.genes.shape}, expected (n, 2) with n >= 1")
         if not values:
