@@ -351,6 +351,15 @@ def tileset_save(d: st.DrawFn):
     return small_set().save, (os.path.join(_tmpdir(), name),), {"include_timing": d(st.booleans())}, ()
 
 
+@pytest.fixture(scope="module", autouse=True)
+def _remove_tmpdir():
+    yield
+    import shutil
+
+    if "tmp" in _CACHE:
+        shutil.rmtree(_CACHE.pop("tmp"), ignore_errors=True)
+
+
 def _tmpdir() -> str:
     if "tmp" not in _CACHE:
         _CACHE["tmp"] = tempfile.mkdtemp(prefix="tilesynth-fuzz-")
