@@ -60,8 +60,27 @@ use rustfft::num_complex::Complex;
 use rustfft::num_traits::{Float, Zero};
 use rustfft::{Fft, FftNum, FftPlanner};
 use std::borrow::Cow;
-use std::collections::HashMap;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
 use std::sync::{Arc, Mutex, OnceLock};
+
+/// An `f64` ordered by `total_cmp` (for the heap of exact SSD values, which are never NaN).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct TotalF64(f64);
+
+impl Eq for TotalF64 {}
+
+impl PartialOrd for TotalF64 {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for TotalF64 {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&other.0)
+    }
+}
 
 /// Images with at least this many pixels run the stages of one call in parallel (rayon), when the pool
 /// has more than one thread (the results do not depend on it).
@@ -756,10 +775,13 @@ impl SsdIndex {
 
     /// Greedy exact best matches on a prepared template.
     ///
-    /// The translations are sorted once by their FFT value (NaN last, ties by index), and a pointer walks
-    /// past the excluded ones: the smallest allowed FFT value and every allowed candidate within the error
-    /// bound of it are a run of that order, so `k` matches cost O(n log n) plus the candidates, not O(k n)
-    /// (which made `k` = all translations of a 120 x 120 map take minutes).
+    /// The translations are sorted once by their FFT value `f` (NaN last, ties by index). A translation is
+    /// *resolved* when its exact SSD is known; resolved ones wait in a min-heap on (exact, index). The top of
+    /// the heap is the next match as soon as every unresolved translation has `f > top + bound` (its exact
+    /// value is then `> top`): so we resolve, in `f` order, only what could still beat the top, each
+    /// translation at most once. `k` matches cost O(n log n) plus the exact sums, whatever `k` and however
+    /// flat the map (rescanning the candidates for every match was O(k n): minutes for `k` = all
+    /// translations of a 120 x 120 map, or a constant image). Same results as the exact greedy definition.
     fn best_prepared(&self, t: &Tmpl, mask: Option<&[bool]>, k: usize, r: usize) -> Vec<Match> {
         let (mh, mw) = self.map_dim(t.h, t.w);
         let n = mh * mw;
@@ -776,57 +798,62 @@ impl SsdIndex {
                 .then(fa.partial_cmp(&fb).unwrap_or(std::cmp::Ordering::Equal))
                 .then(a.cmp(&b))
         });
-        let mut exact_cache: HashMap<usize, f64> = HashMap::new();
+        let exact = |i: usize| self.exact(t, mask, i / mw, i % mw) + 0.0; // + 0.0: no -0.0 in the order
         let mut excluded = if k > 1 { vec![false; n] } else { Vec::new() };
-        let allowed = |ex: &[bool], i: usize| ex.is_empty() || !ex[i];
+        let is_excluded = |ex: &[bool], i: usize| !ex.is_empty() && ex[i];
+        // `order[..next]` are resolved or were excluded when reached (exclusion never ends).
+        let mut next = 0;
+        let mut heap: BinaryHeap<Reverse<(TotalF64, usize)>> = BinaryHeap::new();
         let mut out = Vec::with_capacity(k);
-        let mut first = 0; // every entry of `order` before it is excluded
-        for _ in 0..k {
-            // The smallest FFT value among the allowed translations (never NaN or +inf).
-            while first < n && !allowed(&excluded, order[first]) {
-                first += 1;
-            }
-            if first == n
-                || map[order[first]].partial_cmp(&f64::INFINITY) != Some(std::cmp::Ordering::Less)
-            {
-                break;
-            }
-            let i0 = order[first];
-            let e0 = *exact_cache
-                .entry(i0)
-                .or_insert_with(|| self.exact(t, mask, i0 / mw, i0 % mw));
-            // Every allowed translation that could beat (e0, i0) exactly: a run of `order` (NaN compares
-            // false, so the run stops before them).
-            let thr = e0 + bound;
-            let cands: Vec<usize> = order[first + 1..]
-                .iter()
-                .copied()
-                .take_while(|&i| map[i] <= thr)
-                .filter(|&i| allowed(&excluded, i))
-                .collect();
-            let todo: Vec<usize> = cands
-                .iter()
-                .copied()
-                .filter(|i| !exact_cache.contains_key(i))
-                .collect();
-            let vals: Vec<f64> = if todo.len() >= 64 {
-                todo.par_iter()
-                    .map(|&i| self.exact(t, mask, i / mw, i % mw))
-                    .collect()
-            } else {
-                todo.iter()
-                    .map(|&i| self.exact(t, mask, i / mw, i % mw))
-                    .collect()
-            };
-            exact_cache.extend(todo.into_iter().zip(vals));
-            let mut best = (e0, i0);
-            for &i in &cands {
-                let e = exact_cache[&i];
-                if e < best.0 || (e == best.0 && i < best.1) {
-                    best = (e, i);
+        while out.len() < k {
+            while let Some(Reverse((_, i))) = heap.peek() {
+                if is_excluded(&excluded, *i) {
+                    heap.pop();
+                } else {
+                    break;
                 }
             }
-            let (e, i) = best;
+            if heap.is_empty() {
+                while next < n && is_excluded(&excluded, order[next]) {
+                    next += 1;
+                }
+                // NaN or +inf FFT values are never a match (as no finite input makes them)
+                if next == n || map[order[next]].is_nan() || map[order[next]] == f64::INFINITY {
+                    break;
+                }
+                let i = order[next];
+                next += 1;
+                heap.push(Reverse((TotalF64(exact(i)), i)));
+            }
+            loop {
+                let top = heap.peek().map_or(f64::NAN, |Reverse((e, _))| e.0);
+                let thr = top + bound;
+                let mut batch = Vec::new();
+                while next < n && map[order[next]] <= thr {
+                    let i = order[next];
+                    next += 1;
+                    if !is_excluded(&excluded, i) {
+                        batch.push(i);
+                    }
+                }
+                if batch.is_empty() {
+                    break;
+                }
+                let vals: Vec<f64> = if batch.len() >= 64 {
+                    batch.par_iter().map(|&i| exact(i)).collect()
+                } else {
+                    batch.iter().map(|&i| exact(i)).collect()
+                };
+                heap.extend(
+                    batch
+                        .into_iter()
+                        .zip(vals)
+                        .map(|(i, e)| Reverse((TotalF64(e), i))),
+                );
+            }
+            let Some(Reverse((TotalF64(e), i))) = heap.pop() else {
+                break;
+            };
             let (row, col) = (i / mw, i % mw);
             out.push(Match { row, col, ssd: e });
             if k > 1 {
@@ -1633,6 +1660,20 @@ mod tests {
         let pos: Vec<(usize, usize)> = got.iter().map(|m| (m.row, m.col)).collect();
         let want: Vec<(usize, usize)> = (0..7).flat_map(|y| (0..6).map(move |x| (y, x))).collect();
         assert_eq!(pos, want);
+        // a large constant image: every FFT value lies within the bound of every other (the worst case of
+        // the old per-match rescan), still (row, col) order, each translation once
+        let flat = Array3::from_elem((120, 120, 3), 0.5f32);
+        let idx = SsdIndex::new(flat.view()).unwrap();
+        let t = Array3::from_elem((5, 5, 3), 0.25f32);
+        let got = idx.best_matches(t.view(), None, usize::MAX, 0).unwrap();
+        assert_eq!(got.len(), 116 * 116);
+        assert!(got
+            .iter()
+            .enumerate()
+            .all(|(j, m)| (m.row, m.col) == (j / 116, j % 116) && m.ssd == got[0].ssd));
+        let spaced = idx.best_matches(t.view(), None, usize::MAX, 3).unwrap();
+        assert_eq!(spaced.len(), 29 * 29);
+        assert_eq!((spaced[1].row, spaced[1].col), (0, 4));
     }
 
     #[test]

@@ -102,6 +102,7 @@ def arrays(
         shp = tuple(draw(st.integers(0, max_side)) if s is None else s for s in shape)
     else:
         shp = tuple(draw(st.lists(st.integers(0, max_side), min_size=ndim, max_size=ndim)))
+    shp = _bounded(shp)
     dt = draw(st.sampled_from(ALL_DTYPES)) if draw(go_wild) else dtype
     kind = draw(st.sampled_from(VALUE_KINDS))
     seed = draw(st.integers(0, 2**32 - 1))
@@ -111,6 +112,19 @@ def arrays(
 
 def _tame_or_wild(tame: st.SearchStrategy[Any], wild: st.SearchStrategy[Any]) -> st.SearchStrategy[Any]:
     return st.booleans().flatmap(lambda _: tame if MODE["tame"] else st.one_of(tame, tame, wild))
+
+
+MAX_ELEMENTS = 1 << 18
+"""Largest array the fuzzers make (a wild 5-d shape of 120-pixel sides would be 25 G elements)."""
+
+
+def _bounded(shape: tuple[int, ...]) -> tuple[int, ...]:
+    """``shape`` with its largest sides halved until it has at most :data:`MAX_ELEMENTS` elements."""
+    dims = list(shape)
+    while int(np.prod(dims, dtype=np.float64)) > MAX_ELEMENTS:
+        i = int(np.argmax(dims))
+        dims[i] //= 2
+    return tuple(dims)
 
 
 def threads() -> st.SearchStrategy[Any]:

@@ -285,7 +285,9 @@ class TileSet:
             OSError, KeyError, EOFError, zlib.error, NotImplementedError, RuntimeError,
         ) as exc:
             # RuntimeError: an encrypted member; NotImplementedError: an unknown compression method
-            raise TileSetFormatError(f"tileset = {p!r}: not a tilesynth tile set ({type(exc).__name__}: {exc})") from None
+            raise TileSetFormatError(
+                f"tileset = {p!r}: not a tilesynth tile set ({type(exc).__name__}: {exc})"
+            ) from None
         ts = cls(
             scheme=manifest["scheme"],
             layout=manifest["layout"],
@@ -337,7 +339,9 @@ class TileSet:
                 f"{list(self.exemplar.shape)}"
             )
         if k == 0 or n == 0 or not 1 <= c <= 4 or 0 in self.exemplar.shape:
-            raise TileSetFormatError(f"tiles have shape {self.tiles.shape}, expected (K, N, N, C), K, N >= 1, C in 1..4")
+            raise TileSetFormatError(
+                f"tiles have shape {self.tiles.shape}, expected (K, N, N, C) with K, N >= 1 and C in 1..4"
+            )
         if self.genes.ndim != 2 or self.genes.shape[1] != 2 or self.genes.shape[0] == 0:
             raise TileSetFormatError(f"array genes has shape {self.genes.shape}, expected (n, 2) with n >= 1")
         if not values:
@@ -403,6 +407,11 @@ def _check_manifest(m: Any) -> None:
     shape = m["exemplar"].get("shape")
     if not (isinstance(shape, list) and len(shape) == 3 and all(type(v) is int for v in shape)):
         raise TileSetFormatError(f"manifest.json field exemplar.shape = {shape!r:.60}: expected [H, W, C]")
+    bits = m["exemplar"].get("bits", 8)
+    if type(bits) is not int or bits not in (8, 16):
+        raise TileSetFormatError(f"manifest.json field exemplar.bits = {bits!r:.60}: expected 8 or 16")
+    if not isinstance(m["exemplar"].get("file", ""), str):
+        raise TileSetFormatError("manifest.json field exemplar.file: expected a file name")
     if not isinstance(m["layout"].get("tiles"), list):
         raise TileSetFormatError("manifest.json field layout.tiles: expected a list of tiles")
     if not isinstance(m["params"].get("selection", {}), dict):
