@@ -63,6 +63,9 @@ use crate::error::{fmt_shape, Result, TilesynthError};
 use ndarray::{Array3, Array4, ArrayView2, ArrayView3, ArrayView4, Axis};
 use rayon::prelude::*;
 
+mod simd;
+use simd::{Portable, Simd};
+
 /// Default relative residual `‖b − A f‖₂ / ‖b‖₂` at which the iteration stops.
 pub const DEFAULT_TOL: f64 = 1e-6;
 
@@ -236,36 +239,45 @@ pub fn poisson_smooth_batch(
 
 // ------------------------------------------------------------------------------------------------ one tile
 
+/// Which code path runs the solver: the best the CPU supports, or the portable one (tests compare the two).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Path {
+    Auto,
+    #[cfg_attr(not(test), allow(dead_code))]
+    Portable,
+}
+
 fn solve_tile(
     dst: ArrayView3<f32>,
     src: ArrayView3<f32>,
     region: ArrayView2<bool>,
     tol: f64,
 ) -> Result<(Array3<f32>, PoissonInfo)> {
+    solve_tile_with(dst, src, region, tol, Path::Auto)
+}
+
+fn solve_tile_with(
+    dst: ArrayView3<f32>,
+    src: ArrayView3<f32>,
+    region: ArrayView2<bool>,
+    tol: f64,
+    path: Path,
+) -> Result<(Array3<f32>, PoissonInfo)> {
     let (n, m, c) = dst.dim();
     let unknowns = region.iter().filter(|&&v| v).count();
     let mut out = dst.as_standard_layout().into_owned();
+    let trivial = PoissonInfo {
+        iterations: 0,
+        residual: vec![0.0; c],
+        unknowns,
+    };
     if unknowns == 0 {
-        return Ok((
-            out,
-            PoissonInfo {
-                iterations: 0,
-                residual: vec![0.0; c],
-                unknowns,
-            },
-        ));
+        return Ok((out, trivial));
     }
     if unknowns == n * m {
         // No Dirichlet pixel: f = src + const, anchored to the mean of src (see the module documentation).
         out.assign(&src);
-        return Ok((
-            out,
-            PoissonInfo {
-                iterations: 0,
-                residual: vec![0.0; c],
-                unknowns,
-            },
-        ));
+        return Ok((out, trivial));
     }
     let grid = Grid::new(region);
     let src = src.as_standard_layout();
@@ -277,20 +289,20 @@ fn solve_tile(
     let max_iter = max_iterations(n, m);
     let channels: Vec<Result<Channel>> = (0..c)
         .into_par_iter()
-        .map(|ch| grid.solve_channel(dst_s, src_s, c, ch, tol, max_iter))
+        .map(|ch| grid.solve_channel(dst_s, src_s, c, ch, tol, max_iter, path))
         .collect();
     let mut iterations = 0;
     let mut residual = Vec::with_capacity(c);
     let out_s = out.as_slice_mut().expect("standard layout");
+    let l0 = &grid.levels[0];
     for (ch, res) in channels.into_iter().enumerate() {
         let res = res?;
         iterations = iterations.max(res.iterations);
         residual.push(res.residual);
-        let l0 = &grid.levels[0];
-        for gy in 1..l0.h - 1 {
-            let (lo, hi) = l0.spans[gy];
+        for gy in 1..l0.lay.h - 1 {
+            let (lo, hi) = l0.span[gy];
             for gx in lo..hi {
-                let g = gy * l0.w + gx;
+                let g = l0.lay.idx(gy, gx);
                 if l0.act[g] != 0.0 {
                     let (iy, ix) = grid.image_of(gy, gx);
                     let v = res.f[g] as f32;
@@ -316,155 +328,333 @@ fn solve_tile(
     ))
 }
 
-/// One channel's solution on the grid of level 0 (f64, only the active pixels are meaningful).
+/// One channel's solution on level 0 (f64, packed layout; only the active points are meaningful).
 struct Channel {
-    f: Vec<f64>,
+    f: Buf<f64>,
     iterations: usize,
     residual: f64,
 }
 
-/// One multigrid level: an `h x w` grid whose ring is never active.
-struct Level {
+/// The packed red-black layout of an `h x w` grid. Row `y` starts at `y · stride`; its even columns come first
+/// (`x = 2k` at `k`), then its odd ones (`x = 2k + 1` at `blk + k`). A red point (`y + x` even) of an even row is
+/// in the even block, of an odd row in the odd block, so one colour of a row is contiguous, and its left / right
+/// neighbours are the other block at `k − 1, k` (even block) or `k, k + 1` (odd block). Each block has room for
+/// [`VEC`] more entries than it has columns, so that every loop can run over whole vectors: the extra lanes fall on
+/// inactive points, whose weights are 0.
+#[derive(Debug, Clone, Copy)]
+struct Layout {
     h: usize,
     w: usize,
+    /// Capacity of a block (a multiple of [`VEC`], at least `⌈w/2⌉ + VEC`).
+    blk: usize,
+    /// Row stride, `2 · blk`.
+    stride: usize,
+}
+
+/// Loops over a row's points run in whole vectors of this many lanes.
+const VEC: usize = simd::LANES;
+
+impl Layout {
+    fn new(h: usize, w: usize) -> Layout {
+        let blk = (w.div_ceil(2) + VEC).div_ceil(VEC) * VEC;
+        Layout {
+            h,
+            w,
+            blk,
+            stride: 2 * blk,
+        }
+    }
+
+    #[inline(always)]
+    fn idx(&self, y: usize, x: usize) -> usize {
+        y * self.stride + if x % 2 == 0 { x / 2 } else { self.blk + x / 2 }
+    }
+
+    fn len(&self) -> usize {
+        self.h * self.stride
+    }
+}
+
+/// The block ranges of the natural column span `[lo, hi)`: `[even k range, odd k range]`, exact.
+#[inline(always)]
+fn block_spans(lo: usize, hi: usize) -> [(usize, usize); 2] {
+    [((lo + 1) / 2, hi.div_ceil(2)), (lo / 2, hi / 2)]
+}
+
+/// [`block_spans`] with each range lengthened to whole vectors (empty ranges stay empty).
+#[inline(always)]
+fn vec_spans(lo: usize, hi: usize) -> [(usize, usize); 2] {
+    block_spans(lo, hi).map(|(a, b)| (a, a + (b.max(a) - a).div_ceil(VEC) * VEC))
+}
+
+/// The starts `a, a + VEC, …` of the whole vectors in `[a, z)` (`z − a` is a multiple of `VEC`).
+#[inline(always)]
+fn starts(a: usize, z: usize) -> impl Iterator<Item = usize> {
+    (0..(z - a) / VEC).map(move |k| a + k * VEC)
+}
+
+/// One multigrid level: an `h x w` grid whose ring is never active; arrays in the packed layout.
+struct Level {
+    lay: Layout,
     /// Diagonal of the operator (number of in-image neighbours on level 0, 4 on coarse levels; 0 if inactive).
     diag: Vec<f32>,
+    /// `1 / diag` on active points, 0 elsewhere.
+    winv: Vec<f32>,
     /// 1 on active (unknown) points, 0 elsewhere.
     act: Vec<f32>,
-    /// `1 / diag` on active red points (`(y + x)` even), 0 elsewhere.
-    wred: Vec<f32>,
-    /// `1 / diag` on active black points, 0 elsewhere.
-    wblack: Vec<f32>,
-    /// Per row, the half-open range of columns spanning its active points (`(0, 0)` when it has none).
-    spans: Vec<(usize, usize)>,
-    /// Number of active points.
-    active: usize,
+    /// Per row, the natural column range `[lo, hi)` spanning its active points (`(0, 0)` when it has none).
+    span: Vec<(usize, usize)>,
+    /// Per row, [`vec_spans`] of `span`.
+    vspan: Vec<[(usize, usize); 2]>,
 }
 
 impl Level {
-    fn from_active(h: usize, w: usize, active: &[bool], diag_of: impl Fn(usize) -> f32) -> Level {
-        let len = h * w;
-        let mut diag = vec![0.0f32; len];
-        let mut act = vec![0.0f32; len];
-        let mut wred = vec![0.0f32; len];
-        let mut wblack = vec![0.0f32; len];
-        let mut spans = vec![(0usize, 0usize); h];
-        let mut count = 0;
+    /// `active` in natural row-major order.
+    fn from_active(
+        h: usize,
+        w: usize,
+        active: &[bool],
+        diag_of: impl Fn(usize, usize) -> f32,
+    ) -> Level {
+        let lay = Layout::new(h, w);
+        let mut diag = vec![0.0f32; lay.len()];
+        let mut winv = vec![0.0f32; lay.len()];
+        let mut act = vec![0.0f32; lay.len()];
+        let mut span = vec![(0usize, 0usize); h];
         for y in 0..h {
             let (mut lo, mut hi) = (usize::MAX, 0);
             for x in 0..w {
-                let g = y * w + x;
-                if !active[g] {
+                if !active[y * w + x] {
                     continue;
                 }
                 debug_assert!(y > 0 && x > 0 && y + 1 < h && x + 1 < w);
-                count += 1;
-                let d = diag_of(g);
+                let g = lay.idx(y, x);
+                let d = diag_of(y, x);
                 diag[g] = d;
+                winv[g] = 1.0 / d;
                 act[g] = 1.0;
-                if (y + x) % 2 == 0 {
-                    wred[g] = 1.0 / d;
-                } else {
-                    wblack[g] = 1.0 / d;
-                }
                 lo = lo.min(x);
                 hi = x + 1;
             }
             if hi > 0 {
-                spans[y] = (lo, hi);
+                span[y] = (lo, hi);
             }
         }
+        let vspan = span.iter().map(|&(lo, hi)| vec_spans(lo, hi)).collect();
         Level {
-            h,
-            w,
+            lay,
             diag,
+            winv,
             act,
-            wred,
-            wblack,
-            spans,
-            active: count,
-        }
-    }
-
-    /// One red-black half-sweep of Gauss–Seidel with weights `wc` (`wred` or `wblack`): on the points of that
-    /// colour `u ← (f + Σ_q u_q) / diag`. Points of the other colour read only the other colour, so a row can be
-    /// updated from a copy of itself.
-    fn relax(&self, u: &mut [f32], f: &[f32], red: bool, tmp: &mut [f32]) {
-        let w = self.w;
-        let wc = if red { &self.wred } else { &self.wblack };
-        for y in 1..self.h - 1 {
-            let (lo, hi) = self.spans[y];
-            if lo >= hi {
-                continue;
-            }
-            let len = hi - lo;
-            let row = y * w;
-            {
-                let up = &u[row - w + lo..row - w + hi];
-                let dn = &u[row + w + lo..row + w + hi];
-                let left = &u[row + lo - 1..row + hi - 1];
-                let right = &u[row + lo + 1..row + hi + 1];
-                let cur = &u[row + lo..row + hi];
-                let fr = &f[row + lo..row + hi];
-                let dg = &self.diag[row + lo..row + hi];
-                let wr = &wc[row + lo..row + hi];
-                let t = &mut tmp[..len];
-                for i in 0..len {
-                    t[i] = cur[i]
-                        + wr[i] * (fr[i] + ((up[i] + dn[i]) + (left[i] + right[i])) - dg[i] * cur[i]);
-                }
-            }
-            u[row + lo..row + hi].copy_from_slice(&tmp[..len]);
-        }
-    }
-
-    /// `res = act · (f − A u)` on the active spans (the rest of `res` is never written and stays 0).
-    fn residual(&self, u: &[f32], f: &[f32], res: &mut [f32]) {
-        let w = self.w;
-        for y in 1..self.h - 1 {
-            let (lo, hi) = self.spans[y];
-            if lo >= hi {
-                continue;
-            }
-            let row = y * w;
-            let up = &u[row - w + lo..row - w + hi];
-            let dn = &u[row + w + lo..row + w + hi];
-            let left = &u[row + lo - 1..row + hi - 1];
-            let right = &u[row + lo + 1..row + hi + 1];
-            let cur = &u[row + lo..row + hi];
-            let fr = &f[row + lo..row + hi];
-            let dg = &self.diag[row + lo..row + hi];
-            let ac = &self.act[row + lo..row + hi];
-            let out = &mut res[row + lo..row + hi];
-            for i in 0..out.len() {
-                out[i] =
-                    ac[i] * (fr[i] + ((up[i] + dn[i]) + (left[i] + right[i])) - dg[i] * cur[i]);
-            }
+            span,
+            vspan,
         }
     }
 
     /// The coarse level: point `(Y, X)` is fine point `(2Y, 2X)`, active iff that one is. `None` when the grid is
     /// too small to coarsen or the coarse grid would have no active point.
     fn coarsen(&self) -> Option<Level> {
-        if self.h < 5 || self.w < 5 {
+        let (h, w) = (self.lay.h, self.lay.w);
+        if h < 5 || w < 5 {
             return None;
         }
-        let (hc, wc) = (self.h / 2 + 1, self.w / 2 + 1);
+        let (hc, wc) = (h / 2 + 1, w / 2 + 1);
         let mut active = vec![false; hc * wc];
         let mut any = false;
         for yc in 1..hc - 1 {
             for xc in 1..wc - 1 {
-                let g = 2 * yc * self.w + 2 * xc;
-                if self.act[g] != 0.0 {
+                if self.act[self.lay.idx(2 * yc, 2 * xc)] != 0.0 {
                     active[yc * wc + xc] = true;
                     any = true;
                 }
             }
         }
-        if !any {
-            return None;
+        any.then(|| Level::from_active(hc, wc, &active, |_, _| 4.0))
+    }
+}
+
+/// One red-black Gauss–Seidel half-sweep, in place: on the points of one colour `u ← (f + Σ_q u_q) / diag`.
+/// With `first`, the other colour is taken as 0 (the sweep that starts a V-cycle level from u = 0; stale values
+/// of the other colour are overwritten by the next half-sweep).
+#[inline(always)]
+fn relax<S: Simd>(v: S, lev: &Level, u: &mut [f32], f: &[f32], red: bool, first: bool) {
+    let Layout { h, blk, stride, .. } = lev.lay;
+    for y in 1..h - 1 {
+        let even = (y % 2 == 0) == red;
+        let (kl, kh) = lev.vspan[y][usize::from(!even)];
+        if kl >= kh {
+            continue;
         }
-        Some(Level::from_active(hc, wc, &active, |_| 4.0))
+        let len = kh - kl;
+        let boff = if even { 0 } else { blk };
+        // Left neighbour of block index kl in the other block (the right one is the next).
+        let sh = if even { kl - 1 } else { kl };
+        let row = y * stride;
+        let (before, rest) = u.split_at_mut(row);
+        let (cur, after) = rest.split_at_mut(stride);
+        let up = &before[row - stride + boff + kl..row - stride + boff + kh];
+        let dn = &after[boff + kl..boff + kh];
+        let (evens, odds) = cur.split_at_mut(blk);
+        let (tgt, oth) = if even {
+            (&mut evens[kl..kh], &*odds)
+        } else {
+            (&mut odds[kl..kh], &*evens)
+        };
+        let lr = &oth[sh..sh + len + 1];
+        let fr = &f[row + boff + kl..row + boff + kh];
+        let wv = &lev.winv[row + boff + kl..row + boff + kh];
+        for i in starts(0, len) {
+            let (fv, w) = (v.ld32(fr, i), v.ld32(wv, i));
+            let out = if first {
+                v.mul32(w, fv)
+            } else {
+                let vert = v.add32(v.ld32(up, i), v.ld32(dn, i));
+                let horz = v.add32(v.ld32(lr, i), v.ld32(lr, i + 1));
+                v.mul32(w, v.add32(fv, v.add32(vert, horz)))
+            };
+            v.st32(tgt, i, out);
+        }
+    }
+}
+
+/// The residual `f − A u` after a half-sweep on black: 0 on the black points (Gauss–Seidel just solved their
+/// equations), so only the red points are computed (the black entries of `res` are never written and stay 0).
+#[inline(always)]
+fn residual_red<S: Simd>(v: S, lev: &Level, u: &[f32], f: &[f32], res: &mut [f32]) {
+    let Layout { h, blk, stride, .. } = lev.lay;
+    for y in 1..h - 1 {
+        let even = y % 2 == 0;
+        let (kl, kh) = lev.vspan[y][usize::from(!even)];
+        if kl >= kh {
+            continue;
+        }
+        let (boff, ooff) = if even { (0, blk) } else { (blk, 0) };
+        let len = kh - kl;
+        let sh = if even { kl - 1 } else { kl };
+        let (row, a, b) = (y * stride, y * stride + boff + kl, y * stride + boff + kh);
+        let up = &u[a - stride..b - stride];
+        let dn = &u[a + stride..b + stride];
+        let cur = &u[a..b];
+        let lr = &u[row + ooff + sh..row + ooff + sh + len + 1];
+        let (fr, dg, wv) = (&f[a..b], &lev.diag[a..b], &lev.winv[a..b]);
+        let out = &mut res[a..b];
+        for i in starts(0, len) {
+            let vert = v.add32(v.ld32(up, i), v.ld32(dn, i));
+            let horz = v.add32(v.ld32(lr, i), v.ld32(lr, i + 1));
+            let gs = v.mul32(v.ld32(wv, i), v.add32(v.ld32(fr, i), v.add32(vert, horz)));
+            v.st32(out, i, v.mul32(v.ld32(dg, i), v.sub32(gs, v.ld32(cur, i))));
+        }
+    }
+}
+
+/// `fc = act · Pᵀ res` (full weighting with weights 1, 1/2, 1/4, the transpose of [`prolong_add`]) for a
+/// residual that is 0 on black points: coarse `(Y, X)` collects fine `(2Y, 2X)` (red, weight 1) and its four
+/// diagonal neighbours (red, weight 1/4); the edge neighbours are black.
+#[inline(always)]
+fn restrict(fine: &Level, coarse: &Level, res: &[f32], fc: &mut [f32], tmp: &mut [f32]) {
+    let Layout { blk, stride, .. } = fine.lay;
+    let Layout {
+        h: hc,
+        blk: blkc,
+        stride: sc,
+        ..
+    } = coarse.lay;
+    for yc in 1..hc - 1 {
+        let (lo, hi) = coarse.span[yc];
+        if lo >= hi {
+            continue;
+        }
+        let len = hi - lo;
+        let y = 2 * yc;
+        let (ra, rb, rc) = ((y - 1) * stride + blk, y * stride, (y + 1) * stride + blk);
+        let ev = &res[rb + lo..rb + hi];
+        let a0 = &res[ra + lo - 1..ra + hi - 1];
+        let a1 = &res[ra + lo..ra + hi];
+        let b0 = &res[rc + lo - 1..rc + hi - 1];
+        let b1 = &res[rc + lo..rc + hi];
+        let t = &mut tmp[..len];
+        for i in 0..len {
+            t[i] = ev[i] + 0.25 * ((a0[i] + a1[i]) + (b0[i] + b1[i]));
+        }
+        let [(el, eh), (ol, oh)] = block_spans(lo, hi);
+        let crow = yc * sc;
+        for k in el..eh {
+            fc[crow + k] = coarse.act[crow + k] * t[2 * k - lo];
+        }
+        for k in ol..oh {
+            fc[crow + blkc + k] = coarse.act[crow + blkc + k] * t[2 * k + 1 - lo];
+        }
+    }
+}
+
+/// The coarse solution in natural row-major order, rows `w` apart (so that prolongation reads contiguous rows).
+#[inline(always)]
+fn unpack(coarse: &Level, uc: &[f32], nat: &mut [f32]) {
+    let Layout {
+        h, w, blk, stride, ..
+    } = coarse.lay;
+    for y in 0..h {
+        let (lo, hi) = coarse.span[y];
+        let row = &mut nat[y * w..(y + 1) * w];
+        if lo >= hi {
+            row.fill(0.0);
+            continue;
+        }
+        let src = &uc[y * stride..(y + 1) * stride];
+        let (evens, odds) = src.split_at(blk);
+        for ((pair, &e), &o) in row.chunks_exact_mut(2).zip(evens).zip(odds) {
+            pair[0] = e;
+            pair[1] = o;
+        }
+        if w % 2 == 1 {
+            row[w - 1] = evens[w / 2];
+        }
+    }
+}
+
+/// `u += act · P uc` (bilinear interpolation from the coarse points; `nat` is the coarse solution unpacked).
+#[inline(always)]
+fn prolong_add(fine: &Level, coarse: &Level, nat: &[f32], u: &mut [f32], tmp: &mut [f32]) {
+    let Layout { h, blk, stride, .. } = fine.lay;
+    let wc = coarse.lay.w;
+    for y in 1..h - 1 {
+        let (lo, hi) = fine.span[y];
+        if lo >= hi {
+            continue;
+        }
+        // Coarse columns ca .. cb cover fine columns lo .. hi.
+        let (ca, cb) = (lo / 2, (hi - 1) / 2 + 2);
+        let yc = y / 2;
+        let c: &[f32] = if y % 2 == 0 {
+            &nat[yc * wc + ca..yc * wc + cb]
+        } else {
+            let a = &nat[yc * wc + ca..yc * wc + cb];
+            let b = &nat[(yc + 1) * wc + ca..(yc + 1) * wc + cb];
+            let t = &mut tmp[..cb - ca];
+            for i in 0..t.len() {
+                t[i] = 0.5 * (a[i] + b[i]);
+            }
+            t
+        };
+        let [(el, eh), (ol, oh)] = block_spans(lo, hi);
+        let row = y * stride;
+        if el < eh {
+            let ue = &mut u[row + el..row + eh];
+            let ae = &fine.act[row + el..row + eh];
+            let cv = &c[el - ca..eh - ca];
+            for i in 0..ue.len() {
+                ue[i] += ae[i] * cv[i];
+            }
+        }
+        if ol < oh {
+            let uo = &mut u[row + blk + ol..row + blk + oh];
+            let ao = &fine.act[row + blk + ol..row + blk + oh];
+            let c0 = &c[ol - ca..oh - ca];
+            let c1 = &c[ol + 1 - ca..oh + 1 - ca];
+            for i in 0..uo.len() {
+                uo[i] += ao[i] * (0.5 * (c0[i] + c1[i]));
+            }
+        }
     }
 }
 
@@ -481,30 +671,38 @@ struct Grid {
     /// Level 0's diagonal and mask in f64 (for the PCG operator).
     diag64: Vec<f64>,
     act64: Vec<f64>,
+    /// Level 0's rows as packed index ranges in whole vectors (two per row with active points); every PCG
+    /// vector is 0 on the inactive points of these ranges, and only these ranges are ever written.
+    segments: Vec<(usize, usize)>,
 }
 
 impl Grid {
     fn new(region: ArrayView2<bool>) -> Grid {
         let (n, m) = region.dim();
         let (mut y0, mut y1, mut x0, mut x1) = (usize::MAX, 0, usize::MAX, 0);
-        for ((y, x), &v) in region.indexed_iter() {
-            if v {
-                y0 = y0.min(y);
-                y1 = y1.max(y);
-                x0 = x0.min(x);
-                x1 = x1.max(x);
+        for (y, row) in region.outer_iter().enumerate() {
+            for (x, &v) in row.iter().enumerate() {
+                if v {
+                    y0 = y0.min(y);
+                    y1 = y1.max(y);
+                    x0 = x0.min(x);
+                    x1 = x1.max(x);
+                }
             }
         }
         let (h, w) = (y1 - y0 + 3, x1 - x0 + 3);
         let mut active = vec![false; h * w];
         for gy in 1..h - 1 {
-            for gx in 1..w - 1 {
-                active[gy * w + gx] = region[(y0 + gy - 1, x0 + gx - 1)];
+            let src = region.row(y0 + gy - 1);
+            for (a, &v) in active[gy * w + 1..gy * w + w - 1]
+                .iter_mut()
+                .zip(src.iter().skip(x0))
+            {
+                *a = v;
             }
         }
         // Neighbours inside the image (a pixel on the image border has fewer).
-        let degree = |g: usize| -> f32 {
-            let (gy, gx) = (g / w, g % w);
+        let degree = |gy: usize, gx: usize| -> f32 {
             let (iy, ix) = (y0 + gy - 1, x0 + gx - 1);
             (usize::from(iy > 0)
                 + usize::from(iy + 1 < n)
@@ -515,8 +713,20 @@ impl Grid {
         while let Some(coarse) = levels.last().expect("level 0").coarsen() {
             levels.push(coarse);
         }
-        let diag64 = levels[0].diag.iter().map(|&d| d as f64).collect();
-        let act64 = levels[0].act.iter().map(|&a| a as f64).collect();
+        let l0 = &levels[0];
+        let diag64 = l0.diag.iter().map(|&d| d as f64).collect();
+        let act64 = l0.act.iter().map(|&a| a as f64).collect();
+        let mut segments = Vec::new();
+        for (y, &(lo, hi)) in l0.span.iter().enumerate() {
+            if lo < hi {
+                let row = y * l0.lay.stride;
+                for ((a, b), off) in vec_spans(lo, hi).into_iter().zip([0, l0.lay.blk]) {
+                    if a < b {
+                        segments.push((row + off + a, row + off + b));
+                    }
+                }
+            }
+        }
         Grid {
             n,
             m,
@@ -525,6 +735,7 @@ impl Grid {
             levels,
             diag64,
             act64,
+            segments,
         }
     }
 
@@ -534,154 +745,57 @@ impl Grid {
         (self.y0 + gy - 1, self.x0 + gx - 1)
     }
 
-    /// Whether grid point `(gy, gx)` of level 0 lies inside the image.
-    #[inline]
-    fn in_image(&self, gy: usize, gx: usize) -> bool {
-        let (iy, ix) = (self.y0 + gy, self.x0 + gx);
-        iy >= 1 && ix >= 1 && iy <= self.n && ix <= self.m
+    /// `q = A p` (the masked 5-point operator of level 0) in f64 on the segments; returns `p · q`.
+    #[inline(always)]
+    fn apply_dot<S: Simd>(&self, v: S, p: &[f64], q: &mut [f64]) -> f64 {
+        self.stencil64(v, p, q, true)
     }
 
-    /// `q = A p` (the masked 5-point operator of level 0) in f64; `q` stays 0 off the active spans.
-    fn apply(&self, p: &[f64], q: &mut [f64]) {
+    /// `out = act · (diag · x − Σ_q x_q)` (`with_diag`, returning `x · out`) or `act · Σ_q x_q` (returning 0)
+    /// on the segments.
+    #[inline(always)]
+    fn stencil64<S: Simd>(&self, v: S, x: &[f64], out: &mut [f64], with_diag: bool) -> f64 {
         let l0 = &self.levels[0];
-        let w = l0.w;
-        for y in 1..l0.h - 1 {
-            let (lo, hi) = l0.spans[y];
-            if lo >= hi {
-                continue;
-            }
-            let row = y * w;
-            let up = &p[row - w + lo..row - w + hi];
-            let dn = &p[row + w + lo..row + w + hi];
-            let left = &p[row + lo - 1..row + hi - 1];
-            let right = &p[row + lo + 1..row + hi + 1];
-            let cur = &p[row + lo..row + hi];
-            let dg = &self.diag64[row + lo..row + hi];
-            let ac = &self.act64[row + lo..row + hi];
-            let out = &mut q[row + lo..row + hi];
-            for i in 0..out.len() {
-                out[i] = ac[i] * (dg[i] * cur[i] - ((up[i] + dn[i]) + (left[i] + right[i])));
-            }
-        }
-    }
-
-    /// `z ≈ A⁻¹ r` by one V-cycle in f32 (`r` is scaled by `1 / scale` on the way in and back on the way out, so
-    /// the f32 levels see values of order 1).
-    fn precondition(&self, r: &[f64], scale: f64, z: &mut [f64], ws: &mut Workspace) {
-        let inv = 1.0 / scale;
-        for (f, &v) in ws.f[0].iter_mut().zip(r) {
-            *f = (v * inv) as f32;
-        }
-        self.vcycle(0, ws);
-        for (zi, &u) in z.iter_mut().zip(&ws.u[0]) {
-            *zi = u as f64 * scale;
-        }
-    }
-
-    fn vcycle(&self, l: usize, ws: &mut Workspace) {
-        let lev = &self.levels[l];
-        ws.u[l].fill(0.0);
-        if l + 1 == self.levels.len() {
-            for _ in 0..COARSE_SWEEPS {
-                lev.relax(&mut ws.u[l], &ws.f[l], true, &mut ws.tmp);
-                lev.relax(&mut ws.u[l], &ws.f[l], false, &mut ws.tmp);
-            }
-            for _ in 0..COARSE_SWEEPS {
-                lev.relax(&mut ws.u[l], &ws.f[l], false, &mut ws.tmp);
-                lev.relax(&mut ws.u[l], &ws.f[l], true, &mut ws.tmp);
-            }
-            return;
-        }
-        for _ in 0..PRE_SWEEPS {
-            lev.relax(&mut ws.u[l], &ws.f[l], true, &mut ws.tmp);
-            lev.relax(&mut ws.u[l], &ws.f[l], false, &mut ws.tmp);
-        }
-        lev.residual(&ws.u[l], &ws.f[l], &mut ws.res[l]);
-        self.restrict(l, ws);
-        self.vcycle(l + 1, ws);
-        self.prolong_add(l, ws);
-        for _ in 0..PRE_SWEEPS {
-            lev.relax(&mut ws.u[l], &ws.f[l], false, &mut ws.tmp);
-            lev.relax(&mut ws.u[l], &ws.f[l], true, &mut ws.tmp);
-        }
-    }
-
-    /// `f[l+1] = act · Pᵀ res[l]` with the bilinear weights 1, 1/2, 1/4 (the transpose of [`Grid::prolong_add`]).
-    fn restrict(&self, l: usize, ws: &mut Workspace) {
-        let (fine, coarse) = (&self.levels[l], &self.levels[l + 1]);
-        let (w, wc) = (fine.w, coarse.w);
-        let (lower, upper) = ws.f.split_at_mut(l + 1);
-        let _ = lower;
-        let fc = &mut upper[0];
-        let res = &ws.res[l];
-        let t = &mut ws.tmp;
-        for yc in 1..coarse.h - 1 {
-            let (lo, hi) = coarse.spans[yc];
-            if lo >= hi {
-                continue;
-            }
-            // Vertical pass over fine columns 2·lo − 1 ..= 2·hi − 1.
-            let (xa, xb) = (2 * lo - 1, 2 * hi);
-            let y = 2 * yc;
-            let a = &res[(y - 1) * w + xa..(y - 1) * w + xb];
-            let b = &res[y * w + xa..y * w + xb];
-            let c = &res[(y + 1) * w + xa..(y + 1) * w + xb];
-            let tv = &mut t[..xb - xa];
-            for i in 0..tv.len() {
-                tv[i] = b[i] + 0.5 * (a[i] + c[i]);
-            }
-            // Horizontal pass: coarse X ↔ fine 2X, i.e. tv index 2(X − lo) + 1.
-            let out = &mut fc[yc * wc + lo..yc * wc + hi];
-            let ac = &coarse.act[yc * wc + lo..yc * wc + hi];
-            for (k, o) in out.iter_mut().enumerate() {
-                let i = 2 * k + 1;
-                *o = ac[k] * (tv[i] + 0.5 * (tv[i - 1] + tv[i + 1]));
-            }
-        }
-    }
-
-    /// `u[l] += act · P u[l+1]` (bilinear interpolation from the coarse points).
-    fn prolong_add(&self, l: usize, ws: &mut Workspace) {
-        let (fine, coarse) = (&self.levels[l], &self.levels[l + 1]);
-        let (w, wc) = (fine.w, coarse.w);
-        let (lower, upper) = ws.u.split_at_mut(l + 1);
-        let (u, uc) = (&mut lower[l], &upper[0]);
-        let (crow, e) = ws.tmp.split_at_mut(wc);
-        for y in 1..fine.h - 1 {
-            let (lo, hi) = fine.spans[y];
-            if lo >= hi {
-                continue;
-            }
-            // Coarse columns lo/2 ..= (hi − 1)/2 + 1 cover fine columns lo .. hi.
-            let (ca, cb) = (lo / 2, (hi - 1) / 2 + 2);
-            let yc = y / 2;
-            let c = &mut crow[..cb - ca];
-            if y % 2 == 0 {
-                c.copy_from_slice(&uc[yc * wc + ca..yc * wc + cb]);
-            } else {
-                let a = &uc[yc * wc + ca..yc * wc + cb];
-                let b = &uc[(yc + 1) * wc + ca..(yc + 1) * wc + cb];
-                for i in 0..c.len() {
-                    c[i] = 0.5 * (a[i] + b[i]);
+        let Layout { h, blk, stride, .. } = l0.lay;
+        let mut acc = v.zero64();
+        for y in 1..h - 1 {
+            let row = y * stride;
+            let [(el, eh), (ol, oh)] = l0.vspan[y];
+            for (kl, kh, boff, ooff, sh) in
+                [(el, eh, 0, blk, el.wrapping_sub(1)), (ol, oh, blk, 0, ol)]
+            {
+                if kl >= kh {
+                    continue;
+                }
+                let len = kh - kl;
+                let (a, b) = (row + boff + kl, row + boff + kh);
+                let up = &x[a - stride..b - stride];
+                let dn = &x[a + stride..b + stride];
+                let cur = &x[a..b];
+                let lr = &x[row + ooff + sh..row + ooff + sh + len + 1];
+                let ac = &self.act64[a..b];
+                let dg = &self.diag64[a..b];
+                let o = &mut out[a..b];
+                for i in starts(0, len) {
+                    let vert = v.add64(v.ld64(up, i), v.ld64(dn, i));
+                    let horz = v.add64(v.ld64(lr, i), v.ld64(lr, i + 1));
+                    let nb = v.add64(vert, horz);
+                    let m = v.ld64(ac, i);
+                    if with_diag {
+                        let c = v.ld64(cur, i);
+                        let ov = v.mul64(m, v.sub64(v.mul64(v.ld64(dg, i), c), nb));
+                        acc = v.add64(acc, v.mul64(c, ov));
+                        v.st64(o, i, ov);
+                    } else {
+                        v.st64(o, i, v.mul64(m, nb));
+                    }
                 }
             }
-            // Expand to fine columns 2·ca .. 2·cb − 1.
-            let ex = &mut e[..2 * (cb - ca) - 1];
-            for k in 0..cb - ca - 1 {
-                ex[2 * k] = c[k];
-                ex[2 * k + 1] = 0.5 * (c[k] + c[k + 1]);
-            }
-            ex[2 * (cb - ca - 1)] = c[cb - ca - 1];
-            let off = lo - 2 * ca;
-            let ur = &mut u[y * w + lo..y * w + hi];
-            let ac = &fine.act[y * w + lo..y * w + hi];
-            let ev = &ex[off..off + (hi - lo)];
-            for i in 0..ur.len() {
-                ur[i] += ac[i] * ev[i];
-            }
         }
+        reduce(v.lanes64(acc))
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn solve_channel(
         &self,
         dst: &[f32],
@@ -690,108 +804,132 @@ impl Grid {
         ch: usize,
         tol: f64,
         max_iter: usize,
+        path: Path,
     ) -> Result<Channel> {
-        let l0 = &self.levels[0];
-        let (h, w, m) = (l0.h, l0.w, self.m);
-        let len = h * w;
-        // src and dst of this channel on the grid (0 outside the image).
-        let mut s = vec![0.0f64; len];
-        let mut d = vec![0.0f64; len];
-        for gy in 0..h {
-            for gx in 0..w {
-                if self.in_image(gy, gx) {
-                    let (iy, ix) = self.image_of(gy, gx);
-                    let k = (iy * m + ix) * c + ch;
-                    s[gy * w + gx] = src[k] as f64;
-                    d[gy * w + gx] = dst[k] as f64;
-                }
+        #[cfg(target_arch = "x86_64")]
+        if path == Path::Auto {
+            if let Some(v) = simd::Avx2::detect() {
+                // SAFETY: the token proves that the CPU supports AVX2.
+                return unsafe { self.solve_channel_avx2(v, dst, src, c, ch, tol, max_iter) };
             }
         }
-        // b: the right-hand side; r0 = b − A·src (the residual of the initial guess f = src).
-        let mut b = vec![0.0f64; len];
-        let mut r = vec![0.0f64; len];
-        for gy in 1..h - 1 {
-            let (lo, hi) = l0.spans[gy];
-            for gx in lo..hi {
-                let g = gy * w + gx;
-                if l0.act[g] == 0.0 {
-                    continue;
-                }
-                let (mut bg, mut rg) = (0.0, 0.0);
-                for (q, qy, qx) in [
-                    (g - w, gy - 1, gx),
-                    (g + w, gy + 1, gx),
-                    (g - 1, gy, gx - 1),
-                    (g + 1, gy, gx + 1),
-                ] {
-                    if !self.in_image(qy, qx) {
-                        continue;
-                    }
-                    bg += s[g] - s[q];
-                    if l0.act[q] == 0.0 {
-                        bg += d[q];
-                        rg += d[q] - s[q];
-                    }
-                }
-                b[g] = bg;
-                r[g] = rg;
-            }
-        }
-        let bnorm = dot(&b, &b).sqrt();
-        let mut f = vec![0.0f64; len];
+        let _ = path;
+        self.solve_channel_body(Portable, dst, src, c, ch, tol, max_iter)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn solve_channel_avx2(
+        &self,
+        v: simd::Avx2,
+        dst: &[f32],
+        src: &[f32],
+        c: usize,
+        ch: usize,
+        tol: f64,
+        max_iter: usize,
+    ) -> Result<Channel> {
+        self.solve_channel_body(v, dst, src, c, ch, tol, max_iter)
+    }
+
+    /// PCG for one channel (everything it calls is inlined, so that the AVX2 entry point compiles it all to AVX2).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn solve_channel_body<S: Simd>(
+        &self,
+        v: S,
+        dst: &[f32],
+        src: &[f32],
+        c: usize,
+        ch: usize,
+        tol: f64,
+        max_iter: usize,
+    ) -> Result<Channel> {
+        let len = self.levels[0].lay.len();
+        // s = src on level 0 (0 outside the image), g = dst − src on the in-image pixels outside the region.
+        let mut s = Buf::take(len, false);
+        let mut g = Buf::take(len, false);
+        self.gather(dst, src, c, ch, &mut s, &mut g);
+        // p and q are 0 off the segments throughout (the stencils read p there).
+        let mut p = Buf::take(len, true);
+        let mut q = Buf::take(len, true);
+        // r = b − A·src, the residual of the initial guess f = src: Σ_{q ∉ Ω} (dst_q − src_q); b = r + A·src.
+        let mut r = Buf::take(len, false);
+        self.stencil64(v, &g, &mut r, false);
+        drop(g);
+        self.seg_mul_add(v, &self.act64, &s, None, &mut p);
+        self.apply_dot(v, &p, &mut q);
+        let mut b = Buf::take(len, false);
+        self.seg_add(v, &r, &q, false, &mut b);
+        let bnorm = self.seg_dot(v, &b, &b).sqrt();
         if bnorm == 0.0 {
             // The exact solution is 0 on the region.
+            for &(a, z) in &self.segments {
+                p[a..z].fill(0.0);
+            }
             return Ok(Channel {
-                f,
+                f: p,
                 iterations: 0,
                 residual: 0.0,
             });
         }
         let mut ws = Workspace::new(&self.levels);
-        let mut e = vec![0.0f64; len];
-        let mut z = vec![0.0f64; len];
-        let mut p = vec![0.0f64; len];
-        let mut q = vec![0.0f64; len];
+        let mut e = Buf::take(len, false);
+        for &(a, z) in &self.segments {
+            e[a..z].fill(0.0);
+        }
         let target = tol * bnorm;
         let mut iterations = 0;
-        let mut rnorm = dot(&r, &r).sqrt();
+        let mut rnorm = self.seg_dot(v, &r, &r).sqrt();
         loop {
-            // PCG on A e = r from the current e (after a restart, r is the true residual).
+            // PCG on A e = r from the current e (after a restart, r is the true residual). z = M r is kept as
+            // rscale · u0, u0 the V-cycle's result for the input f0 = r / rscale (values of order 1 in f32).
             let before = iterations;
             if rnorm > target {
-                self.precondition(&r, rnorm, &mut z, &mut ws);
-                p.copy_from_slice(&z);
-                let mut rz = dot(&r, &z);
+                let mut rscale = rnorm;
+                self.seg_to_f32(v, &r, 1.0 / rscale, &mut ws.f[0]);
+                self.vcycle(v, &mut ws);
+                let mut rz = self.seg_dot_scaled(v, &r, &ws.u[0], rscale);
+                self.seg_set_p(v, &mut p, &ws.u[0], rscale, 0.0);
                 while iterations < max_iter && rz > 0.0 {
-                    self.apply(&p, &mut q);
-                    let pq = dot(&p, &q);
+                    let pq = self.apply_dot(v, &p, &mut q);
                     if !(pq > 0.0) {
                         break;
                     }
                     iterations += 1;
-                    rnorm = update_xr(&mut e, &mut r, &p, &q, rz / pq).sqrt();
+                    // Also writes the next V-cycle's input, r / rscale (rscale = the previous ‖r‖).
+                    let rr = self.seg_update_er(
+                        v,
+                        &mut e,
+                        &mut r,
+                        &p,
+                        &q,
+                        rz / pq,
+                        &mut ws.f[0],
+                        rscale,
+                    );
+                    rnorm = rr.sqrt();
                     if rnorm <= target {
                         break;
                     }
-                    self.precondition(&r, rnorm, &mut z, &mut ws);
-                    let rz_new = dot(&r, &z);
-                    update_p(&mut p, &z, rz_new / rz);
+                    self.vcycle(v, &mut ws);
+                    let rz_new = self.seg_dot_scaled(v, &r, &ws.u[0], rscale);
+                    self.seg_set_p(v, &mut p, &ws.u[0], rscale, rz_new / rz);
                     rz = rz_new;
+                    rscale = rnorm;
                 }
             }
-            // The true residual b − A f of f = src + e (0 off the region in the product).
-            for (((fi, &si), &ei), &a) in f.iter_mut().zip(&s).zip(&e).zip(&self.act64) {
-                *fi = a * (si + ei);
-            }
-            self.apply(&f, &mut q);
-            for ((ri, &bi), &qi) in r.iter_mut().zip(&b).zip(&q) {
-                *ri = bi - qi;
-            }
-            rnorm = dot(&r, &r).sqrt();
+            // The true residual b − A f of f = src + e (0 off the region in the product). p is free now (a
+            // restart sets it again) and 0 off the segments, so it holds f.
+            self.seg_mul_add(v, &self.act64, &s, Some(&e), &mut p);
+            self.apply_dot(v, &p, &mut q);
+            self.seg_add(v, &b, &q, true, &mut r);
+            rnorm = self.seg_dot(v, &r, &r).sqrt();
             let residual = rnorm / bnorm;
             if residual <= tol {
                 return Ok(Channel {
-                    f,
+                    f: p,
                     iterations,
                     residual,
                 });
@@ -809,79 +947,310 @@ impl Grid {
             }
         }
     }
+
+    /// `s` = channel `ch` of `src` on level 0 (0 outside the image) and `g` = `dst − src` on the in-image points
+    /// that are not unknowns (0 elsewhere); every element of both is written.
+    #[inline(always)]
+    fn gather(&self, dst: &[f32], src: &[f32], c: usize, ch: usize, s: &mut [f64], g: &mut [f64]) {
+        let l0 = &self.levels[0];
+        let Layout {
+            h, w, blk, stride, ..
+        } = l0.lay;
+        // Grid columns inside the image: gx in [xa, xb).
+        let xa = usize::from(self.x0 == 0);
+        let xb = w.min(self.m + 1 - self.x0);
+        s.fill(0.0);
+        g.fill(0.0);
+        for gy in 0..h {
+            if gy + self.y0 < 1 || gy + self.y0 > self.n {
+                continue;
+            }
+            let row = gy * stride;
+            let base = (self.y0 + gy - 1) * self.m + self.x0 - 1;
+            let (srow, grow) = (&mut s[row..row + stride], &mut g[row..row + stride]);
+            let arow = &l0.act[row..row + stride];
+            for gx in xa..xb {
+                let k = (base + gx) * c + ch;
+                let pos = if gx % 2 == 0 { gx / 2 } else { blk + gx / 2 };
+                let sv = src[k] as f64;
+                srow[pos] = sv;
+                if arow[pos] == 0.0 {
+                    grow[pos] = dst[k] as f64 - sv;
+                }
+            }
+        }
+    }
+
+    /// `Σ a_i b_i` over the segments, in a fixed order.
+    #[inline(always)]
+    fn seg_dot<S: Simd>(&self, v: S, a: &[f64], b: &[f64]) -> f64 {
+        let mut acc = v.zero64();
+        for &(s, z) in &self.segments {
+            for i in starts(s, z) {
+                acc = v.add64(acc, v.mul64(v.ld64(a, i), v.ld64(b, i)));
+            }
+        }
+        reduce(v.lanes64(acc))
+    }
+
+    /// `out = (x · scale) as f32` on the segments.
+    #[inline(always)]
+    fn seg_to_f32<S: Simd>(&self, v: S, x: &[f64], scale: f64, out: &mut [f32]) {
+        let sc = v.splat64(scale);
+        for &(a, z) in &self.segments {
+            for i in starts(a, z) {
+                v.st32(out, i, v.narrow(v.mul64(v.ld64(x, i), sc)));
+            }
+        }
+    }
+
+    /// `out = a ⊙ (b + c)` on the segments (`c = None`: `a ⊙ b`).
+    #[inline(always)]
+    fn seg_mul_add<S: Simd>(&self, v: S, a: &[f64], b: &[f64], c: Option<&[f64]>, out: &mut [f64]) {
+        for &(s, z) in &self.segments {
+            for i in starts(s, z) {
+                let bc = match c {
+                    Some(c) => v.add64(v.ld64(b, i), v.ld64(c, i)),
+                    None => v.ld64(b, i),
+                };
+                v.st64(out, i, v.mul64(v.ld64(a, i), bc));
+            }
+        }
+    }
+
+    /// `out = a + b` (`minus`: `a − b`) on the segments.
+    #[inline(always)]
+    fn seg_add<S: Simd>(&self, v: S, a: &[f64], b: &[f64], minus: bool, out: &mut [f64]) {
+        for &(s, z) in &self.segments {
+            for i in starts(s, z) {
+                let (x, y) = (v.ld64(a, i), v.ld64(b, i));
+                v.st64(out, i, if minus { v.sub64(x, y) } else { v.add64(x, y) });
+            }
+        }
+    }
+
+    /// One symmetric V-cycle from `ws.f[0]` into `ws.u[0]`.
+    #[inline(always)]
+    fn vcycle<S: Simd>(&self, v: S, ws: &mut Workspace) {
+        let nl = self.levels.len();
+        for l in 0..nl - 1 {
+            let lev = &self.levels[l];
+            relax(v, lev, &mut ws.u[l], &ws.f[l], true, true);
+            relax(v, lev, &mut ws.u[l], &ws.f[l], false, false);
+            for _ in 1..PRE_SWEEPS {
+                relax(v, lev, &mut ws.u[l], &ws.f[l], true, false);
+                relax(v, lev, &mut ws.u[l], &ws.f[l], false, false);
+            }
+            residual_red(v, lev, &ws.u[l], &ws.f[l], &mut ws.res[l]);
+            restrict(
+                lev,
+                &self.levels[l + 1],
+                &ws.res[l],
+                &mut ws.f[l + 1],
+                &mut ws.tmp,
+            );
+        }
+        let (lev, l) = (&self.levels[nl - 1], nl - 1);
+        relax(v, lev, &mut ws.u[l], &ws.f[l], true, true);
+        relax(v, lev, &mut ws.u[l], &ws.f[l], false, false);
+        for _ in 1..COARSE_SWEEPS {
+            relax(v, lev, &mut ws.u[l], &ws.f[l], true, false);
+            relax(v, lev, &mut ws.u[l], &ws.f[l], false, false);
+        }
+        for _ in 0..COARSE_SWEEPS {
+            relax(v, lev, &mut ws.u[l], &ws.f[l], false, false);
+            relax(v, lev, &mut ws.u[l], &ws.f[l], true, false);
+        }
+        for l in (0..nl - 1).rev() {
+            let (lev, coarse) = (&self.levels[l], &self.levels[l + 1]);
+            unpack(coarse, &ws.u[l + 1], &mut ws.nat);
+            prolong_add(lev, coarse, &ws.nat, &mut ws.u[l], &mut ws.tmp);
+            for _ in 0..PRE_SWEEPS {
+                relax(v, lev, &mut ws.u[l], &ws.f[l], false, false);
+                relax(v, lev, &mut ws.u[l], &ws.f[l], true, false);
+            }
+        }
+    }
+
+    /// `scale · Σ r_i u_i` over the segments.
+    #[inline(always)]
+    fn seg_dot_scaled<S: Simd>(&self, v: S, r: &[f64], u: &[f32], scale: f64) -> f64 {
+        let mut acc = v.zero64();
+        for &(a, z) in &self.segments {
+            for i in starts(a, z) {
+                acc = v.add64(acc, v.mul64(v.ld64(r, i), v.widen(v.ld32(u, i))));
+            }
+        }
+        reduce(v.lanes64(acc)) * scale
+    }
+
+    /// `p = scale · u + β p` over the segments.
+    #[inline(always)]
+    fn seg_set_p<S: Simd>(&self, v: S, p: &mut [f64], u: &[f32], scale: f64, beta: f64) {
+        let (sc, be) = (v.splat64(scale), v.splat64(beta));
+        for &(a, z) in &self.segments {
+            for i in starts(a, z) {
+                let z = v.mul64(v.widen(v.ld32(u, i)), sc);
+                let np = v.add64(z, v.mul64(be, v.ld64(p, i)));
+                v.st64(p, i, np);
+            }
+        }
+    }
+
+    /// `e += α p`, `r −= α q` and `f0 = r / rscale` (as f32) over the segments; returns `‖r‖²`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn seg_update_er<S: Simd>(
+        &self,
+        v: S,
+        e: &mut [f64],
+        r: &mut [f64],
+        p: &[f64],
+        q: &[f64],
+        alpha: f64,
+        f0: &mut [f32],
+        rscale: f64,
+    ) -> f64 {
+        let (al, inv) = (v.splat64(alpha), v.splat64(1.0 / rscale));
+        let mut acc = v.zero64();
+        for &(a, z) in &self.segments {
+            for i in starts(a, z) {
+                let ne = v.add64(v.ld64(e, i), v.mul64(al, v.ld64(p, i)));
+                let nr = v.sub64(v.ld64(r, i), v.mul64(al, v.ld64(q, i)));
+                v.st64(e, i, ne);
+                v.st64(r, i, nr);
+                v.st32(f0, i, v.narrow(v.mul64(nr, inv)));
+                acc = v.add64(acc, v.mul64(nr, nr));
+            }
+        }
+        reduce(v.lanes64(acc))
+    }
 }
 
-/// Per-channel scratch arrays of the V-cycle (f32).
+/// Per-channel scratch arrays of the V-cycle (f32, packed layout).
 struct Workspace {
-    u: Vec<Vec<f32>>,
-    f: Vec<Vec<f32>>,
-    res: Vec<Vec<f32>>,
+    /// Solutions (0 off the spans and on inactive points, always).
+    u: Vec<Buf<f32>>,
+    /// Right-hand sides (only read on the spans, where they are written first).
+    f: Vec<Buf<f32>>,
+    /// Residuals (0 on black points and off the spans, always).
+    res: Vec<Buf<f32>>,
+    /// The unpacked coarse solution (sized for level 1, written in full before it is read).
+    nat: Buf<f32>,
     tmp: Vec<f32>,
 }
 
 impl Workspace {
     fn new(levels: &[Level]) -> Workspace {
-        let sizes: Vec<usize> = levels.iter().map(|l| l.h * l.w).collect();
-        let wmax = levels.iter().map(|l| l.w).max().unwrap_or(0);
+        let sizes: Vec<usize> = levels.iter().map(|l| l.lay.len()).collect();
+        let wmax = levels.iter().map(|l| l.lay.w).max().unwrap_or(0);
+        let nat = levels.get(1).map_or(0, |l| l.lay.h * l.lay.w);
         Workspace {
-            u: sizes.iter().map(|&s| vec![0.0; s]).collect(),
-            f: sizes.iter().map(|&s| vec![0.0; s]).collect(),
-            res: sizes.iter().map(|&s| vec![0.0; s]).collect(),
-            tmp: vec![0.0; 4 * wmax + 8],
+            u: sizes.iter().map(|&s| Buf::take(s, true)).collect(),
+            f: sizes.iter().map(|&s| Buf::take(s, false)).collect(),
+            // The coarsest level needs no residual.
+            res: sizes[..sizes.len() - 1]
+                .iter()
+                .map(|&s| Buf::take(s, true))
+                .collect(),
+            nat: Buf::take(nat, false),
+            tmp: vec![0.0; wmax + 8],
         }
     }
 }
 
-/// Lanes of the fixed-order reductions.
-const LANES: usize = 8;
+/// Scratch buffers kept per thread between calls. A 256x256 tile needs about 5 MB of scratch per channel, and
+/// fresh memory costs a page fault per 4 kB (more than the solve itself, measured); reusing it costs at most a
+/// memset where an array must start at 0. At most [`POOL_BYTES`] per element type are kept per thread.
+struct Buf<T: Pooled>(Vec<T>);
 
-/// `Σ a_i b_i` with [`LANES`] partial sums in a fixed order (deterministic, vectorisable).
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let mut acc = [0.0f64; LANES];
-    let (ca, cb) = (a.chunks_exact(LANES), b.chunks_exact(LANES));
-    let (ra, rb) = (ca.remainder(), cb.remainder());
-    for (x, y) in ca.zip(cb) {
-        for k in 0..LANES {
-            acc[k] += x[k] * y[k];
-        }
-    }
-    for (k, (x, y)) in ra.iter().zip(rb).enumerate() {
-        acc[k] += x * y;
-    }
-    reduce(acc)
+/// The most scratch memory kept per thread and element type.
+const POOL_BYTES: usize = 32 << 20;
+
+trait Pooled: Copy + Default + 'static {
+    fn with_pool<R>(f: impl FnOnce(&mut Vec<Vec<Self>>) -> R) -> R;
 }
 
+thread_local! {
+    static POOL_F64: std::cell::RefCell<Vec<Vec<f64>>> = const { std::cell::RefCell::new(Vec::new()) };
+    static POOL_F32: std::cell::RefCell<Vec<Vec<f32>>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+impl Pooled for f64 {
+    fn with_pool<R>(f: impl FnOnce(&mut Vec<Vec<f64>>) -> R) -> R {
+        POOL_F64.with(|p| f(&mut p.borrow_mut()))
+    }
+}
+
+impl Pooled for f32 {
+    fn with_pool<R>(f: impl FnOnce(&mut Vec<Vec<f32>>) -> R) -> R {
+        POOL_F32.with(|p| f(&mut p.borrow_mut()))
+    }
+}
+
+impl<T: Pooled> Buf<T> {
+    /// A buffer of `len` elements: all 0 with `zero`, else arbitrary (the caller writes before it reads).
+    fn take(len: usize, zero: bool) -> Buf<T> {
+        let found = T::with_pool(|pool| {
+            // The smallest pooled buffer that is large enough.
+            let best = pool
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| v.capacity() >= len)
+                .min_by_key(|(_, v)| v.capacity())
+                .map(|(i, _)| i);
+            best.map(|i| pool.swap_remove(i))
+        });
+        match found {
+            Some(mut v) => {
+                if zero {
+                    v.clear();
+                }
+                v.truncate(len);
+                v.resize(len, T::default());
+                Buf(v)
+            }
+            None => Buf(vec![T::default(); len]),
+        }
+    }
+}
+
+impl<T: Pooled> Drop for Buf<T> {
+    fn drop(&mut self) {
+        let v = std::mem::take(&mut self.0);
+        let bytes = |v: &Vec<T>| v.capacity() * std::mem::size_of::<T>();
+        if bytes(&v) == 0 || bytes(&v) > POOL_BYTES {
+            return;
+        }
+        T::with_pool(|pool| {
+            pool.push(v);
+            // Over the limit: drop the oldest buffers first.
+            while pool.iter().map(bytes).sum::<usize>() > POOL_BYTES {
+                pool.remove(0);
+            }
+        });
+    }
+}
+
+impl<T: Pooled> std::ops::Deref for Buf<T> {
+    type Target = [T];
+    fn deref(&self) -> &[T] {
+        &self.0
+    }
+}
+
+impl<T: Pooled> std::ops::DerefMut for Buf<T> {
+    fn deref_mut(&mut self) -> &mut [T] {
+        &mut self.0
+    }
+}
+
+/// Lanes of the fixed-order reductions (one per lane of a chunk).
+const LANES: usize = VEC;
+
+#[inline(always)]
 fn reduce(acc: [f64; LANES]) -> f64 {
     ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]))
-}
-
-/// `e += α p`, `r −= α q`; returns `‖r‖²`.
-fn update_xr(e: &mut [f64], r: &mut [f64], p: &[f64], q: &[f64], alpha: f64) -> f64 {
-    let mut acc = [0.0f64; LANES];
-    let n = e.len();
-    let full = n - n % LANES;
-    for start in (0..full).step_by(LANES) {
-        let (es, rs) = (&mut e[start..start + LANES], &mut r[start..start + LANES]);
-        let (ps, qs) = (&p[start..start + LANES], &q[start..start + LANES]);
-        for k in 0..LANES {
-            es[k] += alpha * ps[k];
-            rs[k] -= alpha * qs[k];
-            acc[k] += rs[k] * rs[k];
-        }
-    }
-    for (k, i) in (full..n).enumerate() {
-        e[i] += alpha * p[i];
-        r[i] -= alpha * q[i];
-        acc[k] += r[i] * r[i];
-    }
-    reduce(acc)
-}
-
-/// `p = z + β p`.
-fn update_p(p: &mut [f64], z: &[f64], beta: f64) {
-    for (pi, &zi) in p.iter_mut().zip(z) {
-        *pi = zi + beta * *pi;
-    }
 }
 
 #[cfg(test)]
@@ -1004,12 +1373,7 @@ mod tests {
         (rr / bb).sqrt()
     }
 
-    fn check_against_dense(
-        dst: &Array3<f32>,
-        src: &Array3<f32>,
-        region: &Array2<bool>,
-        tol: f64,
-    ) {
+    fn check_against_dense(dst: &Array3<f32>, src: &Array3<f32>, region: &Array2<bool>, tol: f64) {
         let (out, info) = poisson_smooth(dst.view(), src.view(), region.view(), tol).unwrap();
         let c = dst.dim().2;
         assert_eq!(info.residual.len(), c);
@@ -1192,6 +1556,9 @@ mod tests {
         let d4 = Array4::<f32>::zeros((2, 6, 6, 3));
         let r3 = ndarray::Array3::from_elem((2, 6, 5), true);
         let e = poisson_smooth_batch(d4.view(), d4.view(), r3.view(), 1e-6).unwrap_err();
-        assert!(e.to_string().starts_with("region has shape (2, 6, 5)"), "{e}");
+        assert!(
+            e.to_string().starts_with("region has shape (2, 6, 5)"),
+            "{e}"
+        );
     }
 }
