@@ -11,7 +11,8 @@ Quick start::
 
 Kernels (Rust, GIL released, thread-count independent): :func:`patch_ssd`, :func:`best_matches`,
 :func:`grid_mincut`, :func:`kwatra_weights`, :func:`omega_cuts`, :func:`tile_copy`,
-:class:`PopulationEvaluator` / :func:`evaluate_population` (the ω-tile objective E for GA populations).
+:class:`PopulationEvaluator` / :func:`evaluate_population` (the ω-tile objective E for GA populations),
+:func:`poisson_smooth` (guided interpolation inside the cutting curve, exact to a stated residual).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
 from .errors import ParameterError, ShapeError, TileSetFormatError, TilesynthError
 from .io import load_image, save_image
 from .kernels import (
+    PoissonInfo,
     PopulationEvaluator,
     SsdIndex,
     best_matches,
@@ -34,6 +36,7 @@ from .kernels import (
     kwatra_weights,
     omega_cuts,
     patch_ssd,
+    poisson_smooth,
     tile_copy,
 )
 from .omega import build_omega, energy
@@ -49,6 +52,7 @@ load = TileSet.load
 __all__ = [
     "TILESET_NAMES",
     "ParameterError",
+    "PoissonInfo",
     "PopulationEvaluator",
     "ShapeError",
     "SsdIndex",
@@ -68,6 +72,7 @@ __all__ = [
     "load_image",
     "omega_cuts",
     "patch_ssd",
+    "poisson_smooth",
     "save_image",
     "scanline_index_map",
     "source_map",
