@@ -11,22 +11,39 @@
 /// Lanes per vector.
 pub const LANES: usize = 8;
 
-/// Eight f32 or f64 lanes and the operations the kernels need. `ld*` / `st*` take `LANES` elements from index
-/// `i` (bounds-checked).
+/// Eight f32 or f64 lanes and the operations the kernels need. The loads and stores take `LANES` elements from
+/// index `i` and are unchecked: the kernels slice each operand once per segment and guarantee `i + LANES <= len`.
 pub trait Simd: Copy {
     /// Eight f32.
     type V32: Copy;
     /// Eight f64.
     type V64: Copy;
 
-    fn ld32(self, s: &[f32], i: usize) -> Self::V32;
-    fn st32(self, s: &mut [f32], i: usize, v: Self::V32);
+    /// The `LANES` elements of `s` from `i`.
+    ///
+    /// # Safety
+    /// `i + LANES <= s.len()`.
+    unsafe fn ld32u(self, s: &[f32], i: usize) -> Self::V32;
+    /// Stores `v` into the `LANES` elements of `s` from `i`.
+    ///
+    /// # Safety
+    /// `i + LANES <= s.len()`.
+    unsafe fn st32u(self, s: &mut [f32], i: usize, v: Self::V32);
     fn add32(self, a: Self::V32, b: Self::V32) -> Self::V32;
     fn sub32(self, a: Self::V32, b: Self::V32) -> Self::V32;
     fn mul32(self, a: Self::V32, b: Self::V32) -> Self::V32;
+    fn splat32(self, x: f32) -> Self::V32;
 
-    fn ld64(self, s: &[f64], i: usize) -> Self::V64;
-    fn st64(self, s: &mut [f64], i: usize, v: Self::V64);
+    /// As [`Simd::ld32u`], for f64.
+    ///
+    /// # Safety
+    /// `i + LANES <= s.len()`.
+    unsafe fn ld64u(self, s: &[f64], i: usize) -> Self::V64;
+    /// As [`Simd::st32u`], for f64.
+    ///
+    /// # Safety
+    /// `i + LANES <= s.len()`.
+    unsafe fn st64u(self, s: &mut [f64], i: usize, v: Self::V64);
     fn add64(self, a: Self::V64, b: Self::V64) -> Self::V64;
     fn sub64(self, a: Self::V64, b: Self::V64) -> Self::V64;
     fn mul64(self, a: Self::V64, b: Self::V64) -> Self::V64;
@@ -60,12 +77,14 @@ impl Simd for Portable {
     type V64 = [f64; LANES];
 
     #[inline(always)]
-    fn ld32(self, s: &[f32], i: usize) -> [f32; LANES] {
-        s[i..i + LANES].try_into().expect("LANES elements")
+    unsafe fn ld32u(self, s: &[f32], i: usize) -> [f32; LANES] {
+        // SAFETY: the caller guarantees i + LANES <= s.len().
+        unsafe { *(s.as_ptr().add(i) as *const [f32; LANES]) }
     }
     #[inline(always)]
-    fn st32(self, s: &mut [f32], i: usize, v: [f32; LANES]) {
-        s[i..i + LANES].copy_from_slice(&v);
+    unsafe fn st32u(self, s: &mut [f32], i: usize, v: [f32; LANES]) {
+        // SAFETY: as for ld32u.
+        unsafe { *(s.as_mut_ptr().add(i) as *mut [f32; LANES]) = v }
     }
     #[inline(always)]
     fn add32(self, a: [f32; LANES], b: [f32; LANES]) -> [f32; LANES] {
@@ -79,14 +98,20 @@ impl Simd for Portable {
     fn mul32(self, a: [f32; LANES], b: [f32; LANES]) -> [f32; LANES] {
         lanewise!(a, b, *)
     }
+    #[inline(always)]
+    fn splat32(self, x: f32) -> [f32; LANES] {
+        [x; LANES]
+    }
 
     #[inline(always)]
-    fn ld64(self, s: &[f64], i: usize) -> [f64; LANES] {
-        s[i..i + LANES].try_into().expect("LANES elements")
+    unsafe fn ld64u(self, s: &[f64], i: usize) -> [f64; LANES] {
+        // SAFETY: the caller guarantees i + LANES <= s.len().
+        unsafe { *(s.as_ptr().add(i) as *const [f64; LANES]) }
     }
     #[inline(always)]
-    fn st64(self, s: &mut [f64], i: usize, v: [f64; LANES]) {
-        s[i..i + LANES].copy_from_slice(&v);
+    unsafe fn st64u(self, s: &mut [f64], i: usize, v: [f64; LANES]) {
+        // SAFETY: as for ld64u.
+        unsafe { *(s.as_mut_ptr().add(i) as *mut [f64; LANES]) = v }
     }
     #[inline(always)]
     fn add64(self, a: [f64; LANES], b: [f64; LANES]) -> [f64; LANES] {
@@ -153,21 +178,19 @@ mod avx2 {
         }
     }
 
-    // SAFETY (every method): an `Avx2` value exists only if the CPU supports AVX2 (`detect`), and every pointer
-    // comes from a bounds-checked slice of `LANES` elements.
+    // SAFETY (every method): an `Avx2` value exists only if the CPU supports AVX2 (`detect`), and the loads and
+    // stores stay inside `s` by the caller's guarantee `i + LANES <= s.len()`.
     impl Simd for Avx2 {
         type V32 = __m256;
         type V64 = (__m256d, __m256d);
 
         #[inline(always)]
-        fn ld32(self, s: &[f32], i: usize) -> __m256 {
-            let s = &s[i..i + LANES];
-            unsafe { _mm256_loadu_ps(s.as_ptr()) }
+        unsafe fn ld32u(self, s: &[f32], i: usize) -> __m256 {
+            unsafe { _mm256_loadu_ps(s.as_ptr().add(i)) }
         }
         #[inline(always)]
-        fn st32(self, s: &mut [f32], i: usize, v: __m256) {
-            let s = &mut s[i..i + LANES];
-            unsafe { _mm256_storeu_ps(s.as_mut_ptr(), v) }
+        unsafe fn st32u(self, s: &mut [f32], i: usize, v: __m256) {
+            unsafe { _mm256_storeu_ps(s.as_mut_ptr().add(i), v) }
         }
         #[inline(always)]
         fn add32(self, a: __m256, b: __m256) -> __m256 {
@@ -181,23 +204,24 @@ mod avx2 {
         fn mul32(self, a: __m256, b: __m256) -> __m256 {
             unsafe { _mm256_mul_ps(a, b) }
         }
+        #[inline(always)]
+        fn splat32(self, x: f32) -> __m256 {
+            unsafe { _mm256_set1_ps(x) }
+        }
 
         #[inline(always)]
-        fn ld64(self, s: &[f64], i: usize) -> (__m256d, __m256d) {
-            let s = &s[i..i + LANES];
+        unsafe fn ld64u(self, s: &[f64], i: usize) -> (__m256d, __m256d) {
             unsafe {
-                (
-                    _mm256_loadu_pd(s.as_ptr()),
-                    _mm256_loadu_pd(s.as_ptr().add(4)),
-                )
+                let p = s.as_ptr().add(i);
+                (_mm256_loadu_pd(p), _mm256_loadu_pd(p.add(4)))
             }
         }
         #[inline(always)]
-        fn st64(self, s: &mut [f64], i: usize, v: (__m256d, __m256d)) {
-            let s = &mut s[i..i + LANES];
+        unsafe fn st64u(self, s: &mut [f64], i: usize, v: (__m256d, __m256d)) {
             unsafe {
-                _mm256_storeu_pd(s.as_mut_ptr(), v.0);
-                _mm256_storeu_pd(s.as_mut_ptr().add(4), v.1);
+                let p = s.as_mut_ptr().add(i);
+                _mm256_storeu_pd(p, v.0);
+                _mm256_storeu_pd(p.add(4), v.1);
             }
         }
         #[inline(always)]
@@ -223,7 +247,8 @@ mod avx2 {
         #[inline(always)]
         fn lanes64(self, v: (__m256d, __m256d)) -> [f64; LANES] {
             let mut out = [0.0f64; LANES];
-            self.st64(&mut out, 0, v);
+            // SAFETY: out has LANES elements.
+            unsafe { self.st64u(&mut out, 0, v) };
             out
         }
 
