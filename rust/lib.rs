@@ -8,6 +8,8 @@
 //!   by FFT correlation against a cached image spectrum, with exact re-ranking of the best matches.
 //! - [`maxflow`]: a Boykov–Kolmogorov max-flow / min-cut solver and a 4-connected pixel-grid front end.
 //! - [`omega`]: the ω-tile cutting curve (Kwatra edge weights, circle and cross terminals) and composition.
+//! - [`poisson`]: Poisson smoothing (guided interpolation) of a region, by multigrid-preconditioned
+//!   conjugate gradients to a stated relative residual.
 //! - [`synth`]: copying tiles into a large output by an index map.
 //! - [`population`]: the ω-tile objective `E` for whole populations of gene vectors (exact, cached
 //!   per-patch SSD maps).
@@ -27,6 +29,7 @@ pub mod maxflow;
 pub mod omega;
 pub mod parallel;
 pub mod png;
+pub mod poisson;
 pub mod population;
 pub mod ssd;
 pub mod synth;

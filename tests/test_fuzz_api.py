@@ -121,6 +121,20 @@ def omega_cuts(d: st.DrawFn):
 
 
 @st.composite
+def poisson_smooth(d: st.DrawFn):
+    stack = d(st.booleans())
+    n, m, c = d(st.integers(0, 14)), d(st.integers(0, 14)), d(st.integers(0, 3))
+    shp = ((d(st.integers(0, 3)),) if stack else ()) + (n, m)
+    dt = d(st.sampled_from([F32, F64, "uint8", "uint16", "float16", "int32"]))
+    dst, src = d(arrays(len(shp) + 1, dt, shp + (c,))), d(arrays(len(shp) + 1, dt, shp + (c,)))
+    region = d(arrays(d(st.sampled_from([len(shp), len(shp), 1, 4])), d(st.sampled_from([B, B, "int32", F64])),
+                      shp if d(st.booleans()) else (None,) * len(shp)))
+    kw = {"tol": d(st.just(1e-6) | floats() | st.sampled_from([1e-13, 1.0, "x", True])), "threads": d(threads()),
+          "info": d(st.booleans())}
+    return ts.poisson_smooth, (dst, src, region), kw, ()
+
+
+@st.composite
 def tile_copy(d: st.DrawFn):
     dt = d(st.sampled_from(["uint8", "uint16", F32, "int32"]))
     k, th, tw, c = (d(st.integers(0, 4)) for _ in range(4))
@@ -376,6 +390,7 @@ API = {
     "kwatra_weights": kwatra_weights,
     "omega_cuts": omega_cuts,
     "tile_copy": tile_copy,
+    "poisson_smooth": poisson_smooth,
     "PopulationEvaluator": population_evaluator,
     "PopulationEvaluator.evaluate": population_evaluate,
     "evaluate_population": evaluate_population,
@@ -396,6 +411,7 @@ API = {
 NOT_FUZZED = {
     "ParameterError", "ShapeError", "TileSetFormatError", "TilesynthError", "InternalError",  # exception classes
     "TileSet",  # the dataclass; its load and save are fuzzed
+    "PoissonInfo",  # a frozen dataclass of results
     "load",  # alias of TileSet.load
 }
 

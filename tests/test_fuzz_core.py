@@ -300,6 +300,17 @@ def swang_cuts(d: st.DrawFn):
     return _core.swang_cuts, (i, o), kw, ()
 
 
+@st.composite
+def poisson_smooth(d: st.DrawFn):
+    n = d(st.one_of(st.integers(0, 12), st.integers(0, 12), st.integers(13, 70)))
+    m = d(st.one_of(st.just(n), st.integers(0, 40)))
+    shp = (d(st.integers(0, 3)), n, m, d(st.integers(0, 3)))
+    dst, src = d(arrays(4, F32, shp)), d(arrays(4, F32, shp))
+    region = d(arrays(3, B, shp[:3]))
+    kw = {"tol": d(st.one_of(st.just(1e-6), floats())), "threads": d(threads())}
+    return _core.poisson_smooth, (dst, src, region), kw, ()
+
+
 ENTRY_POINTS = {
     "SsdIndex": ssd_index_new,
     "SsdIndex.shape": ssd_index_shape,
@@ -323,6 +334,7 @@ ENTRY_POINTS = {
     "WangEvaluator.evaluate": wang_evaluator_evaluate,
     "WangEvaluator.dims": wang_evaluator_dims,
     "swang_cuts": swang_cuts,
+    "poisson_smooth": poisson_smooth,
 }
 """Entry point name -> strategy of one call ``(callable, args, kwargs, indices of writable args)``."""
 

@@ -15,7 +15,8 @@ Wang tiles: :func:`build_wang` (Cohen et al. with 001's match and GA, Burke's va
 
 Kernels (Rust, GIL released, thread-count independent): :func:`patch_ssd`, :func:`best_matches`,
 :func:`grid_mincut`, :func:`kwatra_weights`, :func:`omega_cuts`, :func:`tile_copy`,
-:class:`PopulationEvaluator` / :func:`evaluate_population` (the ω-tile objective E for GA populations).
+:class:`PopulationEvaluator` / :func:`evaluate_population` (the ω-tile objective E for GA populations),
+:func:`poisson_smooth` (guided interpolation inside the cutting curve, exact to a stated residual).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
 from .errors import InternalError, ParameterError, ShapeError, TileSetFormatError, TilesynthError
 from .io import load_image, load_raster, save_image
 from .kernels import (
+    PoissonInfo,
     PopulationEvaluator,
     SsdIndex,
     WangEvaluator,
@@ -40,6 +42,7 @@ from .kernels import (
     omega_cuts,
     patch_ssd,
     swang_cuts,
+    poisson_smooth,
     tile_copy,
     wang_tiles,
 )
@@ -64,6 +67,7 @@ __all__ = [
     "InternalError",
     "WANG_TILESET_NAMES",
     "ParameterError",
+    "PoissonInfo",
     "PopulationEvaluator",
     "ShapeError",
     "SsdIndex",
@@ -92,6 +96,7 @@ __all__ = [
     "load_raster",
     "omega_cuts",
     "patch_ssd",
+    "poisson_smooth",
     "save_image",
     "scanline_index_map",
     "seam_score",

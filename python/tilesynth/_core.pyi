@@ -66,6 +66,15 @@ def omega_cuts(
     intermediate_grad: npt.NDArray[np.float64] | None = None,
     keep_border: bool = True,
 ) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]: ...
+def poisson_smooth(
+    dst: npt.NDArray[np.float32],
+    src: npt.NDArray[np.float32],
+    region: npt.NDArray[np.bool_],
+    tol: float = 1e-6,
+    threads: int | None = None,
+) -> tuple[
+    npt.NDArray[np.float32], npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.int64]
+]: ...
 def tile_copy(
     atlas: npt.NDArray[np.generic],
     index_map: npt.NDArray[np.int32],

@@ -4,12 +4,12 @@
 mod convert;
 mod errors;
 
-use crate::{maxflow, omega, parallel, png, population, ssd, synth, wang};
+use crate::{maxflow, omega, parallel, png, poisson, population, ssd, synth, wang};
 use convert::contiguous;
 use errors::{guard, to_pyerr};
 use ndarray::{Array2, Array3};
 use numpy::{
-    IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2,
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyArray4, PyReadonlyArray1, PyReadonlyArray2,
     PyReadonlyArray3, PyReadonlyArray4, PyReadwriteArray3, PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
@@ -336,6 +336,46 @@ fn edge_weight_sums<'py>(
     })
 }
 
+/// Smoothed tiles, iterations `(K,)`, residuals `(K, C)` and unknowns `(K,)` of [`poisson_smooth`].
+type PoissonArrays<'py> = (
+    Bound<'py, PyArray4<f32>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<i64>>,
+);
+
+/// Poisson smoothing (guided interpolation) of K tiles: `dst`, `src` `(K, N, M, C)` float32, `region`
+/// `(K, N, M)` bool (True = unknown). Returns the smoothed tiles, the PCG iterations per tile, the final relative
+/// residual per tile and channel, and the number of unknowns per tile.
+#[pyfunction]
+#[pyo3(signature = (dst, src, region, tol=poisson::DEFAULT_TOL, threads=None))]
+fn poisson_smooth<'py>(
+    py: Python<'py>,
+    dst: PyReadonlyArray4<'py, f32>,
+    src: PyReadonlyArray4<'py, f32>,
+    region: PyReadonlyArray3<'py, bool>,
+    tol: f64,
+    threads: Option<usize>,
+) -> PyResult<PoissonArrays<'py>> {
+    guard("poisson_smooth", || {
+        contiguous("dst", &dst)?;
+        contiguous("src", &src)?;
+        contiguous("region", &region)?;
+        let (d, s, r) = (dst.as_array(), src.as_array(), region.as_array());
+        let (out, infos) = run(py, threads, || poisson::poisson_smooth_batch(d, s, r, tol))?;
+        let c = out.dim().3;
+        let iterations: Vec<i64> = infos.iter().map(|i| i.iterations as i64).collect();
+        let unknowns: Vec<i64> = infos.iter().map(|i| i.unknowns as i64).collect();
+        let residual = Array2::from_shape_fn((infos.len(), c), |(t, k)| infos[t].residual[k]);
+        Ok((
+            out.into_pyarray(py),
+            iterations.into_pyarray(py),
+            residual.into_pyarray(py),
+            unknowns.into_pyarray(py),
+        ))
+    })
+}
+
 /// Writes tiles into `out` `(H, W, C)` by `index_map`; `atlas` `(K, th, tw, C)` and `out` share a dtype
 /// (uint8, uint16, float32 or int32).
 #[pyfunction]
@@ -569,6 +609,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grid_mincut, m)?)?;
     m.add_function(wrap_pyfunction!(kwatra_weights, m)?)?;
     m.add_function(wrap_pyfunction!(omega_cuts, m)?)?;
+    m.add_function(wrap_pyfunction!(poisson_smooth, m)?)?;
     m.add_function(wrap_pyfunction!(tile_copy, m)?)?;
     m.add_function(wrap_pyfunction!(wang_tiles, m)?)?;
     m.add_function(wrap_pyfunction!(swang_cuts, m)?)?;
