@@ -135,6 +135,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="distance for the matching search and the objective E: color (SSD, default), eq3 (SSD + "
                    "10 x squared gradient difference, 000 eq. 3), eq2 (SSD weighted by 1/(10 (|grad T| + "
                    "|grad I|)), 000 eq. 2, exact but slow: direct sums, not with --select)")
+    b.add_argument("--smooth", action="store_true",
+                   help="Poisson-smooth the region inside each cutting curve (002 section 3.3): the matching patch's "
+                   "gradients, blended into the tile from the curve; exact to a 1e-6 residual, tile borders kept")
     b.add_argument("--cut", default="dp", choices=("dp", "graph"),
                    help="wang: minimum-error boundary cuts by dynamic programming (default) or graph cuts")
     b.add_argument("--overlap", type=_pos, default=None,
@@ -277,7 +280,7 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
            normalise: bool = False, match: str = "ssd", match_k: str | None = None,
            metric: str = "color", scheme: str = "omega", cut: str = "dp", overlap: int | None = None,
            corners: str | None = None, samples: str = "diamond",
-           supplementary: str = "ssd") -> "TileSet":  # noqa: F821
+           supplementary: str = "ssd", smooth: bool = False) -> "TileSet":  # noqa: F821
     from .io import load_image
     from .progress import Progress
     from .schemes import DEFAULT_SETS, build
@@ -291,7 +294,7 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
     _scheme_options(scheme, gradients=gradients != "patch", literal_border=literal_border, normalise=normalise,
                     cut=cut != "dp", overlap=overlap is not None, corners=corners is not None,
                     samples=samples != "diamond", supplementary=supplementary != "ssd", match=match != "ssd",
-                    match_k=match_k is not None, metric=metric != "color")
+                    match_k=match_k is not None, metric=metric != "color", smooth=smooth)
     image, bits = load_image(input_path)
     _check_output_dir(output)
     if sheet:
@@ -307,7 +310,7 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
     )
     if scheme == "omega":
         extra: dict = dict(gradients=gradients, keep_border=not literal_border, normalise=normalise, match=match,
-                           match_k=_match_k(match_k), metric=metric)
+                           match_k=_match_k(match_k), metric=metric, smooth=smooth)
     elif scheme == "wang":
         extra = dict(cut=cut, overlap=overlap, corners=corners, samples=samples)
     else:
@@ -316,6 +319,7 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
     ts.save(output)
     sel = ts.params.get("selection", {})
     how = sel.get("method", "random") + (" + polish" if sel.get("params", {}).get("polish") else "")
+    how += ", Poisson-smoothed" if ts.params.get("smooth") else ""
     kind = {"omega": "ω-tiles", "wang": "Wang tiles", "swang": "s-Wang tiles"}[scheme]
     prog.message(
         f"wrote {output}: {ts.n_tiles} {kind} of {ts.tile_size}x{ts.tile_size} (set {set_name}, {how}, seed "
@@ -343,6 +347,7 @@ _SCHEME_OPTIONS = {
     "match": ("--match", ("omega",)),
     "match_k": ("--match-k", ("omega",)),
     "metric": ("--metric", ("omega",)),
+    "smooth": ("--smooth", ("omega",)),
     "cut": ("--cut", ("wang",)),
     "overlap": ("--overlap", ("wang",)),
     "corners": ("--corners", ("wang",)),
@@ -476,6 +481,9 @@ def _info(ts_path: str, as_json: bool) -> None:
            + f", distance {p.get('metric', 'color')}"
            + ("" if p.get("keep_border", False) else ", literal border (002's cut may reach the tile border)")]
           if ts.scheme == "omega" else []),
+        *([f"smoothing     Poisson, {sm.get('unknowns', '?')} unknowns, at most {sm.get('iterations_max', '?')} "
+           f"iterations, residual <= {sm.get('residual_max', float('nan')):.1e}, {sm.get('clipped', '?')} values "
+           "clipped to [0, 1]"] if isinstance(sm := p.get("smooth"), dict) else []),
         _energy_line(ts),
         f"build time    {ts.timing.get('total_s', float('nan')):.3f} s"
         + "".join(f", {k[:-2]} {v:.3f}" for k, v in ts.timing.items() if k != "total_s"),
@@ -593,7 +601,7 @@ def main(argv: list[str] | None = None) -> int:
                    args.gradients, args.literal_border, args.select, args.polish, args.generations,
                    args.population, args.normalise, args.match, args.match_k, args.metric, scheme=args.scheme,
                    cut=args.cut, overlap=args.overlap, corners=args.corners, samples=args.samples,
-                   supplementary=args.supplementary)
+                   supplementary=args.supplementary, smooth=args.smooth)
         elif args.command == "synth":
             _synth(args.tileset, args.output, args.size, args.seed, args.map, args.save_map, args.bits,
                    args.threads, args.quiet, args.with_maps)

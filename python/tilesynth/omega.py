@@ -36,6 +36,13 @@ variant 1. The second best is required to lie more than N/4 pixels (Chebyshev) f
 second-smallest SSD is almost always the best translation shifted by one pixel, whose content is the same, and
 002 wants two *different* good ω-tiles per intermediate tile.
 
+**Poisson smoothing** (``smooth``, 002 §3.3, 003 §4.3): the region inside each cutting curve is replaced by the
+guided interpolation of :func:`smooth_tiles` (source = the matching patch O, Dirichlet boundary = the pixels of the
+composed tile next to the region), solved to a 1e-6 relative residual. The one-pixel tile border is never part
+of the region, so every border pixel keeps its unsmoothed value and tiles stay seamless with each other. The
+provenance ``source`` still names the exemplar pixel each tile pixel *came from* (inside the region, the pixel
+whose gradients it carries).
+
 Quality of the whole set: E = λ·ΣD_j + (1−λ)·Var(D_j) over the intermediate tiles (λ = 0.8, population
 variance), the objective of the selection papers (000, 003).
 """
@@ -348,6 +355,59 @@ def _select(
     return res.genes, info
 
 
+POISSON_TOL = kernels.DEFAULT_POISSON_TOL
+"""Relative residual to which :func:`smooth_tiles` solves the Poisson equation (issue 5: 1e-6)."""
+
+
+def smooth_tiles(
+    intermediate: np.ndarray,
+    matching: np.ndarray,
+    masks: np.ndarray,
+    threads: int | None = None,
+    tol: float = POISSON_TOL,
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """Poisson-smooth composed ω-tiles (002 §3.3): the region inside each cutting curve is the guided
+    interpolation of the matching patch O, with the composed tile's pixels next to the region as the Dirichlet
+    boundary (:func:`tilesynth.kernels.poisson_smooth`, exact to ``tol``).
+
+    The region is the cut mask minus the one-pixel tile border. With the default ``keep_border`` the mask never
+    reaches the border, so this is the mask itself. With 002's literal border, O reaches the border near the side
+    midpoints; those border pixels are then kept as they are (O's values) and act as Dirichlet pixels too, so
+    smoothing never changes a border pixel and never adds a seam between tiles. (Taking the tile border as a free
+    Neumann boundary instead would move border pixels that the neighbouring tile does not share.)
+
+    The interpolation can overshoot [0, 1] near strong seams; the returned tiles are clipped to [0, 1] (they are
+    images), and the number of clipped values is reported.
+
+    Parameters
+    ----------
+    intermediate, matching : ``(K, N, N, C)`` float32 intermediate tiles I and matching patches O.
+    masks : ``(K, N, N)`` bool cut masks (True = the pixel comes from O).
+    threads : worker threads (tiles and channels are solved in parallel; the result does not depend on it).
+    tol : relative residual of the solve.
+
+    Returns
+    -------
+    ``(tiles, info)``: the smoothed float32 tiles and ``{"tol", "iterations_max", "residual_max",
+    "unknowns", "clipped"}`` (``unknowns`` and ``clipped`` summed over the tiles).
+    """
+    m = np.asarray(masks, dtype=bool).copy()
+    m[:, 0, :] = m[:, -1, :] = False
+    m[:, :, 0] = m[:, :, -1] = False
+    composed = np.where(np.asarray(masks, dtype=bool)[..., None], matching, intermediate).astype(np.float32)
+    out, pinfo = kernels.poisson_smooth(composed, matching, m, threads=threads, tol=tol, info=True)
+    clipped = int(np.count_nonzero((out < 0) | (out > 1)))
+    np.clip(out, 0.0, 1.0, out=out)
+    info = {
+        "tol": float(tol),
+        "iterations_max": int(np.max(pinfo.iterations, initial=0)),
+        "residual_max": float(np.max(pinfo.residual, initial=0.0)),
+        "unknowns": int(np.sum(pinfo.unknowns)),
+        "clipped": clipped,
+    }
+    return out, info
+
+
 def build_omega(
     exemplar: np.ndarray,
     tileset: str = "16a",
@@ -370,6 +430,7 @@ def build_omega(
     match: str = "ssd",
     match_k: int | str | None = None,
     metric: str = "color",
+    smooth: bool = False,
 ) -> TileSet:
     """Build a set of ω-tiles from ``exemplar``.
 
@@ -408,6 +469,8 @@ def build_omega(
     match_k : candidates of "best-cut": a positive int (default 16) or "all" (every translation).
     metric : distance for the matching search and for D_j / E: "color" (SSD), "eq3" (SSD plus μ·squared
         gradient difference, 000 eq. 3) or "eq2" (gradient-weighted SSD, 000 eq. 2; not with ``select``).
+    smooth : Poisson-smooth the region inside every cutting curve (002 §3.3; :func:`smooth_tiles`). The solver's
+        statistics are stored in ``params["smooth"]``; the cut masks, costs and provenance are unchanged.
 
     D_j is the distance (``metric``) between intermediate tile j and its matching patch; E is computed from the
     smallest distance of every intermediate tile over all translations, whatever ``match`` chose.
@@ -437,6 +500,8 @@ def build_omega(
         raise ParameterError(f"gradients = {gradients!r}: must be 'patch' or 'tile'")
     strategy, match_k = check_strategy(match, match_k)
     metric = check_metric(metric)
+    if not isinstance(smooth, (bool, np.bool_)):
+        raise ParameterError(f"smooth = {smooth!r}: must be True or False")
     report = progress or (lambda stage, done, total: None)
     index = {c: i for i, c in enumerate(colours)}
     tile_patches = np.array([[index[c] for c in t] for t in defn.tiles], dtype=np.int64)
@@ -514,7 +579,14 @@ def build_omega(
 
     yy, xx = np.mgrid[0:n, 0:n].astype(np.int32)
     O_src = np.stack([np.stack([yy + r, xx + c], axis=-1) for r, c in match_offsets]).astype(np.int32)
-    tiles = np.where(masks[..., None], O_tiles, I_tiles).astype(np.float32)
+    if smooth:
+        report("poisson smoothing", 0, k)
+        tiles, smooth_info = smooth_tiles(I_tiles, O_tiles, masks, threads=threads)
+        report("poisson smoothing", k, k)
+    else:
+        tiles = np.where(masks[..., None], O_tiles, I_tiles).astype(np.float32)
+        smooth_info = None
+    t4 = time.perf_counter()
     source = np.where(masks[..., None], O_src, I_src).astype(np.int32)
 
     E = energy(best_D)
@@ -549,6 +621,7 @@ def build_omega(
             "mu": MU if metric != "color" else None,
             "seed": seed,
             "selection": sel,
+            **({"smooth": smooth_info} if smooth_info is not None else {}),
         },
         exemplar_info=info,
         timing={
@@ -556,6 +629,7 @@ def build_omega(
             "intermediate_s": t1 - t0_build,
             "matching_s": t2 - t1,
             "cutting_s": t3 - t2,
+            "smoothing_s": t4 - t3,
             "total_s": time.perf_counter() - t0,
         },
         version=__version__,
