@@ -161,3 +161,80 @@ def test_cli_with_misaligned_map_fails_before_writing(tiles, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "pixel-aligned" in err and len(err.strip().splitlines()) == 1
     assert not out.exists() and not (tmp_path / "o-small.npy").exists()
+
+
+@pytest.fixture(scope="module")
+def smoothed(small_exemplar):
+    return tilesynth.build_omega(small_exemplar, tileset="32", tile_size=24, seed=3, smooth=True)
+
+
+def test_maps_follow_the_smoothing(smoothed, small_exemplar, rng):
+    W, H = 101, 77
+    img, imap = tilesynth.synthesize(smoothed, W, H, seed=4, dtype=np.float32)
+    src = tilesynth.source_map(smoothed, imap, W, H)
+    # the exemplar as a 16-bit map follows the colour smoothing to the solver's accuracy and the 16-bit step
+    ex16 = (small_exemplar.astype(np.float64) * 65535).round().astype(np.uint16)
+    m16 = tilesynth.synthesize_map(smoothed, ex16, imap, W, H)
+    assert m16.dtype == np.uint16
+    np.testing.assert_allclose(m16 / 65535.0, img, atol=2e-5 + 0.5 / 65535, rtol=0)
+    # outside the smoothed regions, and with smooth=False everywhere, maps are pure copies
+    m = rng.random((96, 96, 2)).astype(np.float32)
+    before = m.copy()
+    raw = tilesynth.synthesize_map(smoothed, m, imap, W, H, smooth=False)
+    np.testing.assert_array_equal(raw, m[src[..., 0], src[..., 1]])
+    out = tilesynth.synthesize_map(smoothed, m, imap, W, H)
+    np.testing.assert_array_equal(m, before)
+    region = smoothed.cut_masks.copy()
+    region[:, [0, -1], :] = region[:, :, [0, -1]] = False
+    n = smoothed.tile_size
+    inside = np.zeros((H, W), bool)
+    for r in range(imap.shape[0]):
+        for c in range(imap.shape[1]):
+            blk = region[imap[r, c]][: H - r * n, : W - c * n]
+            inside[r * n : r * n + blk.shape[0], c * n : c * n + blk.shape[1]] = blk
+    np.testing.assert_array_equal(out[~inside], raw[~inside])
+    assert np.abs(out[inside] - raw[inside]).max() > 1e-3
+    # float maps are solved as they are (any range, no clipping): a scaled map gives the scaled result
+    big = (m * 1000).astype(np.float32)
+    np.testing.assert_allclose(tilesynth.synthesize_map(smoothed, big, imap, W, H), out * 1000, rtol=0, atol=0.05)
+
+
+def test_map_smoothing_errors(smoothed, tiles):
+    m = np.zeros((96, 96), np.float32)
+    _, imap = tilesynth.synthesize(tiles, 48, 48, seed=1)
+    with pytest.raises(tilesynth.ParameterError, match="was not Poisson-smoothed"):
+        tilesynth.synthesize_map(tiles, m, imap, 48, 48, smooth=True)
+    with pytest.raises(tilesynth.ParameterError, match="smooth = 'yes'"):
+        tilesynth.synthesize_map(tiles, m, imap, 48, 48, smooth="yes")
+    m[3, 4] = np.nan
+    with pytest.raises(tilesynth.ParameterError, match="NaN or infinite.*smooth=False"):
+        tilesynth.synthesize_map(smoothed, m, imap, 48, 48)
+    src = tilesynth.source_map(smoothed, imap, 48, 48)
+    np.testing.assert_array_equal(tilesynth.synthesize_map(smoothed, m, imap, 48, 48, smooth=False)[..., 0],
+                                  m[src[..., 0], src[..., 1]])  # NaN where the map has NaN: a pure copy
+
+
+def test_cli_map_smooth(smoothed, tiles, tmp_path, capsys):
+    sf, tf = tmp_path / "s.tiles", tmp_path / "t.tiles"
+    smoothed.save(sf)
+    tiles.save(tf)
+    height = np.linspace(0, 1, 96 * 96, dtype=np.float32).reshape(96, 96)
+    np.save(tmp_path / "height.npy", height)
+    out = tmp_path / "out.png"
+    args = ["synth", str(sf), "-o", str(out), "--size", "60x50", "--seed", "2", "--with", str(tmp_path / "height.npy")]
+    assert main(args) == 0
+    assert "Poisson-smoothed" in capsys.readouterr().err
+    smooth = np.load(tmp_path / "out-height.npy")
+    assert main(args + ["--map-smooth", "off", "-q"]) == 0
+    raw = np.load(tmp_path / "out-height.npy")
+    assert not np.array_equal(smooth, raw)
+    assert main(["synth", str(tf), "-o", str(out), "--size", "60x50", "--with", str(tmp_path / "height.npy"),
+                 "--map-smooth", "on", "-q"]) == 2
+    assert "was not built with --smooth" in capsys.readouterr().err
+    assert main(["synth", str(sf), "-o", str(out), "--size", "60x50", "--map-smooth", "off", "-q"]) == 2
+    assert "only used with --with" in capsys.readouterr().err
+    height[0, 0] = np.inf
+    np.save(tmp_path / "height.npy", height)
+    out.unlink()
+    assert main(args + ["-q"]) == 2
+    assert "--map-smooth off" in capsys.readouterr().err and not out.exists()

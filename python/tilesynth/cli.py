@@ -165,6 +165,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "...; PNG 8/16-bit, TIFF, or .npy uint8/uint16/float32), with the same cuts and layout; "
                    "written next to the output as OUT-<map name>.png (.npy for float maps), same sample type; "
                    "repeatable")
+    s.add_argument("--map-smooth", default="auto", choices=("auto", "on", "off"),
+                   help="Poisson-smooth the --with maps inside the cuts like the colour tiles: auto (default: if the "
+                   "tile set was built with --smooth), on, or off (pure copies: for labels, masks, IDs)")
     s.add_argument("--bits", type=int, choices=(8, 16), default=None,
                    help="bits per channel of the output (default: those of the exemplar)")
     s.add_argument("--threads", type=_pos, default=None, help="copy threads")
@@ -386,7 +389,7 @@ def _map_output(output: str, map_path: str, dtype: np.dtype) -> Path:
 
 def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, map_path: str | None,
            save_map: str | None, bits: int | None, threads: int | None, quiet: bool,
-           with_maps: list[str] | None = None) -> None:
+           with_maps: list[str] | None = None, map_smooth: str = "auto") -> None:
     from ._validate import seed_int
     from .io import atomic_open, save_image
     from .progress import Progress
@@ -410,8 +413,14 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
     # refuse up front what cannot fit: the image, plus the copy the PNG encoder makes
     check_size(ts, size[0], size[1], np.uint16 if bits == 16 else np.uint8, copies=2)
     from .io import load_raster
-    from .synthesis import synthesize_map
+    from .synthesis import is_smoothed, synthesize_map
 
+    smooth_maps = {"auto": None, "on": True, "off": False}[map_smooth]
+    smooth_maps = is_smoothed(ts) if smooth_maps is None else smooth_maps
+    if smooth_maps and not is_smoothed(ts):
+        raise ParameterError(f"--map-smooth on: {ts_path} was not built with --smooth; there is nothing to follow")
+    if map_smooth != "auto" and not with_maps:
+        raise ParameterError(f"--map-smooth {map_smooth}: only used with --with")
     maps = []  # load and check every map before writing anything
     for mp in with_maps or []:
         arr = load_raster(mp)
@@ -424,6 +433,9 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
         target = _map_output(output, mp, arr.dtype)
         if target.resolve() in {Path(output).resolve(), *(t.resolve() for _, _, t in maps)}:
             raise ParameterError(f"--with = {mp!r}: its output {str(target)!r} would overwrite another output")
+        if smooth_maps and arr.dtype == np.float32 and not np.isfinite(arr).all():
+            raise ParameterError(f"--with = {mp!r}: the map has NaN or infinite values and cannot be smoothed like "
+                                 "the colour tiles; add --map-smooth off to copy it unchanged")
         maps.append((mp, arr, target))
     t0 = time.perf_counter()
     prog("synthesis", 0, 1)
@@ -438,14 +450,15 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
             np.save(fh, imap, allow_pickle=False)
     for k, (mp, arr, target) in enumerate(maps):
         prog("maps", k, len(maps))
-        out_map = synthesize_map(ts, arr, imap, size[0], size[1], threads=threads)
+        out_map = synthesize_map(ts, arr, imap, size[0], size[1], threads=threads, smooth=smooth_maps)
         if target.suffix == ".npy":
             with atomic_open(target) as fh:
                 np.save(fh, out_map, allow_pickle=False)
         else:
             save_image(target, out_map)
         prog("maps", k + 1, len(maps))
-        prog.message(f"wrote {target}: {mp} ({arr.dtype}, {arr.shape[2]} channel(s)) through the same cuts")
+        prog.message(f"wrote {target}: {mp} ({arr.dtype}, {arr.shape[2]} channel(s)) through the same cuts"
+                     + (", Poisson-smoothed" if smooth_maps else ""))
     how = f"seed {seed}" if seed is not None else f"map {map_path}"
     prog.message(f"wrote {output}: {size[0]}x{size[1]}, {imap.shape[1]}x{imap.shape[0]} tiles, {how}, "
                  f"{time.perf_counter() - t0:.2f} s")
@@ -604,7 +617,7 @@ def main(argv: list[str] | None = None) -> int:
                    supplementary=args.supplementary, smooth=args.smooth)
         elif args.command == "synth":
             _synth(args.tileset, args.output, args.size, args.seed, args.map, args.save_map, args.bits,
-                   args.threads, args.quiet, args.with_maps)
+                   args.threads, args.quiet, args.with_maps, args.map_smooth)
         elif args.command == "info":
             _info(args.tileset, args.json)
         elif args.command == "sheet":

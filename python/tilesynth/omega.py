@@ -365,6 +365,7 @@ def smooth_tiles(
     masks: np.ndarray,
     threads: int | None = None,
     tol: float = POISSON_TOL,
+    clip: bool = True,
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """Poisson-smooth composed ω-tiles (002 §3.3): the region inside each cutting curve is the guided
     interpolation of the matching patch O, with the composed tile's pixels next to the region as the Dirichlet
@@ -377,7 +378,8 @@ def smooth_tiles(
     Neumann boundary instead would move border pixels that the neighbouring tile does not share.)
 
     The interpolation can overshoot [0, 1] near strong seams; the returned tiles are clipped to [0, 1] (they are
-    images), and the number of clipped values is reported.
+    images), and the number of clipped values is reported. ``clip=False`` returns the solution as it is (float
+    maps of any range, :func:`tilesynth.synthesize_map`); ``clipped`` then counts the values outside [0, 1].
 
     Parameters
     ----------
@@ -397,7 +399,8 @@ def smooth_tiles(
     composed = np.where(np.asarray(masks, dtype=bool)[..., None], matching, intermediate).astype(np.float32)
     out, pinfo = kernels.poisson_smooth(composed, matching, m, threads=threads, tol=tol, info=True)
     clipped = int(np.count_nonzero((out < 0) | (out > 1)))
-    np.clip(out, 0.0, 1.0, out=out)
+    if clip:
+        np.clip(out, 0.0, 1.0, out=out)
     info = {
         "tol": float(tol),
         "iterations_max": int(np.max(pinfo.iterations, initial=0)),

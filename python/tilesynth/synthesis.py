@@ -164,6 +164,11 @@ def source_map(
     return out
 
 
+def is_smoothed(tileset: TileSet) -> bool:
+    """Whether the tile set's colour tiles were Poisson-smoothed (an ω set built with ``smooth=True``)."""
+    return tileset.scheme == "omega" and isinstance(tileset.params.get("smooth"), dict)
+
+
 def synthesize_map(
     tileset: TileSet,
     aligned: np.ndarray,
@@ -171,6 +176,7 @@ def synthesize_map(
     width: int,
     height: int,
     threads: int | None = None,
+    smooth: bool | None = None,
 ) -> np.ndarray:
     """Synthesize a map aligned with the exemplar (normal, height, roughness, a second photo, ...) with exactly
     the cuts and layout of a colour synthesis.
@@ -180,13 +186,24 @@ def synthesize_map(
     (y, x) of the map is ``aligned[source_map(...)[y, x]]``: pixel-aligned with the colour output, and a pure
     copy of map values (no resampling, no conversion: uint8, uint16 and float32 stay what they are).
 
+    **Smoothed tile sets.** If the colour tiles were Poisson-smoothed (``build_omega(smooth=True)``), the map's
+    tiles get the same treatment by default (``smooth=None``): the region inside each cut is the guided
+    interpolation of the map's matching patch, with the map's pixels next to the cut as the boundary, so the
+    map has no seam where the colour has none. The map's values inside the regions are then computed (in
+    float32: uint8 / uint16 scaled to [0, 1], solved, clipped to [0, 1] and rounded back; float32 maps solved as
+    they are, not clipped), and outside the regions they are still pure copies. Each channel is interpolated
+    on its own: a normal map comes out approximately, not exactly, unit-length inside the regions. Pass
+    ``smooth=False`` for maps that must never be blended (labels, masks, IDs), or for float maps with NaN or
+    infinity. ``smooth=True`` on a set that was not smoothed is an error (there is nothing to follow).
+
     Parameters
     ----------
     tileset : the tile set the colour output was synthesized with.
     aligned : ``(H, W)`` or ``(H, W, C)`` uint8, uint16 or float32 array with the exemplar's H x W.
     index_map : the tile index map of the colour output (as returned by :func:`synthesize`).
     width, height : the output size (that of the colour output).
-    threads : copy threads.
+    threads : copy (and smoothing) threads.
+    smooth : None (default: smooth if and only if the tile set's colour tiles were smoothed), True or False.
 
     Returns
     -------
@@ -203,11 +220,43 @@ def synthesize_map(
         )
     if a.dtype not in (np.uint8, np.uint16, np.float32):
         raise ParameterError(f"map has dtype {a.dtype}, expected uint8, uint16 or float32")
+    smoothed_set = is_smoothed(tileset)
+    if smooth is None:
+        smooth = smoothed_set
+    elif not isinstance(smooth, (bool, np.bool_)):
+        raise ParameterError(f"smooth = {smooth!r}: must be None, True or False")
+    elif smooth and not smoothed_set:
+        raise ParameterError(
+            "smooth = True: the tile set was not Poisson-smoothed (build it with smooth=True / --smooth), so "
+            "there is no smoothing for the map to follow"
+        )
     w = positive_int(width, "width")
     h = positive_int(height, "height")
     imap = np.ascontiguousarray(index_map, dtype=np.int32)
     src = tileset.source
     atlas = np.ascontiguousarray(a[src[..., 0], src[..., 1]])
+    if smooth:
+        atlas = _smooth_map_atlas(tileset, a, atlas, threads)
     out = np.empty((h, w, a.shape[2]), a.dtype)
     kernels.tile_copy(atlas, imap, out, threads=threads)
     return out
+
+
+def _smooth_map_atlas(tileset: TileSet, a: np.ndarray, atlas: np.ndarray, threads: int | None) -> np.ndarray:
+    """The map's tiles Poisson-smoothed inside the same regions as the colour tiles (see :func:`synthesize_map`)."""
+    from .omega import smooth_tiles
+
+    if a.dtype == np.float32 and not np.isfinite(a).all():
+        raise ParameterError(
+            "map has NaN or infinite values: it cannot be Poisson-smoothed; pass smooth=False (--map-smooth off) "
+            "to copy it through the cuts unchanged"
+        )
+    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(a.dtype)
+    n = tileset.tile_size
+    f = a.astype(np.float32) / np.float32(scale) if scale else a
+    matching = np.stack([f[r : r + n, c : c + n] for r, c in np.asarray(tileset.match_offsets)])
+    composed = atlas.astype(np.float32) / np.float32(scale) if scale else atlas
+    tiles, _ = smooth_tiles(composed, matching, tileset.cut_masks, threads=threads, clip=scale is not None)
+    if scale:
+        return np.ascontiguousarray(np.rint(tiles * np.float32(scale)).astype(a.dtype))
+    return np.ascontiguousarray(tiles, dtype=np.float32)
