@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 import pytest
@@ -319,7 +320,7 @@ def test_tileset_metrics_and_format(omega16):
     assert m["objective"]["E"] == pytest.approx(omega16.E)
     assert m["notes"] == []
     text = M.format_metrics(m)
-    for word in ("seam score", "coherence", "coverage", "repetition", "objective", "D_j", "cut costs"):
+    for word in ("seam score", "coherence", "coverage", "repetition", "objective", "D_j", "cut costs", "cut seam"):
         assert word in text
 
 
@@ -332,3 +333,22 @@ def test_image_metrics_skips_what_it_cannot_compute(rng):
     m = M.image_metrics(img, tile_size=10, exemplar=img[:20, :20])
     assert m["seam"]["tile_size"] == 10 and m["coherence"]["n_patches"] == 81
     assert len(m["notes"]) == 1 and "provenance" in m["notes"][0]
+
+
+def test_cut_seam_score_oracle_and_smoothing(small_exemplar):
+    from tilesynth.metrics import cut_seam_score
+
+    # constructed: two flat halves split by a vertical cut; only the pairs across the cut differ
+    tiles = np.zeros((1, 4, 4, 1), np.float32)
+    tiles[0, :, 2:] = 0.5
+    masks = np.zeros((1, 4, 4), bool)
+    masks[0, :, 2:] = True
+    fake = types.SimpleNamespace(tiles=tiles, cut_masks=masks)
+    got = cut_seam_score(fake)
+    # 4 cut pairs of 0.25 each; 24 pairs in all -> (0.25) / (1.0 / 24) = 6
+    assert got["cut_pairs"] == 4 and got["pairs"] == 24 and got["score"] == pytest.approx(6.0)
+    assert cut_seam_score(types.SimpleNamespace(tiles=tiles, cut_masks=np.zeros_like(masks))) is None
+    # smoothing lowers it on a real set
+    plain = ts.build_omega(small_exemplar, "16a", tile_size=48, seed=2)
+    smooth = ts.build_omega(small_exemplar, "16a", tile_size=48, seed=2, smooth=True)
+    assert cut_seam_score(smooth)["score"] < cut_seam_score(plain)["score"]

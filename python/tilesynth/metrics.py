@@ -66,6 +66,12 @@ summed-area tables.
 the tile: ``E_normalised``, ``f_normalised``, the affinity 003's Table 2 reports), the spread of D_j (min,
 max, mean, std, max/min) and the cut costs (min, max, mean, sum).
 
+**Cut seam** (:func:`cut_seam_score`): of a tile set, the mean squared colour step across its cuts (ω and s-Wang:
+the cutting curve; Wang: the quilting cuts between the diamonds, where ``cut_masks`` changes value) (pixel pairs with one pixel on each side of the cut) divided by the mean squared step
+over every pixel pair of the tiles. 1 means the cut is as invisible as any pair of neighbours; a visible cut
+scores above 1. It is the score that Poisson smoothing (``smooth=True``) lowers; the seam score above measures
+the tile borders, which smoothing never changes.
+
 :func:`tileset_metrics` and :func:`image_metrics` compute everything that can be computed for a tile set
 (after synthesizing a sample, default 512x512 with seed 1) or for a plain image (seam score only with a tile
 size, coherence only with an exemplar, coverage only with a provenance map, objective never); what was skipped
@@ -529,6 +535,28 @@ def objective(tileset: Any) -> dict[str, Any]:
     })
 
 
+def cut_seam_score(tileset: Any) -> dict[str, Any] | None:
+    """The cut seam of a tile set (see the module docstring): ``{"score", "cut_pairs", "pairs"}``, or None for
+    a set whose cuts never separate two pixels."""
+    masks = getattr(tileset, "cut_masks", None)
+    if masks is None or np.asarray(masks).ndim != 3 or np.asarray(masks).size == 0:
+        return None
+    x = np.asarray(tileset.tiles, dtype=np.float64)
+    m = np.asarray(masks, dtype=np.int8)
+    num = den = 0.0
+    cut = pairs = 0
+    for ax in (1, 2):
+        d = (np.diff(x, axis=ax) ** 2).sum(axis=-1)
+        across = np.diff(m, axis=ax) != 0
+        num += float(d[across].sum())
+        cut += int(across.sum())
+        den += float(d.sum())
+        pairs += int(d.size)
+    if cut == 0:
+        return None
+    return _finite({"score": _ratio(num / cut, den / pairs), "cut_pairs": cut, "pairs": pairs})
+
+
 # ---------------------------------------------------------------------------------------------- everything
 def image_metrics(
     image: np.ndarray,
@@ -629,6 +657,7 @@ def measure_tileset(
         "tiles": [int(imap.shape[1]), int(imap.shape[0])], "distinct_tiles_used": int(np.unique(imap).size),
     }
     out["objective"] = objective(tileset)
+    out["cut_seam"] = cut_seam_score(tileset)
     out["tileset"] = {
         "scheme": tileset.scheme, "set": tileset.params.get("set"), "n_tiles": tileset.n_tiles,
         "tile_size": tileset.tile_size, "exemplar": tileset.exemplar_info.get("file"),
@@ -682,6 +711,10 @@ def format_metrics(m: dict[str, Any]) -> str:
                      f"{num(d['std'])}, max/min {num(d['max_over_min'], '.3g')}")
         lines.append(f"cut costs     min {num(c['min'])}, max {num(c['max'])}, mean {num(c['mean'])}, "
                      f"sum {num(c['sum'])}")
+    cs = m.get("cut_seam")
+    if cs:
+        lines.append(f"cut seam      {num(cs['score'], '.4f')}  (mean squared step across the cutting curves / over "
+                     f"all pixel pairs of the tiles; {cs['cut_pairs']} pairs on the cuts)")
     for note in m.get("notes", []):
         lines.append(f"note          {note}")
     return "\n".join(lines)
@@ -695,6 +728,7 @@ __all__ = [
     "autocorrelation",
     "coherence_energy",
     "coverage",
+    "cut_seam_score",
     "format_metrics",
     "image_metrics",
     "measure_tileset",
