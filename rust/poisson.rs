@@ -1048,8 +1048,8 @@ impl Grid {
                 continue;
             }
             let row = gy * stride;
-            // Image sample of grid column gx: (base + gx) · c + ch.
-            let base = (self.y0 + gy - 1) * self.m + self.x0 - 1;
+            // Image sample of grid column gx: (base + x0 + gx − 1) · c + ch (gx ≥ xa, so x0 + gx ≥ 1).
+            let base = (self.y0 + gy - 1) * self.m + self.x0;
             for parity in 0..2 {
                 // Block index k holds grid column 2k + parity.
                 let (ka, kb) = ((xa + 1 - parity) / 2, (xb + 1 - parity) / 2);
@@ -1057,7 +1057,7 @@ impl Grid {
                 let (sr, gr) = (&mut s[off + ka..off + kb], &mut g[off + ka..off + kb]);
                 let ar = &l0.act[off + ka..off + kb];
                 for (j, ((sv, gv), &a)) in sr.iter_mut().zip(gr.iter_mut()).zip(ar).enumerate() {
-                    let k = (base + 2 * (ka + j) + parity) * c + ch;
+                    let k = (base + 2 * (ka + j) + parity - 1) * c + ch;
                     let x = src[k] as f64;
                     *sv = x;
                     *gv = (1.0 - a as f64) * (dst[k] as f64 - x);
