@@ -632,7 +632,7 @@ def build_omega(
             "intermediate_s": t1 - t0_build,
             "matching_s": t2 - t1,
             "cutting_s": t3 - t2,
-            "smoothing_s": t4 - t3,
+            **({"smoothing_s": t4 - t3} if smooth else {}),
             "total_s": time.perf_counter() - t0,
         },
         version=__version__,
