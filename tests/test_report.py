@@ -57,7 +57,7 @@ def test_report_files_page_and_metrics(ga_set, tmp_path):
     # offline: no remote resource, no script
     assert "http://" not in page and "https://" not in page and "<script" not in page.lower()
     for words in ("border seam score", "coherence energy", "coverage", "repetition peak", "f = 1/E",
-                  "reference: random placement", "small.tiles", "Per tile"):
+                  "reference: random placement", "small.tiles", "Per tile", "cut seam"):
         assert words in page, words
     assert page.count("<tr><td class=num>") == ga_set.n_tiles  # one row per tile
     assert res["files"]["page"] == str(out / "index.html")

@@ -307,6 +307,10 @@ def metrics_rows(m: dict[str, Any]) -> list[tuple[str, str, str]]:
              f"{_fmt(ob['cut_costs']['min'])} / {_fmt(ob['cut_costs']['mean'])} / {_fmt(ob['cut_costs']['max'])}",
              f"sum {_fmt(ob['cut_costs']['sum'])} (min-cut cost of each tile's cutting curve)"),
         ]
+    cs = m.get("cut_seam")
+    if cs:
+        rows.append(("cut seam", _fmt(cs["score"], ".4f"), "mean squared step across the cutting curves / over all "
+                     "pixel pairs of the tiles (1 = invisible; Poisson smoothing lowers it)"))
     return rows
 
 
