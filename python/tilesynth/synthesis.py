@@ -171,6 +171,7 @@ def synthesize_map(
     width: int,
     height: int,
     threads: int | None = None,
+    max_bytes: int | None = None,
 ) -> np.ndarray:
     """Synthesize a map aligned with the exemplar (normal, height, roughness, a second photo, ...) with exactly
     the cuts and layout of a colour synthesis.
@@ -187,11 +188,14 @@ def synthesize_map(
     index_map : the tile index map of the colour output (as returned by :func:`synthesize`).
     width, height : the output size (that of the colour output).
     threads : copy threads.
+    max_bytes : refuse (:class:`ParameterError`) an output larger than this, as :func:`synthesize` does.
 
     Returns
     -------
     ``(height, width, C)`` array of ``aligned``'s dtype.
     """
+    if not isinstance(tileset, TileSet):
+        raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet (tilesynth.load(path))")
     a = np.asarray(aligned)
     if a.ndim == 2:
         a = a[:, :, None]
@@ -205,7 +209,13 @@ def synthesize_map(
         raise ParameterError(f"map has dtype {a.dtype}, expected uint8, uint16 or float32")
     w = positive_int(width, "width")
     h = positive_int(height, "height")
-    imap = np.ascontiguousarray(index_map, dtype=np.int32)
+    need, limit = h * w * a.shape[2] * a.dtype.itemsize, memory_limit(max_bytes)
+    if need > limit:
+        raise ParameterError(
+            f"width x height = {w}x{h}: the map needs {fmt_bytes(need)}, more than the limit of {fmt_bytes(limit)} "
+            f"(max_bytes / {MAX_BYTES_ENV})"
+        )
+    imap = kernels._index_map(index_map)  # integers only, no silent int32 wrap-around
     src = tileset.source
     atlas = np.ascontiguousarray(a[src[..., 0], src[..., 1]])
     out = np.empty((h, w, a.shape[2]), a.dtype)
