@@ -141,6 +141,12 @@ def sizes(lo: int = -2, hi: int = 12) -> st.SearchStrategy[Any]:
     )
 
 
+def choices(valid: list[Any]) -> st.SearchStrategy[Any]:
+    """One of the ``valid`` option strings (tame); sometimes an unknown string, an empty one or not a string
+    (wild)."""
+    return _tame_or_wild(st.sampled_from(valid), st.sampled_from(["x", "", valid[0].upper(), None, 1]))
+
+
 def floats() -> st.SearchStrategy[Any]:
     """Float parameters: ordinary, zero, negative, NaN, infinite, huge (tame), or not a number (wild)."""
     return _tame_or_wild(

@@ -238,3 +238,79 @@ def test_cli_map_smooth(smoothed, tiles, tmp_path, capsys):
     out.unlink()
     assert main(args + ["-q"]) == 2
     assert "--map-smooth off" in capsys.readouterr().err and not out.exists()
+
+
+def test_synthesize_map_checks_its_arguments(tiles, small_exemplar):
+    """Found by the fuzzers: a non-TileSet raised AttributeError, index maps were cast to int32 without a
+    check (2^32 + k wrapped to the valid index k, floats were truncated), and an output of any size was
+    allocated (ValueError from numpy for 2^31 x 2^31; a merely huge one would be committed while copying)."""
+    ex8 = (small_exemplar * 255).round().astype(np.uint8)
+    _, imap = tilesynth.synthesize(tiles, 60, 50, seed=4)
+    with pytest.raises(TypeError, match="tileset is a NoneType, expected a TileSet"):
+        tilesynth.synthesize_map(None, ex8, imap, 60, 50)
+    with pytest.raises(tilesynth.ParameterError, match="index_map has values in"):
+        tilesynth.synthesize_map(tiles, ex8, imap.astype(np.int64) + 2**32, 60, 50)
+    with pytest.raises(TypeError, match="index_map has dtype float64, expected integers"):
+        tilesynth.synthesize_map(tiles, ex8, imap + 0.5, 60, 50)
+    with pytest.raises(tilesynth.ParameterError, match="width x height = 2147483648x2147483648: the map needs"):
+        tilesynth.synthesize_map(tiles, ex8, imap, 2**31, 2**31)
+    with pytest.raises(tilesynth.ParameterError, match="more than the limit of 1000 bytes"):
+        tilesynth.synthesize_map(tiles, ex8, imap, 60, 50, max_bytes=1000)
+    assert tilesynth.synthesize_map(tiles, ex8, imap, 60, 50, max_bytes=60 * 50 * 3).shape == (50, 60, 3)
+
+
+def _npy_header(shape, descr="|u1") -> bytes:
+    import io
+
+    buf = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buf, {"descr": descr, "fortran_order": False, "shape": shape})
+    return buf.getvalue()
+
+
+@pytest.mark.parametrize(
+    ("data", "words"),
+    [
+        (b"", "No data left in file"),  # was EOFError
+        (_npy_header((2**31, 2**31)), "not a readable .npy array"),  # was MemoryError (4 EiB)
+        (_npy_header((100000, 100000)), "not a readable .npy array"),  # allocated 10 GB, then failed
+        (_npy_header((2**40, 2**40, 3)), "not a readable .npy array"),  # numpy warned of an overflow
+        (b"\x93NUMPY\x01\x00\x10\x00{'descr': '|u1'\n", "not a readable .npy array"),  # was tokenize.TokenError
+    ],
+)
+def test_load_raster_refuses_damaged_npy(tmp_path, data, words):
+    p = tmp_path / "m.npy"
+    p.write_bytes(data)
+    with pytest.raises(tilesynth.ParameterError, match=words):
+        load_raster(p)
+
+
+def test_cli_map_of_an_empty_npy_is_exit_2(tiles, tmp_path, capsys):
+    tf = tmp_path / "t.tiles"
+    tiles.save(tf)
+    (tmp_path / "empty.npy").write_bytes(b"")
+    assert main(["synth", str(tf), "-o", str(tmp_path / "o.png"), "--size", "40x40", "--map",
+                 str(tmp_path / "empty.npy"), "-q"]) == 2  # was 1 (internal error: EOFError)
+    err = capsys.readouterr().err
+    assert "--map" in err and "not a readable .npy array" in err and len(err.strip().splitlines()) == 1
+
+
+def test_load_raster_pixel_limit(tmp_path, rng):
+    """Image maps are checked on their declared size like exemplars (a decompression bomb is refused before
+    decoding; Pillow's DecompressionBombError / warning never escapes)."""
+    write_png_filtered(tmp_path / "m.png", rng.integers(0, 256, (20, 30, 3)).astype(np.uint8))
+    Image.fromarray(rng.integers(0, 65536, (20, 30)).astype(np.uint16)).save(tmp_path / "m.tif")
+    for name in ("m.png", "m.tif"):
+        assert load_raster(tmp_path / name).shape[:2] == (20, 30)
+        with pytest.raises(tilesynth.ParameterError, match="600 pixels exceeds the limit of 599 pixels"):
+            load_raster(tmp_path / name, max_pixels=599)
+    # TIFFs declaring 10^4 x 10^4 pixels (over tilesynth's limit) and 2^31 x 2^31 (over Pillow's own)
+    data = bytearray((tmp_path / "m.tif").read_bytes())
+    ifd = struct.unpack_from("<I", data, 4)[0]
+    for side, words in ((10_000, "100000000 pixels exceeds the limit"), (2**31 - 1, "refused, .* decompression bomb")):
+        for i in range(struct.unpack_from("<H", data, ifd)[0]):
+            tag = struct.unpack_from("<H", data, ifd + 2 + 12 * i)[0]
+            if tag in (256, 257):  # ImageWidth, ImageLength: one LONG each
+                struct.pack_into("<HHII", data, ifd + 2 + 12 * i, tag, 4, 1, side)
+        (tmp_path / "bomb.tif").write_bytes(bytes(data))
+        with pytest.raises(tilesynth.ParameterError, match=f"map = .*bomb.tif.*{words}"):
+            load_raster(tmp_path / "bomb.tif")

@@ -190,9 +190,24 @@ def test_coherence_errors(rng):
         M.coherence_energy(img, img, patch=11)
     with pytest.raises(ParameterError, match="stride = 0"):
         M.coherence_energy(img, img, stride=0)
+    # index: was used whatever it indexed (an index of another image gave wrong energies without a word), and
+    # anything else raised AttributeError
+    other = rng.random((10, 10, 3), dtype=np.float32)
+    with pytest.raises(ParameterError, match="index is an SsdIndex of another"):
+        M.coherence_energy(img, other, index=ts.SsdIndex(img))
+    with pytest.raises(ParameterError, match="index is 5, expected an SsdIndex of the exemplar"):
+        M.coherence_energy(img, other, index=5)
+    assert M.coherence_energy(img, other, index=ts.SsdIndex(other)).energy == M.coherence_energy(img, other).energy
 
 
 # ------------------------------------------------------------------------------------------------- coverage
+def test_coverage_names_positions_beyond_int64():
+    # uint64 positions were cast to int64 first, so the message showed wrapped negative values
+    src = np.full((2, 2, 2), 2**63 + 5, np.uint64)
+    with pytest.raises(ParameterError, match=r"rows \[9223372036854775813, 9223372036854775813\]"):
+        M.coverage(src, (4, 4, 3))
+
+
 def test_coverage_constructed():
     # exemplar 2x2, counts [2, 1, 1, 0]
     src = np.array([[[0, 0], [0, 0]], [[0, 1], [1, 0]]], dtype=np.int32)

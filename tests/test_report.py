@@ -71,6 +71,44 @@ def test_report_without_history_or_borders(random_set, tmp_path):
     assert "No convergence chart" in (tmp_path / "index.html").read_text(encoding="utf-8")
 
 
+@pytest.mark.parametrize("scheme", ["wang", "swang"])
+def test_report_of_wang_tiles(small_exemplar, tmp_path, scheme):
+    """The per-tile table of Wang sets (edge colours, no variants): was a KeyError 'corners' after every figure
+    had been written (``tilesynth report`` of a Wang set exited 1)."""
+    tset = ts.build(small_exemplar, scheme=scheme, tile_size=16, seed=1)
+    R.write_report(tset, tmp_path, width=64, height=48)
+    page = (tmp_path / "index.html").read_text(encoding="utf-8")
+    assert "<th>N E S W</th>" in page and "<th>variant</th>" not in page and "edge colours" in page
+    assert page.count("<tr><td class=num>") == tset.n_tiles
+    assert "<td>R Y R Y</td>" in page  # tile 0 of wang8: <N=R, E=Y, S=R, W=Y>
+    tset.save(tmp_path / "w.tiles")
+    assert main(["report", str(tmp_path / "w.tiles"), "-o", str(tmp_path / "cli"), "--size", "40x40", "-q"]) == 0
+
+
+def test_report_bad_output_and_name(random_set, tmp_path):
+    """Found by the fuzzers: an ``out_dir`` that is a file (FileExistsError) or lies under one
+    (NotADirectoryError), and a name that is not a string (AttributeError once every file but the page had been
+    written). Checked before anything is written."""
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(ts.ParameterError, match="out_dir = .*f': exists and is not a directory"):
+        R.write_report(random_set, tmp_path / "f", width=48, height=48)
+    with pytest.raises(ts.ParameterError, match="out_dir = .*sub': cannot create the directory"):
+        R.write_report(random_set, tmp_path / "f" / "sub", width=48, height=48)
+    with pytest.raises(TypeError, match="name = 5: expected a string or None"):
+        R.write_report(random_set, tmp_path / "r", width=48, height=48, name=5)
+    with pytest.raises(TypeError, match="out_dir = None: expected a path"):
+        R.write_report(random_set, None, width=48, height=48)
+    with pytest.raises(ts.ParameterError, match="width = 0"):
+        R.write_report(random_set, tmp_path / "r", width=0, height=48)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f"]  # nothing created
+
+
+def test_report_of_a_sample_one_tile_wide(random_set, tmp_path):
+    # no vertical border: the seam heat-map smoothed an empty profile (numpy's "Cannot apply_along_axis")
+    res = R.write_report(random_set, tmp_path, width=24, height=72)
+    assert res["metrics"]["seam"]["ratio_x"] is None and (tmp_path / "seams.png").is_file()
+
+
 def test_sample_with_borders_blends_only_the_grid(rng):
     img = rng.random((20, 30, 3), dtype=np.float32)
     out = R.sample_with_borders(img, 8, colour=(255, 0, 255), alpha=0.5)

@@ -556,6 +556,12 @@ def test_dispatcher(small_exemplar):
         (dict(omega=1.5), "omega"),
         (dict(genes=np.zeros((3, 2), int)), "genes"),
         (dict(genes=np.zeros((4, 2), int), select="ga"), "genes and select"),
+        # found by the fuzzers: threads reached the Rust binding unchecked (a bare OverflowError), and eps was
+        # converted with float() (ValueError "could not convert string to float", naming nothing)
+        (dict(threads=-1), "threads = -1: must be >= 1"),
+        (dict(threads=2**64), "threads = 18446744073709551616"),
+        (dict(eps="x", cut="graph"), "eps = 'x': must be a number"),
+        (dict(select=3), "select = 3: must be one of random, best-of, ga, ais or None"),  # was AttributeError
     ],
 )
 def test_build_wang_errors(kwargs, words, small_exemplar):
@@ -571,11 +577,52 @@ def test_build_wang_errors(kwargs, words, small_exemplar):
         (dict(supplementary=np.full((8, 2), 90)), r"supplementary\[0\]"),
         (dict(gradients="sobel"), "gradients"),
         (dict(tile_size=31), "even"),
+        (dict(eps="x"), "eps = 'x': must be a number"),
+        (dict(eps=None), "eps = None: must be a number"),
+        (dict(select=["ga"]), r"select = \['ga'\]: must be one of"),
     ],
 )
 def test_build_swang_errors(kwargs, words, small_exemplar):
     with pytest.raises(tilesynth.ParameterError, match=words):
         tilesynth.build_swang(small_exemplar, **kwargs)
+
+
+def test_build_swang_on_a_tiny_exemplar():
+    # found by the fuzzers: the default tile size (4 at least) was not checked against a 1x1 exemplar, and
+    # random_genes counted (1 - 4 + 1)^2 = 4 patch positions, so the initial tiles indexed outside it (IndexError)
+    from tilesynth.omega import random_genes
+
+    for shape in [(1, 1, 3), (3, 30, 1)]:
+        with pytest.raises(tilesynth.ParameterError, match="too small, at least 4x4"):
+            tilesynth.build_swang(np.zeros(shape, np.float32))
+    with pytest.raises(tilesynth.ParameterError, match="only 0 patch positions, 4 needed"):
+        random_genes((1, 1, 3), 4, 4, np.random.default_rng(0))
+
+
+def test_wang_kernels_check_threads_and_eps():
+    """``wang_tiles``, ``WangEvaluator`` (and its ``evaluate``) and ``swang_cuts`` name a bad thread count or eps
+    (they passed threads to the binding as given: pyo3's OverflowError for -1, and eps through float())."""
+    rng = np.random.default_rng(3)
+    ex = rng.random((20, 20, 3), dtype=np.float32)
+    wset = get_wang_tileset("wang8")
+    genes = np.array([[0, 0], [2, 3], [5, 1], [8, 8]])
+    args = (ex, genes, wset.sample_indices(), 8, 2)
+    with pytest.raises(tilesynth.ParameterError, match="threads = -1"):
+        tilesynth.wang_tiles(*args, threads=-1)
+    with pytest.raises(tilesynth.ParameterError, match="threads = 2147483648: must be at most 1024"):
+        tilesynth.wang_tiles(*args, threads=2**31)
+    with pytest.raises(tilesynth.ParameterError, match="eps = 'x'"):
+        tilesynth.wang_tiles(*args, eps="x")
+    with pytest.raises(tilesynth.ParameterError, match="eps = None"):
+        tilesynth.WangEvaluator(ex, wset.sample_indices(), 4, 8, 2, eps=None)
+    ev = tilesynth.WangEvaluator(ex, wset.sample_indices(), 4, 8, 2)
+    with pytest.raises(tilesynth.ParameterError, match="threads = -1"):
+        ev.evaluate(genes[None], threads=-1)
+    with pytest.raises(tilesynth.ParameterError, match="threads = 0"):
+        ev.evaluate(genes[None], threads=0)
+    tiles = ex[None, :8, :8]
+    with pytest.raises(tilesynth.ParameterError, match="eps = '1e-6'"):
+        tilesynth.swang_cuts(tiles, tiles, eps="1e-6")
 
 
 def test_swang_given_and_cut_supplementary(small_exemplar, swang):

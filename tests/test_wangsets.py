@@ -150,6 +150,11 @@ def test_round_trip_and_dispatch():
         (dict(horizontal=("R",), vertical=("Y",), tiles=(("R", "Y", "R"),)), "four edges"),
         (dict(horizontal=("R",), vertical=("Y",), tiles=(("R", "R", "R", "Y"),)), "E colour 'R'"),
         (dict(horizontal=("R",), vertical=("Y",), tiles=(("R", "Y", "R", "Y"),) * 2), "distinct"),
+        # not sequences at all: named (was TypeError "'NoneType' object is not iterable")
+        (dict(horizontal=None, vertical=("Y",), tiles=()), "horizontal colours must be a sequence"),
+        (dict(horizontal=("R",), vertical=5, tiles=()), "vertical colours must be a sequence"),
+        (dict(horizontal=("R",), vertical=("Y",), tiles=None), "tiles must be a sequence"),
+        (dict(horizontal=("R",), vertical=("Y",), tiles=(("R", "Y", "R", "Y"), 7)), "tile 1 must be a sequence"),
     ],
 )
 def test_bad_sets_are_rejected(kwargs, words):
@@ -165,3 +170,16 @@ def test_names():
         get_wang_tileset("wang10")
     with pytest.raises(ValueError, match="k = 1"):
         complete_choice_set(1)
+    # found by the fuzzers: a long number overflowed the float of the size check (OverflowError), a longer one
+    # hit Python's int-from-string limit (a ValueError about sys.set_int_max_str_digits), and a list was
+    # unhashable for the cache (TypeError)
+    for bad in ("wang" + "1" * 400, "wang" + "9" * 5000, ["wang8"], None):
+        assert not is_wang_set_name(bad)
+        with pytest.raises(ValueError, match="unknown Wang tile set"):
+            get_wang_tileset(bad)
+    assert get_wang_tileset("wang18") is get_wang_tileset("wang18")  # still cached
+
+
+def test_from_dict_checks_the_alphabets():
+    with pytest.raises(ValueError, match="horizontal colours must be a sequence"):
+        WangTileSet.from_dict({"kind": "wang", "name": "x", "horizontal": 3, "vertical": "Y", "tiles": ["RYRY"]})

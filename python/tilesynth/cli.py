@@ -403,11 +403,10 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
         _check_output_dir(save_map)
     index_map = None
     if map_path is not None:
-        try:
-            # memory-mapped first: a header that declares more data than the file holds fails here, cheaply
-            index_map = np.array(np.load(map_path, mmap_mode="r", allow_pickle=False))
-        except (OSError, ValueError) as exc:
-            raise ParameterError(f"--map = {map_path!r}: not a readable .npy array ({exc})") from None
+        from .io import read_npy
+
+        # memory-mapped first: a header that declares more data than the file holds fails here, cheaply
+        index_map = read_npy(map_path, f"--map = {map_path!r}")
     seed = seed_int(seed) if index_map is None else None
     bits = bits or int(ts.exemplar_info.get("bits", 8))
     # refuse up front what cannot fit: the image, plus the copy the PNG encoder makes

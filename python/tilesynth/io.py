@@ -136,49 +136,74 @@ def _png_header(p: Path) -> tuple[int, int] | None:
     return head[24], head[25]
 
 
-def load_raster(path: str | os.PathLike[str]) -> np.ndarray:
+def load_raster(path: str | os.PathLike[str], max_pixels: int | None = None) -> np.ndarray:
     """Read an image or array file in its own sample type, without any conversion.
 
     ``.npy`` files (no pickles) must hold a 2-d or 3-d uint8, uint16 or float32 array; PNGs are decoded
     exactly (8/16-bit, :func:`read_png`); other formats through Pillow, keeping 16-bit integer and 32-bit float
-    modes ("I;16", "F"). Returns ``(H, W, C)``.
+    modes ("I;16", "F"). Returns ``(H, W, C)``. Image files of more than ``max_pixels`` pixels are refused on
+    their declared size, before decoding, as by :func:`load_image`.
     """
     from PIL import Image, UnidentifiedImageError
 
+    limit = pixel_limit(max_pixels)
     p = Path(path)
     name = str(p)
+    where = f"map = {name!r}"
     if not p.is_file():
-        raise ParameterError(f"map = {name!r}: no such file")
+        raise ParameterError(f"{where}: no such file")
     if p.suffix.lower() == ".npy":
-        try:
-            arr = np.load(p, allow_pickle=False)
-        except (OSError, ValueError) as exc:
-            raise ParameterError(f"map = {name!r}: not a readable .npy array ({exc})") from None
+        arr = read_npy(p, where)
         if arr.dtype not in (np.uint8, np.uint16, np.float32) or arr.ndim not in (2, 3) or arr.size == 0:
             raise ParameterError(
-                f"map = {name!r}: array of shape {arr.shape} and dtype {arr.dtype}; expected a non-empty 2-d or "
+                f"{where}: array of shape {arr.shape} and dtype {arr.dtype}; expected a non-empty 2-d or "
                 "3-d uint8, uint16 or float32 array"
             )
     else:
         hdr = _png_header(p)
+        if hdr is not None:
+            _check_size(where, hdr[0], hdr[1], limit)
         arr = read_png(p) if hdr is not None else None
         if arr is None:
-            try:
-                with Image.open(p) as im:
-                    im.load()
-                    if im.mode in ("I;16", "I;16B", "I;16L"):
-                        arr = np.asarray(im).astype(np.uint16)
-                    elif im.mode == "F":
-                        arr = np.asarray(im, dtype=np.float32)
-                    else:
-                        if im.mode not in ("L", "LA", "RGB", "RGBA"):
-                            im = im.convert("RGBA" if "A" in im.mode or "transparency" in im.info else "RGB")
-                        arr = np.asarray(im)
-            except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
-                raise ParameterError(f"map = {name!r}: not a readable image ({exc})") from None
+            with warnings.catch_warnings():
+                # our own pixel limit applies; Pillow's other warnings are about odd metadata (see load_image)
+                warnings.filterwarnings("ignore", module=r"PIL(\.|$)")
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                try:
+                    with Image.open(p) as im:
+                        _check_size(where, *im.size, limit)
+                        im.load()
+                        if im.mode in ("I;16", "I;16B", "I;16L"):
+                            arr = np.asarray(im).astype(np.uint16)
+                        elif im.mode == "F":
+                            arr = np.asarray(im, dtype=np.float32)
+                        else:
+                            if im.mode not in ("L", "LA", "RGB", "RGBA"):
+                                im = im.convert("RGBA" if "A" in im.mode or "transparency" in im.info else "RGB")
+                            arr = np.asarray(im)
+                except Image.DecompressionBombError as exc:
+                    raise ParameterError(f"{where}: refused, {exc} (tilesynth's limit is {limit} pixels)") from None
+                except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
+                    raise ParameterError(f"{where}: not a readable image ({exc})") from None
     if arr.ndim == 2:
         arr = arr[:, :, None]
     return np.ascontiguousarray(arr)
+
+
+def read_npy(path: str | os.PathLike[str], where: str) -> np.ndarray:
+    """The array of a ``.npy`` file (no pickles), or :class:`ParameterError` starting with ``where``.
+
+    Memory-mapped first, so a header that declares more data than the file holds (100000 x 100000 in 128
+    bytes) fails cheaply instead of allocating what it declares. numpy reports an empty file with
+    ``EOFError`` and some damaged headers with the ``tokenize.TokenError`` of its header parser.
+    """
+    import tokenize
+
+    try:
+        with np.errstate(over="ignore"):  # numpy's size of an absurd declared shape overflows, then raises
+            return np.array(np.load(path, mmap_mode="r", allow_pickle=False))
+    except (OSError, ValueError, EOFError, SyntaxError, tokenize.TokenError) as exc:
+        raise ParameterError(f"{where}: not a readable .npy array ({exc})") from None
 
 
 def pixel_limit(value: int | None = None) -> int:

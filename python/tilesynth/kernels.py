@@ -598,8 +598,8 @@ def wang_tiles(
         _int_array(genes, "genes", 2, "(n, 2)"),
         _int_array(tile_samples, "tile_samples", 2, "(K, 4)"),
         *args,
-        float(eps),
-        threads,
+        finite_float(eps, "eps", positive=True),
+        threads_arg(threads),
     )
 
 
@@ -634,13 +634,14 @@ class WangEvaluator:
         n_samples = positive_int(n_samples, "n_samples")
         args = _wang_args(tile_size, overlap, corners, samples, cut, omega)
         self.omega = args[-1]
-        self._ev = _core.WangEvaluator(self.exemplar, self.tile_samples, n_samples, *args, float(eps))
+        eps = finite_float(eps, "eps", positive=True)
+        self._ev = _core.WangEvaluator(self.exemplar, self.tile_samples, n_samples, *args, eps)
         self.sample_size, self.n_samples, self.n_tiles = self._ev.dims
 
     def evaluate(self, genes: np.ndarray, threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """E ``(P,)`` and D_sum ``(P, m)`` of ``genes`` ``(P, n_samples, 2)``."""
         g = _int_array(genes, "genes", 3, f"(P, {self.n_samples}, 2)")
-        return self._ev.evaluate(g, threads)
+        return self._ev.evaluate(g, threads_arg(threads))
 
 
 def swang_cuts(
@@ -659,8 +660,9 @@ def swang_cuts(
     """
     i, _ = _templates(initial, "initial")
     o, _ = _templates(supplementary, "supplementary")
+    eps = finite_float(eps, "eps", positive=True)
     return _core.swang_cuts(
-        i, o, float(eps), threads_arg(threads), _grad(initial_grad, "initial_grad", 4, "(K, N, N, 2)")
+        i, o, eps, threads_arg(threads), _grad(initial_grad, "initial_grad", 4, "(K, N, N, 2)")
     )
 
 

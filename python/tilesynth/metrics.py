@@ -275,6 +275,9 @@ def coherence_energy(
     s = positive_int(stride, "stride")
     if img.shape[2] != ex.shape[2]:
         raise ShapeError(f"exemplar has {ex.shape[2]} channel(s), the image {img.shape[2]}")
+    if index is not None and not (isinstance(index, SsdIndex) and np.array_equal(index.image, ex)):
+        what = f"an SsdIndex of another {index.shape} image" if isinstance(index, SsdIndex) else repr(index)
+        raise ParameterError(f"index is {what}, expected an SsdIndex of the exemplar {ex.shape} (or None)")
     for name, a in (("image", img), ("exemplar", ex)):
         if p > a.shape[0] or p > a.shape[1]:
             raise ParameterError(f"patch = {p}: larger than the {a.shape[1]}x{a.shape[0]} {name}")
@@ -366,14 +369,15 @@ def coverage(source: np.ndarray, exemplar_shape: tuple[int, ...]) -> Coverage:
     if src.ndim != 3 or src.shape[2] != 2 or not np.issubdtype(src.dtype, np.integer):
         raise ShapeError(f"source has shape {src.shape} and dtype {src.dtype}, expected integer (H, W, 2)")
     he, we = int(exemplar_shape[0]), int(exemplar_shape[1])
-    r, c = src[..., 0].ravel().astype(np.int64), src[..., 1].ravel().astype(np.int64)
+    r, c = src[..., 0].ravel(), src[..., 1].ravel()
     if r.size == 0:
         raise ShapeError("source is empty")
-    if r.min() < 0 or c.min() < 0 or r.max() >= he or c.max() >= we:
+    lo_r, hi_r, lo_c, hi_c = int(r.min()), int(r.max()), int(c.min()), int(c.max())  # before any cast can wrap
+    if lo_r < 0 or lo_c < 0 or hi_r >= he or hi_c >= we:
         raise ParameterError(
-            f"source: positions in rows [{r.min()}, {r.max()}], cols [{c.min()}, {c.max()}] outside the "
-            f"{we}x{he} exemplar"
+            f"source: positions in rows [{lo_r}, {hi_r}], cols [{lo_c}, {hi_c}] outside the {we}x{he} exemplar"
         )
+    r, c = r.astype(np.int64), c.astype(np.int64)
     counts = np.bincount(r * we + c, minlength=he * we).astype(np.int64)
     total = counts.sum()
     pr = counts[counts > 0] / total

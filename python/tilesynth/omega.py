@@ -108,7 +108,7 @@ def random_genes(shape: tuple[int, ...], n: int, tile_size: int, rng: np.random.
 
     Returns int64 ``(n, 2)`` (row, col). Positions are uniform over all valid translations.
     """
-    rows, cols = shape[0] - tile_size + 1, shape[1] - tile_size + 1
+    rows, cols = max(shape[0] - tile_size + 1, 0), max(shape[1] - tile_size + 1, 0)  # (-2) x (-2) is not 4
     if rows * cols < n:
         raise ParameterError(
             f"tile_size = {tile_size}: the exemplar has only {rows * cols} patch positions, {n} needed"

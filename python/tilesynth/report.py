@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from ._validate import to_uint
+from .errors import ParameterError
 from .metrics import DEFAULT_SAMPLE_SEED, DEFAULT_SAMPLE_SIZE, measure_tileset, seam_profiles
 
 # viridis at 0, 1/8, ..., 1 (piecewise linear in between): perceptually ordered, readable in grey
@@ -83,7 +84,7 @@ def _dimmed(img: np.ndarray, level: float = 0.45) -> np.ndarray:
 
 def _smooth_1d(v: np.ndarray, width: int, axis: int) -> np.ndarray:
     """Moving average of ``width`` samples along ``axis`` (edges: average of what is inside)."""
-    if width <= 1:
+    if width <= 1 or v.size == 0:  # no border in this direction (an output one tile wide or high)
         return v
     k = np.ones(width)
     num = np.apply_along_axis(lambda a: np.convolve(a, k, "same"), axis, v)
@@ -336,6 +337,7 @@ def _page(tileset: Any, m: dict[str, Any], files: dict[str, str], tileset_name: 
     from . import __version__
 
     t, s = m["tileset"], m["sample"]
+    wang = tileset.layout.get("kind", "corner") == "wang"
     sel = tileset.params.get("selection", {})
     method = sel.get("method", "?") + (" + polish" if sel.get("params", {}).get("polish") else "")
     esc = html.escape
@@ -355,7 +357,8 @@ def _page(tileset: Any, m: dict[str, Any], files: dict[str, str], tileset_name: 
     rows = metrics_rows(m)
     if reference is not None and m.get("seam"):
         rows.insert(3, ("  reference: random placement", _fmt(reference, ".4f"),
-                        "S of the same tiles on the same grid placed at random (seed 0), ignoring corner colours"))
+                        "S of the same tiles on the same grid placed at random (seed 0), ignoring their "
+                        + ("edge" if wang else "corner") + " colours"))
     for name, value, meaning in rows:
         cls = ' class="sub"' if name.startswith("  ") else ""
         parts.append(f"<tr><td{cls}>{esc(name.strip())}</td><td class=num>{esc(value)}</td><td>{esc(meaning)}</td>"
@@ -363,9 +366,14 @@ def _page(tileset: Any, m: dict[str, Any], files: dict[str, str], tileset_name: 
     parts.append("</table>")
     parts.append('<p>All numbers as JSON: <a href="metrics.json">metrics.json</a>.</p>')
     parts.append("<h2>Tiles</h2>")
-    parts.append(_img(files["tiles"], "All tiles: the cutting curve of each (white line) encloses the region taken "
-                      "from its matching patch; the squares in the corners show the corner colours ⟨TL, BL, TR, "
-                      "BR⟩; above each tile its index and corner tuple."))
+    if wang:
+        parts.append(_img(files["tiles"], "All tiles: the cuts of each (white lines) separate the regions taken from "
+                          "its samples; the bars at the edge midpoints show the edge colours ⟨N, E, S, W⟩; above each "
+                          "tile its index."))
+    else:
+        parts.append(_img(files["tiles"], "All tiles: the cutting curve of each (white line) encloses the region "
+                          "taken from its matching patch; the squares in the corners show the corner colours ⟨TL, BL, "
+                          "TR, BR⟩; above each tile its index and corner tuple."))
     parts.append("<h2>Sample</h2>")
     parts.append(_img(files["sample"], f"A {s['width']}x{s['height']} sample (tiling seed {s['seed']}), the one "
                       "the metrics are computed on."))
@@ -377,7 +385,7 @@ def _page(tileset: Any, m: dict[str, Any], files: dict[str, str], tileset_name: 
                       "along the border); 1 means the border looks like the texture's own pixel steps. The "
                       "border pixels of ω-tiles are continuous exemplar content, so bright spots there are edges "
                       "of the texture crossing the border line, not seams; a real seam lights up a whole border "
-                      f"(the same tiles placed at random, ignoring their corner colours, score "
+                      f"(the same tiles placed at random, ignoring their {'edge' if wang else 'corner'} colours, score "
                       f"{_fmt(reference, '.3g')})."))
     parts.append(_img(files["coherence"], "Coherence heat-map: how far each output patch is from the closest "
                       "exemplar patch (rms). Grey = an exact copy of the exemplar; colour marks the cutting curves "
@@ -387,14 +395,16 @@ def _page(tileset: Any, m: dict[str, Any], files: dict[str, str], tileset_name: 
         parts.append(_img(files["convergence"], "Best and mean E of the population in every generation."))
     for note in notes:
         parts.append(f'<p class="note">{esc(note)}</p>')
-    parts.append("<h2>Per tile</h2><table><tr><th>tile</th><th>TL BL TR BR</th><th>variant</th>"
+    # Wang tiles have edge colours and no variants (their rows have "edges", ω rows "corners" and "variant")
+    colours, variant = ("N E S W", "") if wang else ("TL BL TR BR", "<th>variant</th>")
+    parts.append(f"<h2>Per tile</h2><table><tr><th>tile</th><th>{colours}</th>{variant}"
                  "<th>match (row, col)</th><th>D_j</th><th>cut cost</th></tr>")
     for row in tileset.per_tile():
         parts.append(
-            f"<tr><td class=num>{row['index']}</td><td>{' '.join(row['corners'])}</td>"
-            f"<td class=num>{row['variant']}</td><td class=num>({row['match_offset'][0]}, "
-            f"{row['match_offset'][1]})</td><td class=num>{row['D']:.4f}</td>"
-            f"<td class=num>{row['cut_cost']:.4f}</td></tr>")
+            f"<tr><td class=num>{row['index']}</td><td>{esc(' '.join(row['edges' if wang else 'corners']))}</td>"
+            + ("" if wang else f"<td class=num>{row['variant']}</td>")
+            + f"<td class=num>({row['match_offset'][0]}, {row['match_offset'][1]})</td>"
+            f"<td class=num>{row['D']:.4f}</td><td class=num>{row['cut_cost']:.4f}</td></tr>")
     parts.append("</table>")
     if m.get("notes"):
         parts += [f'<p class="note">{esc(n)}</p>' for n in m["notes"]]
@@ -428,14 +438,25 @@ def write_report(
 ) -> dict[str, Any]:
     """Write the report of ``tileset`` into ``out_dir`` (created if missing; files in it are replaced).
 
-    Returns ``{"files": {role: path}, "metrics": dict, "notes": [...]}``.
+    Returns ``{"files": {role: path}, "metrics": dict, "notes": [...]}``. Every argument is checked (and the sample
+    measured) before the directory is created: bad input raises ``ParameterError`` / ``TypeError`` and writes
+    nothing; each file is written atomically.
     """
     from .io import atomic_open, save_image
     from .render import contact_sheet
 
+    if not isinstance(out_dir, (str, os.PathLike)):
+        raise TypeError(f"out_dir = {out_dir!r}: expected a path (str or os.PathLike)")
+    if name is not None and not isinstance(name, str):
+        raise TypeError(f"name = {name!r}: expected a string or None")
     d = Path(out_dir)
-    d.mkdir(parents=True, exist_ok=True)
-    m, objs = measure_tileset(tileset, width, height, seed, threads=threads)
+    if d.exists() and not d.is_dir():
+        raise ParameterError(f"out_dir = {str(d)!r}: exists and is not a directory")
+    m, objs = measure_tileset(tileset, width, height, seed, threads=threads)  # checks the rest before any write
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError) as exc:  # a file where a directory of the path should be
+        raise ParameterError(f"out_dir = {str(d)!r}: cannot create the directory ({exc.strerror})") from None
     img = objs["image"]
     n = tileset.tile_size
     files: dict[str, str] = {}

@@ -177,6 +177,7 @@ def synthesize_map(
     height: int,
     threads: int | None = None,
     smooth: bool | None = None,
+    max_bytes: int | None = None,
 ) -> np.ndarray:
     """Synthesize a map aligned with the exemplar (normal, height, roughness, a second photo, ...) with exactly
     the cuts and layout of a colour synthesis.
@@ -204,11 +205,14 @@ def synthesize_map(
     width, height : the output size (that of the colour output).
     threads : copy (and smoothing) threads.
     smooth : None (default: smooth if and only if the tile set's colour tiles were smoothed), True or False.
+    max_bytes : refuse (:class:`ParameterError`) an output larger than this, as :func:`synthesize` does.
 
     Returns
     -------
     ``(height, width, C)`` array of ``aligned``'s dtype.
     """
+    if not isinstance(tileset, TileSet):
+        raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet (tilesynth.load(path))")
     a = np.asarray(aligned)
     if a.ndim == 2:
         a = a[:, :, None]
@@ -232,7 +236,13 @@ def synthesize_map(
         )
     w = positive_int(width, "width")
     h = positive_int(height, "height")
-    imap = np.ascontiguousarray(index_map, dtype=np.int32)
+    need, limit = h * w * a.shape[2] * a.dtype.itemsize, memory_limit(max_bytes)
+    if need > limit:
+        raise ParameterError(
+            f"width x height = {w}x{h}: the map needs {fmt_bytes(need)}, more than the limit of {fmt_bytes(limit)} "
+            f"(max_bytes / {MAX_BYTES_ENV})"
+        )
+    imap = kernels._index_map(index_map)  # integers only, no silent int32 wrap-around
     src = tileset.source
     atlas = np.ascontiguousarray(a[src[..., 0], src[..., 1]])
     if smooth:

@@ -113,7 +113,16 @@ import numpy as np
 from . import kernels
 from ._validate import as_image, positive_int, seed_int
 from .errors import ParameterError
-from .omega import LAMBDA, check_genes, check_tile_size, default_tile_size, energy, patch_gradients, random_genes
+from .omega import (
+    LAMBDA,
+    check_exemplar_size,
+    check_genes,
+    check_tile_size,
+    default_tile_size,
+    energy,
+    patch_gradients,
+    random_genes,
+)
 from .tilefile import TileSet, exemplar_digest
 from .wangsets import WangTileSet, get_wang_tileset
 
@@ -296,6 +305,10 @@ def _genes(
     report: Progress,
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """Given, random or selected genes (top-left corners of ``size`` squares) and the selection record."""
+    if select is not None and not isinstance(select, str):
+        from .select import METHODS
+
+        raise ParameterError(f"select = {select!r}: must be one of {', '.join(METHODS)} or None")
     optimise = (select is not None and select != "random") or polish or bool(select_params)
     if genes is not None and (select is not None or optimise):
         raise ParameterError("genes and select: give one (select chooses the genes)")
@@ -565,6 +578,7 @@ def build_swang(
     """
     t0 = time.perf_counter()
     ex = as_image(exemplar, "exemplar")
+    check_exemplar_size(ex.shape)  # the default tile size (4 at least) must fit
     defn = _resolve_set(tileset)
     n = default_tile_size(ex.shape) if tile_size is None else check_tile_size(tile_size, ex.shape)
     if gradients not in ("patch", "tile"):

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import functools
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -68,6 +68,13 @@ WANG_TILESET_NAMES: tuple[str, ...] = ("wang8", "wang18")
 _NAME = re.compile(r"wang([1-9][0-9]*)")
 
 EdgeTuple = tuple[str, str, str, str]
+
+
+def _names(value: Any, what: str) -> tuple[str, ...]:
+    """``value`` (a sequence of colour names, or a string of one-letter names) as a tuple of str."""
+    if isinstance(value, bytes) or not isinstance(value, Iterable):
+        raise ValueError(f"{what} must be a sequence of colour names, got {value!r}")
+    return tuple(str(c) for c in value)
 
 
 @dataclass(frozen=True)
@@ -98,16 +105,18 @@ class WangTileSet:
     tiles: tuple[EdgeTuple, ...]
 
     def __post_init__(self) -> None:
-        h = tuple(str(c) for c in self.horizontal)
-        v = tuple(str(c) for c in self.vertical)
+        h = _names(self.horizontal, "horizontal colours")
+        v = _names(self.vertical, "vertical colours")
         for label, alphabet in (("horizontal", h), ("vertical", v)):
             if not alphabet or any(c == "" for c in alphabet):
                 raise ValueError(f"{label} colours must be non-empty strings, got {alphabet!r}")
             if len(set(alphabet)) != len(alphabet):
                 raise ValueError(f"{label} colours must be distinct, got {alphabet!r}")
         tiles: list[EdgeTuple] = []
+        if isinstance(self.tiles, (str, bytes)) or not isinstance(self.tiles, Iterable):
+            raise ValueError(f"tiles must be a sequence of <N, E, S, W> tuples, got {self.tiles!r}")
         for k, tile in enumerate(self.tiles):
-            edges = tuple(str(c) for c in tile)
+            edges = _names(tile, f"tile {k}")
             if len(edges) != 4:
                 raise ValueError(f"tile {k} must have four edges <N, E, S, W>, got {tile!r}")
             n, e, s, w = edges
@@ -209,8 +218,8 @@ class WangTileSet:
             tiles.append(tuple(str(c) for c in t))
         return cls(
             name=str(data["name"]),
-            horizontal=tuple(str(c) for c in data["horizontal"]),
-            vertical=tuple(str(c) for c in data["vertical"]),
+            horizontal=_names(data["horizontal"], "horizontal colours"),
+            vertical=_names(data["vertical"], "vertical colours"),
             tiles=tuple(tiles),  # type: ignore[arg-type]
         )
 
@@ -238,14 +247,13 @@ def complete_choice_set(k: int, name: str | None = None) -> WangTileSet:
 def is_wang_set_name(name: str) -> bool:
     """Whether ``name`` names a Wang set (``"wang<2k²>"``), without building it."""
     m = _NAME.fullmatch(str(name))
-    if m is None:
+    if m is None or len(m.group(1)) > 3:  # at most wang128 (k = 8); a longer number is no set (and no float)
         return False
     size = int(m.group(1))
     k = int(round((size / 2) ** 0.5))
     return 2 * k * k == size and 2 <= k <= len(HORIZONTAL_COLOURS)
 
 
-@functools.lru_cache(maxsize=None)
 def get_wang_tileset(name: str) -> WangTileSet:
     """Return a named Wang tile set: ``"wang8"``, ``"wang18"`` or ``"wang<2k²>"`` (2 <= k <= 8).
 
@@ -259,5 +267,11 @@ def get_wang_tileset(name: str) -> WangTileSet:
             f"unknown Wang tile set {name!r}; valid names are: {', '.join(WANG_TILESET_NAMES)} "
             "(and wang<2k²> for k = 2 .. 8: wang8, wang18, wang32, ...)"
         )
-    size = int(str(name)[4:])
-    return complete_choice_set(int(round((size / 2) ** 0.5)), name=str(name))
+    return _named_set(str(name))
+
+
+@functools.lru_cache(maxsize=None)
+def _named_set(name: str) -> WangTileSet:
+    """The cached set of a valid name (keyed by the string: any object may be passed as a name)."""
+    size = int(name[4:])
+    return complete_choice_set(int(round((size / 2) ** 0.5)), name=name)
