@@ -289,6 +289,12 @@ class Scheme:
     pending: str = ""
 
 
+def _wang_size(ex: np.ndarray, n: int) -> int:
+    """The ω tile size, or less where Wang samples (N + the default overlap N/4) would not fit the exemplar."""
+    fit = int(min(ex.shape[:2]) / 1.25)
+    return min(n, fit - fit % 2)
+
+
 SCHEMES: list[Scheme] = [
     Scheme("ω-16", lambda ex, n, seed, th: ts.build_omega(ex, tileset="16a", tile_size=n, seed=seed, threads=th)),
     Scheme("ω-N2 random", lambda ex, n, seed, th: ts.build_omega(ex, tileset="n2", tile_size=n, seed=seed,
@@ -297,8 +303,8 @@ SCHEMES: list[Scheme] = [
                                                                 threads=th, select="ais", normalise=True)),
     Scheme("ω-16 + smooth", lambda ex, n, seed, th: ts.build_omega(ex, tileset="16a", tile_size=n, seed=seed,
                                                                    threads=th, smooth=True)),
-    Scheme("Wang-18 + GA", lambda ex, n, seed, th: ts.build_wang(ex, tileset="wang18", tile_size=n, seed=seed,
-                                                                 threads=th, select="ga")),
+    Scheme("Wang-18 + GA", lambda ex, n, seed, th: ts.build_wang(ex, tileset="wang18", tile_size=_wang_size(ex, n),
+                                                                 seed=seed, threads=th, select="ga")),
     Scheme("s-Wang-8", lambda ex, n, seed, th: ts.build_swang(ex, tileset="wang8", tile_size=n, seed=seed,
                                                               threads=th)),
 ]
