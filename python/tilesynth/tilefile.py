@@ -45,8 +45,8 @@ cuts NE, ES, SW, WN of every tile ``[D_overlap, n_overlap, D_path, n_path, D_bou
 :mod:`tilesynth.wang`). They were added without changing ``format_version`` (still 1): every version-1 file
 stays valid and loads as before.
 
-Members are written in a fixed order with a fixed timestamp (1980-01-01) and deflate level 6, so the bytes
-depend only on the content. Arrays use the ``.npy`` format, floats in JSON use Python's shortest round-trip repr:
+Members are written in a fixed order with a fixed timestamp (1980-01-01) and deflate level 1
+(:data:`DEFLATE_LEVEL`), so the bytes depend only on the content. Arrays use the ``.npy`` format, floats in JSON use Python's shortest round-trip repr:
 loading and saving again reproduces every array and value bit for bit.
 
 **Determinism.** The same inputs, parameters and seed give the same tile set at any thread count and in any run
@@ -435,8 +435,14 @@ def _npy_bytes(a: np.ndarray) -> bytes:
     return buf.getvalue()
 
 
+DEFLATE_LEVEL = 1
+"""zlib level of the members. Level 1 writes an N2 set of 256-pixel tiles (about 56 MB of arrays) in about 1 s
+instead of 7.7 s at level 6, for files about 11 % larger (16.7 MB instead of 15.0 MB): float32 tiles and int32
+provenance compress little better at higher levels."""
+
+
 def _write_member(zf: zipfile.ZipFile, name: str, data: bytes) -> None:
     info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
     info.compress_type = zipfile.ZIP_DEFLATED
     info.external_attr = 0o644 << 16
-    zf.writestr(info, data, compress_type=zipfile.ZIP_DEFLATED, compresslevel=6)
+    zf.writestr(info, data, compress_type=zipfile.ZIP_DEFLATED, compresslevel=DEFLATE_LEVEL)
