@@ -65,9 +65,6 @@ MAX_PIXELS_ENV = "TILESYNTH_MAX_PIXELS"
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
-_PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
-
-
 def read_png(path: str | os.PathLike[str]) -> np.ndarray | None:
     """Decode a non-interlaced 8- or 16-bit grey / grey+alpha / RGB / RGBA PNG exactly.
 
@@ -84,7 +81,7 @@ def read_png(path: str | os.PathLike[str]) -> np.ndarray | None:
     p = Path(path)
     data = p.read_bytes()
     name = str(p)
-    if data[:8] != _PNG_MAGIC:
+    if data[:8] != _PNG_SIGNATURE:
         raise ParameterError(f"input = {name!r}: not a PNG file")
     pos, idat, ihdr = 8, [], None
     while True:
@@ -125,15 +122,6 @@ def read_png(path: str | os.PathLike[str]) -> np.ndarray | None:
     dtype = np.dtype(">u2") if depth == 16 else np.dtype(np.uint8)
     arr = np.ascontiguousarray(flat).view(dtype).reshape(h, w, channels)
     return arr.astype(np.uint16 if depth == 16 else np.uint8)
-
-
-def _png_header(p: Path) -> tuple[int, int] | None:
-    """(bit depth, colour type) of a PNG file, or None if ``p`` is not a PNG."""
-    with open(p, "rb") as fh:
-        head = fh.read(33)
-    if head[:8] != _PNG_MAGIC or head[12:16] != b"IHDR" or len(head) < 26:
-        return None
-    return head[24], head[25]
 
 
 def load_raster(path: str | os.PathLike[str], max_pixels: int | None = None) -> np.ndarray:
