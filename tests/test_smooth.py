@@ -117,3 +117,14 @@ def test_cli_build_smooth(tmp_path, lettuce_path, capsys):
     code = main(["build", str(lettuce_path), "--scheme", "wang", "--smooth", "-o", str(tmp_path / "w.tiles")])
     assert code == 2
     assert "--smooth: not used with --scheme wang" in capsys.readouterr().err
+
+
+def test_info_survives_a_tampered_smooth_record(pair, tmp_path, capsys):
+    import dataclasses
+
+    _, smoothed = pair
+    bad = dataclasses.replace(smoothed, params={**smoothed.params, "smooth": {"residual_max": "x", "unknowns": None}})
+    p = tmp_path / "bad.tiles"
+    bad.save(p)
+    assert main(["info", str(p)]) == 0
+    assert "residual <= ?" in capsys.readouterr().out

@@ -463,6 +463,16 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
                  f"{time.perf_counter() - t0:.2f} s")
 
 
+def _smoothing_line(sm: dict) -> str:
+    """The ``info`` line of a smoothed set (values shown as stored; a tampered field prints as "?")."""
+    def num(key: str, spec: str = "") -> str:
+        v = sm.get(key)
+        return format(v, spec) if isinstance(v, (int, float)) and not isinstance(v, bool) else "?"
+
+    return (f"smoothing     Poisson, {num('unknowns')} unknowns, at most {num('iterations_max')} iterations, "
+            f"residual <= {num('residual_max', '.1e')}, {num('clipped')} values clipped to [0, 1]")
+
+
 def _info(ts_path: str, as_json: bool) -> None:
     from .tilefile import TileSet
 
@@ -493,9 +503,7 @@ def _info(ts_path: str, as_json: bool) -> None:
            + f", distance {p.get('metric', 'color')}"
            + ("" if p.get("keep_border", False) else ", literal border (002's cut may reach the tile border)")]
           if ts.scheme == "omega" else []),
-        *([f"smoothing     Poisson, {sm.get('unknowns', '?')} unknowns, at most {sm.get('iterations_max', '?')} "
-           f"iterations, residual <= {sm.get('residual_max', float('nan')):.1e}, {sm.get('clipped', '?')} values "
-           "clipped to [0, 1]"] if isinstance(sm := p.get("smooth"), dict) else []),
+        *([_smoothing_line(sm)] if isinstance(sm := p.get("smooth"), dict) else []),
         _energy_line(ts),
         f"build time    {ts.timing.get('total_s', float('nan')):.3f} s"
         + "".join(f", {k[:-2]} {v:.3f}" for k, v in ts.timing.items() if k != "total_s"),
