@@ -11,8 +11,8 @@ file (every case is tested, see ``docs/failure-modes.md``):
 - **Palette** (``P``, ``PA``) becomes RGB, or RGBA when the palette has transparency.
 - **CMYK, YCbCr, LAB, HSV** become RGB (Pillow's conversion).
 - **16-bit PNG** keeps its full precision (``bits = 16``): greyscale through Pillow, grey+alpha / RGB / RGBA
-  (which Pillow reduces to 8 bits) through :func:`_read_png16`, our own reader (chunks and zlib here, the
-  scanline filters in Rust). 16-bit greyscale TIFF too; other 16-bit colour formats are reduced to 8 bits by
+  (which Pillow reduces to 8 bits) through :func:`_read_png16`, our own reader (:func:`_decode_png`: chunks and
+  zlib here, the scanline filters in Rust). 16-bit greyscale TIFF too; other 16-bit colour formats are reduced to 8 bits by
   Pillow (``bits = 8``).
 - **Animated** files (GIF, APNG, WebP, multi-page TIFF): the first frame, as a viewer shows it before
   playing.
@@ -38,7 +38,7 @@ import struct
 import tempfile
 import warnings
 import zlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
@@ -73,55 +73,10 @@ def read_png(path: str | os.PathLike[str]) -> np.ndarray | None:
     a damaged file (bad signature, truncated chunks, CRC or inflate errors, wrong data length). Chunks are
     checked by CRC; the scanline filters are undone by the Rust kernel ``_core.png_unfilter``.
     """
-    import struct
-    import zlib
-
-    from . import _core
-
     p = Path(path)
-    data = p.read_bytes()
-    name = str(p)
-    if data[:8] != _PNG_SIGNATURE:
-        raise ParameterError(f"input = {name!r}: not a PNG file")
-    pos, idat, ihdr = 8, [], None
-    while True:
-        if pos + 8 > len(data):
-            raise ParameterError(f"input = {name!r}: truncated PNG (no IEND chunk)")
-        (length,) = struct.unpack(">I", data[pos : pos + 4])
-        tag = data[pos + 4 : pos + 8]
-        body = data[pos + 8 : pos + 8 + length]
-        crc = data[pos + 8 + length : pos + 12 + length]
-        if len(body) != length or len(crc) != 4:
-            raise ParameterError(f"input = {name!r}: truncated PNG chunk {tag!r}")
-        if struct.unpack(">I", crc)[0] != zlib.crc32(tag + body) & 0xFFFFFFFF:
-            raise ParameterError(f"input = {name!r}: PNG chunk {tag!r} fails its CRC check (damaged file)")
-        pos += 12 + length
-        if tag == b"IHDR":
-            ihdr = struct.unpack(">IIBBBBB", body)
-        elif tag == b"IDAT":
-            idat.append(body)
-        elif tag == b"IEND":
-            break
-    if ihdr is None:
-        raise ParameterError(f"input = {name!r}: PNG without IHDR")
-    w, h, depth, colour, _, _, interlace = ihdr
-    channels = {0: 1, 2: 3, 4: 2, 6: 4}.get(colour)
-    if channels is None or depth not in (8, 16) or interlace != 0:
-        return None
-    if w == 0 or h == 0:
-        raise ParameterError(f"input = {name!r}: the image is {w}x{h} pixels")
-    try:
-        raw = zlib.decompress(b"".join(idat))
-    except zlib.error as exc:
-        raise ParameterError(f"input = {name!r}: corrupt PNG image data ({exc})") from None
-    bpp = channels * depth // 8
-    try:
-        flat = _core.png_unfilter(np.frombuffer(raw, dtype=np.uint8), h, w * bpp, bpp)
-    except ValueError as exc:
-        raise ParameterError(f"input = {name!r}: corrupt PNG image data ({exc})") from None
-    dtype = np.dtype(">u2") if depth == 16 else np.dtype(np.uint8)
-    arr = np.ascontiguousarray(flat).view(dtype).reshape(h, w, channels)
-    return arr.astype(np.uint16 if depth == 16 else np.uint8)
+    # our reader for 8- and 16-bit grey, grey+alpha, RGB and RGBA without interlacing; Pillow does the rest
+    return _decode_png(p.read_bytes(), f"input = {str(p)!r}", lambda depth, ctype, interlace: depth in (8, 16)
+                       and ctype in (0, 2, 4, 6) and interlace == 0)
 
 
 def load_raster(path: str | os.PathLike[str], max_pixels: int | None = None) -> np.ndarray:
@@ -353,27 +308,34 @@ def _exif_orient(im: Any, arr: np.ndarray) -> np.ndarray:
 def _read_png16(path: Path, limit: int) -> np.ndarray | None:
     """Decode a 16-bit grey+alpha / RGB / RGBA PNG at full precision: uint16 ``(H, W, C)``.
 
-    Returns None for every other PNG (8-bit, palette, 16-bit grey: Pillow reads those exactly). Handles
-    Adam7 interlacing and a ``tRNS`` colour key (which becomes an alpha channel, as Pillow does for 8 bits).
-    Checks chunk CRCs and lengths, and inflates at most the number of bytes the header implies (no
-    decompression bomb). Raises :class:`ParameterError` on truncated or corrupt files.
+    Returns None for every other PNG (8-bit, palette, 16-bit grey: Pillow reads those exactly). Adam7
+    interlacing is handled, and a ``tRNS`` colour key becomes an alpha channel (as Pillow does for 8 bits).
+    """
+    return _decode_png(path.read_bytes(), f"input = {str(path)!r}",
+                       lambda depth, ctype, interlace: depth == 16 and ctype in (2, 4, 6), limit=limit, trns=True)
+
+
+def _decode_png(
+    data: bytes,
+    where: str,
+    accept: Callable[[int, int, int], bool],
+    limit: int | None = None,
+    trns: bool = False,
+) -> np.ndarray | None:
+    """The one PNG decoder behind :func:`read_png` and :func:`_read_png16` (chunks and zlib here, the scanline
+    filters in the Rust kernel ``_core.png_unfilter``).
+
+    Returns ``(H, W, C)`` uint8 / uint16 (native order), or None when ``accept(bit depth, colour type,
+    interlace)`` is false (the caller leaves that file to Pillow). Checks every chunk's length and CRC,
+    handles Adam7, applies a 16-bit RGB ``tRNS`` colour key as an alpha channel when ``trns``, and inflates at
+    most the number of bytes the header implies (no decompression bomb). Raises :class:`ParameterError`
+    starting with ``where`` on anything damaged, and on more than ``limit`` pixels.
     """
     from . import _core
 
-    data = path.read_bytes()
-    where = f"input = {str(path)!r}"
-    if data[:8] != _PNG_SIGNATURE or len(data) < 33 or data[12:16] != b"IHDR":
-        return None
-    w, h, depth, ctype, comp, filt, interlace = struct.unpack(">IIBBBBB", data[16:29])
-    if depth != 16 or ctype not in (2, 4, 6):
-        return None
-    if comp != 0 or filt != 0 or interlace not in (0, 1):
-        raise ParameterError(f"{where}: unknown PNG compression, filter or interlace method")
-    if w * h > limit or w == 0 or h == 0:
-        raise ParameterError(f"{where}: {w}x{h} pixels, outside [1, {limit}]")
-    channels = {2: 3, 4: 2, 6: 4}[ctype]
-    idat = []
-    trns = None
+    if data[:8] != _PNG_SIGNATURE:
+        raise ParameterError(f"{where}: not a PNG file")
+    ihdr, idat, key = None, [], None
     pos = 8
     while True:
         if pos + 8 > len(data):
@@ -386,35 +348,51 @@ def _read_png16(path: Path, limit: int) -> np.ndarray | None:
             raise ParameterError(f"{where}: not a readable image (truncated PNG chunk {tag!r})")
         if struct.unpack(">I", crc)[0] != zlib.crc32(tag + body) & 0xFFFFFFFF:
             raise ParameterError(f"{where}: not a readable image (PNG chunk {tag!r} fails its CRC check)")
-        if tag == b"IDAT":
+        pos += 12 + length
+        if tag == b"IHDR" and length == 13:
+            ihdr = struct.unpack(">IIBBBBB", body)
+        elif tag == b"IDAT":
             idat.append(body)
-        elif tag == b"tRNS" and ctype == 2 and length == 6:
-            trns = struct.unpack(">HHH", body)
+        elif tag == b"tRNS" and length == 6:
+            key = struct.unpack(">HHH", body)
         elif tag == b"IEND":
             break
-        pos += 12 + length
-    bpp = 2 * channels
+    if ihdr is None:
+        raise ParameterError(f"{where}: not a readable image (PNG without IHDR)")
+    w, h, depth, ctype, comp, filt, interlace = ihdr
+    if not accept(depth, ctype, interlace):
+        return None
+    if comp != 0 or filt != 0 or interlace not in (0, 1):
+        raise ParameterError(f"{where}: unknown PNG compression, filter or interlace method")
+    if w == 0 or h == 0:
+        raise ParameterError(f"{where}: the image is {w}x{h} pixels")
+    if limit is not None and w * h > limit:
+        raise ParameterError(f"{where}: {w}x{h} pixels, more than the limit of {limit}")
+    channels = {0: 1, 2: 3, 4: 2, 6: 4}[ctype]
+    bpp = channels * depth // 8
     passes = _adam7(w, h) if interlace else [(0, 0, 1, 1, w, h)]
     expected = sum(ph * (pw * bpp + 1) for *_, pw, ph in passes if pw and ph)
-    z = zlib.decompressobj()
     try:
-        raw = z.decompress(b"".join(idat), expected + 1)
+        raw = zlib.decompressobj().decompress(b"".join(idat), expected + 1)
     except zlib.error as exc:
         raise ParameterError(f"{where}: not a readable image (corrupt PNG data: {exc})") from None
     if len(raw) < expected:
         raise ParameterError(f"{where}: not a readable image (truncated PNG data: {len(raw)} of {expected} bytes)")
-    out = np.empty((h, w, channels), np.uint16)
+    sample = np.dtype(">u2") if depth == 16 else np.dtype(np.uint8)
+    out = np.empty((h, w, channels), np.uint16 if depth == 16 else np.uint8)
     off = 0
     for x0, y0, dx, dy, pw, ph in passes:
         if not (pw and ph):
             continue
         n = ph * (pw * bpp + 1)
-        chunk = np.frombuffer(raw, np.uint8, count=n, offset=off)
+        try:
+            rows = _core.png_unfilter(np.frombuffer(raw, np.uint8, count=n, offset=off), ph, pw * bpp, bpp)
+        except ValueError as exc:  # an unknown filter type byte
+            raise ParameterError(f"{where}: not a readable image (corrupt PNG data: {exc})") from None
         off += n
-        rows = _core.png_unfilter(chunk, ph, pw * bpp, bpp)
-        out[y0::dy, x0::dx] = rows.view(">u2").reshape(ph, pw, channels)
-    if trns is not None:
-        alpha = np.where((out == np.array(trns, np.uint16)).all(axis=2), 0, 65535).astype(np.uint16)
+        out[y0::dy, x0::dx] = rows.view(sample).reshape(ph, pw, channels)
+    if trns and key is not None and ctype == 2 and depth == 16:
+        alpha = np.where((out == np.array(key, np.uint16)).all(axis=2), 0, 65535).astype(np.uint16)
         out = np.concatenate([out, alpha[..., None]], axis=2)
     return out
 
