@@ -105,7 +105,10 @@ fn all_finite<D: ndarray::Dimension>(a: &ndarray::ArrayView<f32, D>) -> bool {
     !s.iter().fold(false, |bad, v| bad | !v.is_finite())
 }
 
-fn check_finite(name: &'static str, a: &ArrayView3<f32>) -> Result<()> {
+fn check_finite<D: ndarray::Dimension>(
+    name: &'static str,
+    a: &ndarray::ArrayView<f32, D>,
+) -> Result<()> {
     if !all_finite(a) {
         return Err(TilesynthError::param(
             name,
@@ -127,31 +130,34 @@ fn check_tol(tol: f64) -> Result<()> {
     Ok(())
 }
 
-fn check_single(
-    dst: &ArrayView3<f32>,
-    src: &ArrayView3<f32>,
-    region: &ArrayView2<bool>,
-) -> Result<()> {
-    let (n, m, c) = dst.dim();
-    if n == 0 || m == 0 || c == 0 {
+/// The shape checks shared by [`poisson_smooth`] (`dst` `(N, M, C)`) and [`poisson_smooth_batch`] (`dst`
+/// `(K, N, M, C)`): no empty tile axis, `src` shaped like `dst`, `region` like `dst` without its channels.
+fn check_shapes(dst: &[usize], src: &[usize], region: &[usize]) -> Result<()> {
+    let (batch, axes) = if dst.len() == 4 {
+        ("(K, N, M, C)", "three")
+    } else {
+        ("(N, M, C)", "two")
+    };
+    if dst[dst.len() - 3..].contains(&0) {
         return Err(TilesynthError::shape(
             "dst",
-            "(N, M, C) with N, M, C >= 1",
-            fmt_shape(dst.shape()),
+            format!("{batch} with N, M, C >= 1"),
+            fmt_shape(dst),
         ));
     }
-    if src.dim() != dst.dim() {
+    if src != dst {
         return Err(TilesynthError::shape(
             "src",
-            format!("{} (the shape of dst)", fmt_shape(dst.shape())),
-            fmt_shape(src.shape()),
+            format!("{} (the shape of dst)", fmt_shape(dst)),
+            fmt_shape(src),
         ));
     }
-    if region.dim() != (n, m) {
+    let want = &dst[..dst.len() - 1];
+    if region != want {
         return Err(TilesynthError::shape(
             "region",
-            format!("{} (the first two axes of dst)", fmt_shape(&[n, m])),
-            fmt_shape(region.shape()),
+            format!("{} (the first {axes} axes of dst)", fmt_shape(want)),
+            fmt_shape(region),
         ));
     }
     Ok(())
@@ -170,7 +176,7 @@ pub fn poisson_smooth(
     region: ArrayView2<bool>,
     tol: f64,
 ) -> Result<(Array3<f32>, PoissonInfo)> {
-    check_single(&dst, &src, &region)?;
+    check_shapes(dst.shape(), src.shape(), region.shape())?;
     check_finite("dst", &dst)?;
     check_finite("src", &src)?;
     check_tol(tol)?;
@@ -195,42 +201,9 @@ pub fn poisson_smooth_batch(
     region: ArrayView3<bool>,
     tol: f64,
 ) -> Result<(Array4<f32>, Vec<PoissonInfo>)> {
-    let (k, n, m, c) = dst.dim();
-    if n == 0 || m == 0 || c == 0 {
-        return Err(TilesynthError::shape(
-            "dst",
-            "(K, N, M, C) with N, M, C >= 1",
-            fmt_shape(dst.shape()),
-        ));
-    }
-    if src.dim() != dst.dim() {
-        return Err(TilesynthError::shape(
-            "src",
-            format!("{} (the shape of dst)", fmt_shape(dst.shape())),
-            fmt_shape(src.shape()),
-        ));
-    }
-    if region.dim() != (k, n, m) {
-        return Err(TilesynthError::shape(
-            "region",
-            format!("{} (the first three axes of dst)", fmt_shape(&[k, n, m])),
-            fmt_shape(region.shape()),
-        ));
-    }
-    if !all_finite(&dst) {
-        return Err(TilesynthError::param(
-            "dst",
-            "non-finite value",
-            "images must not contain NaN or infinity",
-        ));
-    }
-    if !all_finite(&src) {
-        return Err(TilesynthError::param(
-            "src",
-            "non-finite value",
-            "images must not contain NaN or infinity",
-        ));
-    }
+    check_shapes(dst.shape(), src.shape(), region.shape())?;
+    check_finite("dst", &dst)?;
+    check_finite("src", &src)?;
     check_tol(tol)?;
     // Every tile starts as its dst and is solved in place, in parallel.
     let mut out = dst.as_standard_layout().into_owned();
