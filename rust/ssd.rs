@@ -913,13 +913,15 @@ pub fn best_matches_many(
         .collect())
 }
 
-/// Slow obvious oracle (`f64` loops over every translation and template pixel), public so tests and
-/// benches can use it. Same shape rules and errors as [`SsdIndex::ssd_map`].
-pub fn ssd_map_brute(
-    image: ArrayView3<f32>,
-    template: ArrayView3<f32>,
-    mask: Option<ArrayView2<bool>>,
-) -> Result<Array2<f64>> {
+/// `((H, W, C), (h, w))` of an image and a template, from [`check_image_template`].
+type ImageTemplateDims = ((usize, usize, usize), (usize, usize));
+
+/// The shape rules of one image and one template that fits inside it (same channels): returns the image's
+/// `(H, W, C)` and the template's `(h, w)`.
+fn check_image_template(
+    image: &ArrayView3<f32>,
+    template: &ArrayView3<f32>,
+) -> Result<ImageTemplateDims> {
     let (hh, ww, c) = image.dim();
     if hh == 0 || ww == 0 || c == 0 {
         return Err(TilesynthError::shape(
@@ -936,6 +938,17 @@ pub fn ssd_map_brute(
             fmt_shape(template.shape()),
         ));
     }
+    Ok(((hh, ww, c), (h, w)))
+}
+
+/// Slow obvious oracle (`f64` loops over every translation and template pixel), public so tests and
+/// benches can use it. Same shape rules and errors as [`SsdIndex::ssd_map`].
+pub fn ssd_map_brute(
+    image: ArrayView3<f32>,
+    template: ArrayView3<f32>,
+    mask: Option<ArrayView2<bool>>,
+) -> Result<Array2<f64>> {
+    let ((hh, ww, c), (h, w)) = check_image_template(&image, &template)?;
     contiguous_finite("image", image)?;
     contiguous_finite("template", template)?;
     if let Some(m) = &mask {
@@ -985,22 +998,7 @@ pub fn weighted_ssd_map(
     mu: f64,
     eps: f64,
 ) -> Result<Array2<f64>> {
-    let (hh, ww, c) = image.dim();
-    if hh == 0 || ww == 0 || c == 0 {
-        return Err(TilesynthError::shape(
-            "image",
-            "(H, W, C) with H, W, C >= 1",
-            fmt_shape(image.shape()),
-        ));
-    }
-    let (h, w, tc) = template.dim();
-    if h == 0 || w == 0 || h > hh || w > ww || tc != c {
-        return Err(TilesynthError::shape(
-            "template",
-            format!("(h, w, {c}) with 1 <= h <= {hh} and 1 <= w <= {ww}"),
-            fmt_shape(template.shape()),
-        ));
-    }
+    let ((hh, ww, c), (h, w)) = check_image_template(&image, &template)?;
     if image_grad.dim() != (hh, ww) {
         return Err(TilesynthError::shape(
             "image_grad",
