@@ -1132,20 +1132,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     for name in args.only or list(SECTIONS):
         SECTIONS[name](texture, PLANS[name][args.quick], report, targets)
 
+    finish(targets, report, started, args.quick, args.json)
+    return 0
+
+
+def finish(targets: list[Target], report: dict[str, Any], started: float, quick: bool, json_path: str | None) -> None:
+    """The end of a side-by-side run: the summary of targets, the total time and, with ``json_path``, every
+    figure as JSON (shared with the other side-by-side scripts, e.g. ``benches/poisson_compare.py``)."""
     elapsed = time.perf_counter() - started
     print_table(
         "Summary of targets (ratios of medians measured in this run)",
         ["target", "figures", "result"],
         [[t.name, ", ".join(t.figures) or "-", t.status] for t in targets],
     )
-    quick = " (quick run: few samples, ratios are rough)" if args.quick else ""
-    print(f"\ntotal time {elapsed:.1f} s{quick}")
+    rough = " (quick run: few samples, ratios are rough)" if quick else ""
+    print(f"\ntotal time {elapsed:.1f} s{rough}")
     report["targets"] = [asdict(t) for t in targets]
     report["elapsed_s"] = elapsed
-    if args.json:
-        Path(args.json).write_text(json.dumps(report, indent=2, default=str) + "\n", encoding="utf-8")
-        print(f"figures written to {args.json}")
-    return 0
+    if json_path:
+        Path(json_path).write_text(json.dumps(report, indent=2, default=str) + "\n", encoding="utf-8")
+        print(f"figures written to {json_path}")
 
 
 if __name__ == "__main__":

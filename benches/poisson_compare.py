@@ -39,11 +39,9 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -291,18 +289,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     sizes = [int(s) for s in args.sizes.split(",") if s]
     report: dict[str, Any] = {"environment": env, "texture": str(path), "quick": args.quick}
     targets = run(texture, sizes, PLANS[args.quick], report)
-    cmp.print_table(
-        "Summary of targets (ratios of medians measured in this run)",
-        ["target", "figures", "result"],
-        [[t.name, ", ".join(t.figures) or "-", t.status] for t in targets],
-    )
-    elapsed = time.perf_counter() - started
-    print(f"\ntotal time {elapsed:.1f} s" + (" (quick run: few samples, ratios are rough)" if args.quick else ""))
-    report["targets"] = [asdict(t) for t in targets]
-    report["elapsed_s"] = elapsed
-    if args.json:
-        Path(args.json).write_text(json.dumps(report, indent=2, default=str) + "\n", encoding="utf-8")
-        print(f"figures written to {args.json}")
+    cmp.finish(targets, report, started, args.quick, args.json)
     return 0
 
 
