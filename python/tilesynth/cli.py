@@ -412,7 +412,7 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
     # refuse up front what cannot fit: the image, plus the copy the PNG encoder makes
     check_size(ts, size[0], size[1], np.uint16 if bits == 16 else np.uint8, copies=2)
     from .io import load_raster
-    from .synthesis import is_smoothed, synthesize_map
+    from .synthesis import check_smoothable, is_smoothed, synthesize_map
 
     smooth_maps = {"auto": None, "on": True, "off": False}[map_smooth]
     smooth_maps = is_smoothed(ts) if smooth_maps is None else smooth_maps
@@ -432,9 +432,8 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
         target = _map_output(output, mp, arr.dtype)
         if target.resolve() in {Path(output).resolve(), *(t.resolve() for _, _, t in maps)}:
             raise ParameterError(f"--with = {mp!r}: its output {str(target)!r} would overwrite another output")
-        if smooth_maps and arr.dtype == np.float32 and not np.isfinite(arr).all():
-            raise ParameterError(f"--with = {mp!r}: the map has NaN or infinite values and cannot be smoothed like "
-                                 "the colour tiles; add --map-smooth off to copy it unchanged")
+        if smooth_maps:  # refused before anything is written
+            check_smoothable(arr, f"--with = {mp!r}: the map")
         maps.append((mp, arr, target))
     t0 = time.perf_counter()
     prog("synthesis", 0, 1)

@@ -252,15 +252,20 @@ def synthesize_map(
     return out
 
 
+def check_smoothable(a: np.ndarray, where: str = "map") -> None:
+    """Refuse a float map with NaN or infinity for smoothing (:func:`synthesize_map`), naming the way out."""
+    if a.dtype == np.float32 and not np.isfinite(a).all():
+        raise ParameterError(
+            f"{where} has NaN or infinite values: it cannot be Poisson-smoothed; pass smooth=False (--map-smooth "
+            "off) to copy it through the cuts unchanged"
+        )
+
+
 def _smooth_map_atlas(tileset: TileSet, a: np.ndarray, atlas: np.ndarray, threads: int | None) -> np.ndarray:
     """The map's tiles Poisson-smoothed inside the same regions as the colour tiles (see :func:`synthesize_map`)."""
     from .omega import smooth_tiles
 
-    if a.dtype == np.float32 and not np.isfinite(a).all():
-        raise ParameterError(
-            "map has NaN or infinite values: it cannot be Poisson-smoothed; pass smooth=False (--map-smooth off) "
-            "to copy it through the cuts unchanged"
-        )
+    check_smoothable(a)
     scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(a.dtype)
     n = tileset.tile_size
     f = a.astype(np.float32) / np.float32(scale) if scale else a
