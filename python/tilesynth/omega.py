@@ -393,10 +393,11 @@ def smooth_tiles(
     ``(tiles, info)``: the smoothed float32 tiles and ``{"tol", "iterations_max", "residual_max",
     "unknowns", "clipped"}`` (``unknowns`` and ``clipped`` summed over the tiles).
     """
-    m = np.asarray(masks, dtype=bool).copy()
+    cut = np.asarray(masks, dtype=bool)
+    m = cut.copy()
     m[:, 0, :] = m[:, -1, :] = False
     m[:, :, 0] = m[:, :, -1] = False
-    composed = np.where(np.asarray(masks, dtype=bool)[..., None], matching, intermediate).astype(np.float32)
+    composed = np.where(cut[..., None], matching, intermediate).astype(np.float32)
     out, pinfo = kernels.poisson_smooth(composed, matching, m, threads=threads, tol=tol, info=True)
     clipped = int(np.count_nonzero((out < 0) | (out > 1)))
     if clip:
