@@ -190,6 +190,9 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--threads", type=_pos, default=None, help="worker threads")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     _add_metrics_parsers(sub)
+    from .batch import add_parser as _add_batch_parser  # issue 17: tilesynth batch
+
+    _add_batch_parser(sub)
     return p
 
 
@@ -636,6 +639,10 @@ def main(argv: list[str] | None = None) -> int:
             _metrics(args)
         elif args.command == "report":
             _report(args)
+        elif args.command == "batch":  # issue 17: exit status 1 when any job failed
+            from .batch import cli_main as _batch_main
+
+            return _batch_main(args)
         return EXIT_OK
     except UsageError as exc:
         print(f"{exc} (see 'tilesynth --help')", file=sys.stderr)

@@ -101,6 +101,9 @@ class SsdIndex:
         self.image = as_features(image) if self.features else as_image(image)
         self._index = _core.SsdIndex(self.image, threads_arg(threads))
 
+    def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from the image (issue 17)
+        return (type(self), (self.image, None, self.features))
+
     @property
     def shape(self) -> tuple[int, int, int]:
         """``(H, W, C)`` of the indexed image."""
@@ -522,6 +525,11 @@ class PopulationEvaluator:
             self.exemplar, tile_size, self.tile_patches, n_patches, self.lam, self.normalise, cache_bytes
         )
         self.tile_size, self.n_patches, self.n_tiles = self._ev.dims
+        self._init_args = (self.exemplar, tile_size, self.tile_patches, n_patches, self.lam, self.normalise,
+                           cache_bytes, bool(features))
+
+    def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from its inputs, cache empty (issue 17)
+        return (type(self), self._init_args)
 
     def evaluate(self, genes: np.ndarray, threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """E and D of a population ``genes`` ``(P, n_patches, 2)`` (integer top-left row, col of every patch).
@@ -637,6 +645,11 @@ class WangEvaluator:
         eps = finite_float(eps, "eps", positive=True)
         self._ev = _core.WangEvaluator(self.exemplar, self.tile_samples, n_samples, *args, eps)
         self.sample_size, self.n_samples, self.n_tiles = self._ev.dims
+        self._init_args = (self.exemplar, self.tile_samples, n_samples, tile_size, overlap, corners, samples, cut,
+                           omega, eps)
+
+    def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from its inputs (issue 17)
+        return (type(self), self._init_args)
 
     def evaluate(self, genes: np.ndarray, threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """E ``(P,)`` and D_sum ``(P, m)`` of ``genes`` ``(P, n_samples, 2)``."""

@@ -1,0 +1,391 @@
+"""Batch builds (issue 17): a library of jobs from a TOML file, locally and on a real Dask LocalCluster.
+
+The library: six small crops of /work/shared/textures (or tests/data when that is absent), 16-pixel tiles, one job
+with an aligned map, one Wang job, one glob job; a contact sheet and a preview per job.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import pickle
+import shutil
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import tilesynth as ts
+from tilesynth import batch
+from tilesynth.batch import BatchError, build_many, load_library
+from tilesynth.cli import main as cli_main
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "textures"
+if not SHARED.is_dir():
+    SHARED = Path("/work/shared/textures")
+TEXTURES = ["gravel", "grass-straw", "caustics", "beans", "bread", "crackers"]
+CROP = 48
+
+LIBRARY = """
+output_dir = "{out}"
+
+[presets.small]
+tile_size = 16
+set = "8"
+sheet = true
+previews = [{{ size = "80x64", seed = 7 }}]
+
+[presets.wang]
+scheme = "wang"
+set = "wang8"
+tile_size = 16
+previews = [{{ size = "64x64", seed = 3 }}]
+
+[[jobs]]
+exemplar = "tex/gravel.png"
+preset = "small"
+seed = 5
+maps = {{ height = "maps/gravel-height.png" }}
+
+[[jobs]]
+exemplar = "tex/grass-straw.png"
+preset = "wang"
+seed = 2
+
+[[jobs]]
+exemplar = "tex/c*.png"
+name = "food/{{stem}}"
+preset = "small"
+seed = 11
+
+[[jobs]]
+exemplar = "tex/beans.png"
+preset = "small"
+seed = 4
+select = "best-of"
+population = 4
+
+[[jobs]]
+exemplar = "tex/bread.png"
+name = "bread-loaf"
+preset = "small"
+"""
+
+
+def _textures() -> list[Path]:
+    return [SHARED / f"{t}.png" for t in TEXTURES]
+
+
+@pytest.fixture(scope="module")
+def lib_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """tex/ (six crops), maps/ (one aligned map) and two batch files writing to out-a/ and out-b/."""
+    if not all(p.is_file() for p in _textures()):
+        pytest.skip(f"the shared textures are not in {SHARED}")
+    d = tmp_path_factory.mktemp("library")
+    (d / "tex").mkdir()
+    (d / "maps").mkdir()
+    for p in _textures():
+        im = Image.open(p).convert("RGB")
+        im.crop((0, 0, CROP, CROP)).save(d / "tex" / p.name)
+    g = np.asarray(Image.open(d / "tex" / "gravel.png"))[:, :, 0]
+    Image.fromarray(np.ascontiguousarray(255 - g)).save(d / "maps" / "gravel-height.png")
+    for out in ("out-a", "out-b"):
+        (d / f"{out}.toml").write_text(LIBRARY.format(out=out))
+    return d
+
+
+@pytest.fixture(scope="module")
+def cluster():  # noqa: ANN201
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=40) as lc, distributed.Client(lc) as client:
+        yield client
+
+
+def _members(path: Path) -> dict[str, bytes]:
+    with zipfile.ZipFile(path) as zf:
+        return {n: zf.read(n) for n in zf.namelist() if n != "timing.json"}
+
+
+def _outputs(root: Path) -> dict[str, Path]:
+    return {str(p.relative_to(root)): p for p in sorted(root.rglob("*"))
+            if p.is_file() and not p.name.endswith((".batch.json", ".jsonl"))}
+
+
+def _same_outputs(a: Path, b: Path) -> None:
+    fa, fb = _outputs(a), _outputs(b)
+    assert sorted(fa) == sorted(fb)
+    for rel in fa:
+        if rel.endswith(".tiles"):  # byte-identical but for the timing member
+            assert _members(fa[rel]) == _members(fb[rel]), rel
+        else:
+            assert fa[rel].read_bytes() == fb[rel].read_bytes(), rel
+
+
+def _run(records: list[dict]) -> dict[str, str]:
+    return {r["job"]: r["status"] for r in records}
+
+
+# ------------------------------------------------------------------------------------------------ the library
+def test_library_expands_and_names_outputs(lib_dir: Path) -> None:
+    lib = load_library(lib_dir / "out-a.toml")
+    names = [j.name for j in lib.jobs]
+    assert names == ["gravel", "grass-straw", "food/caustics", "food/crackers", "beans", "bread-loaf"]
+    g = lib.jobs[0]
+    assert g.options["seed"] == 5 and g.options["set"] == "8" and g.options["tile_size"] == 16
+    assert set(g.outputs) == {"tiles", "sheet", "preview", "preview-height"}
+    assert g.outputs["preview-height"].name == "gravel-preview-height.png"
+    assert lib.jobs[5].options["seed"] == batch.DEFAULT_SEED
+    assert lib.jobs[1].options["scheme"] == "wang" and "smooth" not in lib.jobs[1].options
+
+
+def test_dask_local_and_cli_builds_are_identical(lib_dir: Path, cluster) -> None:  # noqa: ANN001
+    """LocalCluster (2 worker processes) == local process pool == one CLI build/synth per job."""
+    res_a = build_many(lib_dir / "out-a.toml", executor=cluster.get_executor(pure=False), threads=1, quiet=True)
+    assert _run(res_a.records) == dict.fromkeys(_run(res_a.records), "built"), res_a.summary()
+    assert len(res_a.records) == 6
+    workers = {r["worker"] for r in res_a.records}
+    assert all(not w.endswith(f":{os.getpid()}") for w in workers)  # ran in the cluster's processes
+    res_b = build_many(lib_dir / "out-b.toml", workers=2, quiet=True)
+    assert res_b.n_built == 6 and res_b.exit_status == 0, res_b.summary()
+    assert all(r["threads"] == max(1, batch._cores() // 2) for r in res_b.records)
+    _same_outputs(lib_dir / "out-a", lib_dir / "out-b")
+
+    # the single commands with the same options and seeds
+    cli = lib_dir / "cli"
+    (cli / "food").mkdir(parents=True)
+    tex = lib_dir / "tex"
+    builds = {
+        "gravel": ("gravel", ["--set", "8", "--tile-size", "16", "--seed", "5"], "80x64", "7"),
+        "grass-straw": ("grass-straw", ["--scheme", "wang", "--set", "wang8", "--tile-size", "16", "--seed", "2"],
+                        "64x64", "3"),
+        "food/caustics": ("caustics", ["--set", "8", "--tile-size", "16", "--seed", "11"], "80x64", "7"),
+        "food/crackers": ("crackers", ["--set", "8", "--tile-size", "16", "--seed", "11"], "80x64", "7"),
+        "beans": ("beans", ["--set", "8", "--tile-size", "16", "--seed", "4", "--select", "best-of",
+                            "--population", "4"], "80x64", "7"),
+        "bread-loaf": ("bread", ["--set", "8", "--tile-size", "16", "--seed", "1"], "80x64", "7"),
+    }
+    for name, (src, opts, size, seed) in builds.items():
+        tiles = cli / f"{name}.tiles"
+        sheet = ["--sheet", str(cli / f"{name}-sheet.png")]
+        assert cli_main(["build", str(tex / f"{src}.png"), "-o", str(tiles), "-q", *opts, *sheet]) == 0
+        with_ = ["--with", str(lib_dir / "maps" / "gravel-height.png")] if name == "gravel" else []
+        assert cli_main(["synth", str(tiles), "-o", str(cli / f"{name}-preview.png"), "--size", size, "--seed", seed,
+                         "-q", *with_]) == 0
+    (cli / "gravel-preview-gravel-height.png").rename(cli / "gravel-preview-height.png")
+    _same_outputs(lib_dir / "out-b", cli)
+
+
+def test_rerun_skips_touch_and_change(lib_dir: Path) -> None:
+    out = lib_dir / "out-c"
+    toml = lib_dir / "out-c.toml"
+    shutil.copytree(lib_dir / "tex", lib_dir / "tex-c")
+    toml.write_text(LIBRARY.format(out="out-c").replace('"tex/', '"tex-c/'))
+    first = build_many(toml, workers=2, quiet=True)
+    assert first.n_built == 6
+    again = build_many(toml, workers=2, quiet=True)
+    assert _run(again.records) == dict.fromkeys(_run(first.records), "skipped")
+    os.utime(lib_dir / "tex-c" / "beans.png")  # a touch alone changes nothing: the key is the content
+    assert build_many(toml, quiet=True).n_built == 0
+    before = {p: p.read_bytes() for p in out.rglob("*.png")}
+    img = np.asarray(Image.open(lib_dir / "tex-c" / "beans.png")).copy()
+    img[3, 4] ^= 1  # one pixel
+    Image.fromarray(img).save(lib_dir / "tex-c" / "beans.png")
+    changed = build_many(toml, workers=2, quiet=True)
+    assert {k for k, v in _run(changed.records).items() if v == "built"} == {"beans"}
+    assert {k for k, v in _run(changed.records).items() if v == "skipped"} == set(_run(changed.records)) - {"beans"}
+    after = {p: p.read_bytes() for p in out.rglob("*.png")}
+    assert [p.name for p in before if before[p] != after[p] and not p.name.startswith("beans")] == []
+    # a parameter change rebuilds the jobs of that preset only
+    toml.write_text(toml.read_text().replace('seed = 3 }]', 'seed = 4 }]'))
+    assert {k for k, v in _run(build_many(toml, quiet=True).records).items() if v == "built"} == {"grass-straw"}
+    # --force rebuilds all, the outputs stay the same
+    now = {p: p.read_bytes() for p in out.rglob("*.png")}
+    assert now[out / "grass-straw-preview.png"] != after[out / "grass-straw-preview.png"]
+    forced = build_many(toml, executor="serial", force=True, quiet=True)
+    assert forced.n_built == 6
+    assert {p: p.read_bytes() for p in out.rglob("*.png")} == now
+    lines = [json.loads(s) for s in (out / "batch-log.jsonl").read_text().splitlines()]
+    assert len({r["run"] for r in lines}) == 6 and all(len(r["outputs"]) >= 2 for r in lines)
+    built = [r for r in lines if r["status"] == "built"]
+    assert all(r["peak_rss_mb"] > 0 and r["timings"]["build_s"] > 0 for r in built)
+
+
+def test_broken_file_fails_alone(lib_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    d = lib_dir / "broken"
+    (d / "tex").mkdir(parents=True)
+    for name in ("gravel", "beans", "bread"):
+        shutil.copy(lib_dir / "tex" / f"{name}.png", d / "tex" / f"{name}.png")
+    good = (d / "tex" / "beans.png").read_bytes()
+    (d / "tex" / "beans.png").write_bytes(good[: len(good) // 2])  # cut short
+    (d / "lib.toml").write_text(
+        'output_dir = "out"\n[presets.p]\ntile_size = 16\nset = "4"\n'
+        'previews = [{ size = "40x40" }]\n'
+        '[[jobs]]\nexemplar = "tex/*.png"\npreset = "p"\n'
+        '[[jobs]]\nexemplar = "tex/gravel.png"\nname = "too-big"\ntile_size = 64\n'
+    )
+    status = cli_main(["batch", str(d / "lib.toml"), "--workers", "2", "-q"])
+    assert status == 1
+    out = capsys.readouterr().out
+    assert "4 jobs: 2 built, 0 up to date, 2 failed" in out
+    recs = {r["job"]: r for r in map(json.loads, (d / "out" / "batch-log.jsonl").read_text().splitlines())}
+    assert recs["gravel"]["status"] == recs["bread"]["status"] == "built"
+    assert recs["beans"]["status"] == "failed" and "beans.png" in recs["beans"]["error"]
+    assert recs["too-big"]["status"] == "failed" and "tile_size = 64" in recs["too-big"]["error"]
+    assert recs["beans"]["outputs"] == []
+    left = sorted(p.name for p in (d / "out").iterdir())
+    assert not [n for n in left if n.startswith(("beans", "too-big", "."))], left  # no partial output, no temp dir
+    assert "gravel.tiles" in left and "bread-preview.png" in left
+
+
+def test_interrupted_job_is_rebuilt_and_temp_removed(lib_dir: Path) -> None:
+    d = lib_dir / "resume"
+    (d / "tex").mkdir(parents=True)
+    shutil.copy(lib_dir / "tex" / "bread.png", d / "tex" / "bread.png")
+    (d / "lib.toml").write_text('output_dir = "out"\n[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = 16\nset = "4"\n')
+    assert build_many(d / "lib.toml", executor="serial", quiet=True).n_built == 1
+    ref = _members(d / "out" / "bread.tiles")
+    # what an interruption between the renames and the stamp leaves: outputs, a temp directory, no stamp
+    (d / "out" / "bread.batch.json").unlink()
+    stale = d / "out" / f"{batch.TMP_PREFIX}bread.batch.json.abc123"
+    stale.mkdir()
+    (stale / "bread.tiles").write_bytes(b"partial")
+    res = build_many(d / "lib.toml", executor="serial", quiet=True)
+    assert _run(res.records) == {"bread": "built"}
+    assert not stale.exists() and _members(d / "out" / "bread.tiles") == ref
+    # an output removed by hand makes the job out of date
+    (d / "out" / "bread-sheet.png").unlink()
+    assert build_many(d / "lib.toml", executor="serial", quiet=True).n_built == 1
+    assert build_many(d / "lib.toml", executor="serial", quiet=True).n_skipped == 1
+
+
+def test_progress_lines(lib_dir: Path) -> None:
+    d = lib_dir / "progress"
+    (d / "tex").mkdir(parents=True)
+    for n in ("bread", "beans"):
+        shutil.copy(lib_dir / "tex" / f"{n}.png", d / "tex" / f"{n}.png")
+    (d / "lib.toml").write_text('output_dir = "out"\n[[jobs]]\nexemplar = "tex/b*.png"\ntile_size = 16\nset = "4"\n')
+    stream = io.StringIO()
+    build_many(d / "lib.toml", executor="serial", stream=stream)
+    text = stream.getvalue()
+    assert "[1/2] beans: built in" in text and "[2/2] bread: built in" in text
+    assert "batch: 2/2 done (0 failed), 0 running, 0 up to date" in text and "ETA 0s" in text
+
+
+# ------------------------------------------------------------------------------------------------ bad files
+BAD = {
+    "unknown preset": ('[[jobs]]\nexemplar = "tex/bread.png"\npreset = "nope"\n',
+                       "job 1 ('tex/bread.png'): field 'preset' = 'nope': unknown preset"),
+    "missing exemplar": ('[[jobs]]\nexemplar = "tex/none.png"\n', "job 1 ('tex/none.png'): field 'exemplar'"),
+    "no exemplar field": ('[[jobs]]\nseed = 1\n', "job 1: field 'exemplar' is missing"),
+    "glob matching nothing": ('[[jobs]]\nexemplar = "tex/zz*.png"\n', "the glob matches no file"),
+    "duplicate names": ('[[jobs]]\nexemplar = "tex/bread.png"\n[[jobs]]\nexemplar = "tex/beans.png"\nname = "bread"\n',
+                        "job 2 ('tex/beans.png'): field 'name': duplicate output name 'bread'"),
+    "same file": ('[[jobs]]\nexemplar = "tex/bread.png"\nname = "x"\nmaps = {preview = "tex/bread.png"}\n'
+                  'previews = [{size = "32x32"}]\n[[jobs]]\nexemplar = "tex/beans.png"\nname = "x-preview"\n'
+                  'previews = [{size = "32x32"}]\n',
+                  "job 2 ('tex/beans.png'): field 'name': its preview output"),
+    "same file as the log": ('output_dir = "out"\nlog = "out/bread.tiles"\n[[jobs]]\nexemplar = "tex/bread.png"\n',
+                             "its tiles output"),
+    "output inside a report": ('[[jobs]]\nexemplar = "tex/bread.png"\nname = "a"\nreport = true\n[[jobs]]\n'
+                               'exemplar = "tex/beans.png"\nname = "a-report/b"\n', "lies inside report output"),
+    "glob without stem": ('[[jobs]]\nexemplar = "tex/b*.png"\nname = "same"\n', "needs {stem}"),
+    "unknown key": ('[[jobs]]\nexemplar = "tex/bread.png"\ntilesize = 16\n',
+                    "field 'tilesize' (did you mean 'tile_size'?)"),
+    "unknown preset key": ('[presets.p]\ncolour = 1\n[[jobs]]\nexemplar = "tex/bread.png"\n',
+                           "preset 'p': unknown field 'colour'"),
+    "unknown top key": ('jobz = 1\n[[jobs]]\nexemplar = "tex/bread.png"\n', "top level: unknown field 'jobz'"),
+    "wrong type": ('[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = "16"\n',
+                   "field 'tile_size' = '16': expected an integer"),
+    "bool for int": ('[[jobs]]\nexemplar = "tex/bread.png"\nseed = true\n', "field 'seed' = True: expected an integer"),
+    "odd tile size": ('[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = 15\n', "must be even"),
+    "bad scheme": ('[[jobs]]\nexemplar = "tex/bread.png"\nscheme = "hex"\n', "field 'scheme' = 'hex'"),
+    "set of another scheme": ('[[jobs]]\nexemplar = "tex/bread.png"\nset = "wang8"\n', "needs a corner set"),
+    "unknown set": ('[[jobs]]\nexemplar = "tex/bread.png"\nset = "17q"\n', "field 'set' = '17q'"),
+    "option of another scheme": ('[presets.w]\nscheme = "wang"\nsmooth = true\n[[jobs]]\nexemplar = "tex/bread.png"\n'
+                                 'preset = "w"\n', "field 'smooth' (from the preset): not used with scheme 'wang'"),
+    "generations with random": ('[[jobs]]\nexemplar = "tex/bread.png"\ngenerations = 3\n', "field 'generations'"),
+    "bad preview": ('[[jobs]]\nexemplar = "tex/bread.png"\npreviews = [{size = "0x4"}]\n',
+                    "field 'previews' entry 1: field 'size'"),
+    "preview without size": ('[[jobs]]\nexemplar = "tex/bread.png"\npreviews = [{seed = 1}]\n', "'size' is missing"),
+    "bad map kind": ('[[jobs]]\nexemplar = "tex/bread.png"\nmap_kinds = {n = "blur"}\n', "entry 'n' = 'blur'"),
+    "missing map": ('[[jobs]]\nexemplar = "tex/bread.png"\nmaps = {n = "tex/none.png"}\n',
+                    "field 'maps' entry 'n' = 'tex/none.png': no such file"),
+    "name escaping": ('[[jobs]]\nexemplar = "tex/bread.png"\nname = "../x"\n', "field 'name' = '../x'"),
+    "output over an input": ('output_dir = "tex"\n[[jobs]]\nexemplar = "tex/bread.png"\n'
+                             '[[jobs]]\nexemplar = "tex/bread-sheet.png"\nname = "r"\n', "would overwrite an input"),
+    "export": ('[[jobs]]\nexemplar = "tex/bread.png"\nexport = {format = "gltf"}\n', "field 'export'"),
+    "no jobs": ('[presets.p]\nset = "8"\n', "no jobs"),
+    "not toml": ('[[jobs]\nexemplar = 1\n', "not valid TOML"),
+    "version": ('version = 2\n[[jobs]]\nexemplar = "tex/bread.png"\n', "only version 1"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_batch_file_is_an_error_before_any_work(lib_dir: Path, tmp_path: Path, case: str) -> None:
+    text, expected = BAD[case]
+    shutil.copytree(lib_dir / "tex", tmp_path / "tex")
+    if case == "output over an input":
+        shutil.copy(tmp_path / "tex" / "bread.png", tmp_path / "tex" / "bread-sheet.png")
+    f = tmp_path / "lib.toml"
+    f.write_text(text)
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    with pytest.raises(BatchError) as err:
+        build_many(f, quiet=True)
+    assert expected in str(err.value), str(err.value)
+    assert str(f) in str(err.value)
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before  # nothing written, not even the output dir
+    assert cli_main(["batch", str(f)]) == 2
+
+
+def test_cli_dry_run_and_json(lib_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    d = lib_dir / "dry"
+    (d / "tex").mkdir(parents=True)
+    shutil.copy(lib_dir / "tex" / "bread.png", d / "tex" / "bread.png")
+    (d / "lib.toml").write_text('output_dir = "out"\n[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = 16\nset = "4"\n')
+    assert cli_main(["batch", str(d / "lib.toml"), "--dry-run"]) == 0
+    assert "bread: to build" in capsys.readouterr().out and not (d / "out").exists()
+    assert cli_main(["batch", str(d / "lib.toml"), "--json", "-q", "--threads", "1"]) == 0
+    recs = json.loads(capsys.readouterr().out)
+    assert [r["status"] for r in recs] == ["built"] and recs[0]["threads"] == 1
+    assert cli_main(["batch", str(d / "lib.toml"), "--dry-run"]) == 0
+    assert "bread: up to date" in capsys.readouterr().out
+
+
+def test_build_many_arguments(lib_dir: Path) -> None:
+    f = lib_dir / "out-a.toml"
+    with pytest.raises(ValueError, match="workers = 0"):
+        build_many(f, workers=0)
+    with pytest.raises(ValueError, match="executor = 'dask'"):
+        build_many(f, executor="dask")
+    with pytest.raises(TypeError, match="executor"):
+        build_many(f, executor=object())
+    with pytest.raises(TypeError, match="jobs"):
+        build_many(42)
+
+
+# ------------------------------------------------------------------------------------------------ pickling
+def test_kernel_objects_pickle_by_rebuilding() -> None:
+    r = np.random.default_rng(3)
+    img = r.random((32, 32, 3), dtype=np.float32)
+    idx = ts.SsdIndex(img)
+    t = img[4:12, 5:13]
+    idx2 = pickle.loads(pickle.dumps(idx))
+    assert np.array_equal(idx.ssd(t), idx2.ssd(t))
+    assert all(np.array_equal(a, b) for a, b in zip(idx.best_matches(t, k=3), idx2.best_matches(t, k=3)))
+    patches = np.array([[0, 1, 2, 3], [1, 0, 3, 2]])
+    ev = ts.PopulationEvaluator(img, 8, patches, 4, lam=0.7, normalise=True, cache_bytes=1 << 20)
+    genes = r.integers(0, 24, size=(5, 4, 2))
+    e1 = ev.evaluate(genes)
+    ev2 = pickle.loads(pickle.dumps(ev))
+    assert ev2.cache_stats()["entries"] == 0 and ev2.cache_stats()["limit"] == 1 << 20  # the cache is not sent
+    assert ev2.lam == 0.7 and ev2.normalise
+    assert all(np.array_equal(a, b) for a, b in zip(e1, ev2.evaluate(genes)))
+    ws = ts.get_wang_tileset("wang8")
+    wev = ts.WangEvaluator(img, ws.sample_indices(), ws.n_samples, 16, 4, corners="pinned", cut="graph", omega=0.6)
+    g = r.integers(0, 16, size=(3, ws.n_samples, 2))
+    w2 = pickle.loads(pickle.dumps(wev))
+    assert all(np.array_equal(a, b) for a, b in zip(wev.evaluate(g), w2.evaluate(g)))
