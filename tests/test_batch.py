@@ -16,9 +16,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from PIL import Image
-
 import tilesynth as ts
+from PIL import Image
 from tilesynth import batch
 from tilesynth.batch import BatchError, build_many, load_library
 from tilesynth.cli import main as cli_main
@@ -389,3 +388,46 @@ def test_kernel_objects_pickle_by_rebuilding() -> None:
     g = r.integers(0, 16, size=(3, ws.n_samples, 2))
     w2 = pickle.loads(pickle.dumps(wev))
     assert all(np.array_equal(a, b) for a, b in zip(wev.evaluate(g), w2.evaluate(g)))
+
+
+def test_ctrl_c_then_the_same_command_resumes(lib_dir: Path) -> None:
+    """A real Ctrl-C (SIGINT to the process group) in the middle of a batch: exit 130, whole outputs only; the
+    same command then builds only what is missing, and the result equals an uninterrupted batch."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    d = lib_dir / "ctrl-c"
+    (d / "tex").mkdir(parents=True)
+    for n in TEXTURES:
+        shutil.copy(lib_dir / "tex" / f"{n}.png", d / "tex" / f"{n}.png")
+    # slow enough jobs (the GA) that the interruption lands while some are still to run
+    body = ('[presets.p]\ntile_size = 16\nset = "8"\nselect = "ga"\npopulation = 30\ngenerations = 40\n'
+            'previews = [{ size = "64x64" }]\n[[jobs]]\nexemplar = "tex/*.png"\npreset = "p"\n')
+    (d / "lib.toml").write_text('output_dir = "out"\n' + body)
+    (d / "ref.toml").write_text('output_dir = "ref"\n' + body)
+    cmd = [sys.executable, "-m", "tilesynth", "batch", str(d / "lib.toml"), "--workers", "1", "-q"]
+    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    log = d / "out" / "batch-log.jsonl"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (log.is_file() and log.read_text().count("\n") >= 1):
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGINT)
+    try:
+        proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        pytest.fail("the interrupted batch did not exit")
+    assert proc.returncode == 130, proc.returncode
+    built = {r["job"] for r in map(json.loads, log.read_text().splitlines()) if r["status"] == "built"}
+    assert 1 <= len(built) < 6
+    stamps = {p.name.removesuffix(batch.STAMP_SUFFIX) for p in (d / "out").glob("*" + batch.STAMP_SUFFIX)}
+    # the workers stopped with the batch (a job may complete in the instant between its stamp and its log line)
+    assert built <= stamps and len(stamps) < 6
+    res = build_many(d / "lib.toml", workers=2, quiet=True)
+    assert {r["job"] for r in res.records if r["status"] == "skipped"} == stamps
+    assert not [p for p in (d / "out").iterdir() if p.name.startswith(".")]  # a cut-short job's temp is gone
+    assert res.n_built == 6 - len(stamps) and res.n_failed == 0
+    assert build_many(d / "ref.toml", workers=2, quiet=True).n_built == 6
+    _same_outputs(d / "out", d / "ref")

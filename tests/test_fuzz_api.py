@@ -27,6 +27,7 @@ from hypothesis import strategies as st
 from PIL import Image
 
 import tilesynth as ts
+from tilesynth import batch as ts_batch
 from tilesynth._validate import as_image
 
 F32, F64, I64, B = "float32", "float64", "int64", "bool"
@@ -933,3 +934,46 @@ def test_cli_on_a_tampered_manifest_exits_0_or_2():
             if code not in (0, 2) or (code == 2 and len(lines) != 1):
                 failures.append((path, value, cmd, code, err.getvalue().strip()[-200:]))
     assert not failures, failures[:5]
+
+
+# ------------------------------------------------------------------------------------------- batch files (issue 17)
+_BATCH_LEAVES = st.one_of(
+    st.none(), st.booleans(), st.integers(-3, 70), st.floats(allow_nan=True), st.text(max_size=10),
+    st.sampled_from(["ex.png", "*.png", "zz*.png", "16a", "8", "wang8", "ga", "omega", "wang", "swang", "all",
+                     "32x32", "{stem}", "{stem.x}", "{0}", "../x", "a/b", "best-cut", "copy", "smooth", "p"]),
+)
+_BATCH_VALUES = st.recursive(
+    _BATCH_LEAVES,
+    lambda c: st.lists(c, max_size=3) | st.dictionaries(
+        st.sampled_from(["size", "seed", "bits", "maps", "borders", "n", "p", "ex.png"]), c, max_size=3),
+    max_leaves=6,
+)
+
+
+def _batch_table(keys: tuple[str, ...]) -> st.SearchStrategy[dict]:
+    return st.dictionaries(st.sampled_from((*keys, "bogus")), _BATCH_VALUES, max_size=5)
+
+
+@given(
+    top=_batch_table(("version", "output_dir", "log")),
+    presets=st.dictionaries(st.sampled_from(["p", "q"]), _batch_table(ts_batch._PRESET_KEYS), max_size=2),
+    jobs=st.lists(_batch_table(ts_batch._JOB_KEYS).map(lambda t: {"exemplar": "ex.png", **t}), max_size=3),
+    raw=st.booleans(),
+)
+@settings(max_examples=max(40, settings().max_examples))
+def test_batch_file_is_a_library_or_one_batch_error(top, presets, jobs, raw):  # noqa: ANN001
+    """Any content of a batch file: a validated Library or a BatchError with a message, nothing else, nothing
+    written."""
+    d = Path(_tmpdir()) / "batch"
+    d.mkdir(exist_ok=True)
+    if not (d / "ex.png").exists():
+        Image.fromarray(np.zeros((8, 8, 3), np.uint8)).save(d / "ex.png")
+    data = top if raw else {**top, "presets": presets, "jobs": jobs}
+    before = sorted(os.listdir(d))
+    try:
+        lib = ts_batch.parse_library(data, d, source="fuzz.toml")
+    except ts_batch.BatchError as exc:
+        assert str(exc).startswith("fuzz.toml") and len(str(exc)) > 20
+    else:
+        assert lib.jobs and all(j.exemplar.name == "ex.png" for j in lib.jobs)
+    assert sorted(os.listdir(d)) == before

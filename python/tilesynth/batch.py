@@ -472,7 +472,7 @@ def _expand_job(k: int, body: Any, presets: dict[str, dict[str, Any]], base: Pat
         stem = ex.stem
         try:
             name = name_t.format(stem=stem)
-        except (KeyError, IndexError, ValueError) as exc:
+        except (KeyError, IndexError, ValueError, AttributeError) as exc:
             raise BatchError(f"{where}: field 'name' = {name_t!r}: bad placeholder ({exc}); only {{stem}} exists") from None
         wj = f"{where} -> {name!r}" if is_glob else where
         _check_name(name, f"{wj}: field 'name'")
@@ -483,7 +483,7 @@ def _expand_job(k: int, body: Any, presets: dict[str, dict[str, Any]], base: Pat
             mpath = _typed(mval, str, wm)
             try:
                 mpath = mpath.format(stem=stem)
-            except (KeyError, IndexError, ValueError) as exc:
+            except (KeyError, IndexError, ValueError, AttributeError) as exc:
                 raise BatchError(f"{wm} = {mval!r}: bad placeholder ({exc}); only {{stem}} exists") from None
             mp = (base / mpath).resolve()
             if not mp.is_file():
@@ -671,14 +671,17 @@ def _peak_rss_mb() -> float:
 def run_job(spec: dict[str, Any]) -> dict[str, Any]:
     """Run one job described by ``spec`` (a small dict of paths and options, see :func:`build_many`) and return
     its record. Never raises for a job's own failure: the error is in the record."""
-    t_start = time.perf_counter()
+    t_start, cpu_start, started = time.perf_counter(), time.process_time(), time.time()
     scoped = _reset_peak()
     rec: dict[str, Any] = {
         "job": spec["name"], "index": spec["index"], "exemplar": spec["exemplar"], "status": "failed",
         "outputs": [], "timings": {}, "warnings": [], "error": None, "threads": spec.get("threads"),
-        "worker": f"{socket.gethostname()}:{os.getpid()}",
+        "worker": f"{socket.gethostname()}:{os.getpid()}", "started": started,
     }
     tmp = None
+    env_before = os.environ.get("TILESYNTH_NUM_THREADS")
+    if spec.get("threads") is not None:  # also caps any kernel call that is not given `threads` explicitly
+        os.environ["TILESYNTH_NUM_THREADS"] = str(spec["threads"])
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -687,7 +690,7 @@ def run_job(spec: dict[str, Any]) -> dict[str, Any]:
             tmp.mkdir(parents=True)
             rec["outputs"], stamp = _build_job(spec, tmp, rec["timings"])
             t0 = time.perf_counter()
-            _commit(spec, tmp, stamp, rec["timings"])
+            _commit(spec, tmp, stamp)
             rec["timings"]["commit_s"] = time.perf_counter() - t0
             rec["status"] = "built"
         except (TilesynthError, OSError) as exc:
@@ -700,8 +703,15 @@ def run_job(spec: dict[str, Any]) -> dict[str, Any]:
         finally:
             if tmp is not None:
                 shutil.rmtree(tmp, ignore_errors=True)
+            if spec.get("threads") is not None:
+                if env_before is None:
+                    os.environ.pop("TILESYNTH_NUM_THREADS", None)
+                else:
+                    os.environ["TILESYNTH_NUM_THREADS"] = env_before
         rec["warnings"] = [f"{w.category.__name__}: {w.message}" for w in caught]
     rec["timings"]["total_s"] = time.perf_counter() - t_start
+    rec["timings"]["cpu_s"] = time.process_time() - cpu_start  # every thread of the worker process
+    rec["worker_cpu_s"] = sum(os.times()[:2])  # the worker process so far, start-up included
     rec["peak_rss_mb"] = round(_peak_rss_mb(), 1)
     rec["peak_rss_scope"] = "job" if scoped else "process"
     return rec
@@ -810,15 +820,14 @@ def _build_job(spec: dict[str, Any], tmp: Path, timings: dict[str, float]) -> tu
     return [str(outputs[r]) for r in staged], stamp
 
 
-def _commit(spec: dict[str, Any], tmp: Path, stamp: dict[str, Any], timings: dict[str, float]) -> None:
+def _commit(spec: dict[str, Any], tmp: Path, stamp: dict[str, Any]) -> None:
     """Move the staged outputs into place, then write the stamp (last: a job without it is built again)."""
     from .io import atomic_open
 
     stamp_path = Path(spec["stamp"])
     with contextlib.suppress(FileNotFoundError):
         stamp_path.unlink()
-    for role, final in spec["outputs"].items():
-        final = Path(final)
+    for final in map(Path, spec["outputs"].values()):
         src = tmp / final.name
         if src.is_dir():
             old = tmp / f"{final.name}.old"
@@ -840,6 +849,9 @@ class BatchResult:
     records: list[dict[str, Any]]
     log: Path | None
     wall_s: float
+    #: ``plan_s`` (hashing the inputs, reading the stamps), ``start_s`` (starting the local pool or the Dask
+    #: client), ``run_s`` (from the first submission to the last result)
+    timings: dict[str, float] = dataclasses.field(default_factory=dict)
 
     @property
     def n_failed(self) -> int:
@@ -939,7 +951,7 @@ class _JobProgress:
 
 
 def _dur(s: float) -> str:
-    s = int(round(s))
+    s = round(s)
     return f"{s // 3600}h{s % 3600 // 60:02d}m" if s >= 3600 else f"{s // 60}m{s % 60:02d}s" if s >= 60 else f"{s}s"
 
 
@@ -974,6 +986,7 @@ def build_many(
 
     Returns a :class:`BatchResult`; a failing job is a record with ``status = "failed"``, never an exception.
     """
+    start = time.perf_counter()
     lib = _as_library(jobs)
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise ParameterError(f"workers = {workers!r}: must be a positive integer")
@@ -986,10 +999,10 @@ def build_many(
     if executor is not None and not isinstance(executor, (str, cf.Executor)):
         raise TypeError(f"executor = {executor!r}: expected a concurrent.futures.Executor")
     log_path = Path(log) if log is not None else lib.log
-    start = time.perf_counter()
     run_id = datetime.datetime.now(datetime.timezone.utc).strftime("%Y%m%dT%H%M%SZ") + f"-{uuid.uuid4().hex[:8]}"
 
     plan: list[tuple[Job, dict[str, Any] | None, dict[str, Any] | None]] = []  # job, spec to run, or record
+    phase = {"validate_s": time.perf_counter() - start}
     for job in lib.jobs:
         try:
             key, parts = job_key(job)
@@ -1001,6 +1014,8 @@ def build_many(
         else:
             plan.append((job, _spec(job, key, parts, run_id), None))
     to_run = [spec for _, spec, _ in plan if spec is not None]
+    phase["plan_s"] = time.perf_counter() - start - phase["validate_s"]
+    t_exec = time.perf_counter()
 
     own_pool = own_client = None
     slots: int | None = None
@@ -1021,15 +1036,22 @@ def build_many(
         own_pool = cf.ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context(_start_method()),
                                           initializer=_init_worker, initargs=(per,))
         executor, slots = own_pool, n
+    elif executor is not None and not isinstance(executor, str):
+        client = getattr(executor, "_client", None)  # Dask's ClientExecutor: count the worker threads
+        with contextlib.suppress(Exception):
+            slots = sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values()) or None
     if threads is not None:
         for s in to_run:
             s["threads"] = threads
+    phase["start_s"] = time.perf_counter() - t_exec
+    t_run = time.perf_counter()
 
     if log_path is not None:
         log_path.parent.mkdir(parents=True, exist_ok=True)
     lib.output_dir.mkdir(parents=True, exist_ok=True)
     progress = _JobProgress(len(to_run), len(plan) - len(to_run), quiet, stream)
     results: dict[int, dict[str, Any]] = {}
+    futures: dict[cf.Future, dict[str, Any]] = {}
     log_fh = open(log_path, "a", encoding="utf-8") if log_path is not None else None  # noqa: SIM115
     try:
         for k, (_, spec, rec) in enumerate(plan):
@@ -1063,8 +1085,17 @@ def build_many(
                 if not done:
                     progress.tick(running)
     except KeyboardInterrupt:
+        # stop now: cancel what has not started (Dask cancels on the cluster too) and end the local workers, which
+        # would otherwise run the calls already queued to them; a job cut short leaves only its temporary
+        # directory, removed when it next runs
+        for f in futures:
+            f.cancel()
         if own_pool is not None:
+            procs = list((getattr(own_pool, "_processes", None) or {}).values())
             own_pool.shutdown(wait=False, cancel_futures=True)
+            for proc in procs:
+                with contextlib.suppress(Exception):
+                    proc.terminate()
             own_pool = None
         raise
     finally:
@@ -1075,7 +1106,8 @@ def build_many(
             own_pool.shutdown(wait=True)
         if own_client is not None:
             own_client.close()
-    return BatchResult([results[k] for k in range(len(plan))], log_path, time.perf_counter() - start)
+    phase["run_s"] = time.perf_counter() - t_run
+    return BatchResult([results[k] for k in range(len(plan))], log_path, time.perf_counter() - start, phase)
 
 
 def _as_library(jobs: Any) -> Library:
@@ -1123,7 +1155,7 @@ def _log(fh: TextIO | None, rec: dict[str, Any], run_id: str) -> None:
 
 
 # ------------------------------------------------------------------------------------------------ command line
-def add_parser(sub: Any, parser_class: Any = None) -> None:
+def add_parser(sub: Any) -> None:
     """Register ``tilesynth batch`` on the subparsers ``sub`` of the main parser."""
     b = sub.add_parser("batch", help="build a texture library described by a TOML batch file",
                        description="Build every job of a TOML batch file (format: python -m pydoc tilesynth.batch). "
