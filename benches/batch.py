@@ -37,9 +37,8 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
-
 import tilesynth as ts
+from PIL import Image
 from tilesynth import batch
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "textures"
@@ -64,7 +63,7 @@ def prepare(root: Path, n: int, src: Path) -> None:
     for p in names:
         im = Image.open(p).convert("RGB")
         im.crop((0, 0, min(CROP, im.width), min(CROP, im.height))).save(root / "tex" / p.name)
-    for mode in ("local", "dask", "sequential"):
+    for mode in ("local", "local-1x2", "dask", "sequential"):
         (root / f"{mode}.toml").write_text(f'output_dir = "out-{mode}"\n{PRESET}\n'
                                            '[[jobs]]\nexemplar = "tex/*.png"\npreset = "material"\nseed = 1\n')
 
@@ -95,8 +94,11 @@ def sequential(root: Path) -> dict:
             "peak_mb": {"this process": batch._peak_rss_mb()}}
 
 
-def via_batch(root: Path, mode: str, executor=None) -> dict:  # noqa: ANN001
-    kw = {"workers": 2} if executor is None else {"executor": executor, "threads": 1}
+def via_batch(root: Path, mode: str, executor=None) -> dict:
+    if executor is not None:
+        kw: dict = {"executor": executor, "threads": 1}
+    else:
+        kw = {"workers": 1, "threads": 2} if mode == "local-1x2" else {"workers": 2}
     t0, c0 = time.time(), time.process_time()
     res = batch.build_many(root / f"{mode}.toml", force=True, quiet=True, **kw)
     parent_cpu = time.process_time() - c0
@@ -119,20 +121,38 @@ def via_batch(root: Path, mode: str, executor=None) -> dict:  # noqa: ANN001
     # the local pool's workers live for this call only: their whole CPU (start-up, imports) counts; Dask's workers
     # outlive it, so only the jobs' CPU
     proc_cpu = parent_cpu + (sum(life.values()) if executor is None else job_cpu)
+    n_workers = len(life)
     return {"wall_s": res.wall_s, "cpu_s": job_cpu, "proc_cpu_s": proc_cpu, "stages": stages,
             "peak_mb": peak, "phases": res.timings, "first_job_s": first, "job_total_s": job_total,
-            "idle_worker_s": 2 * res.timings["run_s"] - job_total}
+            "idle_worker_s": n_workers * res.timings["run_s"] - job_total}
+
+
+def _spin(_: int = 0) -> float:
+    t = time.perf_counter()
+    x = 0
+    for i in range(3_000_000):
+        x += i * i
+    return time.perf_counter() - t
+
+
+def capacity(pool) -> float:
+    """How many cores this process gets right now: 2 x (one spin loop alone) / (two at once in two processes);
+    2.0 on an idle 2-core machine, about 1 when the other helpers keep it busy."""
+    alone = _spin()
+    both = max(pool.map(_spin, [0, 1]))
+    return 2 * alone / both
 
 
 def identical(root: Path) -> bool:
     a, b, c = root / "out-local", root / "out-dask", root / "out-sequential"
+    dirs = (a, b, c, root / "out-local-1x2")
     for p in sorted(a.glob("*.png")):
-        if p.read_bytes() != (b / p.name).read_bytes() or p.read_bytes() != (c / p.name).read_bytes():
+        if len({(d / p.name).read_bytes() for d in dirs}) != 1:
             return False
     for p in sorted(a.glob("*.tiles")):
         m = [{n: z.read(n) for n in z.namelist() if n != "timing.json"}
-             for z in (zipfile.ZipFile(d / p.name) for d in (a, b, c))]
-        if not m[0] == m[1] == m[2]:
+             for z in (zipfile.ZipFile(d / p.name) for d in dirs)]
+        if any(x != m[0] for x in m):
             return False
     return True
 
@@ -158,17 +178,25 @@ def main(argv: list[str] | None = None) -> int:
                                silence_logs=40)
         client = Client(cluster)
         cluster_start = time.perf_counter() - t
-        runs: dict[str, list[dict]] = {"sequential": [], "local": [], "dask": []}
+        runs: dict[str, list[dict]] = {"sequential": [], "local": [], "local-1x2": [], "dask": []}
+        caps: list[float] = []
         order = list(runs)
+        import multiprocessing
+
+        spin_pool = multiprocessing.get_context("spawn").Pool(2)
         for rep in range(args.repeats):
-            for mode in order[rep % 3:] + order[: rep % 3]:  # interleaved, rotating
+            k = rep % len(order)
+            for mode in order[k:] + order[:k]:  # interleaved, rotating
+                caps.append(capacity(spin_pool))
                 if mode == "sequential":
                     runs[mode].append(sequential(root))
-                elif mode == "local":
+                elif mode.startswith("local"):
                     runs[mode].append(via_batch(root, mode))
                 else:
                     runs[mode].append(via_batch(root, mode, client.get_executor(pure=False)))
-                print(f"repeat {rep + 1} {mode}: {runs[mode][-1]['wall_s']:.2f} s", file=sys.stderr)
+                print(f"repeat {rep + 1} {mode}: {runs[mode][-1]['wall_s']:.2f} s (capacity {caps[-1]:.2f} cores)",
+                      file=sys.stderr)
+        spin_pool.close()
         same = identical(root)
         client.close()
         cluster.close()
@@ -180,14 +208,18 @@ def main(argv: list[str] | None = None) -> int:
     cpu = {m: statistics.median(r["cpu_s"] for r in rs) for m, rs in runs.items()}
     pcpu = {m: statistics.median(r["proc_cpu_s"] for r in rs) for m, rs in runs.items()}
     print(f"## Batch: {args.jobs} jobs, {args.repeats} repeat(s), {batch._cores()} cores "
-          f"(load average {load0[0]:.1f} before, {load1[0]:.1f} after: the machine is shared)\n")
+          f"(load average {load0[0]:.1f} before, {load1[0]:.1f} after: the machine is shared; cores available to "
+          f"this bench before each run, measured: median {statistics.median(caps):.2f}, "
+          f"{min(caps):.2f}-{max(caps):.2f})\n")
     print("| way | wall (median) | vs sequential | vs local | job CPU s | all CPU s | peak RSS per worker (MB) |")
     print("|---|---:|---:|---:|---:|---:|---|")
     for m in runs:
         peaks = runs[m][-1]["peak_mb"]
         print(f"| {m} | {med[m]:.2f} s | {med[m] / med['sequential']:.2f}x | {med[m] / med['local']:.2f}x | "
               f"{cpu[m]:.1f} | {pcpu[m]:.1f} | {', '.join(f'{v:.0f}' for v in sorted(peaks.values()))} |")
-    print("\njob CPU: process CPU over the jobs (sequential: the loop); all CPU adds the parent and, for the local "
+    print("\nlocal = 2 workers x 1 kernel thread (the default on 2 cores), local-1x2 = 1 worker x 2 threads, dask = "
+          "LocalCluster 2 workers x 1 thread; sequential = a plain loop, kernels on both cores.")
+    print("job CPU: process CPU over the jobs (sequential: the loop); all CPU adds the parent and, for the local "
           "pool, the workers' start-up (Dask's workers outlive the call).")
     print(f"\nDask LocalCluster start-up (once, not in the walls above): {cluster_start:.2f} s. "
           f"Outputs byte-identical across the three ways (.tiles without timing.json): {'yes' if same else 'NO'}.\n")
@@ -204,7 +236,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"| {m} | " + " | ".join(cells + extra) + " |")
     if args.json:
         Path(args.json).write_text(json.dumps({"runs": runs, "median_wall_s": med, "cluster_start_s": cluster_start,
-                                               "identical": same, "load": [load0, load1]}, indent=1))
+                                               "identical": same, "load": [load0, load1], "capacity": caps},
+                                              indent=1))
     return 0 if same else 1
 
 

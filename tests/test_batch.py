@@ -431,3 +431,18 @@ def test_ctrl_c_then_the_same_command_resumes(lib_dir: Path) -> None:
     assert res.n_built == 6 - len(stamps) and res.n_failed == 0
     assert build_many(d / "ref.toml", workers=2, quiet=True).n_built == 6
     _same_outputs(d / "out", d / "ref")
+
+
+def test_local_pool_never_forks_a_process_that_ran_kernels(lib_dir: Path) -> None:
+    """The parent has run kernels (and so owns thread pools); the local workers start by forkserver or spawn and
+    build normally."""
+    assert batch._start_method() in ("forkserver", "spawn")
+    img = np.random.default_rng(1).random((24, 24, 3), dtype=np.float32)
+    ts.patch_ssd(img, img[:8, :8], threads=2)
+    d = lib_dir / "after-kernels"
+    (d / "tex").mkdir(parents=True)
+    for n in ("bread", "beans"):
+        shutil.copy(lib_dir / "tex" / f"{n}.png", d / "tex" / f"{n}.png")
+    (d / "lib.toml").write_text('output_dir = "out"\n[[jobs]]\nexemplar = "tex/b*.png"\ntile_size = 16\nset = "4"\n')
+    res = build_many(d / "lib.toml", workers=2, quiet=True)
+    assert res.n_built == 2 and {r["worker"] for r in res.records}.isdisjoint({f"{os.uname().nodename}:{os.getpid()}"})
