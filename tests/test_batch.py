@@ -446,3 +446,22 @@ def test_local_pool_never_forks_a_process_that_ran_kernels(lib_dir: Path) -> Non
     (d / "lib.toml").write_text('output_dir = "out"\n[[jobs]]\nexemplar = "tex/b*.png"\ntile_size = 16\nset = "4"\n')
     res = build_many(d / "lib.toml", workers=2, quiet=True)
     assert res.n_built == 2 and {r["worker"] for r in res.records}.isdisjoint({f"{os.uname().nodename}:{os.getpid()}"})
+
+
+def test_cli_scheduler_address_runs_on_the_cluster(lib_dir: Path, cluster, capsys) -> None:  # noqa: ANN001
+    """``tilesynth batch --scheduler tcp://...``: the jobs run in the cluster's worker processes."""
+    d = lib_dir / "scheduler"
+    (d / "tex").mkdir(parents=True)
+    for n in ("bread", "beans"):
+        shutil.copy(lib_dir / "tex" / f"{n}.png", d / "tex" / f"{n}.png")
+    (d / "lib.toml").write_text('output_dir = "out"\n[[jobs]]\nexemplar = "tex/b*.png"\ntile_size = 16\nset = "4"\n')
+    addr = cluster.scheduler.address
+    assert addr.startswith("tcp://")
+    assert cli_main(["batch", str(d / "lib.toml"), "--scheduler", addr, "--threads", "1", "-q"]) == 0
+    recs = [json.loads(s) for s in (d / "out" / "batch-log.jsonl").read_text().splitlines()]
+    workers = {w.split(":")[-1] for w in cluster.run(lambda: f"{os.getpid()}").values()}
+    assert [r["status"] for r in recs] == ["built", "built"]
+    assert {r["worker"].split(":")[-1] for r in recs} <= workers
+    assert cli_main(["batch", str(d / "lib.toml"), "--scheduler", addr, "-q"]) == 0  # up to date
+    assert "2 up to date" in capsys.readouterr().out
+    assert cli_main(["batch", str(d / "lib.toml"), "--scheduler", addr, "--workers", "1"]) == 2

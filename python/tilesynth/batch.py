@@ -994,6 +994,8 @@ def build_many(
         raise ParameterError(f"threads = {threads!r}: must be a positive integer")
     if scheduler is not None and executor is not None:
         raise ParameterError("scheduler and executor: give one of them, not both")
+    if workers is not None and (executor is not None or scheduler is not None):
+        raise ParameterError(f"workers = {workers}: only used with the local process pool (no executor, no scheduler)")
     if isinstance(executor, str) and executor != "serial":
         raise ParameterError(f"executor = {executor!r}: expected None, 'serial' or a concurrent.futures.Executor")
     if executor is not None and not isinstance(executor, (str, cf.Executor)):
