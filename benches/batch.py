@@ -17,6 +17,27 @@ Reported: wall time (median) and its ratio, the CPU seconds of the jobs (summed 
 ``process_time``), the peak resident memory of each worker (the largest per-job peak, ``VmHWM`` after a reset)
 and where the wall time goes (stage sums per job, pool start-up, time to the first job, idle worker time).
 
+Figures (2 vCPUs, shared with six other helpers; 24 jobs, 3 interleaved repeats, medians):
+
+| way | wall, quiet | vs sequential | wall, loaded | vs sequential | job CPU s (quiet / loaded) | peak RSS per worker |
+|---|---:|---:|---:|---:|---:|---|
+| sequential loop | 4.39 s | 1.00x | 14.0 s | 1.00x | 6.4 / 6.1 | 214 MB (one process) |
+| local, 2 workers x 1 thread | 5.35 s | 1.22x | 21.2 s | 1.51x | 9.5 / 9.9 | 179, 180 MB |
+| local, 1 worker x 2 threads | - | - | 23.4 s | 1.67x | - / 9.7 | 182 MB |
+| Dask LocalCluster, 2 x 1 | 6.00 s | 1.36x (1.12x local) | 31.4 s | 2.24x (1.48x local) | 11.0 / 11.1 | 209-214 MB |
+
+("quiet": load average 0.0 before, 1.6 after; "loaded": 5.1 before, 12.2 after, and the spin-loop probe gave this
+script a median of 0.90 of the 2 cores.) Where the time goes: the builds (the GA) are 77-90 % of the job time,
+previews ~15 %, sheets ~5 %, loading and the atomic commit < 1 %; the local pool's first job starts 0.2-0.4 s
+after submission (forkserver start and imports in each worker), the last job's tail leaves 0.7 worker-s idle;
+Dask's warm workers start at once (cluster start-up 0.9-1.8 s, once) but each task pays the scheduler round trip
+and its workers carry distributed's ~30 MB. On this machine two processes did not get two cores' worth (in a probe, two
+spin loops at once took 1.55x the wall of one alone), and the sequential loop's kernels already use both vCPUs
+where it matters, so spreading the jobs over processes did not pay: the batch's value here is skipping, resuming,
+isolation and the log, and the parallel speed-up needs real idle cores. The job CPU of the pools is ~1.5x the
+loop's in these runs, but equal (2.0-2.2 s for 8 jobs) in an isolated back-to-back comparison of the serial
+executor, 1 worker x 2 threads and 2 workers x 1 thread: it follows the machine's load, not the executor.
+
 Usage::
 
     python benches/batch.py              # 24 jobs, 3 repeats (about 4 minutes on 2 idle cores)
@@ -64,8 +85,10 @@ def prepare(root: Path, n: int, src: Path) -> None:
         im = Image.open(p).convert("RGB")
         im.crop((0, 0, min(CROP, im.width), min(CROP, im.height))).save(root / "tex" / p.name)
     for mode in ("local", "local-1x2", "dask", "sequential"):
-        (root / f"{mode}.toml").write_text(f'output_dir = "out-{mode}"\n{PRESET}\n'
-                                           '[[jobs]]\nexemplar = "tex/*.png"\npreset = "material"\nseed = 1\n')
+        (root / f"{mode}.toml").write_text(
+            f'output_dir = "out-{mode}"\n{PRESET}\n'
+            '[[jobs]]\nexemplar = "tex/*.png"\npreset = "material"\nseed = 1\n'
+        )
 
 
 def sequential(root: Path) -> dict:
@@ -78,8 +101,17 @@ def sequential(root: Path) -> dict:
     for p in sorted((root / "tex").glob("*.png")):
         t = time.perf_counter()
         img, bits = ts.load_image(p)
-        tiles = ts.build(img, scheme="omega", tileset="16a", tile_size=TILE, seed=1, select="ga", population=20,
-                         generations=10, exemplar_info={"file": p.name, "bits": bits})
+        tiles = ts.build(
+            img,
+            scheme="omega",
+            tileset="16a",
+            tile_size=TILE,
+            seed=1,
+            select="ga",
+            population=20,
+            generations=10,
+            exemplar_info={"file": p.name, "bits": bits},
+        )
         tiles.save(out / f"{p.stem}.tiles")
         t1 = time.perf_counter()
         ts.save_image(out / f"{p.stem}-sheet.png", ts.contact_sheet(tiles, show_cuts=True))
@@ -90,8 +122,13 @@ def sequential(root: Path) -> dict:
         for k, v in (("build_s", t1 - t), ("sheet_s", t2 - t1), ("preview_s", t3 - t2)):
             stages[k] = stages.get(k, 0.0) + v
     cpu = time.process_time() - c0
-    return {"wall_s": time.perf_counter() - t0, "cpu_s": cpu, "proc_cpu_s": cpu, "stages": stages,
-            "peak_mb": {"this process": batch._peak_rss_mb()}}
+    return {
+        "wall_s": time.perf_counter() - t0,
+        "cpu_s": cpu,
+        "proc_cpu_s": cpu,
+        "stages": stages,
+        "peak_mb": {"this process": batch._peak_rss_mb()},
+    }
 
 
 def via_batch(root: Path, mode: str, executor=None) -> dict:
@@ -122,9 +159,17 @@ def via_batch(root: Path, mode: str, executor=None) -> dict:
     # outlive it, so only the jobs' CPU
     proc_cpu = parent_cpu + (sum(life.values()) if executor is None else job_cpu)
     n_workers = len(life)
-    return {"wall_s": res.wall_s, "cpu_s": job_cpu, "proc_cpu_s": proc_cpu, "stages": stages,
-            "peak_mb": peak, "phases": res.timings, "first_job_s": first, "job_total_s": job_total,
-            "idle_worker_s": n_workers * res.timings["run_s"] - job_total}
+    return {
+        "wall_s": res.wall_s,
+        "cpu_s": job_cpu,
+        "proc_cpu_s": proc_cpu,
+        "stages": stages,
+        "peak_mb": peak,
+        "phases": res.timings,
+        "first_job_s": first,
+        "job_total_s": job_total,
+        "idle_worker_s": n_workers * res.timings["run_s"] - job_total,
+    }
 
 
 def _spin(_: int = 0) -> float:
@@ -150,8 +195,10 @@ def identical(root: Path) -> bool:
         if len({(d / p.name).read_bytes() for d in dirs}) != 1:
             return False
     for p in sorted(a.glob("*.tiles")):
-        m = [{n: z.read(n) for n in z.namelist() if n != "timing.json"}
-             for z in (zipfile.ZipFile(d / p.name) for d in dirs)]
+        m = [
+            {n: z.read(n) for n in z.namelist() if n != "timing.json"}
+            for z in (zipfile.ZipFile(d / p.name) for d in dirs)
+        ]
         if any(x != m[0] for x in m):
             return False
     return True
@@ -162,7 +209,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--jobs", type=int, default=24)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="8 jobs, 1 repeat")
-    ap.add_argument("--dir", default=str(SHARED), help="directory of the textures (default ../shared/textures)")
+    ap.add_argument(
+        "--dir", default=str(SHARED), help="directory of the textures (default ../shared/textures)"
+    )
     ap.add_argument("--json", default=None, help="also write the raw figures to this JSON file")
     args = ap.parse_args(argv)
     if args.quick:
@@ -174,8 +223,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         prepare(root, args.jobs, Path(args.dir))
         t = time.perf_counter()
-        cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=40)
+        cluster = LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=40
+        )
         client = Client(cluster)
         cluster_start = time.perf_counter() - t
         runs: dict[str, list[dict]] = {"sequential": [], "local": [], "local-1x2": [], "dask": []}
@@ -194,8 +244,10 @@ def main(argv: list[str] | None = None) -> int:
                     runs[mode].append(via_batch(root, mode))
                 else:
                     runs[mode].append(via_batch(root, mode, client.get_executor(pure=False)))
-                print(f"repeat {rep + 1} {mode}: {runs[mode][-1]['wall_s']:.2f} s (capacity {caps[-1]:.2f} cores)",
-                      file=sys.stderr)
+                print(
+                    f"repeat {rep + 1} {mode}: {runs[mode][-1]['wall_s']:.2f} s (capacity {caps[-1]:.2f} cores)",
+                    file=sys.stderr,
+                )
         spin_pool.close()
         same = identical(root)
         client.close()
@@ -207,37 +259,64 @@ def main(argv: list[str] | None = None) -> int:
     med = {m: statistics.median(r["wall_s"] for r in rs) for m, rs in runs.items()}
     cpu = {m: statistics.median(r["cpu_s"] for r in rs) for m, rs in runs.items()}
     pcpu = {m: statistics.median(r["proc_cpu_s"] for r in rs) for m, rs in runs.items()}
-    print(f"## Batch: {args.jobs} jobs, {args.repeats} repeat(s), {batch._cores()} cores "
-          f"(load average {load0[0]:.1f} before, {load1[0]:.1f} after: the machine is shared; cores available to "
-          f"this bench before each run, measured: median {statistics.median(caps):.2f}, "
-          f"{min(caps):.2f}-{max(caps):.2f})\n")
-    print("| way | wall (median) | vs sequential | vs local | job CPU s | all CPU s | peak RSS per worker (MB) |")
+    print(
+        f"## Batch: {args.jobs} jobs, {args.repeats} repeat(s), {batch._cores()} cores "
+        f"(load average {load0[0]:.1f} before, {load1[0]:.1f} after: the machine is shared; cores available to "
+        f"this bench before each run, measured: median {statistics.median(caps):.2f}, "
+        f"{min(caps):.2f}-{max(caps):.2f})\n"
+    )
+    print(
+        "| way | wall (median) | vs sequential | vs local | job CPU s | all CPU s | peak RSS per worker (MB) |"
+    )
     print("|---|---:|---:|---:|---:|---:|---|")
     for m in runs:
         peaks = runs[m][-1]["peak_mb"]
-        print(f"| {m} | {med[m]:.2f} s | {med[m] / med['sequential']:.2f}x | {med[m] / med['local']:.2f}x | "
-              f"{cpu[m]:.1f} | {pcpu[m]:.1f} | {', '.join(f'{v:.0f}' for v in sorted(peaks.values()))} |")
-    print("\nlocal = 2 workers x 1 kernel thread (the default on 2 cores), local-1x2 = 1 worker x 2 threads, dask = "
-          "LocalCluster 2 workers x 1 thread; sequential = a plain loop, kernels on both cores.")
-    print("job CPU: process CPU over the jobs (sequential: the loop); all CPU adds the parent and, for the local "
-          "pool, the workers' start-up (Dask's workers outlive the call).")
-    print(f"\nDask LocalCluster start-up (once, not in the walls above): {cluster_start:.2f} s. "
-          f"Outputs byte-identical across the three ways (.tiles without timing.json): {'yes' if same else 'NO'}.\n")
+        print(
+            f"| {m} | {med[m]:.2f} s | {med[m] / med['sequential']:.2f}x | {med[m] / med['local']:.2f}x | "
+            f"{cpu[m]:.1f} | {pcpu[m]:.1f} | {', '.join(f'{v:.0f}' for v in sorted(peaks.values()))} |"
+        )
+    print(
+        "\nlocal = 2 workers x 1 kernel thread (the default on 2 cores), local-1x2 = 1 worker x 2 threads, dask = "
+        "LocalCluster 2 workers x 1 thread; sequential = a plain loop, kernels on both cores."
+    )
+    print(
+        "job CPU: process CPU over the jobs (sequential: the loop); all CPU adds the parent and, for the local "
+        "pool, the workers' start-up (Dask's workers outlive the call)."
+    )
+    print(
+        f"\nDask LocalCluster start-up (once, not in the walls above): {cluster_start:.2f} s. "
+        f"Outputs byte-identical across the three ways (.tiles without timing.json): {'yes' if same else 'NO'}.\n"
+    )
     print("Where the time goes (median run of each way; stage sums over the jobs, seconds):\n")
     stages = sorted({k for rs in runs.values() for r in rs for k in r["stages"]})
-    print("| way | " + " | ".join(s.removesuffix("_s") for s in stages) + " | pool start | first job after | "
-          "idle worker-s |")
+    print(
+        "| way | " + " | ".join(s.removesuffix("_s") for s in stages) + " | pool start | first job after | "
+        "idle worker-s |"
+    )
     print("|---|" + "---:|" * (len(stages) + 3))
     for m, rs in runs.items():
         r = sorted(rs, key=lambda x: x["wall_s"])[len(rs) // 2]
         cells = [f"{r['stages'].get(s, 0.0):.2f}" for s in stages]
-        extra = (["-", "-", "-"] if m == "sequential" else
-                 [f"{r['phases']['start_s']:.2f}", f"{r['first_job_s']:.2f}", f"{r['idle_worker_s']:.2f}"])
+        extra = (
+            ["-", "-", "-"]
+            if m == "sequential"
+            else [f"{r['phases']['start_s']:.2f}", f"{r['first_job_s']:.2f}", f"{r['idle_worker_s']:.2f}"]
+        )
         print(f"| {m} | " + " | ".join(cells + extra) + " |")
     if args.json:
-        Path(args.json).write_text(json.dumps({"runs": runs, "median_wall_s": med, "cluster_start_s": cluster_start,
-                                               "identical": same, "load": [load0, load1], "capacity": caps},
-                                              indent=1))
+        Path(args.json).write_text(
+            json.dumps(
+                {
+                    "runs": runs,
+                    "median_wall_s": med,
+                    "cluster_start_s": cluster_start,
+                    "identical": same,
+                    "load": [load0, load1],
+                    "capacity": caps,
+                },
+                indent=1,
+            )
+        )
     return 0 if same else 1
 
 

@@ -99,8 +99,12 @@ def lib_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def cluster():  # noqa: ANN201
     distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                                  silence_logs=40) as lc, distributed.Client(lc) as client:
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=40
+        ) as lc,
+        distributed.Client(lc) as client,
+    ):
         yield client
 
 
@@ -110,8 +114,11 @@ def _members(path: Path) -> dict[str, bytes]:
 
 
 def _outputs(root: Path) -> dict[str, Path]:
-    return {str(p.relative_to(root)): p for p in sorted(root.rglob("*"))
-            if p.is_file() and not p.name.endswith((".batch.json", ".jsonl"))}
+    return {
+        str(p.relative_to(root)): p
+        for p in sorted(root.rglob("*"))
+        if p.is_file() and not p.name.endswith((".batch.json", ".jsonl"))
+    }
 
 
 def _same_outputs(a: Path, b: Path) -> None:
@@ -143,7 +150,9 @@ def test_library_expands_and_names_outputs(lib_dir: Path) -> None:
 
 def test_dask_local_and_cli_builds_are_identical(lib_dir: Path, cluster) -> None:  # noqa: ANN001
     """LocalCluster (2 worker processes) == local process pool == one CLI build/synth per job."""
-    res_a = build_many(lib_dir / "out-a.toml", executor=cluster.get_executor(pure=False), threads=1, quiet=True)
+    res_a = build_many(
+        lib_dir / "out-a.toml", executor=cluster.get_executor(pure=False), threads=1, quiet=True
+    )
     assert _run(res_a.records) == dict.fromkeys(_run(res_a.records), "built"), res_a.summary()
     assert len(res_a.records) == 6
     workers = {r["worker"] for r in res_a.records}
@@ -159,12 +168,20 @@ def test_dask_local_and_cli_builds_are_identical(lib_dir: Path, cluster) -> None
     tex = lib_dir / "tex"
     builds = {
         "gravel": ("gravel", ["--set", "8", "--tile-size", "16", "--seed", "5"], "80x64", "7"),
-        "grass-straw": ("grass-straw", ["--scheme", "wang", "--set", "wang8", "--tile-size", "16", "--seed", "2"],
-                        "64x64", "3"),
+        "grass-straw": (
+            "grass-straw",
+            ["--scheme", "wang", "--set", "wang8", "--tile-size", "16", "--seed", "2"],
+            "64x64",
+            "3",
+        ),
         "food/caustics": ("caustics", ["--set", "8", "--tile-size", "16", "--seed", "11"], "80x64", "7"),
         "food/crackers": ("crackers", ["--set", "8", "--tile-size", "16", "--seed", "11"], "80x64", "7"),
-        "beans": ("beans", ["--set", "8", "--tile-size", "16", "--seed", "4", "--select", "best-of",
-                            "--population", "4"], "80x64", "7"),
+        "beans": (
+            "beans",
+            ["--set", "8", "--tile-size", "16", "--seed", "4", "--select", "best-of", "--population", "4"],
+            "80x64",
+            "7",
+        ),
         "bread-loaf": ("bread", ["--set", "8", "--tile-size", "16", "--seed", "1"], "80x64", "7"),
     }
     for name, (src, opts, size, seed) in builds.items():
@@ -172,8 +189,23 @@ def test_dask_local_and_cli_builds_are_identical(lib_dir: Path, cluster) -> None
         sheet = ["--sheet", str(cli / f"{name}-sheet.png")]
         assert cli_main(["build", str(tex / f"{src}.png"), "-o", str(tiles), "-q", *opts, *sheet]) == 0
         with_ = ["--with", str(lib_dir / "maps" / "gravel-height.png")] if name == "gravel" else []
-        assert cli_main(["synth", str(tiles), "-o", str(cli / f"{name}-preview.png"), "--size", size, "--seed", seed,
-                         "-q", *with_]) == 0
+        assert (
+            cli_main(
+                [
+                    "synth",
+                    str(tiles),
+                    "-o",
+                    str(cli / f"{name}-preview.png"),
+                    "--size",
+                    size,
+                    "--seed",
+                    seed,
+                    "-q",
+                    *with_,
+                ]
+            )
+            == 0
+        )
     (cli / "gravel-preview-gravel-height.png").rename(cli / "gravel-preview-height.png")
     _same_outputs(lib_dir / "out-b", cli)
 
@@ -195,12 +227,16 @@ def test_rerun_skips_touch_and_change(lib_dir: Path) -> None:
     Image.fromarray(img).save(lib_dir / "tex-c" / "beans.png")
     changed = build_many(toml, workers=2, quiet=True)
     assert {k for k, v in _run(changed.records).items() if v == "built"} == {"beans"}
-    assert {k for k, v in _run(changed.records).items() if v == "skipped"} == set(_run(changed.records)) - {"beans"}
+    assert {k for k, v in _run(changed.records).items() if v == "skipped"} == set(_run(changed.records)) - {
+        "beans"
+    }
     after = {p: p.read_bytes() for p in out.rglob("*.png")}
     assert [p.name for p in before if before[p] != after[p] and not p.name.startswith("beans")] == []
     # a parameter change rebuilds the jobs of that preset only
-    toml.write_text(toml.read_text().replace('seed = 3 }]', 'seed = 4 }]'))
-    assert {k for k, v in _run(build_many(toml, quiet=True).records).items() if v == "built"} == {"grass-straw"}
+    toml.write_text(toml.read_text().replace("seed = 3 }]", "seed = 4 }]"))
+    assert {k for k, v in _run(build_many(toml, quiet=True).records).items() if v == "built"} == {
+        "grass-straw"
+    }
     # --force rebuilds all, the outputs stay the same
     now = {p: p.read_bytes() for p in out.rglob("*.png")}
     assert now[out / "grass-straw-preview.png"] != after[out / "grass-straw-preview.png"]
@@ -236,7 +272,9 @@ def test_broken_file_fails_alone(lib_dir: Path, capsys: pytest.CaptureFixture[st
     assert recs["too-big"]["status"] == "failed" and "tile_size = 64" in recs["too-big"]["error"]
     assert recs["beans"]["outputs"] == []
     left = sorted(p.name for p in (d / "out").iterdir())
-    assert not [n for n in left if n.startswith(("beans", "too-big", "."))], left  # no partial output, no temp dir
+    assert not [n for n in left if n.startswith(("beans", "too-big", "."))], (
+        left
+    )  # no partial output, no temp dir
     assert "gravel.tiles" in left and "bread-preview.png" in left
 
 
@@ -244,7 +282,9 @@ def test_interrupted_job_is_rebuilt_and_temp_removed(lib_dir: Path) -> None:
     d = lib_dir / "resume"
     (d / "tex").mkdir(parents=True)
     shutil.copy(lib_dir / "tex" / "bread.png", d / "tex" / "bread.png")
-    (d / "lib.toml").write_text('output_dir = "out"\n[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = 16\nset = "4"\n')
+    (d / "lib.toml").write_text(
+        'output_dir = "out"\n[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = 16\nset = "4"\n'
+    )
     assert build_many(d / "lib.toml", executor="serial", quiet=True).n_built == 1
     ref = _members(d / "out" / "bread.tiles")
     # what an interruption between the renames and the stamp leaves: outputs, a temp directory, no stamp
@@ -266,7 +306,9 @@ def test_progress_lines(lib_dir: Path) -> None:
     (d / "tex").mkdir(parents=True)
     for n in ("bread", "beans"):
         shutil.copy(lib_dir / "tex" / f"{n}.png", d / "tex" / f"{n}.png")
-    (d / "lib.toml").write_text('output_dir = "out"\n[[jobs]]\nexemplar = "tex/b*.png"\ntile_size = 16\nset = "4"\n')
+    (d / "lib.toml").write_text(
+        'output_dir = "out"\n[[jobs]]\nexemplar = "tex/b*.png"\ntile_size = 16\nset = "4"\n'
+    )
     stream = io.StringIO()
     build_many(d / "lib.toml", executor="serial", stream=stream)
     text = stream.getvalue()
@@ -276,49 +318,90 @@ def test_progress_lines(lib_dir: Path) -> None:
 
 # ------------------------------------------------------------------------------------------------ bad files
 BAD = {
-    "unknown preset": ('[[jobs]]\nexemplar = "tex/bread.png"\npreset = "nope"\n',
-                       "job 1 ('tex/bread.png'): field 'preset' = 'nope': unknown preset"),
+    "unknown preset": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\npreset = "nope"\n',
+        "job 1 ('tex/bread.png'): field 'preset' = 'nope': unknown preset",
+    ),
     "missing exemplar": ('[[jobs]]\nexemplar = "tex/none.png"\n', "job 1 ('tex/none.png'): field 'exemplar'"),
-    "no exemplar field": ('[[jobs]]\nseed = 1\n', "job 1: field 'exemplar' is missing"),
+    "no exemplar field": ("[[jobs]]\nseed = 1\n", "job 1: field 'exemplar' is missing"),
     "glob matching nothing": ('[[jobs]]\nexemplar = "tex/zz*.png"\n', "the glob matches no file"),
-    "duplicate names": ('[[jobs]]\nexemplar = "tex/bread.png"\n[[jobs]]\nexemplar = "tex/beans.png"\nname = "bread"\n',
-                        "job 2 ('tex/beans.png'): field 'name': duplicate output name 'bread'"),
-    "same file": ('[[jobs]]\nexemplar = "tex/bread.png"\nname = "x"\nmaps = {preview = "tex/bread.png"}\n'
-                  'previews = [{size = "32x32"}]\n[[jobs]]\nexemplar = "tex/beans.png"\nname = "x-preview"\n'
-                  'previews = [{size = "32x32"}]\n',
-                  "job 2 ('tex/beans.png'): field 'name': its preview output"),
-    "same file as the log": ('output_dir = "out"\nlog = "out/bread.tiles"\n[[jobs]]\nexemplar = "tex/bread.png"\n',
-                             "its tiles output"),
-    "output inside a report": ('[[jobs]]\nexemplar = "tex/bread.png"\nname = "a"\nreport = true\n[[jobs]]\n'
-                               'exemplar = "tex/beans.png"\nname = "a-report/b"\n', "lies inside report output"),
+    "duplicate names": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\n[[jobs]]\nexemplar = "tex/beans.png"\nname = "bread"\n',
+        "job 2 ('tex/beans.png'): field 'name': duplicate output name 'bread'",
+    ),
+    "same file": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\nname = "x"\nmaps = {preview = "tex/bread.png"}\n'
+        'previews = [{size = "32x32"}]\n[[jobs]]\nexemplar = "tex/beans.png"\nname = "x-preview"\n'
+        'previews = [{size = "32x32"}]\n',
+        "job 2 ('tex/beans.png'): field 'name': its preview output",
+    ),
+    "same file as the log": (
+        'output_dir = "out"\nlog = "out/bread.tiles"\n[[jobs]]\nexemplar = "tex/bread.png"\n',
+        "its tiles output",
+    ),
+    "output inside a report": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\nname = "a"\nreport = true\n[[jobs]]\n'
+        'exemplar = "tex/beans.png"\nname = "a-report/b"\n',
+        "lies inside report output",
+    ),
     "glob without stem": ('[[jobs]]\nexemplar = "tex/b*.png"\nname = "same"\n', "needs {stem}"),
-    "unknown key": ('[[jobs]]\nexemplar = "tex/bread.png"\ntilesize = 16\n',
-                    "field 'tilesize' (did you mean 'tile_size'?)"),
-    "unknown preset key": ('[presets.p]\ncolour = 1\n[[jobs]]\nexemplar = "tex/bread.png"\n',
-                           "preset 'p': unknown field 'colour'"),
-    "unknown top key": ('jobz = 1\n[[jobs]]\nexemplar = "tex/bread.png"\n', "top level: unknown field 'jobz'"),
-    "wrong type": ('[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = "16"\n',
-                   "field 'tile_size' = '16': expected an integer"),
-    "bool for int": ('[[jobs]]\nexemplar = "tex/bread.png"\nseed = true\n', "field 'seed' = True: expected an integer"),
+    "unknown key": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\ntilesize = 16\n',
+        "field 'tilesize' (did you mean 'tile_size'?)",
+    ),
+    "unknown preset key": (
+        '[presets.p]\ncolour = 1\n[[jobs]]\nexemplar = "tex/bread.png"\n',
+        "preset 'p': unknown field 'colour'",
+    ),
+    "unknown top key": (
+        'jobz = 1\n[[jobs]]\nexemplar = "tex/bread.png"\n',
+        "top level: unknown field 'jobz'",
+    ),
+    "wrong type": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = "16"\n',
+        "field 'tile_size' = '16': expected an integer",
+    ),
+    "bool for int": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\nseed = true\n',
+        "field 'seed' = True: expected an integer",
+    ),
     "odd tile size": ('[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = 15\n', "must be even"),
     "bad scheme": ('[[jobs]]\nexemplar = "tex/bread.png"\nscheme = "hex"\n', "field 'scheme' = 'hex'"),
     "set of another scheme": ('[[jobs]]\nexemplar = "tex/bread.png"\nset = "wang8"\n', "needs a corner set"),
     "unknown set": ('[[jobs]]\nexemplar = "tex/bread.png"\nset = "17q"\n', "field 'set' = '17q'"),
-    "option of another scheme": ('[presets.w]\nscheme = "wang"\nsmooth = true\n[[jobs]]\nexemplar = "tex/bread.png"\n'
-                                 'preset = "w"\n', "field 'smooth' (from the preset): not used with scheme 'wang'"),
-    "generations with random": ('[[jobs]]\nexemplar = "tex/bread.png"\ngenerations = 3\n', "field 'generations'"),
-    "bad preview": ('[[jobs]]\nexemplar = "tex/bread.png"\npreviews = [{size = "0x4"}]\n',
-                    "field 'previews' entry 1: field 'size'"),
-    "preview without size": ('[[jobs]]\nexemplar = "tex/bread.png"\npreviews = [{seed = 1}]\n', "'size' is missing"),
-    "bad map kind": ('[[jobs]]\nexemplar = "tex/bread.png"\nmap_kinds = {n = "blur"}\n', "entry 'n' = 'blur'"),
-    "missing map": ('[[jobs]]\nexemplar = "tex/bread.png"\nmaps = {n = "tex/none.png"}\n',
-                    "field 'maps' entry 'n' = 'tex/none.png': no such file"),
+    "option of another scheme": (
+        '[presets.w]\nscheme = "wang"\nsmooth = true\n[[jobs]]\nexemplar = "tex/bread.png"\npreset = "w"\n',
+        "field 'smooth' (from the preset): not used with scheme 'wang'",
+    ),
+    "generations with random": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\ngenerations = 3\n',
+        "field 'generations'",
+    ),
+    "bad preview": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\npreviews = [{size = "0x4"}]\n',
+        "field 'previews' entry 1: field 'size'",
+    ),
+    "preview without size": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\npreviews = [{seed = 1}]\n',
+        "'size' is missing",
+    ),
+    "bad map kind": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\nmap_kinds = {n = "blur"}\n',
+        "entry 'n' = 'blur'",
+    ),
+    "missing map": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\nmaps = {n = "tex/none.png"}\n',
+        "field 'maps' entry 'n' = 'tex/none.png': no such file",
+    ),
     "name escaping": ('[[jobs]]\nexemplar = "tex/bread.png"\nname = "../x"\n', "field 'name' = '../x'"),
-    "output over an input": ('output_dir = "tex"\n[[jobs]]\nexemplar = "tex/bread.png"\n'
-                             '[[jobs]]\nexemplar = "tex/bread-sheet.png"\nname = "r"\n', "would overwrite an input"),
+    "output over an input": (
+        'output_dir = "tex"\n[[jobs]]\nexemplar = "tex/bread.png"\n'
+        '[[jobs]]\nexemplar = "tex/bread-sheet.png"\nname = "r"\n',
+        "would overwrite an input",
+    ),
     "export": ('[[jobs]]\nexemplar = "tex/bread.png"\nexport = {format = "gltf"}\n', "field 'export'"),
     "no jobs": ('[presets.p]\nset = "8"\n', "no jobs"),
-    "not toml": ('[[jobs]\nexemplar = 1\n', "not valid TOML"),
+    "not toml": ("[[jobs]\nexemplar = 1\n", "not valid TOML"),
     "version": ('version = 2\n[[jobs]]\nexemplar = "tex/bread.png"\n', "only version 1"),
 }
 
@@ -344,7 +427,9 @@ def test_cli_dry_run_and_json(lib_dir: Path, capsys: pytest.CaptureFixture[str])
     d = lib_dir / "dry"
     (d / "tex").mkdir(parents=True)
     shutil.copy(lib_dir / "tex" / "bread.png", d / "tex" / "bread.png")
-    (d / "lib.toml").write_text('output_dir = "out"\n[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = 16\nset = "4"\n')
+    (d / "lib.toml").write_text(
+        'output_dir = "out"\n[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = 16\nset = "4"\n'
+    )
     assert cli_main(["batch", str(d / "lib.toml"), "--dry-run"]) == 0
     assert "bread: to build" in capsys.readouterr().out and not (d / "out").exists()
     assert cli_main(["batch", str(d / "lib.toml"), "--json", "-q", "--threads", "1"]) == 0
@@ -380,11 +465,15 @@ def test_kernel_objects_pickle_by_rebuilding() -> None:
     genes = r.integers(0, 24, size=(5, 4, 2))
     e1 = ev.evaluate(genes)
     ev2 = pickle.loads(pickle.dumps(ev))
-    assert ev2.cache_stats()["entries"] == 0 and ev2.cache_stats()["limit"] == 1 << 20  # the cache is not sent
+    assert (
+        ev2.cache_stats()["entries"] == 0 and ev2.cache_stats()["limit"] == 1 << 20
+    )  # the cache is not sent
     assert ev2.lam == 0.7 and ev2.normalise
     assert all(np.array_equal(a, b) for a, b in zip(e1, ev2.evaluate(genes)))
     ws = ts.get_wang_tileset("wang8")
-    wev = ts.WangEvaluator(img, ws.sample_indices(), ws.n_samples, 16, 4, corners="pinned", cut="graph", omega=0.6)
+    wev = ts.WangEvaluator(
+        img, ws.sample_indices(), ws.n_samples, 16, 4, corners="pinned", cut="graph", omega=0.6
+    )
     g = r.integers(0, 16, size=(3, ws.n_samples, 2))
     w2 = pickle.loads(pickle.dumps(wev))
     assert all(np.array_equal(a, b) for a, b in zip(wev.evaluate(g), w2.evaluate(g)))
@@ -403,8 +492,10 @@ def test_ctrl_c_then_the_same_command_resumes(lib_dir: Path) -> None:
     for n in TEXTURES:
         shutil.copy(lib_dir / "tex" / f"{n}.png", d / "tex" / f"{n}.png")
     # slow enough jobs (the GA) that the interruption lands while some are still to run
-    body = ('[presets.p]\ntile_size = 16\nset = "8"\nselect = "ga"\npopulation = 30\ngenerations = 40\n'
-            'previews = [{ size = "64x64" }]\n[[jobs]]\nexemplar = "tex/*.png"\npreset = "p"\n')
+    body = (
+        '[presets.p]\ntile_size = 16\nset = "8"\nselect = "ga"\npopulation = 30\ngenerations = 40\n'
+        'previews = [{ size = "64x64" }]\n[[jobs]]\nexemplar = "tex/*.png"\npreset = "p"\n'
+    )
     (d / "lib.toml").write_text('output_dir = "out"\n' + body)
     (d / "ref.toml").write_text('output_dir = "ref"\n' + body)
     cmd = [sys.executable, "-m", "tilesynth", "batch", str(d / "lib.toml"), "--workers", "1", "-q"]
@@ -443,9 +534,13 @@ def test_local_pool_never_forks_a_process_that_ran_kernels(lib_dir: Path) -> Non
     (d / "tex").mkdir(parents=True)
     for n in ("bread", "beans"):
         shutil.copy(lib_dir / "tex" / f"{n}.png", d / "tex" / f"{n}.png")
-    (d / "lib.toml").write_text('output_dir = "out"\n[[jobs]]\nexemplar = "tex/b*.png"\ntile_size = 16\nset = "4"\n')
+    (d / "lib.toml").write_text(
+        'output_dir = "out"\n[[jobs]]\nexemplar = "tex/b*.png"\ntile_size = 16\nset = "4"\n'
+    )
     res = build_many(d / "lib.toml", workers=2, quiet=True)
-    assert res.n_built == 2 and {r["worker"] for r in res.records}.isdisjoint({f"{os.uname().nodename}:{os.getpid()}"})
+    assert res.n_built == 2 and {r["worker"] for r in res.records}.isdisjoint(
+        {f"{os.uname().nodename}:{os.getpid()}"}
+    )
 
 
 def test_cli_scheduler_address_runs_on_the_cluster(lib_dir: Path, cluster, capsys) -> None:  # noqa: ANN001
@@ -454,7 +549,9 @@ def test_cli_scheduler_address_runs_on_the_cluster(lib_dir: Path, cluster, capsy
     (d / "tex").mkdir(parents=True)
     for n in ("bread", "beans"):
         shutil.copy(lib_dir / "tex" / f"{n}.png", d / "tex" / f"{n}.png")
-    (d / "lib.toml").write_text('output_dir = "out"\n[[jobs]]\nexemplar = "tex/b*.png"\ntile_size = 16\nset = "4"\n')
+    (d / "lib.toml").write_text(
+        'output_dir = "out"\n[[jobs]]\nexemplar = "tex/b*.png"\ntile_size = 16\nset = "4"\n'
+    )
     addr = cluster.scheduler.address
     assert addr.startswith("tcp://")
     assert cli_main(["batch", str(d / "lib.toml"), "--scheduler", addr, "--threads", "1", "-q"]) == 0

@@ -274,11 +274,15 @@ def _tomllib():  # noqa: ANN202
     try:  # pragma: no cover - Python 3.10
         import tomli as tomllib
     except ImportError:  # pragma: no cover
-        raise BatchError("reading batch files on Python 3.10 needs the 'tomli' package (pip install tomli)") from None
+        raise BatchError(
+            "reading batch files on Python 3.10 needs the 'tomli' package (pip install tomli)"
+        ) from None
     return tomllib  # pragma: no cover
 
 
-def parse_library(data: Mapping[str, Any], base_dir: str | os.PathLike[str], source: str = "<batch>") -> Library:
+def parse_library(
+    data: Mapping[str, Any], base_dir: str | os.PathLike[str], source: str = "<batch>"
+) -> Library:
     """Validate the content of a batch file (a dict, as ``tomllib`` gives it); paths are relative to ``base_dir``."""
     base = Path(base_dir).resolve()
     if not isinstance(data, Mapping):
@@ -334,10 +338,16 @@ def _size(value: Any, where: str) -> list[int]:
         m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", value)
         if m:
             value = [int(m.group(1)), int(m.group(2))]
-    if (isinstance(value, list) and len(value) == 2 and all(isinstance(v, int) and not isinstance(v, bool)
-                                                             for v in value) and min(value) >= 1):
+    if (
+        isinstance(value, list)
+        and len(value) == 2
+        and all(isinstance(v, int) and not isinstance(v, bool) for v in value)
+        and min(value) >= 1
+    ):
         return [int(value[0]), int(value[1])]
-    raise BatchError(f"{where} = {value!r}: expected \"WIDTHxHEIGHT\" or [WIDTH, HEIGHT] with positive integers")
+    raise BatchError(
+        f'{where} = {value!r}: expected "WIDTHxHEIGHT" or [WIDTH, HEIGHT] with positive integers'
+    )
 
 
 def _check_option(key: str, value: Any, where: str) -> Any:
@@ -349,7 +359,7 @@ def _check_option(key: str, value: Any, where: str) -> Any:
         if value == "all":
             return value
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-            raise BatchError(f"{w} = {value!r}: expected a positive integer or \"all\"")
+            raise BatchError(f'{w} = {value!r}: expected a positive integer or "all"')
         return value
     if kind == "int":
         _typed(value, int, w)
@@ -372,7 +382,9 @@ def _check_set(name: str, scheme: str, where: str) -> None:
 
     wang = is_wang_set_name(name)
     if wang != (scheme != "omega"):
-        want = "a corner set (4, 8, 16a, ...)" if scheme == "omega" else "an edge-coloured set (wang8, wang18)"
+        want = (
+            "a corner set (4, 8, 16a, ...)" if scheme == "omega" else "an edge-coloured set (wang8, wang18)"
+        )
         raise BatchError(f"{where}: field 'set' = {name!r}: scheme {scheme!r} needs {want}")
     try:
         get_wang_tileset(name) if wang else get_tileset(name)
@@ -380,7 +392,9 @@ def _check_set(name: str, scheme: str, where: str) -> None:
         raise BatchError(f"{where}: field 'set' = {name!r}: {str(exc).strip(chr(39) + chr(34))}") from None
 
 
-def _effective(preset: dict[str, Any], job: dict[str, Any], where: str) -> tuple[dict[str, Any], dict[str, str]]:
+def _effective(
+    preset: dict[str, Any], job: dict[str, Any], where: str
+) -> tuple[dict[str, Any], dict[str, str]]:
     """Build options with defaults resolved; also which layer set each option (for messages)."""
     merged = {**preset, **job}
     origin = {k: "job" for k in job} | {k: "preset" for k in preset if k not in job}
@@ -389,31 +403,38 @@ def _effective(preset: dict[str, Any], job: dict[str, Any], where: str) -> tuple
     for key in given:
         schemes = _BUILD_OPTIONS[key][2]
         if scheme not in schemes:
-            raise BatchError(f"{where}: field {key!r} (from the {origin[key]}): not used with scheme {scheme!r} "
-                             f"(only with {' or '.join(schemes)})")
+            raise BatchError(
+                f"{where}: field {key!r} (from the {origin[key]}): not used with scheme {scheme!r} "
+                f"(only with {' or '.join(schemes)})"
+            )
     opts = {k: given.get(k, d) for k, (_, _, schemes, d) in _BUILD_OPTIONS.items() if scheme in schemes}
     opts["set"] = opts["set"] or _DEFAULT_SETS[scheme]
     _check_set(opts["set"], scheme, where)
     if opts["select"] in ("random", "best-of") and opts["generations"] is not None:
-        raise BatchError(f"{where}: field 'generations': only used with select = \"ga\" or \"ais\"")
+        raise BatchError(f'{where}: field \'generations\': only used with select = "ga" or "ais"')
     if opts["select"] == "random" and opts["population"] is not None:
         raise BatchError(f"{where}: field 'population': not used with select = \"random\"")
     if scheme == "omega" and opts["match_k"] is not None and opts["match"] != "best-cut":
         raise BatchError(f"{where}: field 'match_k': only used with match = \"best-cut\"")
     if scheme == "omega" and opts["metric"] == "eq2" and opts["select"] != "random":
-        raise BatchError(f"{where}: field 'metric' = \"eq2\": computed by direct sums, not usable with select")
+        raise BatchError(
+            f"{where}: field 'metric' = \"eq2\": computed by direct sums, not usable with select"
+        )
     return opts, origin
 
 
-def _expand_job(k: int, body: Any, presets: dict[str, dict[str, Any]], base: Path, out_dir: Path,
-                source: str) -> list[Job]:
+def _expand_job(
+    k: int, body: Any, presets: dict[str, dict[str, Any]], base: Path, out_dir: Path, source: str
+) -> list[Job]:
     where = f"{source}: job {k}"
     body = _typed(body, dict, where)
     if "exemplar" in body and isinstance(body["exemplar"], str):
         where = f"{source}: job {k} ({body['exemplar']!r})"
     _unknown(body, _JOB_KEYS, where)
     if "exemplar" not in body:
-        raise BatchError(f"{where}: field 'exemplar' is missing (an image path or a glob, relative to the file)")
+        raise BatchError(
+            f"{where}: field 'exemplar' is missing (an image path or a glob, relative to the file)"
+        )
     pattern = _typed(body["exemplar"], str, f"{where}: field 'exemplar'")
     preset_name = body.get("preset")
     preset: dict[str, Any] = {}
@@ -429,10 +450,15 @@ def _expand_job(k: int, body: Any, presets: dict[str, dict[str, Any]], base: Pat
     own = {k2: v for k2, v in body.items() if k2 in _PRESET_KEYS}
     for layer, w in ((preset, where_p), (own, where)):
         if "export" in layer:
-            raise BatchError(f"{w}: field 'export': engine export needs the tilesynth.export module, which this "
-                             "installation does not have; remove the field")
-    options, _ = _effective({k2: v for k2, v in preset.items() if k2 in _BUILD_OPTIONS},
-                            {k2: v for k2, v in own.items() if k2 in _BUILD_OPTIONS}, where)
+            raise BatchError(
+                f"{w}: field 'export': engine export needs the tilesynth.export module, which this "
+                "installation does not have; remove the field"
+            )
+    options, _ = _effective(
+        {k2: v for k2, v in preset.items() if k2 in _BUILD_OPTIONS},
+        {k2: v for k2, v in own.items() if k2 in _BUILD_OPTIONS},
+        where,
+    )
     out = {**preset, **own}
     w_out = where if any(k2 in own for k2 in _OUTPUT_OPTIONS) else where_p
     sheet = _typed(out.get("sheet", True), bool, f"{w_out}: field 'sheet'")
@@ -441,11 +467,15 @@ def _expand_job(k: int, body: Any, presets: dict[str, dict[str, Any]], base: Pat
     kinds = _typed(out.get("map_kinds", {}), dict, f"{w_out}: field 'map_kinds'")
     for mname, kind in kinds.items():
         if not isinstance(kind, str) or kind not in _MAP_KINDS:
-            raise BatchError(f"{w_out}: field 'map_kinds' entry {mname!r} = {kind!r}: expected one of "
-                             f"{', '.join(_MAP_KINDS)}")
+            raise BatchError(
+                f"{w_out}: field 'map_kinds' entry {mname!r} = {kind!r}: expected one of "
+                f"{', '.join(_MAP_KINDS)}"
+            )
         if kind == "smooth" and not options.get("smooth"):
-            raise BatchError(f"{w_out}: field 'map_kinds' entry {mname!r} = \"smooth\": the tile set is not "
-                             "smoothed (set smooth = true), there is nothing to follow")
+            raise BatchError(
+                f"{w_out}: field 'map_kinds' entry {mname!r} = \"smooth\": the tile set is not "
+                "smoothed (set smooth = true), there is nothing to follow"
+            )
     maps_raw = _typed(body.get("maps", {}), dict, f"{where}: field 'maps'")
     exclude = _typed(body.get("exclude", []), list, f"{where}: field 'exclude'")
     for e in exclude:
@@ -458,8 +488,10 @@ def _expand_job(k: int, body: Any, presets: dict[str, dict[str, Any]], base: Pat
         if not found:
             raise BatchError(f"{where}: field 'exemplar' = {pattern!r}: the glob matches no file (in {base})")
         if "{stem}" not in name_t and len(found) > 1:
-            raise BatchError(f"{where}: field 'name' = {name_t!r}: the glob matches {len(found)} files; the name "
-                             "needs {stem} so that each gets its own outputs")
+            raise BatchError(
+                f"{where}: field 'name' = {name_t!r}: the glob matches {len(found)} files; the name "
+                "needs {stem} so that each gets its own outputs"
+            )
     else:
         if exclude:
             raise BatchError(f"{where}: field 'exclude': only used when 'exemplar' is a glob")
@@ -473,7 +505,9 @@ def _expand_job(k: int, body: Any, presets: dict[str, dict[str, Any]], base: Pat
         try:
             name = name_t.format(stem=stem)
         except (KeyError, IndexError, ValueError, AttributeError) as exc:
-            raise BatchError(f"{where}: field 'name' = {name_t!r}: bad placeholder ({exc}); only {{stem}} exists") from None
+            raise BatchError(
+                f"{where}: field 'name' = {name_t!r}: bad placeholder ({exc}); only {{stem}} exists"
+            ) from None
         wj = f"{where} -> {name!r}" if is_glob else where
         _check_name(name, f"{wj}: field 'name'")
         maps: dict[str, tuple[Path, str]] = {}
@@ -490,14 +524,31 @@ def _expand_job(k: int, body: Any, presets: dict[str, dict[str, Any]], base: Pat
                 raise BatchError(f"{wm} = {mpath!r}: no such file ({mp})")
             maps[mname] = (mp, kinds.get(mname, "auto"))
         outputs = _outputs(out_dir, name, sheet, previews, report, maps)
-        jobs.append(Job(k, name, ex.resolve(), options, maps, sheet, tuple(previews), report, outputs,
-                        out_dir / (name + STAMP_SUFFIX), wj))
+        jobs.append(
+            Job(
+                k,
+                name,
+                ex.resolve(),
+                options,
+                maps,
+                sheet,
+                tuple(previews),
+                report,
+                outputs,
+                out_dir / (name + STAMP_SUFFIX),
+                wj,
+            )
+        )
     return jobs
 
 
 def _check_name(name: str, where: str, slash: bool = True) -> None:
     parts = name.split("/")
-    ok = bool(_NAME_RE.match(name)) and (slash or len(parts) == 1) and all(p not in ("", ".", "..") for p in parts)
+    ok = (
+        bool(_NAME_RE.match(name))
+        and (slash or len(parts) == 1)
+        and all(p not in ("", ".", "..") for p in parts)
+    )
     if not ok or parts[-1].startswith("."):
         what = "letters, digits, '_', '-', '.', '+'" + (" and '/' between non-empty parts" if slash else "")
         raise BatchError(f"{where} = {name!r}: expected a relative name of {what}, not starting with '.'")
@@ -520,8 +571,14 @@ def _previews(value: Any, where: str) -> list[dict[str, Any]]:
         bits = pv.get("bits")
         if bits is not None and (isinstance(bits, bool) or bits not in (8, 16)):
             raise BatchError(f"{w}: field 'bits' = {bits!r}: expected 8 or 16")
-        out.append({"size": _size(pv["size"], f"{w}: field 'size'"), "seed": seed, "bits": bits,
-                    "maps": _typed(pv.get("maps", True), bool, f"{w}: field 'maps'")})
+        out.append(
+            {
+                "size": _size(pv["size"], f"{w}: field 'size'"),
+                "seed": seed,
+                "bits": bits,
+                "maps": _typed(pv.get("maps", True), bool, f"{w}: field 'maps'"),
+            }
+        )
     return out
 
 
@@ -537,8 +594,11 @@ def _report(value: Any, where: str) -> dict[str, Any] | None:
     seed = _typed(value.get("seed", DEFAULT_SAMPLE_SEED), int, f"{where}: field 'seed'")
     if seed < 0:
         raise BatchError(f"{where}: field 'seed' = {seed}: must be >= 0")
-    return {"size": _size(value.get("size", list(DEFAULT_SAMPLE_SIZE)), f"{where}: field 'size'"), "seed": seed,
-            "borders": _typed(value.get("borders", True), bool, f"{where}: field 'borders'")}
+    return {
+        "size": _size(value.get("size", list(DEFAULT_SAMPLE_SIZE)), f"{where}: field 'size'"),
+        "seed": seed,
+        "borders": _typed(value.get("borders", True), bool, f"{where}: field 'borders'"),
+    }
 
 
 def _map_suffix(path: Path) -> str:
@@ -557,8 +617,14 @@ def _map_suffix(path: Path) -> str:
         return ".png"
 
 
-def _outputs(out_dir: Path, name: str, sheet: bool, previews: list[dict[str, Any]], report: dict[str, Any] | None,
-             maps: dict[str, tuple[Path, str]]) -> dict[str, Path]:
+def _outputs(
+    out_dir: Path,
+    name: str,
+    sheet: bool,
+    previews: list[dict[str, Any]],
+    report: dict[str, Any] | None,
+    maps: dict[str, tuple[Path, str]],
+) -> dict[str, Path]:
     o = {"tiles": out_dir / f"{name}.tiles"}
     if sheet:
         o["sheet"] = out_dir / f"{name}-sheet.png"
@@ -579,8 +645,10 @@ def _check_collisions(jobs: list[Job], log: Path, source: str) -> None:
         key = os.path.normcase(j.name)
         if key in names:
             o = names[key]
-            raise BatchError(f"{j.where}: field 'name': duplicate output name {j.name!r} (also {o.where}, "
-                             f"exemplar {o.exemplar.name}); give one of them another name")
+            raise BatchError(
+                f"{j.where}: field 'name': duplicate output name {j.name!r} (also {o.where}, "
+                f"exemplar {o.exemplar.name}); give one of them another name"
+            )
         names[key] = j
     inputs = {os.path.normcase(str(j.exemplar)): j for j in jobs}
     inputs.update({os.path.normcase(str(mp)): j for j in jobs for mp, _ in j.maps.values()})
@@ -591,18 +659,24 @@ def _check_collisions(jobs: list[Job], log: Path, source: str) -> None:
             if key in writers:
                 oj, orole = writers[key]
                 other = "the batch log" if oj is None else f"{oj.where} ({orole})"
-                raise BatchError(f"{j.where}: field 'name': its {role} output {str(p)!r} is also written by {other}")
+                raise BatchError(
+                    f"{j.where}: field 'name': its {role} output {str(p)!r} is also written by {other}"
+                )
             if key in inputs:
-                raise BatchError(f"{j.where}: field 'name': its {role} output {str(p)!r} would overwrite an input "
-                                 f"of {inputs[key].where}")
+                raise BatchError(
+                    f"{j.where}: field 'name': its {role} output {str(p)!r} would overwrite an input "
+                    f"of {inputs[key].where}"
+                )
             writers[key] = (j, role)
     for key, (j, role) in writers.items():  # a file where another job needs a directory
         for parent in Path(key).parents:
             pk = str(parent)
             if pk in writers:
                 oj, orole = writers[pk]
-                raise BatchError(f"{j.where if j else source}: field 'name': its {role} output lies inside "
-                                 f"{orole} output {pk!r} of {oj.where if oj else 'the batch'}")
+                raise BatchError(
+                    f"{j.where if j else source}: field 'name': its {role} output lies inside "
+                    f"{orole} output {pk!r} of {oj.where if oj else 'the batch'}"
+                )
 
 
 # ------------------------------------------------------------------------------------------------ keys
@@ -674,9 +748,17 @@ def run_job(spec: dict[str, Any]) -> dict[str, Any]:
     t_start, cpu_start, started = time.perf_counter(), time.process_time(), time.time()
     scoped = _reset_peak()
     rec: dict[str, Any] = {
-        "job": spec["name"], "index": spec["index"], "exemplar": spec["exemplar"], "status": "failed",
-        "outputs": [], "timings": {}, "warnings": [], "error": None, "threads": spec.get("threads"),
-        "worker": f"{socket.gethostname()}:{os.getpid()}", "started": started,
+        "job": spec["name"],
+        "index": spec["index"],
+        "exemplar": spec["exemplar"],
+        "status": "failed",
+        "outputs": [],
+        "timings": {},
+        "warnings": [],
+        "error": None,
+        "threads": spec.get("threads"),
+        "worker": f"{socket.gethostname()}:{os.getpid()}",
+        "started": started,
     }
     tmp = None
     env_before = os.environ.get("TILESYNTH_NUM_THREADS")
@@ -685,7 +767,9 @@ def run_job(spec: dict[str, Any]) -> dict[str, Any]:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            tmp = Path(spec["stamp"]).parent / f"{TMP_PREFIX}{Path(spec['stamp']).name}.{uuid.uuid4().hex[:12]}"
+            tmp = (
+                Path(spec["stamp"]).parent / f"{TMP_PREFIX}{Path(spec['stamp']).name}.{uuid.uuid4().hex[:12]}"
+            )
             _clean_stale(Path(spec["stamp"]))
             tmp.mkdir(parents=True)
             rec["outputs"], stamp = _build_job(spec, tmp, rec["timings"])
@@ -730,7 +814,9 @@ def _clean_stale(stamp: Path) -> None:
             shutil.rmtree(p, ignore_errors=True)
 
 
-def _build_job(spec: dict[str, Any], tmp: Path, timings: dict[str, float]) -> tuple[list[str], dict[str, Any]]:
+def _build_job(
+    spec: dict[str, Any], tmp: Path, timings: dict[str, float]
+) -> tuple[list[str], dict[str, Any]]:
     import numpy as np
 
     from .io import atomic_open, load_image, load_raster, save_image
@@ -750,7 +836,8 @@ def _build_job(spec: dict[str, Any], tmp: Path, timings: dict[str, float]) -> tu
         if arr.shape[:2] != image.shape[:2]:
             raise ParameterError(
                 f"map {mname!r} = {mpath!r}: the map is {arr.shape[1]}x{arr.shape[0]}, the exemplar "
-                f"{image.shape[1]}x{image.shape[0]}; a map must be pixel-aligned with the exemplar")
+                f"{image.shape[1]}x{image.shape[0]}; a map must be pixel-aligned with the exemplar"
+            )
         maps[mname] = (arr, kind)
     timings["load_s"] = time.perf_counter() - t0
 
@@ -758,14 +845,27 @@ def _build_job(spec: dict[str, Any], tmp: Path, timings: dict[str, float]) -> tu
     scheme = o.pop("scheme")
     # the keyword arguments of `tilesynth build` (cli._build), so a batch build equals a CLI build
     common: dict[str, Any] = dict(
-        tileset=o["set"], tile_size=o["tile_size"], seed=o["seed"], threads=threads, progress=None,
+        tileset=o["set"],
+        tile_size=o["tile_size"],
+        seed=o["seed"],
+        threads=threads,
+        progress=None,
         exemplar_info={"file": os.path.basename(spec["exemplar"]), "bits": bits},
-        select=o["select"], polish=o["polish"], generations=o["generations"], population=o["population"],
+        select=o["select"],
+        polish=o["polish"],
+        generations=o["generations"],
+        population=o["population"],
     )
     if scheme == "omega":
-        extra: dict[str, Any] = dict(gradients=o["gradients"], keep_border=not o["literal_border"],
-                                     normalise=o["normalise"], match=o["match"], match_k=o["match_k"],
-                                     metric=o["metric"], smooth=o["smooth"])
+        extra: dict[str, Any] = dict(
+            gradients=o["gradients"],
+            keep_border=not o["literal_border"],
+            normalise=o["normalise"],
+            match=o["match"],
+            match_k=o["match_k"],
+            metric=o["metric"],
+            smooth=o["smooth"],
+        )
     elif scheme == "wang":
         extra = dict(cut=o["cut"], overlap=o["overlap"], corners=o["corners"], samples=o["samples"])
     else:
@@ -784,8 +884,9 @@ def _build_job(spec: dict[str, Any], tmp: Path, timings: dict[str, float]) -> tu
         role = "preview" if i == 1 else f"preview{i}"
         w, h = pv["size"]
         pbits = pv["bits"] or int(bits)
-        img, imap = synthesize(ts, w, h, seed=pv["seed"], dtype=np.uint16 if pbits == 16 else np.uint8,
-                               threads=threads)
+        img, imap = synthesize(
+            ts, w, h, seed=pv["seed"], dtype=np.uint16 if pbits == 16 else np.uint8, threads=threads
+        )
         save_image(staged[role], img)
         del img
         if pv["maps"]:
@@ -804,8 +905,16 @@ def _build_job(spec: dict[str, Any], tmp: Path, timings: dict[str, float]) -> tu
     if spec["report"] is not None:
         t0 = time.perf_counter()
         r = spec["report"]
-        write_report(ts, staged["report"], r["size"][0], r["size"][1], r["seed"], r["borders"], threads,
-                     name=outputs["tiles"].name)
+        write_report(
+            ts,
+            staged["report"],
+            r["size"][0],
+            r["size"][1],
+            r["seed"],
+            r["borders"],
+            threads,
+            name=outputs["tiles"].name,
+        )
         timings["report_s"] = time.perf_counter() - t0
     out_dir = Path(spec["stamp"]).parent
     recs = {}
@@ -813,9 +922,15 @@ def _build_job(spec: dict[str, Any], tmp: Path, timings: dict[str, float]) -> tu
         size = None if p.is_dir() else p.stat().st_size
         recs[role] = {"path": os.path.relpath(outputs[role], out_dir), "size": size}
     stamp = {
-        "key": spec["key"], **spec["key_parts"], "job": spec["name"], "exemplar": spec["exemplar"],
-        "outputs": recs, "built_at": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "content_sha256": ts.content_digest(), "E": float(ts.E), "seed": int(ts.params["seed"]),
+        "key": spec["key"],
+        **spec["key_parts"],
+        "job": spec["name"],
+        "exemplar": spec["exemplar"],
+        "outputs": recs,
+        "built_at": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "content_sha256": ts.content_digest(),
+        "E": float(ts.E),
+        "seed": int(ts.params["seed"]),
     }
     return [str(outputs[r]) for r in staged], stamp
 
@@ -878,10 +993,14 @@ class BatchResult:
             t = r.get("timings", {}).get("total_s")
             mem = r.get("peak_rss_mb")
             note = r.get("error") or (f"{len(r['warnings'])} warning(s)" if r.get("warnings") else "")
-            lines.append(f"{r['job']:<{width}}  {r['status']:<7}  {'' if t is None else f'{t:6.2f}s':>7}  "
-                         f"{'' if mem is None else f'{mem:7.0f}':>7}  {note}")
-        lines.append(f"{len(self.records)} jobs: {self.n_built} built, {self.n_skipped} up to date, "
-                     f"{self.n_failed} failed, {self.wall_s:.1f} s")
+            lines.append(
+                f"{r['job']:<{width}}  {r['status']:<7}  {'' if t is None else f'{t:6.2f}s':>7}  "
+                f"{'' if mem is None else f'{mem:7.0f}':>7}  {note}"
+            )
+        lines.append(
+            f"{len(self.records)} jobs: {self.n_built} built, {self.n_skipped} up to date, "
+            f"{self.n_failed} failed, {self.wall_s:.1f} s"
+        )
         return "\n".join(lines)
 
 
@@ -918,8 +1037,10 @@ class _JobProgress:
         return _dur((time.perf_counter() - self.start) / finished * (self.total - finished))
 
     def line(self, running: int) -> str:
-        return (f"batch: {self.done + self.failed}/{self.total} done ({self.failed} failed), {running} running, "
-                f"{self.skipped} up to date, {_dur(time.perf_counter() - self.start)} elapsed, ETA {self._eta()}")
+        return (
+            f"batch: {self.done + self.failed}/{self.total} done ({self.failed} failed), {running} running, "
+            f"{self.skipped} up to date, {_dur(time.perf_counter() - self.start)} elapsed, ETA {self._eta()}"
+        )
 
     def finished(self, rec: dict[str, Any], running: int) -> None:
         if rec["status"] == "failed":
@@ -930,8 +1051,11 @@ class _JobProgress:
             return
         if self.tty:
             self.stream.write("\r\033[K")
-        what = (f"failed: {rec['error']}" if rec["status"] == "failed"
-                else f"built in {rec['timings'].get('total_s', 0.0):.1f} s")
+        what = (
+            f"failed: {rec['error']}"
+            if rec["status"] == "failed"
+            else f"built in {rec['timings'].get('total_s', 0.0):.1f} s"
+        )
         self.stream.write(f"[{self.done + self.failed}/{self.total}] {rec['job']}: {what}\n")
         self.tick(running)
 
@@ -952,7 +1076,13 @@ class _JobProgress:
 
 def _dur(s: float) -> str:
     s = round(s)
-    return f"{s // 3600}h{s % 3600 // 60:02d}m" if s >= 3600 else f"{s // 60}m{s % 60:02d}s" if s >= 60 else f"{s}s"
+    return (
+        f"{s // 3600}h{s % 3600 // 60:02d}m"
+        if s >= 3600
+        else f"{s // 60}m{s % 60:02d}s"
+        if s >= 60
+        else f"{s}s"
+    )
 
 
 def build_many(
@@ -995,13 +1125,19 @@ def build_many(
     if scheduler is not None and executor is not None:
         raise ParameterError("scheduler and executor: give one of them, not both")
     if workers is not None and (executor is not None or scheduler is not None):
-        raise ParameterError(f"workers = {workers}: only used with the local process pool (no executor, no scheduler)")
+        raise ParameterError(
+            f"workers = {workers}: only used with the local process pool (no executor, no scheduler)"
+        )
     if isinstance(executor, str) and executor != "serial":
-        raise ParameterError(f"executor = {executor!r}: expected None, 'serial' or a concurrent.futures.Executor")
+        raise ParameterError(
+            f"executor = {executor!r}: expected None, 'serial' or a concurrent.futures.Executor"
+        )
     if executor is not None and not isinstance(executor, (str, cf.Executor)):
         raise TypeError(f"executor = {executor!r}: expected a concurrent.futures.Executor")
     log_path = Path(log) if log is not None else lib.log
-    run_id = datetime.datetime.now(datetime.timezone.utc).strftime("%Y%m%dT%H%M%SZ") + f"-{uuid.uuid4().hex[:8]}"
+    run_id = (
+        datetime.datetime.now(datetime.timezone.utc).strftime("%Y%m%dT%H%M%SZ") + f"-{uuid.uuid4().hex[:8]}"
+    )
 
     plan: list[tuple[Job, dict[str, Any] | None, dict[str, Any] | None]] = []  # job, spec to run, or record
     phase = {"validate_s": time.perf_counter() - start}
@@ -1025,7 +1161,9 @@ def build_many(
         try:
             from distributed import Client
         except ImportError:
-            raise ParameterError(f"scheduler = {scheduler!r}: Dask is not installed (pip install tilesynth[dask])") from None
+            raise ParameterError(
+                f"scheduler = {scheduler!r}: Dask is not installed (pip install tilesynth[dask])"
+            ) from None
         own_client = Client(scheduler)
         executor = own_client.get_executor(pure=False)
         slots = sum(w.get("nthreads", 1) for w in own_client.scheduler_info()["workers"].values()) or None
@@ -1035,8 +1173,12 @@ def build_many(
         per = threads or max(1, cores // n)
         for s in to_run:
             s["threads"] = per
-        own_pool = cf.ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context(_start_method()),
-                                          initializer=_init_worker, initargs=(per,))
+        own_pool = cf.ProcessPoolExecutor(
+            max_workers=n,
+            mp_context=multiprocessing.get_context(_start_method()),
+            initializer=_init_worker,
+            initargs=(per,),
+        )
         executor, slots = own_pool, n
     elif executor is not None and not isinstance(executor, str):
         client = getattr(executor, "_client", None)  # Dask's ClientExecutor: count the worker threads
@@ -1130,22 +1272,50 @@ def _as_library(jobs: Any) -> Library:
 
 def _spec(job: Job, key: str, parts: dict[str, Any], run_id: str) -> dict[str, Any]:
     return {
-        "run": run_id, "nonce": uuid.uuid4().hex, "index": job.index, "name": job.name,
-        "exemplar": str(job.exemplar), "maps": {k: [str(p), kind] for k, (p, kind) in job.maps.items()},
-        "options": dict(job.options), "sheet": job.sheet, "previews": [dict(p) for p in job.previews],
-        "report": job.report, "outputs": {k: str(v) for k, v in job.outputs.items()}, "stamp": str(job.stamp),
-        "key": key, "key_parts": parts, "threads": None,
+        "run": run_id,
+        "nonce": uuid.uuid4().hex,
+        "index": job.index,
+        "name": job.name,
+        "exemplar": str(job.exemplar),
+        "maps": {k: [str(p), kind] for k, (p, kind) in job.maps.items()},
+        "options": dict(job.options),
+        "sheet": job.sheet,
+        "previews": [dict(p) for p in job.previews],
+        "report": job.report,
+        "outputs": {k: str(v) for k, v in job.outputs.items()},
+        "stamp": str(job.stamp),
+        "key": key,
+        "key_parts": parts,
+        "threads": None,
     }
 
 
-def _record(job: Job, status: str, outputs: list[str] | None = None, error: str | None = None) -> dict[str, Any]:
-    return {"job": job.name, "index": job.index, "exemplar": str(job.exemplar), "status": status,
-            "outputs": outputs or [], "timings": {}, "warnings": [], "error": error}
+def _record(
+    job: Job, status: str, outputs: list[str] | None = None, error: str | None = None
+) -> dict[str, Any]:
+    return {
+        "job": job.name,
+        "index": job.index,
+        "exemplar": str(job.exemplar),
+        "status": status,
+        "outputs": outputs or [],
+        "timings": {},
+        "warnings": [],
+        "error": error,
+    }
 
 
 def _record_spec(spec: dict[str, Any], status: str, error: str) -> dict[str, Any]:
-    return {"job": spec["name"], "index": spec["index"], "exemplar": spec["exemplar"], "status": status,
-            "outputs": [], "timings": {}, "warnings": [], "error": error}
+    return {
+        "job": spec["name"],
+        "index": spec["index"],
+        "exemplar": spec["exemplar"],
+        "status": status,
+        "outputs": [],
+        "timings": {},
+        "warnings": [],
+        "error": error,
+    }
 
 
 def _log(fh: TextIO | None, rec: dict[str, Any], run_id: str) -> None:
@@ -1159,21 +1329,42 @@ def _log(fh: TextIO | None, rec: dict[str, Any], run_id: str) -> None:
 # ------------------------------------------------------------------------------------------------ command line
 def add_parser(sub: Any) -> None:
     """Register ``tilesynth batch`` on the subparsers ``sub`` of the main parser."""
-    b = sub.add_parser("batch", help="build a texture library described by a TOML batch file",
-                       description="Build every job of a TOML batch file (format: python -m pydoc tilesynth.batch). "
-                       "Exit status: 0 all built or up to date, 1 some job failed, 2 bad batch file.")
+    b = sub.add_parser(
+        "batch",
+        help="build a texture library described by a TOML batch file",
+        description="Build every job of a TOML batch file (format: python -m pydoc tilesynth.batch). "
+        "Exit status: 0 all built or up to date, 1 some job failed, 2 bad batch file.",
+    )
     b.add_argument("library", help="batch file (.toml)")
     b.add_argument("--force", action="store_true", help="rebuild jobs that are up to date")
-    b.add_argument("--workers", type=_pos, default=None,
-                   help="local worker processes (default: the usable cores, at most the jobs to build)")
-    b.add_argument("--threads", type=_pos, default=None,
-                   help="kernel threads per job (default: cores / workers locally; all cores with --scheduler)")
-    b.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="run on a Dask cluster, e.g. tcp://host:8786 (pip install tilesynth[dask]; the workers need "
-                   "the batch's files at the same paths)")
-    b.add_argument("--log", default=None, help="JSON-lines log to append to (default <output_dir>/batch-log.jsonl)")
-    b.add_argument("--dry-run", action="store_true", help="validate and list what would be built, build nothing")
-    b.add_argument("--json", action="store_true", help="print the records as JSON instead of the summary table")
+    b.add_argument(
+        "--workers",
+        type=_pos,
+        default=None,
+        help="local worker processes (default: the usable cores, at most the jobs to build)",
+    )
+    b.add_argument(
+        "--threads",
+        type=_pos,
+        default=None,
+        help="kernel threads per job (default: cores / workers locally; all cores with --scheduler)",
+    )
+    b.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="run on a Dask cluster, e.g. tcp://host:8786 (pip install tilesynth[dask]; the workers need "
+        "the batch's files at the same paths)",
+    )
+    b.add_argument(
+        "--log", default=None, help="JSON-lines log to append to (default <output_dir>/batch-log.jsonl)"
+    )
+    b.add_argument(
+        "--dry-run", action="store_true", help="validate and list what would be built, build nothing"
+    )
+    b.add_argument(
+        "--json", action="store_true", help="print the records as JSON instead of the summary table"
+    )
     b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
@@ -1194,11 +1385,20 @@ def cli_main(args: argparse.Namespace) -> int:
         for job in lib.jobs:
             key, _ = job_key(job)
             state = "up to date" if not args.force and _up_to_date(job, key) else "to build"
-            print(f"{job.name}: {state} ({job.exemplar.name}, {job.options['scheme']} {job.options['set']}, "
-                  f"seed {job.options['seed']}) -> {', '.join(os.path.relpath(p) for p in job.outputs.values())}")
+            print(
+                f"{job.name}: {state} ({job.exemplar.name}, {job.options['scheme']} {job.options['set']}, "
+                f"seed {job.options['seed']}) -> {', '.join(os.path.relpath(p) for p in job.outputs.values())}"
+            )
         return 0
-    res = build_many(lib, force=args.force, workers=args.workers, threads=args.threads, scheduler=args.scheduler,
-                     log=args.log, quiet=args.quiet)
+    res = build_many(
+        lib,
+        force=args.force,
+        workers=args.workers,
+        threads=args.threads,
+        scheduler=args.scheduler,
+        log=args.log,
+        quiet=args.quiet,
+    )
     if args.json:
         print(json.dumps(res.records, indent=1, sort_keys=True))
     else:
