@@ -562,3 +562,23 @@ def test_cli_scheduler_address_runs_on_the_cluster(lib_dir: Path, cluster, capsy
     assert cli_main(["batch", str(d / "lib.toml"), "--scheduler", addr, "-q"]) == 0  # up to date
     assert "2 up to date" in capsys.readouterr().out
     assert cli_main(["batch", str(d / "lib.toml"), "--scheduler", addr, "--workers", "1"]) == 2
+
+
+def test_any_executor_thread_pool(lib_dir: Path) -> None:
+    """A plain ThreadPoolExecutor (any concurrent.futures.Executor) gives the outputs of the serial executor."""
+    import concurrent.futures as cf
+
+    d = lib_dir / "threads"
+    (d / "tex").mkdir(parents=True)
+    for n in ("bread", "beans", "eggs" if (lib_dir / "tex" / "eggs.png").exists() else "gravel"):
+        shutil.copy(lib_dir / "tex" / f"{n}.png", d / "tex" / f"{n}.png")
+    for out in ("a", "b"):
+        (d / f"{out}.toml").write_text(
+            f'output_dir = "{out}"\n[[jobs]]\nexemplar = "tex/*.png"\ntile_size = 16\nset = "8"\n'
+            'previews = [{ size = "48x40", seed = 2 }]\n'
+        )
+    with cf.ThreadPoolExecutor(2) as ex:
+        res = build_many(d / "a.toml", executor=ex, threads=1, quiet=True)
+    assert res.n_built == 3 and res.exit_status == 0
+    assert build_many(d / "b.toml", executor="serial", quiet=True).n_built == 3
+    _same_outputs(d / "a", d / "b")

@@ -102,11 +102,16 @@ By default jobs run in a local process pool (``concurrent.futures.ProcessPoolExe
 ``forkserver`` (POSIX) or ``spawn``, never ``fork``: a forked child of a process that already ran a kernel would
 inherit its thread pool's state. ``workers`` defaults to the number of usable cores (at most the number of jobs
 to build) and each job's kernels get ``threads = cores // workers`` threads, so the Rust thread pools do not
-oversubscribe the machine. ``executor="serial"`` runs the jobs one after another in this process (debugging).
+oversubscribe the machine (each job also sets ``TILESYNTH_NUM_THREADS`` to its thread count while it runs, so
+a kernel call that is not handed ``threads`` keeps to it too). ``executor="serial"`` runs the jobs one after
+another in this process (debugging). As with any ``spawn``/``forkserver`` pool, a script that calls
+:func:`build_many` needs the ``if __name__ == "__main__":`` guard (the workers import the main module); without
+it every job fails with the executor's message. ``workers`` is only for the local pool.
 
 Any ``concurrent.futures.Executor`` works: a Dask cluster (``executor=client.get_executor()``, or
 ``scheduler="tcp://host:8786"`` / ``--scheduler``, which needs ``pip install tilesynth[dask]``), Ray's, or a
-``ThreadPoolExecutor``. The outputs are written by the workers straight into ``output_dir``, so a cluster needs a
+``ThreadPoolExecutor`` (the warnings module is process-wide: with threads, a job's ``warnings`` may hold
+another's). The outputs are written by the workers straight into ``output_dir``, so a cluster needs a
 shared file system with the same paths; a worker returns the paths and a small record, never arrays. With a
 foreign executor the batch cannot know how many jobs share a machine: ``threads`` (``--threads``) then defaults to
 ``None`` (the kernels use every core of the worker); set it to cores / jobs-per-host on a busy cluster.
