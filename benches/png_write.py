@@ -33,10 +33,11 @@ HERE = Path(__file__).resolve().parent
 TEXTURE = HERE.parent.parent / "shared" / "textures" / "gravel.png"
 
 
-def texture(size: int) -> np.ndarray:
-    """A synthesized ``size`` x ``size`` RGB 8-bit texture (gravel if the shared textures are there, else the
-    bundled exemplar): what ``tilesynth synth`` writes."""
-    path = TEXTURE if TEXTURE.exists() else Path(ts.__file__).parent / "data" / "lettuce-leaves.png"
+def texture(size: int, path: Path) -> np.ndarray:
+    """A synthesized ``size`` x ``size`` RGB 8-bit texture of the exemplar ``path`` (default: gravel if the shared
+    textures are there, else the bundled exemplar): what ``tilesynth synth`` writes."""
+    if not path.exists():
+        path = Path(ts.__file__).parent / "data" / "lettuce-leaves.png"
     ex, _ = ts.load_image(path)
     ex = ex[:, :, :3]
     tiles = ts.build_omega(ex, tileset="16a", tile_size=min(64, min(ex.shape[:2]) // 2 // 2 * 2), seed=1)
@@ -62,12 +63,13 @@ def main() -> int:
     ap.add_argument("--rounds", type=int, default=None, help="interleaved rounds (default 5, 3 with --quick)")
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--texture", type=Path, default=TEXTURE, help="exemplar of the synthesized image")
     args = ap.parse_args()
     size = args.size or (1024 if args.quick else 4096)
     rounds = args.rounds or (3 if args.quick else 5)
     started = time.perf_counter()
-    arr = texture(size)
-    print(f"# PNG writing, {size}x{size} RGB 8-bit ({arr.nbytes / 2**20:.0f} MiB raw), {rounds} interleaved rounds, "
+    arr = texture(size, args.texture)
+    print(f"# PNG writing, {args.texture.name}, {size}x{size} RGB 8-bit ({arr.nbytes / 2**20:.0f} MiB raw), {rounds} interleaved rounds, "
           f"{os.cpu_count()} cores, threads = {ts._core.resolve_threads()}", file=sys.stderr)
     coders = {"pillow (default save)": pillow_png}
     for level in PNG_COMPRESSIONS:

@@ -303,7 +303,14 @@ fn zlib_stream(
     let parts: Vec<(Vec<u8>, u32, usize)> = bands
         .par_iter()
         .map(|&(y0, y1)| {
-            let filtered = filter_band(rows, row_bytes, bpp, y0, y1);
+            let filtered = filter_band(
+                rows,
+                row_bytes,
+                bpp,
+                y0,
+                y1,
+                compression != Compression::Best,
+            );
             let adler = adler(&filtered);
             let packed = deflate_sync(&filtered, level);
             (packed, adler, filtered.len())
@@ -370,11 +377,21 @@ fn adler32_combine(a: u32, b: u32, len_b: usize) -> u32 {
 
 /// Filters rows `y0..y1` (each gets its filter byte), choosing per row the filter with the smallest sum of
 /// absolute signed residuals (libpng's heuristic; the previous row of `y0` is the image's, so a band is
-/// exactly what a sequential encoder would produce).
-fn filter_band(rows: &[u8], row_bytes: usize, bpp: usize, y0: usize, y1: usize) -> Vec<u8> {
+/// exactly what a sequential encoder would produce). With `sampled`, rows of at least [`SAMPLED_ROW`] bytes
+/// are judged on one block of 64 bytes in every 256 (an encoder's residual at a byte depends only on the
+/// raw bytes around it, so any subset can be scored), then filtered once with the winner: about 2.5x less
+/// work than scoring every byte for a file a fraction of a percent larger.
+fn filter_band(
+    rows: &[u8],
+    row_bytes: usize,
+    bpp: usize,
+    y0: usize,
+    y1: usize,
+    sampled: bool,
+) -> Vec<u8> {
     let mut out = Vec::with_capacity((y1 - y0) * (row_bytes + 1));
     let zero = vec![0u8; row_bytes];
-    let mut cand: [Vec<u8>; 5] = std::array::from_fn(|_| vec![0u8; row_bytes]);
+    let mut scratch = vec![0u8; row_bytes];
     for y in y0..y1 {
         let cur = &rows[y * row_bytes..(y + 1) * row_bytes];
         let prev = if y == 0 {
@@ -382,23 +399,73 @@ fn filter_band(rows: &[u8], row_bytes: usize, bpp: usize, y0: usize, y1: usize) 
         } else {
             &rows[(y - 1) * row_bytes..y * row_bytes]
         };
-        let mut best = (u64::MAX, 0usize);
-        for (k, buf) in cand.iter_mut().enumerate() {
-            let fused = apply_filter(k as u8, cur, prev, bpp, buf);
-            // the fused u32 sum is exact below 2^24 bytes a row (at most 128 per byte)
-            let cost = if row_bytes < 1 << 24 {
-                fused as u64
+        let mut best = (u64::MAX, 0u8);
+        for k in 0..5u8 {
+            let cost = if sampled && row_bytes >= SAMPLED_ROW {
+                sampled_cost(k, cur, prev, bpp)
             } else {
-                abs_sum(buf)
+                let fused = apply_filter(k, cur, prev, bpp, &mut scratch);
+                // the fused u32 sum is exact below 2^24 bytes a row (at most 128 per byte)
+                if row_bytes < 1 << 24 {
+                    fused as u64
+                } else {
+                    abs_sum(&scratch)
+                }
             };
             if cost < best.0 {
                 best = (cost, k);
             }
         }
-        out.push(best.1 as u8);
-        out.extend_from_slice(&cand[best.1]);
+        out.push(best.1);
+        let start = out.len();
+        out.resize(start + row_bytes, 0);
+        apply_filter(best.1, cur, prev, bpp, &mut out[start..]);
     }
     out
+}
+
+/// Rows of at least this many bytes are scored on samples when `sampled` (see [`filter_band`]).
+const SAMPLED_ROW: usize = 1024;
+
+/// The sum of residual magnitudes of filter `kind` over one block of 64 bytes in every 256 of the row,
+/// from byte `bpp` on.
+fn sampled_cost(kind: u8, cur: &[u8], prev: &[u8], bpp: usize) -> u64 {
+    const BLOCK: usize = 64;
+    const STEP: usize = 256;
+    let n = cur.len();
+    let mut total = 0u64;
+    let mut s = bpp;
+    while s < n {
+        let e = (s + BLOCK).min(n);
+        let (x, a) = (&cur[s..e], &cur[s - bpp..e - bpp]);
+        let (b, c) = (&prev[s..e], &prev[s - bpp..e - bpp]);
+        let mut acc = 0u32;
+        match kind {
+            0 => x.iter().for_each(|&v| acc += mag(v)),
+            1 => x
+                .iter()
+                .zip(a)
+                .for_each(|(&v, &l)| acc += mag(v.wrapping_sub(l))),
+            2 => x
+                .iter()
+                .zip(b)
+                .for_each(|(&v, &u)| acc += mag(v.wrapping_sub(u))),
+            3 => x.iter().zip(a).zip(b).for_each(|((&v, &l), &u)| {
+                acc += mag(v.wrapping_sub(((l as u16 + u as u16) >> 1) as u8))
+            }),
+            _ => x
+                .iter()
+                .zip(a)
+                .zip(b)
+                .zip(c)
+                .for_each(|(((&v, &l), &u), &ul)| {
+                    acc += mag(v.wrapping_sub(paeth_branchless(l, u, ul)))
+                }),
+        }
+        total += acc as u64;
+        s += STEP;
+    }
+    total
 }
 
 /// Sum of the absolute values of `buf` read as signed bytes (in u32 blocks, so it vectorises).
@@ -612,7 +679,14 @@ mod tests {
 
     #[test]
     fn round_trips_every_filter_type() {
-        for &(rows, row_bytes, bpp) in &[(1, 1, 1), (5, 12, 6), (7, 32, 8), (3, 8, 4), (4, 6, 2)] {
+        for &(rows, row_bytes, bpp) in &[
+            (1, 1, 1),
+            (5, 12, 6),
+            (7, 32, 8),
+            (3, 8, 4),
+            (4, 6, 2),
+            (3, 3000, 6),
+        ] {
             let raw = noise(rows * row_bytes, 12345);
             for k in 0..5u8 {
                 let mut f = Vec::new();
@@ -636,8 +710,10 @@ mod tests {
                 }
                 assert_eq!(unfilter(&f, rows, row_bytes, bpp).unwrap(), raw);
             }
-            let f = filter_band(&raw, row_bytes, bpp, 0, rows);
-            assert_eq!(unfilter(&f, rows, row_bytes, bpp).unwrap(), raw);
+            for sampled in [false, true] {
+                let f = filter_band(&raw, row_bytes, bpp, 0, rows, sampled);
+                assert_eq!(unfilter(&f, rows, row_bytes, bpp).unwrap(), raw);
+            }
         }
     }
 
