@@ -24,9 +24,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
-
 import tilesynth as ts
+from PIL import Image
 from tilesynth.io import PNG_COMPRESSIONS, encode_png
 
 HERE = Path(__file__).resolve().parent
@@ -51,7 +50,7 @@ def pillow_png(arr: np.ndarray) -> bytes:
     return buf.getvalue()
 
 
-def timed(fn, *args):  # noqa: ANN001, ANN002, ANN202
+def timed(fn, *args):
     c0, w0 = time.process_time(), time.perf_counter()
     out = fn(*args)
     return out, time.process_time() - c0, time.perf_counter() - w0
@@ -69,8 +68,11 @@ def main() -> int:
     rounds = args.rounds or (3 if args.quick else 5)
     started = time.perf_counter()
     arr = texture(size, args.texture)
-    print(f"# PNG writing, {args.texture.name}, {size}x{size} RGB 8-bit ({arr.nbytes / 2**20:.0f} MiB raw), {rounds} interleaved rounds, "
-          f"{os.cpu_count()} cores, threads = {ts._core.resolve_threads()}", file=sys.stderr)
+    print(
+        f"# PNG writing, {args.texture.name}, {size}x{size} RGB 8-bit ({arr.nbytes / 2**20:.0f} MiB raw), {rounds} interleaved rounds, "
+        f"{os.cpu_count()} cores, threads = {ts._core.resolve_threads()}",
+        file=sys.stderr,
+    )
     coders = {"pillow (default save)": pillow_png}
     for level in PNG_COMPRESSIONS:
         coders[f"tilesynth {level}"] = lambda a, level=level: encode_png(a, level)
@@ -91,20 +93,33 @@ def main() -> int:
     base = "pillow (default save)"
     bc, bw, bs = statistics.median(cpu[base]), statistics.median(wall[base]), sizes[base]
     rows = []
-    print("\n| encoder | CPU s (median) | wall s (median) | CPU speed-up | wall speed-up | size MiB | size ratio |")
+    print(
+        "\n| encoder | CPU s (median) | wall s (median) | CPU speed-up | wall speed-up | size MiB | size ratio |"
+    )
     print("|---|---|---|---|---|---|---|")
     for name in coders:
         c, w = statistics.median(cpu[name]), statistics.median(wall[name])
-        row = {"encoder": name, "cpu_s": c, "wall_s": w, "cpu_speedup": bc / c, "wall_speedup": bw / w,
-               "bytes": sizes[name], "size_ratio": sizes[name] / bs}
+        row = {
+            "encoder": name,
+            "cpu_s": c,
+            "wall_s": w,
+            "cpu_speedup": bc / c,
+            "wall_speedup": bw / w,
+            "bytes": sizes[name],
+            "size_ratio": sizes[name] / bs,
+        }
         rows.append(row)
-        print(f"| {name} | {c:.3f} | {w:.3f} | {bc / c:.1f}x | {bw / w:.1f}x | {sizes[name] / 2**20:.2f} | "
-              f"{sizes[name] / bs:.3f} |")
+        print(
+            f"| {name} | {c:.3f} | {w:.3f} | {bc / c:.1f}x | {bw / w:.1f}x | {sizes[name] / 2**20:.2f} | "
+            f"{sizes[name] / bs:.3f} |"
+        )
     default = next(r for r in rows if r["encoder"] == "tilesynth default")
     ok_speed = default["cpu_speedup"] >= 5 and default["wall_speedup"] >= 5
     ok_size = default["size_ratio"] <= 1.25
-    print(f"\ntarget default >= 5x faster (CPU and wall): {'met' if ok_speed else 'NOT met'}; "
-          f"files <= 1.25x Pillow's: {'met' if ok_size else 'NOT met'}")
+    print(
+        f"\ntarget default >= 5x faster (CPU and wall): {'met' if ok_speed else 'NOT met'}; "
+        f"files <= 1.25x Pillow's: {'met' if ok_size else 'NOT met'}"
+    )
     print(f"total {time.perf_counter() - started:.1f} s (the machine may be shared: CPU times are steadier)")
     if args.json:
         Path(args.json).write_text(json.dumps({"size": size, "rounds": rounds, "rows": rows}, indent=2))

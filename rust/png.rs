@@ -174,11 +174,13 @@ pub fn decode(data: &[u8], max_pixels: u64) -> Result<Decoded> {
 /// How hard [`encode`] compresses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Compression {
-    /// Deflate level 1: the fastest, files somewhat larger.
+    /// Deflate level 1 (zlib-rs's "quick" strategy, static Huffman codes), filters scored on samples: the
+    /// fastest; on tilesynth outputs about 1.3x Pillow's file size.
     Fast,
-    /// Deflate level 2 (the default): about Pillow's file size at a fraction of its time.
+    /// Deflate level 2, filters scored on samples (the default): within about 10 % of Pillow's file size
+    /// at a fifth of its CPU time or less.
     Default,
-    /// Deflate level 9: the smallest files, slowest.
+    /// Deflate level 9, filters scored on every byte: the smallest files (about Pillow's), the slowest.
     Best,
 }
 
