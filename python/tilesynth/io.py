@@ -549,7 +549,7 @@ def save_image(
 def encode_png(image: np.ndarray, compression: str = "default", threads: int | None = None) -> bytes:
     """The PNG file of a uint8 or uint16 ``(H, W)`` / ``(H, W, C)`` array (C = 1 to 4), as bytes.
 
-    The rows get libpng's adaptive filter choice; the filtered data is cut into bands of about 256 KiB that are
+    The rows get libpng's adaptive filter choice; the filtered data is cut into bands of about 1 MiB that are
     deflated independently on ``threads`` workers (level 1, 2 or 9 for ``compression`` fast, default, best)
     and joined into one zlib stream (sync-flush boundaries and a combined Adler-32, as pigz does), so the
     file is a single ordinary PNG that every decoder reads and its bytes do not depend on ``threads``.
