@@ -298,6 +298,10 @@ def _png_bytes(d: st.DrawFn) -> bytes:
         with tempfile.TemporaryDirectory() as tmp:
             ts.save_image(os.path.join(tmp, "x.png"), arr)
             return Path(tmp, "x.png").read_bytes()
+    if d(st.integers(0, 5)) == 0:  # an OpenEXR file
+        with tempfile.TemporaryDirectory() as tmp:
+            ts.save_image(os.path.join(tmp, "x.exr"), arr.astype(np.float32) / 255)
+            return Path(tmp, "x.exr").read_bytes()
     sq = arr[..., 0] if arr.shape[2] == 1 else arr
     Image.fromarray(sq).save(buf, format=d(st.sampled_from(["PNG", "JPEG", "GIF", "BMP", "TIFF"]))
                              if arr.shape[2] in (1, 3) else "PNG")
@@ -327,7 +331,7 @@ def load_image(d: st.DrawFn):
 def save_image(d: st.DrawFn):
     arr = d(arrays(d(st.sampled_from([2, 3])), d(st.sampled_from([F32, "uint8", "uint16", F64, "int32"])),
                    (None, None, None), max_side=10))
-    name = d(st.sampled_from(["x.png", "x.jpg", "x.tif", "x.bmp", "x.nope", "x", "nodir/x.png"]))
+    name = d(st.sampled_from(["x.png", "x.jpg", "x.tif", "x.bmp", "x.exr", "x.nope", "x", "nodir/x.png"]))
     return ts.save_image, (os.path.join(_tmpdir(), name), arr), {"bits": d(st.sampled_from([8, 16, 12]))}, ()
 
 

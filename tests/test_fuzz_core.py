@@ -311,6 +311,54 @@ def poisson_smooth(d: st.DrawFn):
     return _core.poisson_smooth, (dst, src, region), kw, ()
 
 
+def _mutated(d: st.DrawFn, data: bytes) -> bytes:
+    """``data`` intact, cut short, with a few bytes replaced, or garbage."""
+    how = d(st.sampled_from(["intact", "cut", "flip", "flip", "garbage"]))
+    if how == "cut":
+        return data[: d(st.integers(0, len(data)))]
+    if how == "flip" and data:
+        b = bytearray(data)
+        for _ in range(d(st.integers(1, 4))):
+            b[d(st.integers(0, len(b) - 1))] = d(st.integers(0, 255))
+        return bytes(b)
+    if how == "garbage":
+        return d(st.binary(max_size=80))
+    return data
+
+
+@st.composite
+def png_encode(d: st.DrawFn):
+    dt = d(st.sampled_from(["uint8", "uint16", "uint8", "float32", "int64"]))
+    arr = d(arrays(d(st.sampled_from([3, 3, 2, 4])), dt, (None, None, None), max_side=9))
+    level = d(st.sampled_from(["fast", "default", "best", "max", ""]))
+    return _core.png_encode, (arr, level), {"threads": d(threads())}, ()
+
+
+@st.composite
+def png_decode(d: st.DrawFn):
+    h, w, c = d(st.integers(1, 9)), d(st.integers(1, 9)), d(st.integers(1, 4))
+    arr = np.random.default_rng(d(st.integers(0, 99))).integers(0, 256, (h, w, c)).astype(np.uint8)
+    if d(st.booleans()):
+        arr = arr.astype(np.uint16) * 257
+    data = _mutated(d, _core.png_encode(arr))
+    return _core.png_decode, (data, d(st.sampled_from([1 << 30, 1 << 30, 10, 0]))), {}, ()
+
+
+@st.composite
+def exr_encode(d: st.DrawFn):
+    arr = d(arrays(d(st.sampled_from([3, 3, 2])), d(st.sampled_from([F32, F32, F64, "uint8"])), (None, None, None),
+                   max_side=7))
+    return _core.exr_encode, (arr,), {"half": d(st.booleans())}, ()
+
+
+@st.composite
+def exr_decode(d: st.DrawFn):
+    h, w, c = d(st.integers(1, 6)), d(st.integers(1, 6)), d(st.integers(1, 5))
+    arr = np.random.default_rng(d(st.integers(0, 99))).random((h, w, c)).astype(np.float32)
+    data = _mutated(d, _core.exr_encode(arr, d(st.booleans())))
+    return _core.exr_decode, (data, d(st.sampled_from([1 << 30, 1 << 30, 4]))), {}, ()
+
+
 ENTRY_POINTS = {
     "SsdIndex": ssd_index_new,
     "SsdIndex.shape": ssd_index_shape,
@@ -326,6 +374,10 @@ ENTRY_POINTS = {
     "omega_cuts": omega_cuts,
     "tile_copy": tile_copy,
     "png_unfilter": png_unfilter,
+    "png_encode": png_encode,
+    "png_decode": png_decode,
+    "exr_encode": exr_encode,
+    "exr_decode": exr_decode,
     "resolve_threads": resolve_threads,
     "edge_weight_sums": edge_weight_sums,
     "weighted_ssd_map": weighted_ssd_map,
