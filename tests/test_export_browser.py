@@ -1,0 +1,167 @@
+"""The exported GLSL in a real browser (headless Chromium, WebGL2 on SwiftShader) against the CPU.
+
+Every expected image comes from :func:`tilesynth.synthesize` (``tilesynth.export.reference``), never from the
+atlas. Windows are small (SwiftShader is slow); each test renders all its windows in one page load.
+Skipped, with the reason, only when no Chromium can be found (``tests/webgl.py``).
+"""
+
+from __future__ import annotations
+
+import base64
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import tilesynth as ts
+from tilesynth.export import atlas as xatlas
+from tilesynth.export import export
+from tilesynth.export import viewer as xv
+from tilesynth.metrics import seam_score
+from webgl import browser_or_skip, run_page
+
+
+@pytest.fixture(scope="module")
+def browser() -> str:
+    return browser_or_skip()
+
+
+@pytest.fixture(scope="module")
+def omega_set(small_exemplar: np.ndarray):
+    return ts.build_omega(small_exemplar, tileset="16a", tile_size=32, seed=1)
+
+
+@pytest.fixture(scope="module")
+def wang_set(small_exemplar: np.ndarray):
+    return ts.build(small_exemplar, scheme="wang", tileset="wang8", tile_size=32, seed=1)
+
+
+@pytest.fixture(scope="module")
+def omega64(lettuce: np.ndarray):
+    """Bigger tiles for the mip tests (levels 1-3 keep 32, 16, 8 texels a tile)."""
+    return ts.build_omega(np.ascontiguousarray(lettuce[:192, :192]), tileset="16a", tile_size=64, seed=2)
+
+
+def _exported(tileset, out: Path, **kw):
+    m = export(tileset, out, **kw)
+    imap = xv.read_index(out, m)
+    levels = xv.albedo_levels(out, m)
+    return m, imap, levels, xv.Reference(tileset, m, imap, levels)
+
+
+def _run(browser: str, tmp: Path, tileset, m, imap, levels, cases, layout=None) -> dict:
+    cfg = xv.config_for(tileset, m, levels, imap, cases)
+    cfg["autorun"] = True
+    if layout is not None:
+        cfg["layout"] = layout
+    page = tmp / "page.html"
+    page.write_text(xv.page(cfg), encoding="utf-8")
+    rep = run_page(browser, page)
+    assert rep.get("error") is None, rep
+    return rep
+
+
+def _by_name(rep: dict) -> dict:
+    return {c["name"]: c for c in rep["cases"]}
+
+
+def _fetch_cases(r: xv.Reference, n: int) -> list[dict]:
+    out = []
+    windows = [
+        ("negative origin, 4 tiles", -n - 5, -n - 11, 40, 36),
+        ("straddling borders", 2 * n - 13, 3 * n - 20, 45, 33),
+        ("across the index period (x = 8 tiles)", 8 * n - 20, -3, 40, 24),
+        ("far negative", -100003, -77777, 37, 29),
+        ("far positive", 2**20 + 7, 2**19 - 5, 31, 27),
+    ]
+    for name, x0, y0, w, h in windows:
+        out.append(xv.case(name, "fetch", (x0, y0), w, h, 1.0, 0, r.fetch(x0, y0, w, h)))
+    return out
+
+
+@pytest.mark.parametrize("which", ["omega", "wang"])
+def test_texelfetch_composition_equals_synthesize(browser, tmp_path, which, omega_set, wang_set):
+    tileset = omega_set if which == "omega" else wang_set
+    m, imap, levels, r = _exported(tileset, tmp_path / "x", index_size=(8, 8))
+    assert m["lookup"]["mode"] == "index_map"
+    rep = _run(browser, tmp_path, tileset, m, imap, levels, _fetch_cases(r, tileset.tile_size))
+    assert rep["status"] == "PASS" and rep["dom_status"] == "PASS 0", rep
+    assert all(c["differing"] == 0 and c["max_diff"] == 0 for c in rep["cases"])
+    assert sum(c["pixels"] for c in rep["cases"]) > 5000
+
+
+@pytest.mark.parametrize("which", ["omega", "wang"])
+def test_bilinear_centres_exact_and_magnified_within_one(browser, tmp_path, which, omega_set, wang_set):
+    tileset = omega_set if which == "omega" else wang_set
+    n = tileset.tile_size
+    m, imap, levels, r = _exported(tileset, tmp_path / "x", index_size=(8, 8))
+    cases = []
+    for x0, y0 in ((-n - 6, -2 * n + 3), (3 * n - 17, n - 9)):
+        exact = np.rint(r.sampled(x0, y0, 40, 40, 1.0)).astype(np.uint8)
+        cases.append(xv.case(f"centres {x0},{y0}", "grad", (x0, y0), 40, 40, 1.0, 0, exact))
+    for x0, y0, s in ((-n / 2 - 2.3, 0.7 - n, 0.25), (n - 5.1, -n - 4.6, 0.3), (-7.05, -6.95, 0.5)):
+        ref = r.sampled(x0, y0, 48, 48, s)
+        ex = r.inexact_gutter(x0, y0, 48, 48, s, 0)
+        cases.append(xv.case(f"magnified {s}", "grad", (x0, y0), 48, 48, s, 1, np.rint(ref).astype(np.uint8),
+                             exempt=ex))
+    rep = _run(browser, tmp_path, tileset, m, imap, levels, cases)
+    cs = rep["cases"]
+    assert all(c["differing"] == 0 for c in cs), cs
+    assert all(c["max_diff"] == 0 for c in cs[:2]), cs
+    if which == "omega":
+        # the kept border ring makes the first gutter texel exact for every valid neighbour
+        assert all(c["exempt"] == 0 for c in cs), cs
+
+
+def _seam(img: np.ndarray, tile: int) -> float:
+    return seam_score(img[..., :3].astype(np.float32) / 255.0, tile).score
+
+
+def test_minified_mips_gradients_and_seams(browser, tmp_path, omega64):
+    """At each level L: texel centres within 2/255 of the box-filtered texture; samples shifted a quarter texel
+    (so every border pixel reads the gutter) within 2/255 wherever the gutter can be exact; the border seam score
+    of the render no worse than the reference's; and a negative control without gutters that shows the seam."""
+    tileset = omega64
+    n = tileset.tile_size
+    m, imap, levels, r = _exported(tileset, tmp_path / "x", index_size=(8, 8))
+    assert m["atlas"]["max_level"] == 3
+    cases, refs = [], {}
+    for lv in (1, 2, 3):
+        f = 2**lv
+        w = h = 4 * n // f  # four tiles across
+        c = np.clip(np.rint(r.sampled(-2 * n, -n, w, h, f, lv)), 0, 255).astype(np.uint8)
+        cases.append(xv.case(f"centres L{lv}", "grad", (-2 * n, -n), w, h, f, 2, c))
+        ox, oy = -2 * n + f / 4, -n + f / 4
+        s = r.sampled(ox, oy, w, h, f, lv)
+        ex = r.inexact_gutter(ox, oy, w, h, f, lv)
+        refs[lv] = (np.clip(np.rint(s), 0, 255).astype(np.uint8), ex)
+        cases.append(xv.case(f"shifted L{lv}", "grad", (ox, oy), w, h, f, 2, refs[lv][0], dump=True, exempt=ex))
+    rep = _run(browser, tmp_path, tileset, m, imap, levels, cases)
+    got = _by_name(rep)
+    # negative control: the same tiles packed without gutter (P = 0), the mips reduced over the whole atlas
+    cols, rows = m["atlas"]["columns"], m["atlas"]["rows"]
+    cells = xatlas.quantise(xatlas.padded_tiles(tileset.tiles, tileset.exemplar, tileset.source, 0), 8)
+    naive = xatlas.mip_chain(xatlas.pack(cells, cols, rows), 3, srgb=True)
+    m0 = dict(m, padding=0, atlas=dict(m["atlas"], width=naive[0].shape[1], height=naive[0].shape[0]))
+    ctrl = _run(browser, tmp_path, tileset, m0, imap, naive, [c for c in cases if c["name"].startswith("shifted")],
+                layout=[n, 0, cols, 3])
+    bad = _by_name(ctrl)
+    lines = []
+    for lv in (1, 2, 3):
+        f = 2**lv
+        cen, sh = got[f"centres L{lv}"], got[f"shifted L{lv}"]
+        assert cen["differing"] == 0 and cen["exempt"] == 0, cen
+        assert sh["differing"] == 0, sh
+        ref_img, ex = refs[lv]
+        img = np.frombuffer(base64.b64decode(sh["image"]), np.uint8).reshape(ref_img.shape)
+        ctl = np.frombuffer(base64.b64decode(bad[f"shifted L{lv}"]["image"]), np.uint8).reshape(ref_img.shape)
+        s_ref, s_gpu, s_ctl = _seam(ref_img, n // f), _seam(img, n // f), _seam(ctl, n // f)
+        lines.append((lv, s_ref, s_gpu, s_ctl, sh["exempt"], sh["exempt_max_diff"], bad[f"shifted L{lv}"]["max_diff"]))
+        # "no worse than the interior": the render's border/interior ratio does not exceed 1 beyond what the
+        # true (box-filtered) texture itself has there
+        assert s_gpu <= max(1.0, s_ref) * 1.10, lines
+        # the control fails where the gutters make the difference
+        assert bad[f"shifted L{lv}"]["differing"] > 0 and s_ctl > max(1.0, s_ref) * 1.25, lines
+    print("level, seam ref, seam gpu, seam no-gutter, exempt px, exempt max diff, control max diff")
+    for row in lines:
+        print(row)
