@@ -190,6 +190,9 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--threads", type=_pos, default=None, help="worker threads")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     _add_metrics_parsers(sub)
+    from .export.cli import add_parsers as _add_export_parsers  # issue 13: export, view
+
+    _add_export_parsers(sub)
     return p
 
 
@@ -636,6 +639,10 @@ def main(argv: list[str] | None = None) -> int:
             _metrics(args)
         elif args.command == "report":
             _report(args)
+        elif args.command in ("export", "view"):  # issue 13
+            from .export.cli import run as _run_export
+
+            _run_export(args)
         return EXIT_OK
     except UsageError as exc:
         print(f"{exc} (see 'tilesynth --help')", file=sys.stderr)
