@@ -43,7 +43,7 @@ import numpy as np
 
 from ..errors import ParameterError, ShapeError
 from . import atlas as _atlas
-from .periodic import toroidal_index_map
+from .periodic import default_index_size, toroidal_index_map
 
 EXPORT_FORMAT = "tilesynth-export"
 EXPORT_VERSION = 1
@@ -200,7 +200,7 @@ def export(
     lookup: str = "auto",
     seed: int = 0,
     wrap: tuple[int, int] | None = None,
-    index_size: tuple[int, int] = (32, 32),
+    index_size: tuple[int, int] | None = None,
     index_seed: int = 0,
     normal_y: str = "+y",
     map_smooth: str = "auto",
@@ -222,7 +222,8 @@ def export(
     lookup : ``"auto"``, ``"hash"`` or ``"index_map"``.
     seed : hash seed in [0, 2^32) (hash mode).
     wrap : hash mode: make the plane periodic with (Tx, Ty) tiles (default: infinite, non-periodic).
-    index_size : (cols, rows) of the toroidal index map (index-map mode).
+    index_size : (cols, rows) of the toroidal index map (index-map mode); default: the multiple of the set's
+        torus period nearest 32 x 32 (:func:`~tilesynth.export.periodic.default_index_size`).
     index_seed : seed of the toroidal index map.
     normal_y : ``"+y"`` (OpenGL convention, green up) or ``"-y"`` (DirectX): recorded for normal maps; the
         values are not changed (the exemplar's normal map is what it is).
@@ -305,6 +306,8 @@ def export(
             **hl,  # type: ignore[dict-item]
         }
     else:
+        if index_size is None:
+            index_size = default_index_size(defn)
         icols, irows = (int(v) for v in index_size)
         if icols < 1 or irows < 1 or icols * irows > 1 << 22:
             raise ParameterError(f"index_size = {index_size!r}: (cols, rows) >= 1 and at most 4M cells")

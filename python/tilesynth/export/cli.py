@@ -26,8 +26,9 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, help="hash seed in [0, 2^32) (default 0)")
     p.add_argument("--wrap", type=_pair, default=None, metavar="TXxTY",
                    help="hash mode: periodic with TX x TY tiles (default: infinite, non-periodic)")
-    p.add_argument("--index-size", type=_pair, default=(32, 32), metavar="COLSxROWS",
-                   help="index-map mode: size of the toroidal index map in tiles (default 32x32)")
+    p.add_argument("--index-size", type=_pair, default=None, metavar="COLSxROWS",
+                   help="index-map mode: size of the toroidal index map in tiles (default: the multiple of the "
+                   "set's torus period nearest 32x32)")
     p.add_argument("--index-seed", type=int, default=0, help="index-map mode: seed of the tiling (default 0)")
 
 
