@@ -165,9 +165,9 @@ def hashed_index_map(
     threads: int | None = None,
 ) -> npt.NDArray[np.int32]: ...
 def tile_copy_window(
-    atlas: npt.NDArray[Any],
+    atlas: npt.NDArray[np.generic],
     index_map: npt.NDArray[np.int32],
     offset: tuple[int, int],
-    out: npt.NDArray[Any],
+    out: npt.NDArray[np.generic],
     threads: int | None = None,
 ) -> None: ...
