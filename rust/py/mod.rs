@@ -3,6 +3,7 @@
 
 mod convert;
 mod errors;
+mod hash;
 
 use crate::{maxflow, omega, parallel, png, poisson, population, ssd, synth, wang};
 use convert::contiguous;
@@ -618,5 +619,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(edge_weight_sums, m)?)?;
     m.add_function(wrap_pyfunction!(weighted_ssd_map, m)?)?;
     m.add_function(wrap_pyfunction!(_raise_panic, m)?)?;
+    hash::register(m)?;
     Ok(())
 }
