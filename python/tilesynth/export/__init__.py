@@ -48,8 +48,9 @@ from .periodic import default_index_size, toroidal_index_map
 EXPORT_FORMAT = "tilesynth-export"
 EXPORT_VERSION = 1
 SHADER_FILES = ("tilesynth.glsl", "tilesynth.wgsl", "tilesynth.hlsl", "tilesynth.gdshader")
-HASH_NAME = "pcg3d"
+HASH_NAME = "pcg3d"  # tilesynth.lookup.HASH_NAME
 HASH_CONSTANTS = {"lcg_multiplier": 1664525, "lcg_increment": 1013904223, "role_multiplier": 0x9E3779B9, "shift": 16}
+"""The constants of the hash as the manifest records them (checked against :mod:`tilesynth.lookup` by the tests)."""
 
 __all__ = ["export", "manifest_schema", "validate_manifest", "hash_layout", "shader_source", "EXPORT_FORMAT"]
 
@@ -303,6 +304,7 @@ def export(
             "constants": HASH_CONSTANTS,
             "seed": int(seed),
             "wrap": [int(wrap[0]), int(wrap[1])] if wrap is not None else None,
+            "roles": {"vertex": 0, "horizontal_edge": 1, "vertical_edge": 2, "variant": 3},
             **hl,  # type: ignore[dict-item]
         }
     else:

@@ -35,7 +35,10 @@ def hashed_index_map_for(lookup: dict[str, Any], x0: int, y0: int, w: int, h: in
     """int32 ``(h, w)`` tile indices of cells x0.., y0.. in hash mode (via :mod:`tilesynth.lookup`)."""
     from .. import lookup as lk
 
-    return lk.reference_index_window(lookup, x0, y0, w, h)
+    colours = (lookup["K"],) if lookup["kind"] == "corner" else (lookup["Kh"], lookup["Kv"])
+    scheme = lk.LookupScheme(lookup["kind"], colours, lookup["V"])
+    wrap = tuple(lookup["wrap"]) if lookup.get("wrap") else None
+    return lk.index_map(scheme, lookup["seed"], (w, h), origin=(x0, y0), wrap=wrap)
 
 
 def texture_window(tileset: Any, index_of: Callable, x0: int, y0: int, w: int, h: int, dtype: Any = np.uint8) -> np.ndarray:

@@ -56,6 +56,8 @@ int ts_tile_index(ivec2 cell) {
         ivec2 sz = textureSize(ts_index, 0);
         return int(texelFetch(ts_index, ivec2(ts_emod(cell.x, sz.x), ts_emod(cell.y, sz.y)), 0).r);
     }
+    // wrap the cell first, so cell + 1 never overflows and (cx + 1) mod Tx is exact for every int32 cx
+    if (ts_wrap.x > 0) cell = ivec2(ts_emod(cell.x, ts_wrap.x), ts_emod(cell.y, ts_wrap.y));
     uint V = uint(ts_lookup.w);
     uint v = ts_lattice(cell, 3u) % V;
     if (ts_lookup.x == 1) {

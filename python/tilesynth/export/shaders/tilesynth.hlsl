@@ -43,6 +43,8 @@ int ts_tile_index(int2 cell) {
         ts_index.GetDimensions(w, h);
         return (int)ts_index.Load(int3(ts_emod(cell.x, (int)w), ts_emod(cell.y, (int)h), 0));
     }
+    // wrap the cell first, so cell + 1 never overflows and (cx + 1) mod Tx is exact for every int32 cx
+    if (ts_wrap.x > 0) cell = int2(ts_emod(cell.x, ts_wrap.x), ts_emod(cell.y, ts_wrap.y));
     uint V = (uint)ts_lookup.w;
     uint v = ts_lattice(cell, 3u) % V;
     if (ts_lookup.x == 1) {

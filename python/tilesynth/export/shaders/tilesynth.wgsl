@@ -41,11 +41,14 @@ fn ts_lattice(v0: vec2<i32>, role: u32) -> u32 {
     return ts_hash(v.x, v.y, ts.seed, role);
 }
 
-fn ts_tile_index(cell: vec2<i32>) -> i32 {
+fn ts_tile_index(cell0: vec2<i32>) -> i32 {
+    var cell = cell0;
     if (ts.lookup.x == 0) {
         let sz = vec2<i32>(textureDimensions(ts_index, 0));
         return i32(textureLoad(ts_index, vec2<i32>(ts_emod(cell.x, sz.x), ts_emod(cell.y, sz.y)), 0).r);
     }
+    // wrap the cell first, so cell + 1 never overflows and (cx + 1) mod Tx is exact for every i32 cx
+    if (ts.wrap.x > 0) { cell = vec2<i32>(ts_emod(cell.x, ts.wrap.x), ts_emod(cell.y, ts.wrap.y)); }
     let V = u32(ts.lookup.w);
     let v = ts_lattice(cell, 3u) % V;
     if (ts.lookup.x == 1) {
