@@ -253,3 +253,47 @@ def test_hash_mode_composition_equals_synthesize(browser, tmp_path, omega_set, k
     # the hashed layout is really used: the window holds many different tiles
     cy, cx = np.mgrid[-4:4, -4:4]
     assert len(np.unique(r.index_of(cx, cy))) >= 8
+
+
+def test_wgsl_hash_and_tile_index_match_the_vectors_in_webgpu(browser, tmp_path):
+    """The WGSL shader through Chromium's WebGPU (Dawn on SwiftShader's Vulkan), in a compute pass."""
+    import json
+
+    from tilesynth.export import shader_source
+    from webgl import run_webgpu_page, wgsl_page
+
+    vectors = json.loads((DATA / "hash_vectors.json").read_text())
+    page = tmp_path / "wgsl.html"
+    page.write_text(wgsl_page(vectors, shader_source("tilesynth.wgsl")), encoding="utf-8")
+    rep = run_webgpu_page(browser, page)
+    if "adapter" in str(rep.get("error", "")).lower() or "navigator.gpu" in str(rep.get("error", "")):
+        pytest.skip(f"no WebGPU adapter in this browser: {rep['error']}")
+    assert rep.get("error") is None, rep
+    assert rep["checked"] == 1180 and rep["status"] == "PASS", rep["fails"]
+
+
+@pytest.mark.parametrize("target", ["glsl-es300", "glsl-400", "hlsl"])
+def test_shaders_compile_with_glslang(tmp_path, target):
+    """The GLSL (ES 3.00 and desktop 4.00) and HLSL (to SPIR-V) sources compile with Khronos' glslang."""
+    import shutil
+    import subprocess
+
+    from tilesynth.export import shader_source
+
+    exe = shutil.which("glslangValidator")
+    if exe is None:
+        pytest.skip("glslangValidator not found (apt-get install glslang-tools)")
+    if target == "hlsl":
+        src = shader_source("tilesynth.hlsl") + (
+            "float4 main(float2 uv : TEXCOORD0) : SV_Target { return ts_sample(uv) + ts_fetch(int2(uv)); }\n")
+        f = tmp_path / "t.hlsl"
+        cmd = [exe, "-D", "-V", "-e", "main", "-S", "frag", "-o", str(tmp_path / "t.spv"), str(f)]
+    else:
+        head = "#version 300 es\nprecision highp float;\nprecision highp int;\n" if target == "glsl-es300" else "#version 400\n"
+        src = head + shader_source("tilesynth.glsl") + (
+            "in vec2 uv; out vec4 o; void main() { o = ts_sample(uv) + ts_fetch(ivec2(uv)); }\n")
+        f = tmp_path / "t.frag"
+        cmd = [exe, str(f)]
+    f.write_text(src)
+    out = subprocess.run(cmd, capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout + out.stderr

@@ -3,10 +3,11 @@
 // Bindings (change the group/binding numbers to fit your pipeline):
 //   ts_atlas    the atlas of one map, levels 0..max_level; ts_sampler: linear min/mag/mipmap, clamp-to-edge
 //   ts_index    index_map mode: index.png as an r16uint texture (hash mode: any 1x1 u32 texture, never read)
-//   ts          the parameters from manifest.json (layout = N, P, atlas columns, max_level; lookup = mode
+//   ts          the parameters from manifest.json (grid = N, P, atlas columns, max_level; lookup = mode
 //               (0 index map, 1 hash corner, 2 hash edge), K (or Kh), Kv, V; wrap = hash period, 0 0 = none)
+// Host layout of TsParams (64 bytes): grid @0, lookup @16, wrap @32, seed @40, _pad @44, atlas_size @48.
 struct TsParams {
-    layout: vec4<i32>,
+    grid: vec4<i32>,        // tile size N, padding P, atlas columns, max_level
     lookup: vec4<i32>,
     wrap: vec2<i32>,
     seed: u32,
@@ -69,13 +70,13 @@ fn ts_tile_index(cell0: vec2<i32>) -> i32 {
 }
 
 fn ts_tile_origin(t: i32) -> vec2<i32> {
-    let s = ts.layout.x + 2 * ts.layout.y;
-    return vec2<i32>((t % ts.layout.z) * s, (t / ts.layout.z) * s) + vec2<i32>(ts.layout.y);
+    let s = ts.grid.x + 2 * ts.grid.y;
+    return vec2<i32>((t % ts.grid.z) * s, (t / ts.grid.z) * s) + vec2<i32>(ts.grid.y);
 }
 
 // The exact texel (x, y) of the infinite texture.
 fn ts_fetch(p: vec2<i32>) -> vec4<f32> {
-    let n = ts.layout.x;
+    let n = ts.grid.x;
     let cell = vec2<i32>(ts_floordiv(p.x, n), ts_floordiv(p.y, n));
     return textureLoad(ts_atlas, ts_tile_origin(ts_tile_index(cell)) + (p - cell * n), 0);
 }
@@ -83,12 +84,12 @@ fn ts_fetch(p: vec2<i32>) -> vec4<f32> {
 // Filtered sample at uv (tile units) with the gradients of the continuous uv; footprint clamped to max_level.
 fn ts_sample_grad(uv: vec2<f32>, duvdx: vec2<f32>, duvdy: vec2<f32>) -> vec4<f32> {
     let cellf = floor(uv);
-    let n = f32(ts.layout.x);
+    let n = f32(ts.grid.x);
     let texel = vec2<f32>(ts_tile_origin(ts_tile_index(vec2<i32>(cellf)))) + (uv - cellf) * n;
     var gx = duvdx * n;
     var gy = duvdy * n;
     let m = max(dot(gx, gx), dot(gy, gy));
-    let lim = exp2(2.0 * f32(ts.layout.w));
+    let lim = exp2(2.0 * f32(ts.grid.w));
     if (m > lim) {
         let k = sqrt(lim / m);
         gx *= k;
