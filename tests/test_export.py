@@ -11,9 +11,9 @@ import pytest
 import tilesynth as ts
 from tilesynth._validate import to_uint
 from tilesynth.errors import ParameterError
-from tilesynth.export import atlas as xatlas
-from tilesynth.export import export, hash_layout, manifest_schema, validate_manifest
-from tilesynth.export.periodic import toroidal_index_map
+from tilesynth.engine import atlas as xatlas
+from tilesynth.engine import export, hash_layout, manifest_schema, validate_manifest
+from tilesynth.engine.periodic import toroidal_index_map
 from tilesynth.io import load_raster
 from tilesynth.tiling import validate_index_map
 
@@ -128,7 +128,7 @@ def test_gutter_from_provenance(omega_set, wang_set):
                                                 ("16ax2", 2, False), ("n2x2", 3, True)])
 def test_toroidal_index_maps_of_named_corner_sets(name, period, strict):
     """Measured: the smallest square torus each set tiles; 'strict' sets tile no torus of side period + 1."""
-    from tilesynth.export.periodic import default_index_size, torus_period
+    from tilesynth.engine.periodic import default_index_size, torus_period
 
     defn = ts.get_tileset(name)
     assert torus_period(defn) == period
@@ -162,7 +162,7 @@ def test_toroidal_index_map_is_seeded_and_varied():
 
 @pytest.mark.parametrize("name", ["n2", "n2x2"])
 def test_toroidal_fallback_repeats_a_small_torus_and_recolours(name, monkeypatch):
-    from tilesynth.export import periodic
+    from tilesynth.engine import periodic
     from tilesynth.wangsets import get_wang_tileset
 
     defn = get_wang_tileset(name) if name.startswith("wang") else ts.get_tileset(name)

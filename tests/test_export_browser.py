@@ -1,6 +1,6 @@
 """The exported GLSL in a real browser (headless Chromium, WebGL2 on SwiftShader) against the CPU.
 
-Every expected image comes from :func:`tilesynth.synthesize` (``tilesynth.export.reference``), never from the
+Every expected image comes from :func:`tilesynth.synthesize` (``tilesynth.engine.reference``), never from the
 atlas. Windows are small (SwiftShader is slow); each test renders all its windows in one page load.
 Skipped, with the reason, only when no Chromium can be found (``tests/webgl.py``).
 """
@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 import tilesynth as ts
-from tilesynth.export import atlas as xatlas
-from tilesynth.export import export
-from tilesynth.export import viewer as xv
+from tilesynth.engine import atlas as xatlas
+from tilesynth.engine import export
+from tilesynth.engine import viewer as xv
 from tilesynth.metrics import seam_score
 from webgl import browser_or_skip, run_page
 
@@ -174,7 +174,7 @@ DATA = Path(__file__).parent / "data"
 def test_shader_hash_matches_the_vectors_bit_for_bit(browser, tmp_path):
     import json
 
-    from tilesynth.export import shader_source
+    from tilesynth.engine import shader_source
     from webgl import hash_page
 
     vectors = json.loads((DATA / "hash_vectors.json").read_text())
@@ -259,7 +259,7 @@ def test_wgsl_hash_and_tile_index_match_the_vectors_in_webgpu(browser, tmp_path)
     """The WGSL shader through Chromium's WebGPU (Dawn on SwiftShader's Vulkan), in a compute pass."""
     import json
 
-    from tilesynth.export import shader_source
+    from tilesynth.engine import shader_source
     from webgl import run_webgpu_page, wgsl_page
 
     vectors = json.loads((DATA / "hash_vectors.json").read_text())
@@ -278,7 +278,7 @@ def test_shaders_compile_with_glslang(tmp_path, target):
     import shutil
     import subprocess
 
-    from tilesynth.export import shader_source
+    from tilesynth.engine import shader_source
 
     exe = shutil.which("glslangValidator")
     if exe is None:

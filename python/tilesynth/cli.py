@@ -190,7 +190,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--threads", type=_pos, default=None, help="worker threads")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     _add_metrics_parsers(sub)
-    from .export.cli import add_parsers as _add_export_parsers  # issue 13: export, view
+    from .engine.cli import add_parsers as _add_export_parsers  # issue 13: export, view
 
     _add_export_parsers(sub)
     return p
@@ -640,7 +640,7 @@ def main(argv: list[str] | None = None) -> int:
         elif args.command == "report":
             _report(args)
         elif args.command in ("export", "view"):  # issue 13
-            from .export.cli import run as _run_export
+            from .engine.cli import run as _run_export
 
             _run_export(args)
         return EXIT_OK

@@ -224,7 +224,7 @@ def export(
     seed : hash seed in [0, 2^32) (hash mode).
     wrap : hash mode: make the plane periodic with (Tx, Ty) tiles (default: infinite, non-periodic).
     index_size : (cols, rows) of the toroidal index map (index-map mode); default: the multiple of the set's
-        torus period nearest 32 x 32 (:func:`~tilesynth.export.periodic.default_index_size`).
+        torus period nearest 32 x 32 (:func:`~tilesynth.engine.periodic.default_index_size`).
     index_seed : seed of the toroidal index map.
     normal_y : ``"+y"`` (OpenGL convention, green up) or ``"-y"`` (DirectX): recorded for normal maps; the
         values are not changed (the exemplar's normal map is what it is).
@@ -257,11 +257,26 @@ def export(
             "lookup = 'hash': the hash needs a complete set stored in the hash's index order (HASH-SPEC); "
             f"set {getattr(defn, 'name', '?')!r} is not one: use lookup='index_map'"
         )
+    if maps is not None and not isinstance(maps, dict):
+        raise TypeError(f"maps is a {type(maps).__name__}, expected a dict {{name: array}}")
+    if index_size is not None:
+        if (
+            not isinstance(index_size, (tuple, list))
+            or len(index_size) != 2
+            or any(isinstance(v, bool) or not isinstance(v, (int, np.integer)) for v in index_size)
+        ):
+            raise ParameterError(f"index_size = {index_size!r}: expected (cols, rows) positive integers")
+    if isinstance(index_seed, bool) or not isinstance(index_seed, (int, np.integer)) or index_seed < 0:
+        raise ParameterError(f"index_seed = {index_seed!r}: must be a non-negative integer")
     if wrap is not None:
         if lookup != "hash":
             raise ParameterError("wrap: only for lookup='hash' (an index map is periodic with its own size)")
-        if len(wrap) != 2 or any(isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1 for v in wrap):
-            raise ParameterError(f"wrap = {wrap!r}: expected (Tx, Ty) positive integers")
+        if (
+            not isinstance(wrap, (tuple, list))
+            or len(wrap) != 2
+            or any(isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v < 2**31 for v in wrap)
+        ):
+            raise ParameterError(f"wrap = {wrap!r}: expected (Tx, Ty) integers in [1, 2^31)")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     (out / "shaders").mkdir(exist_ok=True)
@@ -326,7 +341,7 @@ def export(
             "format": "R16_UINT",
             "wrap": "repeat",
             "seed": int(index_seed),
-            "periodic": "toroidal tiling found by backtracking scan-line search (tilesynth.export.periodic)",
+            "periodic": "toroidal tiling found by backtracking scan-line search (tilesynth.engine.periodic)",
         }
     for s in SHADER_FILES:
         dst = out / "shaders" / s
@@ -356,7 +371,7 @@ def export(
             "filter": "LINEAR_MIPMAP_LINEAR, clamp to edge, max level = max_level",
         },
         "gutter": {
-            "fill": "exemplar continuation of the nearest tile pixel's provenance (tilesynth.export.atlas)",
+            "fill": "exemplar continuation of the nearest tile pixel's provenance (tilesynth.engine.atlas)",
             "exact_fraction_by_depth": exact["by_depth"],
             "exact_fraction": exact["overall"],
             "neighbour_pairs": exact["pairs"],
