@@ -7,13 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import tilesynth as ts
 from tilesynth._validate import to_uint
-from tilesynth.errors import ParameterError
 from tilesynth.engine import atlas as xatlas
 from tilesynth.engine import export, hash_layout, manifest_schema, validate_manifest
 from tilesynth.engine.periodic import toroidal_index_map
+from tilesynth.errors import ParameterError
 from tilesynth.io import load_raster
 from tilesynth.tiling import validate_index_map
 
@@ -41,8 +40,14 @@ def test_manifest_validates_and_references_every_file(tmp_path, which, omega_set
     tileset.save(src)
     normal = (small_exemplar * 65535).astype(np.uint16)
     height = small_exemplar[..., 0].copy()
-    m = export(ts.load(src), tmp_path / "out", maps={"normal": normal, "height": height}, viewer=True,
-               index_size=(6, 4), source_path=src)
+    m = export(
+        ts.load(src),
+        tmp_path / "out",
+        maps={"normal": normal, "height": height},
+        viewer=True,
+        index_size=(6, 4),
+        source_path=src,
+    )
     out = tmp_path / "out"
     on_disk = json.loads((out / "manifest.json").read_text())
     assert on_disk == m
@@ -82,7 +87,9 @@ def test_atlas_interiors_are_the_tiles_and_mips_stay_in_their_cells(tmp_path, om
     # change one tile: no texel of any other cell changes at any level
     other = omega_set.tiles.copy()
     other[5] = 1.0 - other[5]
-    cells_a = xatlas.quantise(xatlas.padded_tiles(omega_set.tiles, omega_set.exemplar, omega_set.source, p), 8)
+    cells_a = xatlas.quantise(
+        xatlas.padded_tiles(omega_set.tiles, omega_set.exemplar, omega_set.source, p), 8
+    )
     cells_b = cells_a.copy()
     cells_b[5, p : p + n, p : p + n] = to_uint(other[5], 8)
     rows = m["atlas"]["rows"]
@@ -123,18 +130,30 @@ def test_gutter_from_provenance(omega_set, wang_set):
         assert np.array_equal(cells[t, 7, 7], to_uint(omega_set.exemplar[r - 1, c - 1], 8))
 
 
-@pytest.mark.parametrize("name,period,strict", [("4", 2, True), ("8", 2, True), ("16a", 2, False), ("16b", 4, True),
-                                                ("32", 2, False), ("B", 3, True), ("n1", 3, True), ("n2", 3, True),
-                                                ("16ax2", 2, False), ("n2x2", 3, True)])
+@pytest.mark.parametrize(
+    "name,period,strict",
+    [
+        ("4", 2, True),
+        ("8", 2, True),
+        ("16a", 2, False),
+        ("16b", 4, True),
+        ("32", 2, False),
+        ("B", 3, True),
+        ("n1", 3, True),
+        ("n2", 3, True),
+        ("16ax2", 2, False),
+        ("n2x2", 3, True),
+    ],
+)
 def test_toroidal_index_maps_of_named_corner_sets(name, period, strict):
     """Measured: the smallest square torus each set tiles; 'strict' sets tile no torus of side period + 1."""
     from tilesynth.engine.periodic import default_index_size, torus_period
 
     defn = ts.get_tileset(name)
     assert torus_period(defn) == period
-    cols, rows = default_index_size(defn)
-    assert cols == rows and cols % period == 0 and abs(cols - 32) <= period
-    for rows, cols in ((rows, cols), (2 * period, 3 * period)):
+    dc, dr = default_index_size(defn)
+    assert dc == dr and dc % period == 0 and abs(dc - 32) <= period
+    for rows, cols in ((dr, dc), (2 * period, 3 * period)):
         imap = toroidal_index_map(defn, rows, cols, seed=3)
         assert imap.shape == (rows, cols) and imap.dtype == np.int32
         validate_index_map(defn, np.tile(imap, (2, 2)))  # valid across the wrap in both directions
@@ -200,17 +219,17 @@ def test_hash_layout_detects_complete_sets_in_hash_order():
 
 def test_export_parameter_errors(tmp_path, omega_set):
     for kw, word in (
-        (dict(padding=-1), "padding"),
-        (dict(padding=True), "padding"),
-        (dict(bits=12), "bits"),
-        (dict(seed=2**32), "seed"),
-        (dict(seed=-1), "seed"),
-        (dict(lookup="hash"), "hash"),
-        (dict(lookup="nope"), "lookup"),
-        (dict(wrap=(4, 4)), "wrap"),
-        (dict(normal_y="up"), "normal_y"),
-        (dict(maps={"albedo": omega_set.exemplar}), "albedo"),
-        (dict(maps={"bad name": omega_set.exemplar}), "map name"),
+        ({"padding": -1}, "padding"),
+        ({"padding": True}, "padding"),
+        ({"bits": 12}, "bits"),
+        ({"seed": 2**32}, "seed"),
+        ({"seed": -1}, "seed"),
+        ({"lookup": "hash"}, "hash"),
+        ({"lookup": "nope"}, "lookup"),
+        ({"wrap": (4, 4)}, "wrap"),
+        ({"normal_y": "up"}, "normal_y"),
+        ({"maps": {"albedo": omega_set.exemplar}}, "albedo"),
+        ({"maps": {"bad name": omega_set.exemplar}}, "map name"),
     ):
         with pytest.raises(ParameterError, match=word):
             export(omega_set, tmp_path / "e", **kw)
@@ -270,5 +289,9 @@ def test_cli_export_and_view(tmp_path, omega_set):
     assert (tmp_path / "out" / "viewer.html").is_file()
     assert main(["view", str(src), "-o", str(tmp_path / "v.html"), "--index-size", "4x4"]) == 0
     html = (tmp_path / "v.html").read_text()
-    assert html.startswith("<!DOCTYPE html>") and "ts_sample_grad" in html and "http" not in html.split("<script")[0]
+    assert (
+        html.startswith("<!DOCTYPE html>")
+        and "ts_sample_grad" in html
+        and "http" not in html.split("<script")[0]
+    )
     assert main(["export", str(src), "-o", str(tmp_path / "o2"), "--lookup", "hash"]) == 2

@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import tilesynth as ts
 from tilesynth.engine import atlas as xatlas
 from tilesynth.engine import export
@@ -102,8 +101,11 @@ def test_bilinear_centres_exact_and_magnified_within_one(browser, tmp_path, whic
     for x0, y0, s in ((-n / 2 - 2.3, 0.7 - n, 0.25), (n - 5.1, -n - 4.6, 0.3), (-7.05, -6.95, 0.5)):
         ref = r.sampled(x0, y0, 48, 48, s)
         ex = r.inexact_gutter(x0, y0, 48, 48, s, 0)
-        cases.append(xv.case(f"magnified {s}", "grad", (x0, y0), 48, 48, s, 1, np.rint(ref).astype(np.uint8),
-                             exempt=ex))
+        cases.append(
+            xv.case(
+                f"magnified {s}", "grad", (x0, y0), 48, 48, s, 1, np.rint(ref).astype(np.uint8), exempt=ex
+            )
+        )
     rep = _run(browser, tmp_path, tileset, m, imap, levels, cases)
     cs = rep["cases"]
     assert all(c["differing"] == 0 for c in cs), cs
@@ -135,7 +137,9 @@ def test_minified_mips_gradients_and_seams(browser, tmp_path, omega64):
         s = r.sampled(ox, oy, w, h, f, lv)
         ex = r.inexact_gutter(ox, oy, w, h, f, lv)
         refs[lv] = (np.clip(np.rint(s), 0, 255).astype(np.uint8), ex)
-        cases.append(xv.case(f"shifted L{lv}", "grad", (ox, oy), w, h, f, 2, refs[lv][0], dump=True, exempt=ex))
+        cases.append(
+            xv.case(f"shifted L{lv}", "grad", (ox, oy), w, h, f, 2, refs[lv][0], dump=True, exempt=ex)
+        )
     rep = _run(browser, tmp_path, tileset, m, imap, levels, cases)
     got = _by_name(rep)
     # negative control: the same tiles packed without gutter (P = 0), the mips reduced over the whole atlas
@@ -143,8 +147,16 @@ def test_minified_mips_gradients_and_seams(browser, tmp_path, omega64):
     cells = xatlas.quantise(xatlas.padded_tiles(tileset.tiles, tileset.exemplar, tileset.source, 0), 8)
     naive = xatlas.mip_chain(xatlas.pack(cells, cols, rows), 3, srgb=True)
     m0 = dict(m, padding=0, atlas=dict(m["atlas"], width=naive[0].shape[1], height=naive[0].shape[0]))
-    ctrl = _run(browser, tmp_path, tileset, m0, imap, naive, [c for c in cases if c["name"].startswith("shifted")],
-                layout=[n, 0, cols, 3])
+    ctrl = _run(
+        browser,
+        tmp_path,
+        tileset,
+        m0,
+        imap,
+        naive,
+        [c for c in cases if c["name"].startswith("shifted")],
+        layout=[n, 0, cols, 3],
+    )
     bad = _by_name(ctrl)
     lines = []
     for lv in (1, 2, 3):
@@ -156,7 +168,9 @@ def test_minified_mips_gradients_and_seams(browser, tmp_path, omega64):
         img = np.frombuffer(base64.b64decode(sh["image"]), np.uint8).reshape(ref_img.shape)
         ctl = np.frombuffer(base64.b64decode(bad[f"shifted L{lv}"]["image"]), np.uint8).reshape(ref_img.shape)
         s_ref, s_gpu, s_ctl = _seam(ref_img, n // f), _seam(img, n // f), _seam(ctl, n // f)
-        lines.append((lv, s_ref, s_gpu, s_ctl, sh["exempt"], sh["exempt_max_diff"], bad[f"shifted L{lv}"]["max_diff"]))
+        lines.append(
+            (lv, s_ref, s_gpu, s_ctl, sh["exempt"], sh["exempt_max_diff"], bad[f"shifted L{lv}"]["max_diff"])
+        )
         # "no worse than the interior": the render's border/interior ratio does not exceed 1 beyond what the
         # true (box-filtered) texture itself has there
         assert s_gpu <= max(1.0, s_ref) * 1.10, lines
@@ -232,8 +246,10 @@ def complete_set(base, kind: str, variants: int = 1):
     return dataclasses.replace(base, layout=layout, scheme=scheme, labels=None, cut_stats=None, **arrays)
 
 
-@pytest.mark.parametrize("kind,variants,seed,wrap", [("corner", 2, 0xDEADBEEF, None), ("edge", 1, 7, None),
-                                                     ("corner", 1, 2**32 - 1, (5, 3))])
+@pytest.mark.parametrize(
+    "kind,variants,seed,wrap",
+    [("corner", 2, 0xDEADBEEF, None), ("edge", 1, 7, None), ("corner", 1, 2**32 - 1, (5, 3))],
+)
 def test_hash_mode_composition_equals_synthesize(browser, tmp_path, omega_set, kind, variants, seed, wrap):
     tileset = complete_set(omega_set, kind, variants)
     m, imap, levels, r = _exported(tileset, tmp_path / "x", seed=seed, wrap=wrap)
@@ -246,7 +262,9 @@ def test_hash_mode_composition_equals_synthesize(browser, tmp_path, omega_set, k
         cases.append(xv.case(f"centres {x0},{y0}", "grad", (x0, y0), 40, 40, 1.0, 0, exact))
     # another seed in the same page: the seed uniform is live
     other = xv.Reference(tileset, dict(m, lookup=dict(m["lookup"], seed=12345)), None, levels)
-    cases.append(xv.case("seed 12345", "fetch", (-40, -40), 48, 48, 1.0, 0, other.fetch(-40, -40, 48, 48), seed=12345))
+    cases.append(
+        xv.case("seed 12345", "fetch", (-40, -40), 48, 48, 1.0, 0, other.fetch(-40, -40, 48, 48), seed=12345)
+    )
     rep = _run(browser, tmp_path, tileset, m, imap, levels, cases)
     assert rep["status"] == "PASS", rep
     assert all(c["differing"] == 0 and c["max_diff"] == 0 for c in rep["cases"]), rep["cases"]
@@ -285,13 +303,21 @@ def test_shaders_compile_with_glslang(tmp_path, target):
         pytest.skip("glslangValidator not found (apt-get install glslang-tools)")
     if target == "hlsl":
         src = shader_source("tilesynth.hlsl") + (
-            "float4 main(float2 uv : TEXCOORD0) : SV_Target { return ts_sample(uv) + ts_fetch(int2(uv)); }\n")
+            "float4 main(float2 uv : TEXCOORD0) : SV_Target { return ts_sample(uv) + ts_fetch(int2(uv)); }\n"
+        )
         f = tmp_path / "t.hlsl"
         cmd = [exe, "-D", "-V", "-e", "main", "-S", "frag", "-o", str(tmp_path / "t.spv"), str(f)]
     else:
-        head = "#version 300 es\nprecision highp float;\nprecision highp int;\n" if target == "glsl-es300" else "#version 400\n"
-        src = head + shader_source("tilesynth.glsl") + (
-            "in vec2 uv; out vec4 o; void main() { o = ts_sample(uv) + ts_fetch(ivec2(uv)); }\n")
+        head = (
+            "#version 300 es\nprecision highp float;\nprecision highp int;\n"
+            if target == "glsl-es300"
+            else "#version 400\n"
+        )
+        src = (
+            head
+            + shader_source("tilesynth.glsl")
+            + ("in vec2 uv; out vec4 o; void main() { o = ts_sample(uv) + ts_fetch(ivec2(uv)); }\n")
+        )
         f = tmp_path / "t.frag"
         cmd = [exe, str(f)]
     f.write_text(src)

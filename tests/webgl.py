@@ -41,12 +41,19 @@ def browser_or_skip() -> str:
 
 def run_page(browser: str, page: Path, query: str = "", timeout: float = 240.0) -> dict[str, Any]:
     """Load ``page`` and return the JSON of ``#selftest-result`` (raises if the page did not report)."""
-    cmd = [browser, "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--headless",
-           "--dump-dom", page.resolve().as_uri() + query]
+    cmd = [
+        browser,
+        "--no-sandbox",
+        "--use-angle=swiftshader",
+        "--enable-unsafe-swiftshader",
+        "--headless",
+        "--dump-dom",
+        page.resolve().as_uri() + query,
+    ]
     if Path(browser).name == "chromium-headless-shell":
         cmd.remove("--headless")
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
-    m = re.search(r'<pre id="selftest-result"[^>]*>(.*?)</pre>', out.stdout, re.S)
+    m = re.search(r'<pre id="selftest-result"[^>]*>(.*?)</pre>', out.stdout, re.DOTALL)
     if not m or not m.group(1).strip():
         raise AssertionError(f"the page reported nothing; stderr tail:\n{out.stderr[-2000:]}")
     report = json.loads(html.unescape(m.group(1)))
@@ -222,18 +229,23 @@ def run_webgpu_page(browser: str, page: Path, timeout: float = 240.0) -> dict[st
     return json.loads(text)
 
 
-def evaluate_async(browser: str, page: Path, expression: str, flags: list[str], timeout: float = 240.0) -> Any:
+def evaluate_async(
+    browser: str, page: Path, expression: str, flags: list[str], timeout: float = 240.0
+) -> Any:
     """Open ``page`` and return the value of an (awaited) JS ``expression``, driving Chromium over the DevTools
     protocol on a pipe (``--remote-debugging-pipe``): for pages whose work is asynchronous (WebGPU), which
     ``--dump-dom`` does not wait for."""
     import select
     import time
 
-    r_in, w_in = os.pipe()   # we write commands -> browser fd 3
+    r_in, w_in = os.pipe()  # we write commands -> browser fd 3
     r_out, w_out = os.pipe()  # browser fd 4 -> we read
     proc = subprocess.Popen(
         [browser, "--no-sandbox", "--remote-debugging-pipe", *flags, "about:blank"],
-        pass_fds=(3, 4), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        pass_fds=(3, 4),
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
         preexec_fn=lambda: (os.dup2(r_in, 3), os.dup2(w_out, 4)),
     )
     os.close(r_in)
@@ -275,15 +287,25 @@ def evaluate_async(browser: str, page: Path, expression: str, flags: list[str], 
         session = wait(send("Target.attachToTarget", {"targetId": target, "flatten": True}))["sessionId"]
         end = time.monotonic() + timeout
         while True:  # until the page has defined what we wait for (the navigation is asynchronous)
-            probe = wait(send("Runtime.evaluate", {"expression": f"typeof ({expression}) !== 'undefined'",
-                                                   "returnByValue": True}, session))
+            probe = wait(
+                send(
+                    "Runtime.evaluate",
+                    {"expression": f"typeof ({expression}) !== 'undefined'", "returnByValue": True},
+                    session,
+                )
+            )
             if probe.get("result", {}).get("value") is True:
                 break
             if time.monotonic() > end:
                 raise TimeoutError(f"the page never defined {expression}")
             time.sleep(0.1)
-        res = wait(send("Runtime.evaluate", {"expression": expression, "awaitPromise": True, "returnByValue": True},
-                        session))
+        res = wait(
+            send(
+                "Runtime.evaluate",
+                {"expression": expression, "awaitPromise": True, "returnByValue": True},
+                session,
+            )
+        )
         if "exceptionDetails" in res:
             raise AssertionError(f"page exception: {res['exceptionDetails']}")
         return res["result"].get("value")

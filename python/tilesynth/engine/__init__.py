@@ -32,9 +32,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
-import shutil
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -49,10 +47,15 @@ EXPORT_FORMAT = "tilesynth-export"
 EXPORT_VERSION = 1
 SHADER_FILES = ("tilesynth.glsl", "tilesynth.wgsl", "tilesynth.hlsl", "tilesynth.gdshader")
 HASH_NAME = "pcg3d"  # tilesynth.lookup.HASH_NAME
-HASH_CONSTANTS = {"lcg_multiplier": 1664525, "lcg_increment": 1013904223, "role_multiplier": 0x9E3779B9, "shift": 16}
+HASH_CONSTANTS = {
+    "lcg_multiplier": 1664525,
+    "lcg_increment": 1013904223,
+    "role_multiplier": 0x9E3779B9,
+    "shift": 16,
+}
 """The constants of the hash as the manifest records them (checked against :mod:`tilesynth.lookup` by the tests)."""
 
-__all__ = ["export", "manifest_schema", "validate_manifest", "hash_layout", "shader_source", "EXPORT_FORMAT"]
+__all__ = ["EXPORT_FORMAT", "export", "hash_layout", "manifest_schema", "shader_source", "validate_manifest"]
 
 
 def shader_source(name: str) -> str:
@@ -64,7 +67,9 @@ def shader_source(name: str) -> str:
 
 def manifest_schema() -> dict[str, Any]:
     """The JSON Schema (draft 2020-12) of ``manifest.json``."""
-    return json.loads(resources.files(__package__).joinpath("manifest.schema.json").read_text(encoding="utf-8"))
+    return json.loads(
+        resources.files(__package__).joinpath("manifest.schema.json").read_text(encoding="utf-8")
+    )
 
 
 def validate_manifest(manifest: dict[str, Any]) -> None:
@@ -179,7 +184,9 @@ def build_maps(
         if not isinstance(name, str) or not name or not all(ch.isalnum() or ch in "-_" for ch in name):
             raise ParameterError(f"map name {name!r}: letters, digits, '-' and '_' only")
         if name == "albedo":
-            raise ParameterError("map name 'albedo' is the tile set's own colour; give the extra map another name")
+            raise ParameterError(
+                "map name 'albedo' is the tile set's own colour; give the extra map another name"
+            )
         a = _map_array(name, value, tileset.exemplar.shape[:2])
         tiles = np.ascontiguousarray(a[src[..., 0], src[..., 1]])
         smooth = {"auto": is_smoothed(tileset), "on": True, "off": False}[map_smooth]
@@ -248,7 +255,9 @@ def export(
     defn = tileset.definition
     n = tileset.tile_size
     if n > 65535 or tileset.n_tiles > 65535:
-        raise ParameterError(f"{tileset.n_tiles} tiles of {n} px: the R16 index map holds at most 65535 tiles")
+        raise ParameterError(
+            f"{tileset.n_tiles} tiles of {n} px: the R16 index map holds at most 65535 tiles"
+        )
     hl = hash_layout(defn)
     if lookup == "auto":
         lookup = "hash" if hl is not None else "index_map"
@@ -259,13 +268,12 @@ def export(
         )
     if maps is not None and not isinstance(maps, dict):
         raise TypeError(f"maps is a {type(maps).__name__}, expected a dict {{name: array}}")
-    if index_size is not None:
-        if (
-            not isinstance(index_size, (tuple, list))
-            or len(index_size) != 2
-            or any(isinstance(v, bool) or not isinstance(v, (int, np.integer)) for v in index_size)
-        ):
-            raise ParameterError(f"index_size = {index_size!r}: expected (cols, rows) positive integers")
+    if index_size is not None and (
+        not isinstance(index_size, (tuple, list))
+        or len(index_size) != 2
+        or any(isinstance(v, bool) or not isinstance(v, (int, np.integer)) for v in index_size)
+    ):
+        raise ParameterError(f"index_size = {index_size!r}: expected (cols, rows) positive integers")
     if isinstance(index_seed, bool) or not isinstance(index_seed, (int, np.integer)) or index_seed < 0:
         raise ParameterError(f"index_seed = {index_seed!r}: must be a non-negative integer")
     if wrap is not None:
@@ -274,7 +282,10 @@ def export(
         if (
             not isinstance(wrap, (tuple, list))
             or len(wrap) != 2
-            or any(isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v < 2**31 for v in wrap)
+            or any(
+                isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v < 2**31
+                for v in wrap
+            )
         ):
             raise ParameterError(f"wrap = {wrap!r}: expected (Tx, Ty) integers in [1, 2^31)")
     out = Path(out_dir)
@@ -297,13 +308,17 @@ def export(
         for lv, arr in enumerate(chain):
             fname = f"atlas_{name}.{ext}" if lv == 0 else f"atlas_{name}_mip{lv}.{ext}"
             _write_level(out / fname, arr)
-            level_files.append({"level": lv, "file": fname, "width": int(arr.shape[1]), "height": int(arr.shape[0])})
+            level_files.append(
+                {"level": lv, "file": fname, "width": int(arr.shape[1]), "height": int(arr.shape[0])}
+            )
             files.append(fname)
         entry: dict[str, Any] = {
             "name": name,
             "levels": level_files,
             "channels": int(cells.shape[3]),
-            "sample_type": {np.dtype(np.uint8): "uint8", np.dtype(np.uint16): "uint16"}.get(cells.dtype, "float32"),
+            "sample_type": {np.dtype(np.uint8): "uint8", np.dtype(np.uint16): "uint16"}.get(
+                cells.dtype, "float32"
+            ),
             "colour_space": "srgb" if srgb else "linear",
             "mips_reduced_in": "linear light" if srgb else "stored values",
         }

@@ -60,7 +60,7 @@ def max_mip_level(tile_size: int, padding: int) -> int:
 
 def padded_positions(source: np.ndarray, shape: tuple[int, int], padding: int) -> np.ndarray:
     """int64 ``(K, S, S, 2)`` exemplar (row, col) of every texel of every padded cell (see the module docstring)."""
-    k, n = source.shape[0], source.shape[1]
+    n = source.shape[1]
     p = int(padding)
     loc = np.arange(-p, n + p)
     cl = np.clip(loc, 0, n - 1)
@@ -75,7 +75,7 @@ def padded_positions(source: np.ndarray, shape: tuple[int, int], padding: int) -
 
 def padded_tiles(tiles: np.ndarray, aligned: np.ndarray, source: np.ndarray, padding: int) -> np.ndarray:
     """``(K, S, S, C)`` padded cells: the tiles inside, the aligned map (exemplar or a map) continued outside."""
-    k, n = tiles.shape[0], tiles.shape[1]
+    n = tiles.shape[1]
     p = int(padding)
     pos = padded_positions(source, aligned.shape[:2], p)
     cells = aligned[pos[..., 0], pos[..., 1]].astype(tiles.dtype)
@@ -96,7 +96,9 @@ def pack(cells: np.ndarray, cols: int, rows: int) -> np.ndarray:
 def cell_rects(n_tiles: int, tile_size: int, padding: int, cols: int) -> list[list[int]]:
     """``[x, y, w, h]`` of each tile's *interior* (not the cell) in level-0 atlas texels."""
     s = tile_size + 2 * padding
-    return [[(t % cols) * s + padding, (t // cols) * s + padding, tile_size, tile_size] for t in range(n_tiles)]
+    return [
+        [(t % cols) * s + padding, (t // cols) * s + padding, tile_size, tile_size] for t in range(n_tiles)
+    ]
 
 
 # --------------------------------------------------------------------------------------------- colour
@@ -195,4 +197,8 @@ def gutter_exactness(tileset: Any, cells: np.ndarray, padding: int, tiles_q: np.
                 tot += same.shape[0]
                 pairs += 1
     by_depth = [float(e / t) if t else None for e, t in zip(eq, tot)]
-    return {"by_depth": by_depth, "overall": float(eq.sum() / tot.sum()) if tot.sum() else None, "pairs": pairs}
+    return {
+        "by_depth": by_depth,
+        "overall": float(eq.sum() / tot.sum()) if tot.sum() else None,
+        "pairs": pairs,
+    }

@@ -150,8 +150,12 @@ def _recolour(tileset: Any, grid: np.ndarray, rng: np.random.Generator, sweeps: 
         hz = {c: i for i, c in enumerate(tileset.horizontal)}
         vt = {c: i for i, c in enumerate(tileset.vertical)}
         index = {(hz[nn], vt[e], hz[s], vt[w]): t for t, (nn, e, s, w) in enumerate(tileset.tiles)}
-        hor = np.array([[hz[tileset.tiles[grid[r, c]][0]] for c in range(cols)] for r in range(rows)])  # N edges
-        ver = np.array([[vt[tileset.tiles[grid[r, c]][3]] for c in range(cols)] for r in range(rows)])  # W edges
+        hor = np.array(
+            [[hz[tileset.tiles[grid[r, c]][0]] for c in range(cols)] for r in range(rows)]
+        )  # N edges
+        ver = np.array(
+            [[vt[tileset.tiles[grid[r, c]][3]] for c in range(cols)] for r in range(rows)]
+        )  # W edges
 
         def cell(r: int, c: int) -> tuple[int, int, int, int]:
             return (hor[r, c], ver[r, (c + 1) % cols], hor[(r + 1) % rows, c], ver[r, c])

@@ -4,14 +4,17 @@ matches the library."""
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
 from . import atlas as _atlas
 
 
-def index_function(lookup: dict[str, Any], imap: np.ndarray | None) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+def index_function(
+    lookup: dict[str, Any], imap: np.ndarray | None
+) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
     """``f(cx, cy) -> tile indices`` for integer arrays of cell coordinates (any sign)."""
     if lookup["mode"] == "index_map":
         assert imap is not None
@@ -41,7 +44,9 @@ def hashed_index_map_for(lookup: dict[str, Any], x0: int, y0: int, w: int, h: in
     return lk.index_map(scheme, lookup["seed"], (w, h), origin=(x0, y0), wrap=wrap)
 
 
-def texture_window(tileset: Any, index_of: Callable, x0: int, y0: int, w: int, h: int, dtype: Any = np.uint8) -> np.ndarray:
+def texture_window(
+    tileset: Any, index_of: Callable, x0: int, y0: int, w: int, h: int, dtype: Any = np.uint8
+) -> np.ndarray:
     """``(h, w, C)`` pixels [y0, y0+h) x [x0, x0+w) of the infinite texture, by :func:`tilesynth.synthesize`."""
     from ..synthesis import synthesize
 

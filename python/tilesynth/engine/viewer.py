@@ -24,7 +24,6 @@ from typing import Any
 
 import numpy as np
 
-from . import atlas as _atlas
 from . import reference as ref
 
 
@@ -52,14 +51,33 @@ def lookup_uniforms(lookup: dict[str, Any]) -> tuple[list[int], list[int]]:
     return [2, lookup["Kh"], lookup["Kv"], lookup["V"]], list(wrap)
 
 
-def case(name: str, kind: str, origin: tuple[float, float], w: int, h: int, scale: float, tol: int,
-         reference: np.ndarray, dump: bool = False, seed: int | None = None,
-         exempt: np.ndarray | None = None) -> dict[str, Any]:
+def case(
+    name: str,
+    kind: str,
+    origin: tuple[float, float],
+    w: int,
+    h: int,
+    scale: float,
+    tol: int,
+    reference: np.ndarray,
+    dump: bool = False,
+    seed: int | None = None,
+    exempt: np.ndarray | None = None,
+) -> dict[str, Any]:
     """One self-test case; ``reference`` is the ``(h, w, 4)`` uint8 expected read-back; ``exempt`` (bool
     ``(h, w)``) marks pixels counted apart (reported, not failed): footprints on inexact gutter texels."""
     assert reference.shape == (h, w, 4) and reference.dtype == np.uint8
-    c = {"name": name, "kind": kind, "origin": [float(origin[0]), float(origin[1])], "w": w, "h": h,
-         "scale": float(scale), "tol": int(tol), "ref": base64.b64encode(reference.tobytes()).decode(), "dump": dump}
+    c = {
+        "name": name,
+        "kind": kind,
+        "origin": [float(origin[0]), float(origin[1])],
+        "w": w,
+        "h": h,
+        "scale": float(scale),
+        "tol": int(tol),
+        "ref": base64.b64encode(reference.tobytes()).decode(),
+        "dump": dump,
+    }
     if seed is not None:
         c["seed"] = int(seed)
     if exempt is not None:
@@ -70,8 +88,13 @@ def case(name: str, kind: str, origin: tuple[float, float], w: int, h: int, scal
 class Reference:
     """CPU reference windows of one export (albedo, 8-bit)."""
 
-    def __init__(self, tileset: Any, manifest: dict[str, Any], imap: np.ndarray | None,
-                 levels: list[np.ndarray] | None = None):
+    def __init__(
+        self,
+        tileset: Any,
+        manifest: dict[str, Any],
+        imap: np.ndarray | None,
+        levels: list[np.ndarray] | None = None,
+    ):
         self.tileset = tileset
         self.n = tileset.tile_size
         self.index_of = ref.index_function(manifest["lookup"], imap)
@@ -142,8 +165,10 @@ def default_cases(r: Reference, manifest: dict[str, Any]) -> list[dict[str, Any]
     n = r.n
     cases = []
     w = h = min(48, 2 * n)
-    for name, (x0, y0) in (("fetch, negative origin, 4 tiles", (-n - n // 3, -n // 2 - 5)),
-                           ("fetch, positive origin", (3 * n - 7, 2 * n + 3))):
+    for name, (x0, y0) in (
+        ("fetch, negative origin, 4 tiles", (-n - n // 3, -n // 2 - 5)),
+        ("fetch, positive origin", (3 * n - 7, 2 * n + 3)),
+    ):
         cases.append(case(name, "fetch", (x0, y0), w, h, 1.0, 0, r.fetch(x0, y0, w, h)))
     x0, y0 = -n // 2 - 3, -n - 9
     exact = np.rint(r.sampled(x0, y0, w, h, 1.0)).astype(np.uint8)
@@ -169,7 +194,8 @@ def page(config: dict[str, Any]) -> str:
 
     config = dict(config)
     imgs = "".join(
-        f'<img id="ts-level-{i}" alt="" src="data:image/png;base64,{lv["png"]}">' for i, lv in enumerate(config["levels"])
+        f'<img id="ts-level-{i}" alt="" src="data:image/png;base64,{lv["png"]}">'
+        for i, lv in enumerate(config["levels"])
     )
     config["levels"] = [{k: v for k, v in lv.items() if k != "png"} for lv in config["levels"]]
     cfg = json.dumps(config).replace("</", "<\\/")
@@ -180,8 +206,14 @@ def page(config: dict[str, Any]) -> str:
     )
 
 
-def config_for(tileset: Any, manifest: dict[str, Any], levels: list[np.ndarray], imap: np.ndarray | None,
-               selftest: list[dict[str, Any]], seed: int | None = None) -> dict[str, Any]:
+def config_for(
+    tileset: Any,
+    manifest: dict[str, Any],
+    levels: list[np.ndarray],
+    imap: np.ndarray | None,
+    selftest: list[dict[str, Any]],
+    seed: int | None = None,
+) -> dict[str, Any]:
     lookup, wrap = lookup_uniforms(manifest["lookup"])
     cfg: dict[str, Any] = {
         "title": f"tilesynth: {manifest['tile_set']} ({manifest['scheme']}), {manifest['tile_count']} tiles of "
@@ -191,16 +223,25 @@ def config_for(tileset: Any, manifest: dict[str, Any], levels: list[np.ndarray],
         "lookup": lookup,
         "wrap": wrap,
         "seed": int(manifest["lookup"]["seed"] if seed is None else seed),
-        "levels": [{"width": int(a.shape[1]), "height": int(a.shape[0]),
-                    "png": base64.b64encode(_png_bytes(a)).decode()} for a in levels],
+        "levels": [
+            {
+                "width": int(a.shape[1]),
+                "height": int(a.shape[0]),
+                "png": base64.b64encode(_png_bytes(a)).decode(),
+            }
+            for a in levels
+        ],
         "autorun": False,
         "index": None,
         "selftest": selftest,
         "init": [0.0, 0.0, 1.0],
     }
     if imap is not None:
-        cfg["index"] = {"width": int(imap.shape[1]), "height": int(imap.shape[0]),
-                        "data": base64.b64encode(imap.astype("<u2").tobytes()).decode()}
+        cfg["index"] = {
+            "width": int(imap.shape[1]),
+            "height": int(imap.shape[0]),
+            "data": base64.b64encode(imap.astype("<u2").tobytes()).decode(),
+        }
     return cfg
 
 
@@ -219,7 +260,9 @@ def albedo_levels(out: Path, manifest: dict[str, Any]) -> list[np.ndarray]:
     return [np.asarray(load_raster(out / lv["file"])) for lv in entry["levels"]]
 
 
-def write_viewer(tileset: Any, path: Path, manifest: dict[str, Any], built: dict[str, Any], out: Path) -> None:
+def write_viewer(
+    tileset: Any, path: Path, manifest: dict[str, Any], built: dict[str, Any], out: Path
+) -> None:
     """Write ``viewer.html`` for an export already written to ``out``."""
     imap = read_index(out, manifest)
     levels = albedo_levels(out, manifest)
