@@ -14,11 +14,11 @@
 //! - [`hash`]: the hashed lookup of complete tile sets (pcg3d of lattice coordinates, `HASH-SPEC.md`).
 //! - [`population`]: the ω-tile objective `E` for whole populations of gene vectors (exact, cached
 //!   per-patch SSD maps).
-//! - [`png`]: PNG scanline reconstruction (16-bit colour PNGs, which Pillow truncates to 8 bits).
+//! - [`png`]: PNG decoding (the `png` crate, with a pixel limit) and a fast encoder, parallel over row bands.
+//! - [`openexr`]: OpenEXR read and write (the `exr` crate), half and float, any channel count.
 //! - [`wang`]: Wang tiles: Cohen's diamond samples joined by minimum-error cuts (DP or graph cut) with the
 //!   improved match and objective of 001 for whole populations, and the closed cut of strict Wang tiles (004).
 //! - [`parallel`]: local thread pools (`threads` argument, `TILESYNTH_NUM_THREADS`).
-//! - [`png`]: PNG scanline unfiltering, for the 16-bit PNG reader of the Python layer.
 //!
 //! Conventions: images are C-contiguous `f32` `(H, W, C)` in [0, 1]; masks are `bool`; energies and
 //! capacities are `f64`. Results never depend on the number of threads.
@@ -29,6 +29,7 @@ pub mod error;
 pub mod hash;
 pub mod maxflow;
 pub mod omega;
+pub mod openexr;
 pub mod parallel;
 pub mod png;
 pub mod poisson;

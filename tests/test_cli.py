@@ -218,6 +218,14 @@ def test_ctrl_c_or_error_while_writing_leaves_no_partial_file(built_file, exempl
         raise KeyboardInterrupt
 
     if when == "image":
+        import tilesynth.io
+
+        def encode_interrupted(*a, **k):  # the PNG encoder, interrupted while the temporary file is open
+            parts = list(tmp_path.glob(".o.png.*.part"))
+            assert len(parts) == 1
+            interrupted(parts[0])
+
+        monkeypatch.setattr(tilesynth.io, "encode_png", encode_interrupted)
         monkeypatch.setattr(PILImage.Image, "save", lambda self, fp, *a, **k: interrupted(self, fp))
         args = ["synth", str(built_file), "-o", str(out), "--size", "40x40", "--seed", "1"]
     elif when == "tiles":

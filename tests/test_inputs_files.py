@@ -10,6 +10,7 @@ import io
 import os
 import struct
 import zlib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -83,15 +84,21 @@ def test_unreadable_file(tmp_path, monkeypatch):
     to deny the read."""
     p = tmp_path / "secret.png"
     Image.fromarray(rgb()).save(p)
-    real_open = Image.open
+    b = tmp_path / "secret.bmp"  # a format Pillow reads
+    Image.fromarray(rgb()).save(b)
+    real_open, real_read = Image.open, Path.read_bytes
 
     def deny(fp, *a, **k):
         raise PermissionError(13, "Permission denied", str(fp))
 
     monkeypatch.setattr(Image, "open", deny)
+    with pytest.raises(ts.ParameterError, match=r"secret\.bmp': cannot read \(Permission denied\)"):
+        ts.load_image(b)
+    monkeypatch.setattr(Image, "open", real_open)
+    monkeypatch.setattr(Path, "read_bytes", deny)  # PNGs are read as bytes for the png crate
     with pytest.raises(ts.ParameterError, match=r"secret\.png': cannot read \(Permission denied\)"):
         ts.load_image(p)
-    monkeypatch.setattr(Image, "open", real_open)
+    monkeypatch.setattr(Path, "read_bytes", real_read)
     monkeypatch.setattr(os, "access", lambda *a, **k: False)
     with pytest.raises(ts.ParameterError, match="cannot read"):
         ts.load_image(p)

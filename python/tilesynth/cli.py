@@ -23,6 +23,7 @@ from typing import NoReturn
 import numpy as np
 
 from .errors import InternalError, ParameterError, TilesynthError
+from .io import add_png_compression_argument, set_png_compression
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
@@ -152,10 +153,11 @@ def build_parser() -> argparse.ArgumentParser:
                    "one with the cheapest closed cut among the 8 best SSD candidates")
     b.add_argument("--sheet", default=None, help="also write a contact sheet of the tiles to this PNG")
     b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    add_png_compression_argument(b)
 
     s = sub.add_parser("synth", help="synthesize a texture from a tile set")
     s.add_argument("tileset", help="tile-set file (.tiles)")
-    s.add_argument("-o", "--output", required=True, help="output image (.png; 16-bit with --bits 16)")
+    s.add_argument("-o", "--output", required=True, help="output image (.png, 16-bit with --bits 16; .exr: float colour)")
     s.add_argument("--size", type=_size, required=True, help="output size WIDTHxHEIGHT, e.g. 1024x1024")
     s.add_argument("--seed", type=_nonneg, default=None, help="tiling seed (default: a fresh one, printed)")
     s.add_argument("--map", default=None, help="use this tile index map (.npy, int, rows x cols) instead of the tiler")
@@ -171,6 +173,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--bits", type=int, choices=(8, 16), default=None,
                    help="bits per channel of the output (default: those of the exemplar)")
     s.add_argument("--threads", type=_pos, default=None, help="copy threads")
+    add_png_compression_argument(s)
     s.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
     i = sub.add_parser("info", help="describe a tile set")
@@ -181,6 +184,7 @@ def build_parser() -> argparse.ArgumentParser:
     sh.add_argument("tileset", help="tile-set file (.tiles)")
     sh.add_argument("-o", "--output", required=True, help="PNG to write")
     sh.add_argument("--no-cuts", action="store_true", help="do not draw the cutting curves")
+    add_png_compression_argument(sh)
 
     d = sub.add_parser("demo", help="build and synthesize on the bundled exemplar (lettuce leaves)")
     d.add_argument("-o", "--output-dir", default="tilesynth-demo", help="directory for the results (default ./tilesynth-demo)")
@@ -189,6 +193,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=_nonneg, default=1, help="seed (default 1)")
     d.add_argument("--threads", type=_pos, default=None, help="worker threads")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    add_png_compression_argument(d)
     _add_metrics_parsers(sub)
     from .engine.cli import add_parsers as _add_export_parsers  # issue 13: export, view
 
@@ -226,6 +231,7 @@ def _add_metrics_parsers(sub) -> None:  # noqa: ANN001
     r.add_argument("--no-borders", action="store_true", help="do not write the sample with the tile borders outlined")
     r.add_argument("--threads", type=_pos, default=None, help="worker threads")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    add_png_compression_argument(r)
 
 
 def _metrics(args: argparse.Namespace) -> None:
@@ -386,7 +392,7 @@ def _check_output_dir(path: str) -> None:
 def _map_output(output: str, map_path: str, dtype: np.dtype) -> Path:
     """``OUT-<map stem>.png`` next to ``output`` (``.npy`` for float maps)."""
     out = Path(output)
-    ext = ".npy" if dtype == np.float32 else ".png"
+    ext = ".exr" if Path(map_path).suffix.lower() == ".exr" else ".npy" if dtype == np.float32 else ".png"
     return out.with_name(f"{out.stem}-{Path(map_path).stem}{ext}")
 
 
@@ -412,8 +418,9 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
         index_map = read_npy(map_path, f"--map = {map_path!r}")
     seed = seed_int(seed) if index_map is None else None
     bits = bits or int(ts.exemplar_info.get("bits", 8))
+    out_dtype = np.float32 if Path(output).suffix.lower() == ".exr" else np.uint16 if bits == 16 else np.uint8
     # refuse up front what cannot fit: the image, plus the copy the PNG encoder makes
-    check_size(ts, size[0], size[1], np.uint16 if bits == 16 else np.uint8, copies=2)
+    check_size(ts, size[0], size[1], out_dtype, copies=2)
     from .io import load_raster
     from .synthesis import check_smoothable, is_smoothed, synthesize_map
 
@@ -441,7 +448,7 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
     t0 = time.perf_counter()
     prog("synthesis", 0, 1)
     img, imap = synthesize(ts, size[0], size[1], seed=seed, index_map=index_map,
-                           dtype=np.uint16 if bits == 16 else np.uint8, threads=threads)
+                           dtype=out_dtype, threads=threads)
     prog("synthesis", 1, 1)
     prog("writing image", 0, 1)
     save_image(output, img)
@@ -618,6 +625,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``tilesynth`` command; returns the exit status."""
     try:
         args = build_parser().parse_args(argv)
+        set_png_compression(getattr(args, "png_compression", None))
         if args.command == "build":
             _build(args.input, args.output, args.set, args.tile_size, args.seed, args.threads, args.quiet, args.sheet,
                    args.gradients, args.literal_border, args.select, args.polish, args.generations,

@@ -10,10 +10,18 @@ file (every case is tested, see ``docs/failure-modes.md``):
   it back. Premultiplied modes (``RGBa``, ``La``) are converted to straight alpha first.
 - **Palette** (``P``, ``PA``) becomes RGB, or RGBA when the palette has transparency.
 - **CMYK, YCbCr, LAB, HSV** become RGB (Pillow's conversion).
-- **16-bit PNG** keeps its full precision (``bits = 16``): greyscale through Pillow, grey+alpha / RGB / RGBA
-  (which Pillow reduces to 8 bits) through :func:`_read_png16`, our own reader (:func:`_decode_png`: chunks and
-  zlib here, the scanline filters in Rust). 16-bit greyscale TIFF too; other 16-bit colour formats are reduced to 8 bits by
-  Pillow (``bits = 8``).
+- **PNG** (every PNG, 8- and 16-bit, any colour type) is decoded by the Rust ``png`` crate of image-rs
+  (maintained and fuzzed upstream; :func:`read_png`), not by Pillow, so both bit depths get the same checks:
+  a file whose compressed data ends before the last row, a chunk that fails its CRC, a second IHDR, a
+  missing IEND or corrupt deflate data is refused (Pillow zero-fills truncated 8-bit data). 16-bit PNGs keep
+  their full precision (``bits = 16``); palettes and bit depths below 8 become 8-bit, and a ``tRNS`` chunk
+  becomes an alpha channel at every bit depth.
+- **OpenEXR** (``.exr``, half or float, through the Rust ``exr`` crate; :func:`read_exr`): the first layer,
+  channels R, G, B, A (or Y, A). ``load_image`` needs 1 to 4 channels of finite values in [0, 1] (an HDR
+  exemplar is refused with its range, NaN and infinity are refused) and reports ``bits = 16`` (the precision
+  its PNG outputs get); ``load_raster`` returns any channel count and any values as float32.
+- **TIFF** 16-bit greyscale keeps its precision; 16-bit colour TIFF is reduced to 8 bits by Pillow
+  (``bits = 8``; convert it to a 16-bit PNG to keep the precision).
 - **Animated** files (GIF, APNG, WebP, multi-page TIFF): the first frame, as a viewer shows it before
   playing.
 - **EXIF orientation** is applied (``ImageOps.exif_transpose``): the exemplar is upright as a viewer shows
@@ -22,23 +30,24 @@ file (every case is tested, see ``docs/failure-modes.md``):
   that are not images, truncated or corrupt data, 0-pixel images, 32-bit integer and floating-point image
   files, and images of more than :data:`MAX_PIXELS` pixels (see :func:`pixel_limit`).
 
-``load_raster`` returns an image in its own sample type (uint8, uint16 or float32: PNG, TIFF, ``.npy``), for
-maps that must be carried through synthesis without any conversion (``synth --with``); :func:`read_png` is its
-exact 8/16-bit PNG decoder.
+``load_raster`` returns an image in its own sample type (uint8, uint16 or float32: PNG, EXR, TIFF, ``.npy``),
+for maps that must be carried through synthesis without any conversion (``synth --with``).
 
-``save_image`` writes 8- or 16-bit PNG (or any format Pillow knows by extension) through a temporary file and
-``os.replace``, so an error or Ctrl-C never leaves a partial file behind.
+``save_image`` writes 8- or 16-bit PNG through one fast encoder (:func:`encode_png`: adaptive filters, deflate
+in parallel over row bands, ``compression`` fast / default / best), OpenEXR (half or float, any channel
+count), or any other format Pillow knows by extension, through a temporary file and ``os.replace``, so an
+error or Ctrl-C never leaves a partial file behind.
 """
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import os
 import struct
 import tempfile
 import warnings
-import zlib
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
 
@@ -65,27 +74,131 @@ MAX_PIXELS_ENV = "TILESYNTH_MAX_PIXELS"
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
-def read_png(path: str | os.PathLike[str]) -> np.ndarray | None:
-    """Decode a non-interlaced 8- or 16-bit grey / grey+alpha / RGB / RGBA PNG exactly.
+PNG_COMPRESSIONS = ("fast", "default", "best")
+"""The PNG compression levels of :func:`save_image` and ``--png-compression``: deflate level 1, 3 and 9 (after
+the same adaptive row filters). ``default`` writes files about as small as Pillow's default ``save``
+(zlib level 6) several times faster; ``best`` is the slowest and smallest; ``fast`` the quickest, a little
+larger. See ``benches/png_write.py``."""
 
-    Returns ``(H, W, C)`` uint8 or uint16 (big-endian samples converted to native order), or ``None`` for a PNG
-    this reader leaves to Pillow (palette, bit depths below 8, interlaced). Raises :class:`ParameterError` for
-    a damaged file (bad signature, truncated chunks, CRC or inflate errors, wrong data length). Chunks are
-    checked by CRC; the scanline filters are undone by the Rust kernel ``_core.png_unfilter``.
+_png_compression: contextvars.ContextVar[str] = contextvars.ContextVar("png_compression", default="default")
+
+
+def set_png_compression(level: str | None) -> None:
+    """Set the PNG compression that :func:`save_image` uses when it is not given one (the CLI's
+    ``--png-compression``; in the current context, so threads and async tasks that set their own keep theirs).
+    ``None`` leaves it unchanged."""
+    if level is not None:
+        _png_compression.set(_compression(level))
+
+
+def add_png_compression_argument(parser: Any) -> None:
+    """Add ``--png-compression fast|default|best`` to an argparse parser of a command that writes PNGs."""
+    parser.add_argument(
+        "--png-compression",
+        choices=PNG_COMPRESSIONS,
+        default=None,
+        help="deflate effort of the PNGs written: fast, default (about Pillow's size, several times faster) or "
+        "best (smallest, slowest); the pixels are the same",
+    )
+
+
+def _compression(level: Any) -> str:
+    if level not in PNG_COMPRESSIONS:
+        raise ParameterError(f"compression = {level!r}: must be one of {', '.join(PNG_COMPRESSIONS)}")
+    return str(level)
+
+
+def _core_reason(exc: Exception) -> str:
+    """The reason of a codec error from the Rust core, without its ``png = file: `` prefix."""
+    text = str(exc)
+    for prefix in ("png = file: ", "exr = file: "):
+        if text.startswith(prefix):
+            return text[len(prefix) :]
+    return text
+
+
+def _decode_png(data: bytes, where: str, limit: int) -> tuple[np.ndarray, bytes | None]:
+    """``(H, W, C)`` uint8 / uint16 and the raw eXIf chunk (or None) of PNG bytes, by ``_core.png_decode``.
+    Raises :class:`ParameterError` starting with ``where`` for a damaged file or more than ``limit`` pixels."""
+    from . import _core
+
+    try:
+        return _core.png_decode(data, limit)
+    except ParameterError as exc:
+        reason = _core_reason(exc)
+        if "exceeds the limit" in reason:
+            raise ParameterError(f"{where}: {reason}") from None
+        raise ParameterError(f"{where}: not a readable image ({reason})") from None
+
+
+def read_png(path: str | os.PathLike[str], max_pixels: int | None = None) -> np.ndarray:
+    """Decode any PNG exactly: ``(H, W, C)`` uint8 or uint16 (native byte order).
+
+    Through the ``png`` crate (``_core.png_decode``): grey, grey+alpha, RGB, RGBA at 8 or 16 bits as stored;
+    palettes become RGB (RGBA with ``tRNS``), bit depths 1, 2, 4 become 8-bit, a ``tRNS`` colour key becomes
+    an alpha channel; Adam7 is handled. Raises :class:`ParameterError` for a damaged file (bad signature,
+    truncated chunks or image data, CRC or inflate errors, a second IHDR, no IEND) and for more than
+    ``max_pixels`` pixels (checked on the declared size, before decoding).
     """
     p = Path(path)
-    # our reader for 8- and 16-bit grey, grey+alpha, RGB and RGBA without interlacing; Pillow does the rest
-    return _decode_png(p.read_bytes(), f"input = {str(p)!r}", lambda depth, ctype, interlace: depth in (8, 16)
-                       and ctype in (0, 2, 4, 6) and interlace == 0)
+    where = f"input = {str(p)!r}"
+    data = _read_bytes(p, where)
+    _check_png_header(data, where, pixel_limit(max_pixels))
+    return _decode_png(data, where, pixel_limit(max_pixels))[0]
+
+
+def read_exr(path: str | os.PathLike[str], max_pixels: int | None = None) -> tuple[np.ndarray, list[str], bool]:
+    """Decode the first layer of an OpenEXR file: float32 ``(H, W, C)``, the channel names, and whether every
+    channel is stored as half floats.
+
+    Through the ``exr`` crate (``_core.exr_decode``): half and float channels exactly, 32-bit unsigned integer
+    channels as float32; channels ordered R, G, B, A (or Y, A) when so named, else by name. Deep data,
+    subsampled channels, damaged or truncated files and more than ``max_pixels`` pixels (on the declared
+    size) are refused with :class:`ParameterError`. Values are returned as stored (NaN and infinity
+    included): the consumer decides (:func:`load_image` refuses them).
+    """
+    from . import _core
+
+    p = Path(path)
+    where = f"input = {str(p)!r}"
+    data = _read_bytes(p, where)
+    try:
+        arr, names, half = _core.exr_decode(data, pixel_limit(max_pixels))
+    except ParameterError as exc:
+        reason = _core_reason(exc)
+        if "exceeds the limit" in reason:
+            raise ParameterError(f"{where}: {reason}") from None
+        raise ParameterError(f"{where}: not a readable image ({reason})") from None
+    return arr, list(names), bool(half)
+
+
+def _read_bytes(p: Path, where: str) -> bytes:
+    if not p.is_file():
+        raise ParameterError(f"{where}: no such file" if not p.exists() else f"{where}: not a regular file")
+    try:
+        return p.read_bytes()
+    except OSError as exc:
+        raise ParameterError(f"{where}: cannot read ({exc.strerror or exc})") from None
+
+
+def _is_png(p: Path) -> bool:
+    with open(p, "rb") as fh:
+        return fh.read(8) == _PNG_SIGNATURE
+
+
+def _is_exr(p: Path) -> bool:
+    with open(p, "rb") as fh:
+        return fh.read(4) == b"v/1\x01"
 
 
 def load_raster(path: str | os.PathLike[str], max_pixels: int | None = None) -> np.ndarray:
     """Read an image or array file in its own sample type, without any conversion.
 
     ``.npy`` files (no pickles) must hold a 2-d or 3-d uint8, uint16 or float32 array; PNGs are decoded
-    exactly (8/16-bit, :func:`read_png`); other formats through Pillow, keeping 16-bit integer and 32-bit float
-    modes ("I;16", "F"). Returns ``(H, W, C)``. Image files of more than ``max_pixels`` pixels are refused on
-    their declared size, before decoding, as by :func:`load_image`.
+    exactly (8/16-bit, :func:`read_png`); OpenEXR as float32 with any channel count and any values
+    (:func:`read_exr`); other formats through Pillow, keeping 16-bit integer and 32-bit float modes ("I;16",
+    "F"). Returns ``(H, W, C)``. Image files of more than ``max_pixels`` pixels are refused on their declared
+    size, before decoding, as by :func:`load_image`.
     """
     from PIL import Image, UnidentifiedImageError
 
@@ -102,32 +215,33 @@ def load_raster(path: str | os.PathLike[str], max_pixels: int | None = None) -> 
                 f"{where}: array of shape {arr.shape} and dtype {arr.dtype}; expected a non-empty 2-d or "
                 "3-d uint8, uint16 or float32 array"
             )
+    elif _is_png(p):
+        data = _read_bytes(p, where)
+        _check_png_header(data, where, limit)
+        arr = _decode_png(data, where, limit)[0]
+    elif _is_exr(p):
+        arr = read_exr(p, limit)[0]
     else:
-        hdr = _png_header(p)
-        if hdr is not None:
-            _check_size(where, hdr[0], hdr[1], limit)
-        arr = read_png(p) if hdr is not None else None
-        if arr is None:
-            with warnings.catch_warnings():
-                # our own pixel limit applies; Pillow's other warnings are about odd metadata (see load_image)
-                warnings.filterwarnings("ignore", module=r"PIL(\.|$)")
-                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-                try:
-                    with Image.open(p) as im:
-                        _check_size(where, *im.size, limit)
-                        im.load()
-                        if im.mode in ("I;16", "I;16B", "I;16L"):
-                            arr = np.asarray(im).astype(np.uint16)
-                        elif im.mode == "F":
-                            arr = np.asarray(im, dtype=np.float32)
-                        else:
-                            if im.mode not in ("L", "LA", "RGB", "RGBA"):
-                                im = im.convert("RGBA" if "A" in im.mode or "transparency" in im.info else "RGB")
-                            arr = np.asarray(im)
-                except Image.DecompressionBombError as exc:
-                    raise ParameterError(f"{where}: refused, {exc} (tilesynth's limit is {limit} pixels)") from None
-                except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
-                    raise ParameterError(f"{where}: not a readable image ({exc})") from None
+        with warnings.catch_warnings():
+            # our own pixel limit applies; Pillow's other warnings are about odd metadata (see load_image)
+            warnings.filterwarnings("ignore", module=r"PIL(\.|$)")
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            try:
+                with Image.open(p) as im:
+                    _check_size(where, *im.size, limit)
+                    im.load()
+                    if im.mode in ("I;16", "I;16B", "I;16L"):
+                        arr = np.asarray(im).astype(np.uint16)
+                    elif im.mode == "F":
+                        arr = np.asarray(im, dtype=np.float32)
+                    else:
+                        if im.mode not in ("L", "LA", "RGB", "RGBA"):
+                            im = im.convert("RGBA" if "A" in im.mode or "transparency" in im.info else "RGB")
+                        arr = np.asarray(im)
+            except Image.DecompressionBombError as exc:
+                raise ParameterError(f"{where}: refused, {exc} (tilesynth's limit is {limit} pixels)") from None
+            except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
+                raise ParameterError(f"{where}: not a readable image ({exc})") from None
     if arr.ndim == 2:
         arr = arr[:, :, None]
     return np.ascontiguousarray(arr)
@@ -229,16 +343,30 @@ def _load(p: Path, where: str, limit: int) -> tuple[np.ndarray, int]:
     """The body of :func:`load_image` (its errors are mapped by the caller)."""
     from PIL import Image, ImageOps
 
-    header = _png_header(p)
-    if header is not None:  # a PNG: size checks on its header, before Pillow's own (clearer messages)
-        _check_size(where, header[0], header[1], limit)
+    if _is_png(p):  # every PNG through the png crate: the same checks at every bit depth
+        data = _read_bytes(p, where)
+        _check_png_header(data, where, limit)
+        arr, exif = _decode_png(data, where, limit)
+        arr = _exif_orient_bytes(exif, arr)
+        return as_image(arr, "input"), 16 if arr.dtype == np.uint16 else 8
+    if _is_exr(p):
+        arr, names, _ = read_exr(p, limit)
+        if arr.shape[2] > 4:
+            raise ParameterError(
+                f"{where}: an OpenEXR image with {arr.shape[2]} channels ({', '.join(names)}); an exemplar has 1 "
+                "to 4 (grey, grey+alpha, RGB, RGBA). Pass extra channels as --with maps"
+            )
+        try:
+            img = as_image(arr, "input")
+        except ParameterError as exc:
+            raise ParameterError(
+                f"{where}: {str(exc).removeprefix('input ')}; an exemplar is a colour texture (a linear HDR image "
+                "must be tone-mapped or scaled into [0, 1] first; maps of any range go through --with)"
+            ) from None
+        return img, 16
     im = Image.open(p)
     with im:
         _check_size(where, *im.size, limit)
-        if im.format == "PNG":
-            arr16 = _read_png16(p, limit)
-            if arr16 is not None:
-                return as_image(_exif_orient(im, arr16), "input"), 16
         if getattr(im, "n_frames", 1) > 1:
             im.seek(0)  # animated / multi-page: the first frame
         im.load()
@@ -274,14 +402,27 @@ def _check_size(where: str, w: int, h: int, limit: int) -> None:
         raise ShapeError(f"{where}: the image is {w}x{h} pixels, expected at least 1x1")
 
 
-def _png_header(path: Path) -> tuple[int, int, int, int, int] | None:
-    """(width, height, bit depth, colour type, interlace) from a PNG's IHDR, None if not a PNG."""
-    with open(path, "rb") as fh:
-        head = fh.read(33)
-    if head[:8] != _PNG_SIGNATURE or len(head) < 29 or head[12:16] != b"IHDR":
-        return None
-    w, h, depth, ctype, _, _, interlace = struct.unpack(">IIBBBBB", head[16:29])
-    return w, h, depth, ctype, interlace
+def _check_png_header(data: bytes, where: str, limit: int) -> None:
+    """The size checks of :func:`_check_size` on a PNG's first IHDR, for their clear messages, before any
+    decoding; the decoder then reads the whole file (and refuses a second IHDR)."""
+    if data[:8] == _PNG_SIGNATURE and len(data) >= 24 and data[12:16] == b"IHDR":
+        w, h = struct.unpack(">II", data[16:24])
+        _check_size(where, w, h, limit)
+
+
+def _exif_orient_bytes(exif: bytes | None, arr: np.ndarray) -> np.ndarray:
+    """Apply the orientation tag of a PNG's raw eXIf chunk (parsed by Pillow's ``Image.Exif``) to ``arr``."""
+    if not exif:
+        return arr
+    from PIL import Image
+
+    try:
+        e = Image.Exif()
+        e.load(exif if not exif.startswith(b"Exif\x00\x00") else exif[6:])
+        orientation = int(e.get(0x0112, 1))
+    except Exception:  # noqa: BLE001 - unreadable EXIF: like no EXIF
+        orientation = 1
+    return _orient(orientation, arr)
 
 
 def _exif_orient(im: Any, arr: np.ndarray) -> np.ndarray:
@@ -292,6 +433,11 @@ def _exif_orient(im: Any, arr: np.ndarray) -> np.ndarray:
         orientation = int(im.getexif().get(0x0112, 1))
     except Exception:  # noqa: BLE001 - unreadable EXIF: like no EXIF
         orientation = 1
+    return _orient(orientation, arr)
+
+
+def _orient(orientation: int, arr: np.ndarray) -> np.ndarray:
+    """``arr`` (H, W, C) as EXIF ``orientation`` says it is displayed."""
     ops = {
         2: lambda a: a[:, ::-1],
         3: lambda a: a[::-1, ::-1],
@@ -303,105 +449,6 @@ def _exif_orient(im: Any, arr: np.ndarray) -> np.ndarray:
     }
     op = ops.get(orientation)
     return np.ascontiguousarray(op(arr)) if op else arr
-
-
-def _read_png16(path: Path, limit: int) -> np.ndarray | None:
-    """Decode a 16-bit grey+alpha / RGB / RGBA PNG at full precision: uint16 ``(H, W, C)``.
-
-    Returns None for every other PNG (8-bit, palette, 16-bit grey: Pillow reads those exactly). Adam7
-    interlacing is handled, and a ``tRNS`` colour key becomes an alpha channel (as Pillow does for 8 bits).
-    """
-    return _decode_png(path.read_bytes(), f"input = {str(path)!r}",
-                       lambda depth, ctype, interlace: depth == 16 and ctype in (2, 4, 6), limit=limit, trns=True)
-
-
-def _decode_png(
-    data: bytes,
-    where: str,
-    accept: Callable[[int, int, int], bool],
-    limit: int | None = None,
-    trns: bool = False,
-) -> np.ndarray | None:
-    """The one PNG decoder behind :func:`read_png` and :func:`_read_png16` (chunks and zlib here, the scanline
-    filters in the Rust kernel ``_core.png_unfilter``).
-
-    Returns ``(H, W, C)`` uint8 / uint16 (native order), or None when ``accept(bit depth, colour type,
-    interlace)`` is false (the caller leaves that file to Pillow). Checks every chunk's length and CRC,
-    handles Adam7, applies a 16-bit RGB ``tRNS`` colour key as an alpha channel when ``trns``, and inflates at
-    most the number of bytes the header implies (no decompression bomb). Raises :class:`ParameterError`
-    starting with ``where`` on anything damaged, and on more than ``limit`` pixels.
-    """
-    from . import _core
-
-    if data[:8] != _PNG_SIGNATURE:
-        raise ParameterError(f"{where}: not a PNG file")
-    ihdr, idat, key = None, [], None
-    pos = 8
-    while True:
-        if pos + 8 > len(data):
-            raise ParameterError(f"{where}: not a readable image (truncated PNG: no IEND chunk)")
-        (length,) = struct.unpack(">I", data[pos : pos + 4])
-        tag = data[pos + 4 : pos + 8]
-        body = data[pos + 8 : pos + 8 + length]
-        crc = data[pos + 8 + length : pos + 12 + length]
-        if len(body) != length or len(crc) != 4:
-            raise ParameterError(f"{where}: not a readable image (truncated PNG chunk {tag!r})")
-        if struct.unpack(">I", crc)[0] != zlib.crc32(tag + body) & 0xFFFFFFFF:
-            raise ParameterError(f"{where}: not a readable image (PNG chunk {tag!r} fails its CRC check)")
-        pos += 12 + length
-        if tag == b"IHDR" and length == 13:
-            ihdr = struct.unpack(">IIBBBBB", body)
-        elif tag == b"IDAT":
-            idat.append(body)
-        elif tag == b"tRNS" and length == 6:
-            key = struct.unpack(">HHH", body)
-        elif tag == b"IEND":
-            break
-    if ihdr is None:
-        raise ParameterError(f"{where}: not a readable image (PNG without IHDR)")
-    w, h, depth, ctype, comp, filt, interlace = ihdr
-    if not accept(depth, ctype, interlace):
-        return None
-    if comp != 0 or filt != 0 or interlace not in (0, 1):
-        raise ParameterError(f"{where}: unknown PNG compression, filter or interlace method")
-    if w == 0 or h == 0:
-        raise ParameterError(f"{where}: the image is {w}x{h} pixels")
-    if limit is not None and w * h > limit:
-        raise ParameterError(f"{where}: {w}x{h} pixels, more than the limit of {limit}")
-    channels = {0: 1, 2: 3, 4: 2, 6: 4}[ctype]
-    bpp = channels * depth // 8
-    passes = _adam7(w, h) if interlace else [(0, 0, 1, 1, w, h)]
-    expected = sum(ph * (pw * bpp + 1) for *_, pw, ph in passes if pw and ph)
-    try:
-        raw = zlib.decompressobj().decompress(b"".join(idat), expected + 1)
-    except zlib.error as exc:
-        raise ParameterError(f"{where}: not a readable image (corrupt PNG data: {exc})") from None
-    if len(raw) < expected:
-        raise ParameterError(f"{where}: not a readable image (truncated PNG data: {len(raw)} of {expected} bytes)")
-    sample = np.dtype(">u2") if depth == 16 else np.dtype(np.uint8)
-    out = np.empty((h, w, channels), np.uint16 if depth == 16 else np.uint8)
-    off = 0
-    for x0, y0, dx, dy, pw, ph in passes:
-        if not (pw and ph):
-            continue
-        n = ph * (pw * bpp + 1)
-        try:
-            rows = _core.png_unfilter(np.frombuffer(raw, np.uint8, count=n, offset=off), ph, pw * bpp, bpp)
-        except ValueError as exc:  # an unknown filter type byte
-            raise ParameterError(f"{where}: not a readable image (corrupt PNG data: {exc})") from None
-        off += n
-        out[y0::dy, x0::dx] = rows.view(sample).reshape(ph, pw, channels)
-    if trns and key is not None and ctype == 2 and depth == 16:
-        alpha = np.where((out == np.array(key, np.uint16)).all(axis=2), 0, 65535).astype(np.uint16)
-        out = np.concatenate([out, alpha[..., None]], axis=2)
-    return out
-
-
-def _adam7(w: int, h: int) -> list[tuple[int, int, int, int, int, int]]:
-    """The seven Adam7 passes: (x0, y0, dx, dy, pass width, pass height)."""
-    spec = [(0, 0, 8, 8), (4, 0, 8, 8), (0, 4, 4, 8), (2, 0, 4, 4), (0, 2, 2, 4), (1, 0, 2, 2), (0, 1, 1, 2)]
-    return [(x0, y0, dx, dy, -(-(w - x0) // dx) if w > x0 else 0, -(-(h - y0) // dy) if h > y0 else 0)
-            for x0, y0, dx, dy in spec]
 
 
 @contextlib.contextmanager
@@ -436,49 +483,106 @@ def atomic_open(path: str | os.PathLike[str], mode: str = "wb") -> Iterator[IO]:
         yield fh
 
 
-def save_image(path: str | os.PathLike[str], image: np.ndarray, bits: int = 8) -> None:
-    """Write ``image`` (float in [0, 1], or uint8/uint16 as is) to ``path`` atomically.
+def save_image(
+    path: str | os.PathLike[str],
+    image: np.ndarray,
+    bits: int = 8,
+    compression: str | None = None,
+    threads: int | None = None,
+) -> None:
+    """Write ``image`` to ``path`` atomically, in the format of its extension.
 
-    ``bits=16`` writes 16-bit PNG (greyscale and RGB; Pillow cannot write 16-bit RGB, so RGB(A) 16-bit data is
-    written with the ``png`` writer of :func:`_write_png16`).
+    - ``.png``: float images in [0, 1] are quantised to ``bits`` (8 or 16); uint8 / uint16 arrays are written
+      as they are. 1 to 4 channels (grey, grey+alpha, RGB, RGBA). Encoded by :func:`encode_png` with
+      ``compression`` (``"fast"``, ``"default"``, ``"best"``; default: :func:`set_png_compression`'s,
+      normally ``"default"``) on ``threads`` workers; the bytes do not depend on ``threads``.
+    - ``.exr``: OpenEXR with any channel count, float32 channels (half for a float16 array), values as they
+      are (any range; NaN and infinity too, since EXR holds them); uint8 / uint16 become float32 in [0, 1].
+    - anything else Pillow knows (``.jpg``, ``.tif``, ...): through Pillow, 8-bit.
     """
     if isinstance(bits, (bool, np.bool_)) or bits not in (8, 16):
         raise ParameterError(f"bits = {bits!r}: must be 8 or 16")
+    level = _png_compression.get() if compression is None else _compression(compression)
     try:
         arr = np.asarray(image)
     except (ValueError, TypeError) as exc:
         raise ShapeError(f"image is not an array ({exc})") from None
     if not arr.dtype.isnative:
         arr = arr.astype(arr.dtype.newbyteorder("="))
+    target = Path(path)
+    if target.suffix.lower() == ".exr":
+        with atomic_open(target) as fh:
+            fh.write(_encode_exr(arr))
+        return
     if arr.dtype in (np.uint8, np.uint16):
         as_image(arr[:1, :1] if arr.ndim in (2, 3) else arr, "image")  # the shape rules of as_image
         if 0 in arr.shape:
             raise ShapeError(f"image has shape {arr.shape}, expected non-empty (H, W, C)")
     else:
         arr = to_uint(as_image(arr, "image"), bits)
-    if arr.ndim == 3 and arr.shape[2] == 1:
-        arr = arr[:, :, 0]
-    target = Path(path)
     fmt = _format_for(target)
     channels = 1 if arr.ndim == 2 else arr.shape[2]
+    if fmt == "PNG":
+        with atomic_open(target) as fh:  # encoded inside: Ctrl-C while encoding leaves no partial file either
+            fh.write(encode_png(arr, level, threads=threads))
+        return
+    if arr.dtype == np.uint16:
+        raise ParameterError(f"output = {str(target)!r}: 16-bit output needs a .png (or .exr) file")
+    if arr.ndim == 3 and arr.shape[2] == 1:
+        arr = arr[:, :, 0]
     with atomic_path(target) as tmp:
-        if arr.dtype == np.uint16:
-            if fmt != "PNG":
-                raise ParameterError(f"output = {str(target)!r}: 16-bit output needs a .png file")
-            _write_png16(tmp, arr)
-        else:
-            from PIL import Image
+        from PIL import Image
 
-            try:
-                Image.fromarray(np.ascontiguousarray(arr)).save(tmp, format=fmt)
-            except (OSError, ValueError, KeyError) as exc:
-                if isinstance(exc, OSError) and exc.errno is not None:
-                    raise  # a real I/O error (disk full, permissions): the caller's business
-                # Pillow cannot write this mode in this format (e.g. RGBA or grey+alpha as JPEG)
-                raise ParameterError(
-                    f"output = {str(target)!r}: cannot write a {channels}-channel image as {fmt} ({exc}); "
-                    "use .png"
-                ) from None
+        try:
+            Image.fromarray(np.ascontiguousarray(arr)).save(tmp, format=fmt)
+        except (OSError, ValueError, KeyError) as exc:
+            if isinstance(exc, OSError) and exc.errno is not None:
+                raise  # a real I/O error (disk full, permissions): the caller's business
+            # Pillow cannot write this mode in this format (e.g. RGBA or grey+alpha as JPEG)
+            raise ParameterError(
+                f"output = {str(target)!r}: cannot write a {channels}-channel image as {fmt} ({exc}); "
+                "use .png"
+            ) from None
+
+
+def encode_png(image: np.ndarray, compression: str = "default", threads: int | None = None) -> bytes:
+    """The PNG file of a uint8 or uint16 ``(H, W)`` / ``(H, W, C)`` array (C = 1 to 4), as bytes.
+
+    The rows get libpng's adaptive filter choice; the filtered data is cut into bands of about 256 KiB that are
+    deflated independently on ``threads`` workers (level 1, 3 or 9 for ``compression`` fast, default, best)
+    and joined into one zlib stream (sync-flush boundaries and a combined Adler-32, as pigz does), so the
+    file is a single ordinary PNG that every decoder reads and its bytes do not depend on ``threads``.
+    """
+    from . import _core
+
+    arr = np.asarray(image)
+    if arr.dtype not in (np.uint8, np.uint16):
+        raise TypeError(f"image has dtype {arr.dtype}, expected uint8 or uint16 (see save_image for floats)")
+    if arr.ndim == 2:
+        arr = arr[:, :, None]
+    if arr.ndim != 3 or 0 in arr.shape or arr.shape[2] > 4:
+        raise ShapeError(f"image has shape {arr.shape}, expected non-empty (H, W) or (H, W, C) with C in 1..4")
+    return _core.png_encode(np.ascontiguousarray(arr), _compression(compression), threads)
+
+
+def _encode_exr(arr: np.ndarray) -> bytes:
+    from . import _core
+
+    if arr.ndim == 2:
+        arr = arr[:, :, None]
+    if arr.ndim != 3 or 0 in arr.shape:
+        raise ShapeError(f"image has shape {arr.shape}, expected non-empty (H, W) or (H, W, C)")
+    if arr.dtype == np.uint8:
+        data, half = arr.astype(np.float32) / np.float32(255), False
+    elif arr.dtype == np.uint16:
+        data, half = arr.astype(np.float32) / np.float32(65535), False
+    elif arr.dtype.kind == "f":
+        data, half = arr.astype(np.float32), arr.dtype == np.float16
+    elif arr.dtype == np.bool_:
+        data, half = arr.astype(np.float32), True
+    else:
+        raise TypeError(f"image has dtype {arr.dtype}, expected float, uint8, uint16 or bool for OpenEXR")
+    return _core.exr_encode(np.ascontiguousarray(data), bool(half))
 
 
 def _format_for(path: Path) -> str:
@@ -489,28 +593,6 @@ def _format_for(path: Path) -> str:
     fmt = Image.EXTENSION.get(ext)
     if fmt is None:
         raise ParameterError(
-            f"output = {str(path)!r}: unknown image extension {ext or '(none)'!r}; use .png, .jpg, .tif, ..."
+            f"output = {str(path)!r}: unknown image extension {ext or '(none)'!r}; use .png, .exr, .jpg, .tif, ..."
         )
     return fmt
-
-
-def _write_png16(path: Path, arr: np.ndarray) -> None:
-    """Minimal lossless 16-bit PNG writer (grey, grey+alpha, RGB, RGBA) using zlib; Pillow lacks 16-bit RGB."""
-    import struct
-    import zlib
-
-    h, w = arr.shape[:2]
-    channels = 1 if arr.ndim == 2 else arr.shape[2]
-    colour_type = {1: 0, 2: 4, 3: 2, 4: 6}[channels]
-    raw = np.ascontiguousarray(arr.reshape(h, w * channels).astype(">u2")).view(np.uint8)
-    rows = np.concatenate([np.zeros((h, 1), np.uint8), raw.reshape(h, -1)], axis=1)
-
-    def chunk(tag: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
-
-    ihdr = struct.pack(">IIBBBBB", w, h, 16, colour_type, 0, 0, 0)
-    with open(path, "wb") as fh:
-        fh.write(b"\x89PNG\r\n\x1a\n")
-        fh.write(chunk(b"IHDR", ihdr))
-        fh.write(chunk(b"IDAT", zlib.compress(rows.tobytes(), 6)))
-        fh.write(chunk(b"IEND", b""))
