@@ -7,7 +7,7 @@ JSON Schema, lookup shaders (GLSL ES 3.00 / 4.x, WGSL, HLSL, Godot) and an offli
 file                       content
 =========================  ========================================================================================
 ``atlas_<map>.png``        level 0 of each map's atlas (8 or 16 bit; ``albedo`` is the tile set's own colour);
-                           ``.exr`` (float32, OpenEXR) for float maps
+                           ``.exr`` (float32 OpenEXR, :func:`tilesynth.io.save_image`) for float maps
 ``atlas_<map>_mip<L>.*``   level L = 1 .. ``max_level`` of the per-tile mip chains (see :mod:`.atlas`)
 ``index.png``              index-map lookup only: R16 (16-bit grey PNG) tile index of every cell of a toroidal
                            tiling, so it can be sampled with REPEAT (see :mod:`.periodic`)
@@ -139,27 +139,11 @@ def _map_array(name: str, value: Any, exemplar_shape: tuple[int, int]) -> np.nda
     return a
 
 
-def _write_exr(path: Path, arr: np.ndarray) -> None:
-    try:
-        import OpenEXR
-    except ImportError:
-        raise ImportError(
-            "writing float maps as .exr needs the OpenEXR package: pip install 'tilesynth[exr]' (or OpenEXR)"
-        ) from None
-    chans = "RGBA"[: arr.shape[2]] if arr.shape[2] > 1 else "Y"
-    channels = {c: np.ascontiguousarray(arr[:, :, i], np.float32) for i, c in enumerate(chans)}
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with OpenEXR.File(header, channels) as f:
-        f.write(str(path))
-
-
 def _write_level(path: Path, arr: np.ndarray) -> None:
     from ..io import save_image
 
-    if arr.dtype == np.float32:
-        _write_exr(path, arr)
-    else:
-        save_image(path, arr, bits=16 if arr.dtype == np.uint16 else 8)
+    # float32 levels go to OpenEXR (float channels, values as they are) through tilesynth.io's exr-crate writer
+    save_image(path, arr, bits=16 if arr.dtype == np.uint16 else 8)
 
 
 def _file_digest(path: Path) -> str:

@@ -116,19 +116,16 @@ def run(args: argparse.Namespace) -> None:
             if name in maps or name == "albedo":
                 raise ParameterError(f"--with {mp!r}: map name {name!r} is taken; rename the file")
             maps[name] = load_raster(mp)
-        try:
-            m = export(
-                tiles,
-                args.output_dir,
-                maps=maps,
-                bits=args.bits,
-                map_smooth=args.map_smooth,
-                normal_y=args.normal_y,
-                viewer=args.viewer,
-                **kw,
-            )
-        except ImportError as exc:  # a missing optional dependency (OpenEXR): the user's to install
-            raise ParameterError(str(exc)) from None
+        m = export(
+            tiles,
+            args.output_dir,
+            maps=maps,
+            bits=args.bits,
+            map_smooth=args.map_smooth,
+            normal_y=args.normal_y,
+            viewer=args.viewer,
+            **kw,
+        )
         print(
             f"wrote {len(m['files']) + 1} files to {args.output_dir} ({m['lookup']['mode']} lookup, "
             f"{m['tile_count']} tiles, atlas {m['atlas']['width']}x{m['atlas']['height']}, "
