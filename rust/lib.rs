@@ -11,6 +11,7 @@
 //! - [`poisson`]: Poisson smoothing (guided interpolation) of a region, by multigrid-preconditioned
 //!   conjugate gradients to a stated relative residual.
 //! - [`synth`]: copying tiles into a large output by an index map.
+//! - [`hash`]: the hashed lookup of complete tile sets (pcg3d of lattice coordinates, `HASH-SPEC.md`).
 //! - [`population`]: the ω-tile objective `E` for whole populations of gene vectors (exact, cached
 //!   per-patch SSD maps).
 //! - [`png`]: PNG decoding (the `png` crate, with a pixel limit) and a fast encoder, parallel over row bands.
@@ -25,6 +26,7 @@
 #![warn(clippy::all)]
 
 pub mod error;
+pub mod hash;
 pub mod maxflow;
 pub mod omega;
 pub mod openexr;

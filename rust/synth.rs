@@ -51,11 +51,32 @@ fn check(
 pub fn tile_copy_into<T: Copy + Send + Sync>(
     atlas: ArrayView4<T>,
     map: ArrayView2<i32>,
+    out: ArrayViewMut3<T>,
+) -> Result<()> {
+    tile_copy_window_into(atlas, map, (0, 0), out)
+}
+
+/// Like [`tile_copy_into`] for a window whose top-left pixel is `offset = (oy, ox)` pixels into the map's first
+/// cell (`oy < th`, `ox < tw`): `out[y, x] = atlas[map[(y+oy)/th, (x+ox)/tw], (y+oy)%th, (x+ox)%tw]`. The map
+/// must cover `oy + H` by `ox + W` pixels. Each output row is still assembled from contiguous tile-row slices
+/// (the first and last cropped), so a window at any pixel offset copies at the same rate.
+pub fn tile_copy_window_into<T: Copy + Send + Sync>(
+    atlas: ArrayView4<T>,
+    map: ArrayView2<i32>,
+    offset: (usize, usize),
     mut out: ArrayViewMut3<T>,
 ) -> Result<()> {
     let (k, th, tw, c) = atlas.dim();
     let (out_h, out_w, out_c) = out.dim();
-    check(k, th, tw, &map, out_h, out_w)?;
+    let (oy, ox) = offset;
+    if k > 0 && (oy >= th || ox >= tw) {
+        return Err(TilesynthError::param(
+            "offset",
+            format!("({oy}, {ox})"),
+            format!("must be below the tile size ({th}, {tw})"),
+        ));
+    }
+    check(k, th, tw, &map, out_h + oy, out_w + ox)?;
     if out_c != c {
         return Err(TilesynthError::shape(
             "out",
@@ -82,13 +103,26 @@ pub fn tile_copy_into<T: Copy + Send + Sync>(
         .enumerate()
         .for_each(|(chunk, rows)| {
             for (r, dst) in rows.chunks_mut(row_len).enumerate() {
-                let y = chunk * 8 + r;
+                let y = chunk * 8 + r + oy;
                 let (ty, yy) = (y / th, y % th);
                 let map_row = &map[ty * cols..ty * cols + cols];
-                for (j, piece) in dst.chunks_mut(tile_row).enumerate() {
-                    let t = map_row[j] as usize;
-                    let start = t * tile_len + yy * tile_row;
-                    piece.copy_from_slice(&atlas[start..start + piece.len()]);
+                if ox == 0 {
+                    for (j, piece) in dst.chunks_mut(tile_row).enumerate() {
+                        let t = map_row[j] as usize;
+                        let start = t * tile_len + yy * tile_row;
+                        piece.copy_from_slice(&atlas[start..start + piece.len()]);
+                    }
+                } else {
+                    // The first piece starts `ox` pixels into its tile row; the rest are whole tile rows.
+                    let first = ((tw - ox) * c).min(row_len);
+                    let (head, tail) = dst.split_at_mut(first);
+                    let start = map_row[0] as usize * tile_len + yy * tile_row + ox * c;
+                    head.copy_from_slice(&atlas[start..start + first]);
+                    for (j, piece) in tail.chunks_mut(tile_row).enumerate() {
+                        let t = map_row[j + 1] as usize;
+                        let start = t * tile_len + yy * tile_row;
+                        piece.copy_from_slice(&atlas[start..start + piece.len()]);
+                    }
                 }
             }
         });
@@ -118,6 +152,29 @@ mod tests {
             tile_copy_into(atlas.view(), map.view(), out.view_mut()).unwrap();
             assert_eq!(out, naive(&atlas, &map, h, w));
         }
+    }
+
+    #[test]
+    fn window_matches_crop_of_full_copy() {
+        let atlas = Array4::from_shape_fn((5, 4, 3, 2), |(k, y, x, c)| {
+            (k * 1000 + y * 100 + x * 10 + c) as u16
+        });
+        let map = Array2::from_shape_fn((7, 9), |(i, j)| ((i * 7 + j * 3) % 5) as i32);
+        let full = naive(&atlas, &map, 28, 27);
+        for (oy, ox, h, w) in [
+            (0, 0, 28, 27),
+            (1, 2, 27, 25),
+            (3, 1, 5, 1),
+            (2, 2, 1, 1),
+            (0, 1, 9, 2),
+        ] {
+            let mut out = Array3::zeros((h, w, 2));
+            tile_copy_window_into(atlas.view(), map.view(), (oy, ox), out.view_mut()).unwrap();
+            assert_eq!(out, full.slice(ndarray::s![oy..oy + h, ox..ox + w, ..]));
+        }
+        let mut out = Array3::zeros((28, 27, 2));
+        assert!(tile_copy_window_into(atlas.view(), map.view(), (1, 0), out.view_mut()).is_err());
+        assert!(tile_copy_window_into(atlas.view(), map.view(), (0, 3), out.view_mut()).is_err());
     }
 
     #[test]

@@ -815,7 +815,33 @@ def _tmpdir() -> str:
     return _CACHE["tmp"]  # type: ignore[return-value]
 
 
+@st.composite
+def export_call(d: st.DrawFn):
+    """``tilesynth.export`` (issue 13) on small sets of every scheme, careless parameters and maps."""
+    tset = d(tilesets())
+    kw: dict = {
+        "padding": d(st.integers(0, 9) | st.sampled_from([-1, 300, 1.5, True, None])),
+        "bits": d(st.sampled_from([8, 16, 8, 16, 12, None])),
+        "lookup": d(st.sampled_from(["auto", "index_map", "hash", "x"])),
+        "seed": d(st.integers(0, 2**32 - 1) | st.sampled_from([-1, 2**32, 0.5, "1"])),
+        "index_size": d(st.none() | st.tuples(sizes(-1, 6), sizes(-1, 6)) | st.sampled_from([(1.5, 2), "4x4", 3])),
+        "index_seed": d(st.integers(0, 9) | st.sampled_from([-1, 0.5])),
+        "viewer": one_in(d, 6),
+    }
+    if one_in(d, 4):
+        kw["wrap"] = d(st.tuples(sizes(-1, 5), sizes(-1, 5)) | st.sampled_from([3, (2**31, 1)]))
+    if one_in(d, 3) and isinstance(tset, ts.TileSet):
+        h, w = tset.exemplar.shape[:2]
+        shape = d(st.sampled_from([(h, w), (h, w, 1), (h, w, 3), (h, w, 5), (h + 1, w), (0, w)]))
+        dtype = d(st.sampled_from(["uint8", "uint16", F32, F64, B]))
+        kw["maps"] = {d(st.sampled_from(["normal", "h", "albedo", "bad name", ""])): np.zeros(shape, dtype)}
+    elif one_in(d, 8):
+        kw["maps"] = d(st.sampled_from(["x", [1], {"a": 3}]))
+    return ts.export, (tset, os.path.join(_tmpdir(), "export")), kw, ()
+
+
 API = {
+    "export": export_call,
     "as_image": as_image_call,
     "patch_ssd": patch_ssd,
     "best_matches": best_matches,

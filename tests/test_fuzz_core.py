@@ -204,6 +204,34 @@ def tile_copy(d: st.DrawFn):
 
 
 @st.composite
+def ts_hash_core(d: st.DrawFn):
+    n = d(st.integers(0, 6))
+    x = d(arrays(1, I32, (n,)))
+    y = d(arrays(1, I32, (d(st.sampled_from([n, n, n + 1])),)))
+    seed = d(st.one_of(st.integers(0, 2**32 - 1), st.integers(-(2**70), 2**70), floats(), st.none()))
+    return _core.ts_hash, (x, y, seed, d(st.integers(0, 2**32 - 1))), {}, ()
+
+
+@st.composite
+def hashed_index_map(d: st.DrawFn):
+    kind = d(st.sampled_from(["corner", "edge", "hex"]))
+    colours = d(st.lists(st.integers(0, 300), min_size=0, max_size=3))
+    seed = d(st.one_of(st.integers(0, 2**32 - 1), st.integers(-(2**40), 2**40)))
+    origin = (d(st.integers(-(2**33), 2**33)), d(st.integers(-(2**33), 2**33)))
+    size = (d(st.integers(0, 9)), d(st.integers(0, 9)))
+    wrap = d(st.one_of(st.none(), st.tuples(st.integers(0, 5), st.integers(0, 5))))
+    kw = {"wrap": wrap, "threads": d(threads())}
+    return _core.hashed_index_map, (kind, colours, d(st.integers(0, 5)), seed, origin, size), kw, ()
+
+
+@st.composite
+def tile_copy_window(d: st.DrawFn):
+    fn, (atlas, imap, out), kw, mutable = d(tile_copy())
+    offset = (d(st.integers(0, 6)), d(st.integers(0, 6)))
+    return _core.tile_copy_window, (atlas, imap, offset, out), kw, (3,)
+
+
+@st.composite
 def png_unfilter(d: st.DrawFn):
     rows, row_bytes = d(sizes(-1, 6)), d(sizes(-1, 12))
     bpp = d(st.one_of(st.integers(1, 8), st.integers(1, 8), sizes(-1, 9)))
@@ -387,6 +415,9 @@ ENTRY_POINTS = {
     "WangEvaluator.dims": wang_evaluator_dims,
     "swang_cuts": swang_cuts,
     "poisson_smooth": poisson_smooth,
+    "ts_hash": ts_hash_core,
+    "hashed_index_map": hashed_index_map,
+    "tile_copy_window": tile_copy_window,
 }
 """Entry point name -> strategy of one call ``(callable, args, kwargs, indices of writable args)``."""
 

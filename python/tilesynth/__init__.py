@@ -61,6 +61,8 @@ from .wangsets import WANG_TILESET_NAMES, WangTileSet, get_wang_tileset
 load = TileSet.load
 """Load a ``.tiles`` file (alias of :meth:`TileSet.load`)."""
 
+from .engine import export  # noqa: E402 - issue 13: engine export (atlases, index map / hash, shaders, viewer)
+
 __all__ = [
     "SCHEMES",
     "TILESET_NAMES",
@@ -109,4 +111,5 @@ __all__ = [
     "validate_index_map",
     "write_report",
     "wang_tiles",
+    "export",
 ]

@@ -144,6 +144,33 @@ def swang_cuts(
     initial_grad: npt.NDArray[np.float64] | None = None,
 ) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]: ...
 
+# The hashed lookup (rust/hash.rs, HASH-SPEC.md).
+HASH_NAME: str
+HASH_PCG_MUL: int
+HASH_PCG_INC: int
+HASH_ROLE_MUL: int
+HASH_ROLES: tuple[int, int, int, int]
+
+def ts_hash(
+    x: npt.NDArray[np.int32], y: npt.NDArray[np.int32], seed: int, role: int
+) -> npt.NDArray[np.uint32]: ...
+def hashed_index_map(
+    kind: str,
+    colours: list[int],
+    variants: int,
+    seed: int,
+    origin: tuple[int, int],
+    size: tuple[int, int],
+    wrap: tuple[int, int] | None = None,
+    threads: int | None = None,
+) -> npt.NDArray[np.int32]: ...
+def tile_copy_window(
+    atlas: npt.NDArray[np.generic],
+    index_map: npt.NDArray[np.int32],
+    offset: tuple[int, int],
+    out: npt.NDArray[np.generic],
+    threads: int | None = None,
+) -> None: ...
 # image files (rust/py/io.rs)
 def png_decode(data: bytes, max_pixels: int) -> tuple[np.ndarray, bytes | None]: ...
 def png_encode(image: np.ndarray, compression: str = "default", threads: int | None = None) -> bytes: ...

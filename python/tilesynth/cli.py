@@ -198,6 +198,9 @@ def build_parser() -> argparse.ArgumentParser:
     from .batch import add_parser as _add_batch_parser  # issue 17: tilesynth batch
 
     _add_batch_parser(sub)
+    from .engine.cli import add_parsers as _add_export_parsers  # issue 13: export, view
+
+    _add_export_parsers(sub)
     return p
 
 
@@ -651,6 +654,10 @@ def main(argv: list[str] | None = None) -> int:
             from .batch import cli_main as _batch_main
 
             return _batch_main(args)
+        elif args.command in ("export", "view"):  # issue 13
+            from .engine.cli import run as _run_export
+
+            _run_export(args)
         return EXIT_OK
     except UsageError as exc:
         print(f"{exc} (see 'tilesynth --help')", file=sys.stderr)

@@ -3,6 +3,7 @@
 
 mod convert;
 mod errors;
+mod hash;
 mod io;
 
 use crate::{maxflow, omega, parallel, png, poisson, population, ssd, synth, wang};
@@ -619,6 +620,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(edge_weight_sums, m)?)?;
     m.add_function(wrap_pyfunction!(weighted_ssd_map, m)?)?;
     m.add_function(wrap_pyfunction!(_raise_panic, m)?)?;
+    hash::register(m)?;
     io::register(m)?;
     Ok(())
 }

@@ -1,0 +1,411 @@
+"""Engine export: padded atlases with per-tile mips, a toroidal index map or the hashed lookup, a manifest with a
+JSON Schema, lookup shaders (GLSL ES 3.00 / 4.x, WGSL, HLSL, Godot) and an offline WebGL2 viewer.
+
+``tilesynth export X.tiles -o DIR`` / :func:`export` writes into DIR:
+
+=========================  ========================================================================================
+file                       content
+=========================  ========================================================================================
+``atlas_<map>.png``        level 0 of each map's atlas (8 or 16 bit; ``albedo`` is the tile set's own colour);
+                           ``.exr`` (float32 OpenEXR, :func:`tilesynth.io.save_image`) for float maps
+``atlas_<map>_mip<L>.*``   level L = 1 .. ``max_level`` of the per-tile mip chains (see :mod:`.atlas`)
+``index.png``              index-map lookup only: R16 (16-bit grey PNG) tile index of every cell of a toroidal
+                           tiling, so it can be sampled with REPEAT (see :mod:`.periodic`)
+``manifest.json``          everything a loader needs; validated against ``manifest.schema.json`` (shipped in
+                           this package, :func:`manifest_schema`) before it is written
+``shaders/``               ``tilesynth.glsl``, ``tilesynth.wgsl``, ``tilesynth.hlsl``, ``tilesynth.gdshader``
+``viewer.html``            with ``viewer=True`` (``--viewer``): the offline WebGL2 viewer (:mod:`.viewer`)
+=========================  ========================================================================================
+
+**Lookup modes.** ``hash``: the tile of cell (cx, cy) is computed from the pcg3d hash of its lattice vertices
+/ edges (``HASH-SPEC``, :mod:`tilesynth.lookup`), for *complete* sets whose tiles are stored in the hash's index
+order; no index texture, an infinite non-periodic plane (or periodic with ``wrap``). ``index_map``: every other
+set (the scan-line sets 16a, n2, wang18, ...): the tiling is precomputed as a toroidal index map of
+``index_size`` cells. ``lookup="auto"`` (default) picks ``hash`` when the set allows it.
+
+KTX2 is not written: no maintained, permissively licensed KTX2 *encoder* is installable from PyPI or crates.io
+(the Khronos KTX-Software has no PyPI wheel; the ``ktx2`` crate only reads), and a hand-written container writer
+is what the issue rules out. The level PNGs carry the same data.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError, ShapeError
+from . import atlas as _atlas
+from .periodic import default_index_size, toroidal_index_map
+
+EXPORT_FORMAT = "tilesynth-export"
+EXPORT_VERSION = 1
+SHADER_FILES = ("tilesynth.glsl", "tilesynth.wgsl", "tilesynth.hlsl", "tilesynth.gdshader")
+HASH_NAME = "pcg3d"  # tilesynth.lookup.HASH_NAME
+HASH_CONSTANTS = {
+    "lcg_multiplier": 1664525,
+    "lcg_increment": 1013904223,
+    "role_multiplier": 0x9E3779B9,
+    "shift": 16,
+}
+"""The constants of the hash as the manifest records them (checked against :mod:`tilesynth.lookup` by the tests)."""
+
+__all__ = ["EXPORT_FORMAT", "export", "hash_layout", "manifest_schema", "shader_source", "validate_manifest"]
+
+
+def shader_source(name: str) -> str:
+    """Text of one of the packaged shaders (:data:`SHADER_FILES`)."""
+    if name not in SHADER_FILES:
+        raise ParameterError(f"shader = {name!r}: one of {', '.join(SHADER_FILES)}")
+    return resources.files(__package__).joinpath("shaders", name).read_text(encoding="utf-8")
+
+
+def manifest_schema() -> dict[str, Any]:
+    """The JSON Schema (draft 2020-12) of ``manifest.json``."""
+    return json.loads(
+        resources.files(__package__).joinpath("manifest.schema.json").read_text(encoding="utf-8")
+    )
+
+
+def validate_manifest(manifest: dict[str, Any]) -> None:
+    """Validate a manifest against :func:`manifest_schema` (needs ``jsonschema``, the ``test`` extra)."""
+    try:
+        import jsonschema
+    except ImportError:
+        raise ImportError("validating a manifest needs jsonschema: pip install 'tilesynth[test]'") from None
+    jsonschema.Draft202012Validator(manifest_schema()).validate(manifest)
+
+
+def hash_layout(definition: Any) -> dict[str, int] | None:
+    """``{"kind": "corner", "K", "V"}`` / ``{"kind": "edge", "Kh", "Kv", "V"}`` if the tiles are a complete
+    set stored in the hash's index order (``HASH-SPEC``), else None."""
+    kind = type(definition).__name__
+    n = len(definition)
+    if kind == "CornerTileSet":
+        cols = list(definition.colours)
+        k = len(cols)
+        if k < 1 or n % (k**4):
+            return None
+        v = n // k**4
+        for t in range(n):
+            rest, var = divmod(t, v)
+            rest, br = divmod(rest, k)
+            rest, tr = divmod(rest, k)
+            tl, bl = divmod(rest, k)
+            want = (cols[tl], cols[bl], cols[tr], cols[br])
+            if tuple(definition.tiles[t]) != want or int(definition.variants[t]) != var:
+                return None
+        return {"kind": "corner", "K": k, "V": v}
+    if kind == "WangTileSet":
+        hz, vt = list(definition.horizontal), list(definition.vertical)
+        kh, kv = len(hz), len(vt)
+        if n % (kh * kh * kv * kv):
+            return None
+        v = n // (kh * kh * kv * kv)
+        if v != 1:  # Wang tiles are distinct tuples: no variants
+            return None
+        for t in range(n):
+            rest, w = divmod(t, kv)
+            rest, s = divmod(rest, kh)
+            nn, e = divmod(rest, kv)
+            if tuple(definition.tiles[t]) != (hz[nn], vt[e], hz[s], vt[w]):
+                return None
+        return {"kind": "edge", "Kh": kh, "Kv": kv, "V": 1}
+    return None
+
+
+def _check_choice(value: Any, name: str, options: tuple[Any, ...]) -> Any:
+    if value not in options:
+        raise ParameterError(f"{name} = {value!r}: must be one of {', '.join(map(repr, options))}")
+    return value
+
+
+def _map_array(name: str, value: Any, exemplar_shape: tuple[int, int]) -> np.ndarray:
+    a = np.asarray(value)
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3 or a.shape[:2] != exemplar_shape or not 1 <= a.shape[2] <= 4:
+        raise ShapeError(
+            f"maps[{name!r}] has shape {np.shape(value)}, expected {exemplar_shape} or {exemplar_shape + (1,)}..."
+            f"{exemplar_shape + (4,)}: pixel-aligned with the exemplar"
+        )
+    if a.dtype not in (np.uint8, np.uint16, np.float32):
+        raise ParameterError(f"maps[{name!r}] has dtype {a.dtype}, expected uint8, uint16 or float32")
+    return a
+
+
+def _write_level(path: Path, arr: np.ndarray) -> None:
+    from ..io import save_image
+
+    # float32 levels go to OpenEXR (float channels, values as they are) through tilesynth.io's exr-crate writer
+    save_image(path, arr, bits=16 if arr.dtype == np.uint16 else 8)
+
+
+def _file_digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def build_maps(
+    tileset: Any,
+    maps: dict[str, Any] | None,
+    padding: int,
+    bits: int,
+    map_smooth: str = "auto",
+) -> dict[str, dict[str, Any]]:
+    """Level-0 padded cells of every map: ``{name: {"cells": (K, S, S, C), "source": "tileset"|"map"}}``."""
+    from ..synthesis import _smooth_map_atlas, is_smoothed
+
+    out: dict[str, dict[str, Any]] = {}
+    src = tileset.source
+    cells = _atlas.padded_tiles(tileset.tiles, tileset.exemplar, src, padding)
+    out["albedo"] = {"cells": _atlas.quantise(cells, bits), "kind": "tileset"}
+    for name, value in (maps or {}).items():
+        if not isinstance(name, str) or not name or not all(ch.isalnum() or ch in "-_" for ch in name):
+            raise ParameterError(f"map name {name!r}: letters, digits, '-' and '_' only")
+        if name == "albedo":
+            raise ParameterError(
+                "map name 'albedo' is the tile set's own colour; give the extra map another name"
+            )
+        a = _map_array(name, value, tileset.exemplar.shape[:2])
+        tiles = np.ascontiguousarray(a[src[..., 0], src[..., 1]])
+        smooth = {"auto": is_smoothed(tileset), "on": True, "off": False}[map_smooth]
+        if smooth:
+            if not is_smoothed(tileset):
+                raise ParameterError("map_smooth = 'on': the tile set was not Poisson-smoothed")
+            tiles = _smooth_map_atlas(tileset, a, tiles, None)
+        out[name] = {"cells": _atlas.padded_tiles(tiles, a, src, padding), "kind": "map"}
+    return out
+
+
+def export(
+    tileset: Any,
+    out_dir: str | os.PathLike[str],
+    *,
+    maps: dict[str, Any] | None = None,
+    padding: int = 8,
+    bits: int = 8,
+    lookup: str = "auto",
+    seed: int = 0,
+    wrap: tuple[int, int] | None = None,
+    index_size: tuple[int, int] | None = None,
+    index_seed: int = 0,
+    normal_y: str = "+y",
+    map_smooth: str = "auto",
+    viewer: bool = False,
+    source_path: str | os.PathLike[str] | None = None,
+) -> dict[str, Any]:
+    """Export a tile set for real-time use (see the module docstring); returns the manifest.
+
+    Parameters
+    ----------
+    tileset : a :class:`~tilesynth.TileSet`.
+    out_dir : directory to write (created; existing export files are overwritten).
+    maps : extra maps pixel-aligned with the exemplar, ``{name: (H, W[, C]) uint8 | uint16 | float32}``;
+        laid out through exactly the same cuts as the colour (as ``synthesize_map``). A name containing
+        ``normal`` is a normal map (linear, with ``normal_y``); every other extra map is linear data.
+    padding : gutter P in texels on every side of every tile (default 8: mips down to level 3 when N is a
+        multiple of 8). 0 writes a gutter-less atlas without mips (bilinear then bleeds across tiles).
+    bits : 8 or 16, the PNG depth of the colour atlas (uint maps keep their own depth; float maps go to EXR).
+    lookup : ``"auto"``, ``"hash"`` or ``"index_map"``.
+    seed : hash seed in [0, 2^32) (hash mode).
+    wrap : hash mode: make the plane periodic with (Tx, Ty) tiles (default: infinite, non-periodic).
+    index_size : (cols, rows) of the toroidal index map (index-map mode); default: the multiple of the set's
+        torus period nearest 32 x 32 (:func:`~tilesynth.engine.periodic.default_index_size`).
+    index_seed : seed of the toroidal index map.
+    normal_y : ``"+y"`` (OpenGL convention, green up) or ``"-y"`` (DirectX): recorded for normal maps; the
+        values are not changed (the exemplar's normal map is what it is).
+    map_smooth : ``"auto"`` / ``"on"`` / ``"off"``, as ``synth --map-smooth``.
+    viewer : also write ``viewer.html``.
+    source_path : the ``.tiles`` file, recorded in the manifest (its file digest) when given.
+    """
+    from ..tilefile import TileSet
+
+    if not isinstance(tileset, TileSet):
+        raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet (tilesynth.load(path))")
+    if isinstance(padding, bool) or not isinstance(padding, (int, np.integer)) or not 0 <= padding <= 256:
+        raise ParameterError(f"padding = {padding!r}: must be an integer in [0, 256]")
+    padding = int(padding)
+    _check_choice(bits, "bits", (8, 16))
+    _check_choice(lookup, "lookup", ("auto", "hash", "index_map"))
+    _check_choice(normal_y, "normal_y", ("+y", "-y"))
+    _check_choice(map_smooth, "map_smooth", ("auto", "on", "off"))
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**32:
+        raise ParameterError(f"seed = {seed!r}: must be an integer in [0, 2^32)")
+    defn = tileset.definition
+    n = tileset.tile_size
+    if n > 65535 or tileset.n_tiles > 65535:
+        raise ParameterError(
+            f"{tileset.n_tiles} tiles of {n} px: the R16 index map holds at most 65535 tiles"
+        )
+    hl = hash_layout(defn)
+    if lookup == "auto":
+        lookup = "hash" if hl is not None else "index_map"
+    if lookup == "hash" and hl is None:
+        raise ParameterError(
+            "lookup = 'hash': the hash needs a complete set stored in the hash's index order (HASH-SPEC); "
+            f"set {getattr(defn, 'name', '?')!r} is not one: use lookup='index_map'"
+        )
+    if maps is not None and not isinstance(maps, dict):
+        raise TypeError(f"maps is a {type(maps).__name__}, expected a dict {{name: array}}")
+    if index_size is not None and (
+        not isinstance(index_size, (tuple, list))
+        or len(index_size) != 2
+        or any(isinstance(v, bool) or not isinstance(v, (int, np.integer)) for v in index_size)
+    ):
+        raise ParameterError(f"index_size = {index_size!r}: expected (cols, rows) positive integers")
+    if isinstance(index_seed, bool) or not isinstance(index_seed, (int, np.integer)) or index_seed < 0:
+        raise ParameterError(f"index_seed = {index_seed!r}: must be a non-negative integer")
+    if wrap is not None:
+        if lookup != "hash":
+            raise ParameterError("wrap: only for lookup='hash' (an index map is periodic with its own size)")
+        if (
+            not isinstance(wrap, (tuple, list))
+            or len(wrap) != 2
+            or any(
+                isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v < 2**31
+                for v in wrap
+            )
+        ):
+            raise ParameterError(f"wrap = {wrap!r}: expected (Tx, Ty) integers in [1, 2^31)")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "shaders").mkdir(exist_ok=True)
+
+    levels = _atlas.max_mip_level(n, padding)
+    cols, rows = _atlas.grid_for(tileset.n_tiles)
+    built = build_maps(tileset, maps, padding, bits, map_smooth)
+    files: list[str] = []
+    map_entries = []
+    tiles_q = _atlas.quantise(tileset.tiles, bits)
+    exact = _atlas.gutter_exactness(tileset, built["albedo"]["cells"], padding, tiles_q)
+    for name, info in built.items():
+        cells = info["cells"]
+        srgb = name == "albedo" and cells.dtype != np.float32
+        chain = _atlas.mip_chain(_atlas.pack(cells, cols, rows), levels, srgb)
+        ext = "exr" if cells.dtype == np.float32 else "png"
+        level_files = []
+        for lv, arr in enumerate(chain):
+            fname = f"atlas_{name}.{ext}" if lv == 0 else f"atlas_{name}_mip{lv}.{ext}"
+            _write_level(out / fname, arr)
+            level_files.append(
+                {"level": lv, "file": fname, "width": int(arr.shape[1]), "height": int(arr.shape[0])}
+            )
+            files.append(fname)
+        entry: dict[str, Any] = {
+            "name": name,
+            "levels": level_files,
+            "channels": int(cells.shape[3]),
+            "sample_type": {np.dtype(np.uint8): "uint8", np.dtype(np.uint16): "uint16"}.get(
+                cells.dtype, "float32"
+            ),
+            "colour_space": "srgb" if srgb else "linear",
+            "mips_reduced_in": "linear light" if srgb else "stored values",
+        }
+        if "normal" in name.lower():
+            entry["normal_y"] = normal_y
+        map_entries.append(entry)
+
+    lookup_entry: dict[str, Any]
+    if lookup == "hash":
+        lookup_entry = {
+            "mode": "hash",
+            "hash": HASH_NAME,
+            "constants": HASH_CONSTANTS,
+            "seed": int(seed),
+            "wrap": [int(wrap[0]), int(wrap[1])] if wrap is not None else None,
+            "roles": {"vertex": 0, "horizontal_edge": 1, "vertical_edge": 2, "variant": 3},
+            **hl,  # type: ignore[dict-item]
+        }
+    else:
+        if index_size is None:
+            index_size = default_index_size(defn)
+        icols, irows = (int(v) for v in index_size)
+        if icols < 1 or irows < 1 or icols * irows > 1 << 22:
+            raise ParameterError(f"index_size = {index_size!r}: (cols, rows) >= 1 and at most 4M cells")
+        imap = toroidal_index_map(defn, irows, icols, index_seed)
+        from ..io import save_image
+
+        save_image(out / "index.png", imap.astype(np.uint16), bits=16)
+        files.append("index.png")
+        lookup_entry = {
+            "mode": "index_map",
+            "file": "index.png",
+            "width": icols,
+            "height": irows,
+            "format": "R16_UINT",
+            "wrap": "repeat",
+            "seed": int(index_seed),
+            "periodic": "toroidal tiling found by backtracking scan-line search (tilesynth.engine.periodic)",
+        }
+    for s in SHADER_FILES:
+        dst = out / "shaders" / s
+        dst.write_text(shader_source(s), encoding="utf-8")
+        files.append(f"shaders/{s}")
+
+    s = n + 2 * padding
+    manifest: dict[str, Any] = {
+        "format": EXPORT_FORMAT,
+        "format_version": EXPORT_VERSION,
+        "tilesynth_version": tileset.version or _version(),
+        "scheme": tileset.scheme,
+        "tile_set": getattr(defn, "name", ""),
+        "tile_size": n,
+        "tile_count": tileset.n_tiles,
+        "padding": padding,
+        "cell_size": s,
+        "atlas": {
+            "width": cols * s,
+            "height": rows * s,
+            "columns": cols,
+            "rows": rows,
+            "max_level": levels,
+            "rule": "tile t interior at x = (t % columns) * cell_size + padding, y = (t // columns) * cell_size "
+            "+ padding (level 0 texels, y down); level L divides everything by 2^L",
+            "cells": _atlas.cell_rects(tileset.n_tiles, n, padding, cols),
+            "filter": "LINEAR_MIPMAP_LINEAR, clamp to edge, max level = max_level",
+        },
+        "gutter": {
+            "fill": "exemplar continuation of the nearest tile pixel's provenance (tilesynth.engine.atlas)",
+            "exact_fraction_by_depth": exact["by_depth"],
+            "exact_fraction": exact["overall"],
+            "neighbour_pairs": exact["pairs"],
+        },
+        "maps": map_entries,
+        "lookup": lookup_entry,
+        "coordinates": "uv in tile units, pixel (x, y) of the texture covers [x/N, (x+1)/N) x [y/N, (y+1)/N), y down",
+        "source": {
+            "content_digest": tileset.content_digest(),
+            "file": os.path.basename(source_path) if source_path else None,
+            "file_sha256": _file_digest(Path(source_path)) if source_path else None,
+        },
+        "shaders": {
+            "glsl": "shaders/tilesynth.glsl",
+            "wgsl": "shaders/tilesynth.wgsl",
+            "hlsl": "shaders/tilesynth.hlsl",
+            "godot": "shaders/tilesynth.gdshader",
+        },
+        "files": None,
+    }
+    if viewer:
+        from .viewer import write_viewer
+
+        write_viewer(tileset, out / "viewer.html", manifest, built, out)
+        files.append("viewer.html")
+    manifest["files"] = sorted(files)
+    try:
+        validate_manifest(manifest)
+    except ImportError:
+        pass
+    (out / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
+    return manifest
+
+
+def _version() -> str:
+    from .. import __version__
+
+    return __version__

@@ -1,0 +1,104 @@
+"""CPU references for the GPU lookup: exact texels of the infinite texture, bilinear samples and box-filtered
+mip levels, computed from :func:`tilesynth.synthesize` (never from the atlas), so a shader that matches them
+matches the library."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from . import atlas as _atlas
+
+
+def index_function(
+    lookup: dict[str, Any], imap: np.ndarray | None
+) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """``f(cx, cy) -> tile indices`` for integer arrays of cell coordinates (any sign)."""
+    if lookup["mode"] == "index_map":
+        assert imap is not None
+        rows, cols = imap.shape
+
+        def f(cx: np.ndarray, cy: np.ndarray) -> np.ndarray:
+            return imap[np.mod(cy, rows), np.mod(cx, cols)]
+
+        return f
+
+    def g(cx: np.ndarray, cy: np.ndarray) -> np.ndarray:
+        x0, y0 = int(cx.min()), int(cy.min())
+        w, h = int(cx.max()) - x0 + 1, int(cy.max()) - y0 + 1
+        full = hashed_index_map_for(lookup, x0, y0, w, h)
+        return full[cy - y0, cx - x0]
+
+    return g
+
+
+def hashed_index_map_for(lookup: dict[str, Any], x0: int, y0: int, w: int, h: int) -> np.ndarray:
+    """int32 ``(h, w)`` tile indices of cells x0.., y0.. in hash mode (via :mod:`tilesynth.lookup`)."""
+    from .. import lookup as lk
+
+    colours = (lookup["K"],) if lookup["kind"] == "corner" else (lookup["Kh"], lookup["Kv"])
+    scheme = lk.LookupScheme(lookup["kind"], colours, lookup["V"])
+    wrap = tuple(lookup["wrap"]) if lookup.get("wrap") else None
+    return lk.index_map(scheme, lookup["seed"], (w, h), origin=(x0, y0), wrap=wrap)
+
+
+def texture_window(
+    tileset: Any, index_of: Callable, x0: int, y0: int, w: int, h: int, dtype: Any = np.uint8
+) -> np.ndarray:
+    """``(h, w, C)`` pixels [y0, y0+h) x [x0, x0+w) of the infinite texture, by :func:`tilesynth.synthesize`."""
+    from ..synthesis import synthesize
+
+    n = tileset.tile_size
+    cx0, cy0 = x0 // n, y0 // n
+    cx1, cy1 = (x0 + w - 1) // n, (y0 + h - 1) // n
+    cy, cx = np.mgrid[cy0 : cy1 + 1, cx0 : cx1 + 1]
+    sub = np.ascontiguousarray(index_of(cx, cy), dtype=np.int32)
+    img, _ = synthesize(tileset, sub.shape[1] * n, sub.shape[0] * n, index_map=sub, dtype=dtype)
+    ox, oy = x0 - cx0 * n, y0 - cy0 * n
+    return img[oy : oy + h, ox : ox + w]
+
+
+def to_rgba8(img: np.ndarray) -> np.ndarray:
+    """What a WebGL2 RGBA8 read-back of an 8-bit texture of ``img``'s channels gives: grey is replicated, missing
+    alpha is 255."""
+    h, w, c = img.shape
+    out = np.full((h, w, 4), 255, np.uint8)
+    if c in (1, 2):
+        out[..., :3] = img[..., :1]
+        if c == 2:
+            out[..., 3] = img[..., 1]
+    else:
+        out[..., :c] = img
+    return out
+
+
+def bilinear(img: np.ndarray, qx: np.ndarray, qy: np.ndarray, ox: int, oy: int) -> np.ndarray:
+    """Bilinear samples (float64) of ``img`` (whose pixel (0, 0) is texture pixel (ox, oy)) at texture positions
+    (qx, qy) in texels (pixel centres at +0.5), the GL convention."""
+    x = qx - 0.5 - ox
+    y = qy - 0.5 - oy
+    i = np.floor(x).astype(np.int64)
+    j = np.floor(y).astype(np.int64)
+    fx = (x - i)[..., None]
+    fy = (y - j)[..., None]
+    a = img.astype(np.float64)
+    p00, p10 = a[j, i], a[j, i + 1]
+    p01, p11 = a[j + 1, i], a[j + 1, i + 1]
+    return (p00 * (1 - fx) + p10 * fx) * (1 - fy) + (p01 * (1 - fx) + p11 * fx) * fy
+
+
+def box_level(img: np.ndarray, level: int, srgb: bool) -> np.ndarray:
+    """Direct 2^L x 2^L box filter (linear light for sRGB, as the mips), rounded once; ``img`` uint8, its size a
+    multiple of 2^L."""
+    f = 2**level
+    h, w, c = img.shape
+    x = img.astype(np.float64) / 255.0
+    colour = c - 1 if c in (2, 4) else c
+    if srgb:
+        x[..., :colour] = _atlas.srgb_to_linear(x[..., :colour])
+    x = x.reshape(h // f, f, w // f, f, c).mean(axis=(1, 3))
+    if srgb:
+        x[..., :colour] = _atlas.linear_to_srgb(x[..., :colour])
+    return np.clip(np.rint(x * 255.0), 0, 255).astype(np.uint8)

@@ -1,0 +1,184 @@
+//! Bindings of the hashed lookup (`rust/hash.rs`, `HASH-SPEC.md`) and of the windowed tile copy.
+
+use super::convert::contiguous;
+use super::errors::{guard, layout_error, to_pyerr};
+use super::run;
+use crate::error::TilesynthError;
+use crate::{hash, synth};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray4,
+    PyReadwriteArray3, PyUntypedArrayMethods,
+};
+use pyo3::exceptions::PyTypeError;
+use pyo3::prelude::*;
+
+/// A seed in [0, 2^32): any other int is a `ParameterError` naming `seed` (no silent masking).
+fn seed_arg(seed: &Bound<'_, PyAny>) -> PyResult<u32> {
+    if let Ok(s) = seed.extract::<u32>() {
+        return Ok(s);
+    }
+    if seed.is_instance_of::<pyo3::types::PyInt>() {
+        return Err(to_pyerr(TilesynthError::param(
+            "seed",
+            seed.str()?.to_string(),
+            "must be an integer in [0, 2^32)",
+        )));
+    }
+    Err(PyTypeError::new_err(format!(
+        "seed: expected an int, got {}",
+        seed.get_type().name()?
+    )))
+}
+
+/// The lookup scheme from its kind (`"corner"`: `colours = [k]`, `"edge"`: `colours = [kh, kv]`).
+fn scheme_arg(kind: &str, colours: &[u32], variants: u32) -> PyResult<hash::Scheme> {
+    let s = match (kind, colours) {
+        ("corner", [k]) => hash::Scheme::Corner { k: *k, v: variants },
+        ("edge", [kh, kv]) => hash::Scheme::Edge {
+            kh: *kh,
+            kv: *kv,
+            v: variants,
+        },
+        _ => {
+            return Err(to_pyerr(TilesynthError::param(
+                "kind/colours",
+                format!("{kind:?} with {colours:?}"),
+                "expected \"corner\" with [k] or \"edge\" with [kh, kv]",
+            )))
+        }
+    };
+    s.validate().map_err(to_pyerr)?;
+    Ok(s)
+}
+
+/// `ts_hash(x, y, seed, role)` of every pair of int32 arrays `x`, `y` (same length): uint32.
+#[pyfunction]
+#[pyo3(signature = (x, y, seed, role))]
+fn ts_hash<'py>(
+    py: Python<'py>,
+    x: PyReadonlyArray1<'py, i32>,
+    y: PyReadonlyArray1<'py, i32>,
+    seed: &Bound<'py, PyAny>,
+    role: u32,
+) -> PyResult<Bound<'py, PyArray1<u32>>> {
+    guard("ts_hash", || {
+        let seed = seed_arg(seed)?;
+        let (x, y) = (x.as_array(), y.as_array());
+        if x.len() != y.len() {
+            return Err(to_pyerr(TilesynthError::shape(
+                "y",
+                format!("({},) (the length of x)", x.len()),
+                format!("({},)", y.len()),
+            )));
+        }
+        let out: Vec<u32> = py.detach(|| {
+            x.iter()
+                .zip(y.iter())
+                .map(|(&a, &b)| hash::ts_hash(a, b, seed, role))
+                .collect()
+        });
+        Ok(out.into_pyarray(py))
+    })
+}
+
+/// The int32 `(rows, cols)` tile index map of the cells `cx0 .. cx0 + cols`, `cy0 .. cy0 + rows` of a complete
+/// set (`kind` `"corner"` with `colours = [k]` or `"edge"` with `[kh, kv]`, `variants` per tuple). Pairs are
+/// x first, as in the spec: `origin = (cx0, cy0)`, `size = (cols, rows)`, `wrap = (tx, ty)` cells (periodic).
+#[pyfunction]
+#[pyo3(signature = (kind, colours, variants, seed, origin, size, wrap=None, threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn hashed_index_map<'py>(
+    py: Python<'py>,
+    kind: &str,
+    colours: Vec<u32>,
+    variants: u32,
+    seed: &Bound<'py, PyAny>,
+    origin: (i64, i64),
+    size: (usize, usize),
+    wrap: Option<(u32, u32)>,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyArray2<i32>>> {
+    guard("hashed_index_map", || {
+        let seed = seed_arg(seed)?;
+        let scheme = scheme_arg(kind, &colours, variants)?;
+        let (cols, rows) = size;
+        if rows.saturating_mul(cols) > 1 << 34 {
+            return Err(to_pyerr(TilesynthError::param(
+                "size",
+                format!("({rows}, {cols})"),
+                "more than 2^34 cells",
+            )));
+        }
+        let map = run(py, threads, || {
+            hash::index_map(scheme, seed, origin.0, origin.1, rows, cols, wrap)
+        })?;
+        Ok(map.into_pyarray(py))
+    })
+}
+
+/// Writes the window of the tiling by `index_map` whose top-left pixel is `offset = (oy, ox)` pixels into the
+/// first cell into `out` `(H, W, C)` (same dtype as `atlas`: uint8, uint16, float32 or int32).
+#[pyfunction]
+#[pyo3(signature = (atlas, index_map, offset, out, threads=None))]
+fn tile_copy_window<'py>(
+    py: Python<'py>,
+    atlas: &Bound<'py, PyAny>,
+    index_map: PyReadonlyArray2<'py, i32>,
+    offset: (usize, usize),
+    out: &Bound<'py, PyAny>,
+    threads: Option<usize>,
+) -> PyResult<()> {
+    guard("tile_copy_window", || {
+        contiguous("index_map", &index_map)?;
+        let map = index_map.as_array();
+        macro_rules! dispatch {
+            ($t:ty) => {
+                if let (Ok(a), Ok(mut o)) = (
+                    atlas.extract::<PyReadonlyArray4<'py, $t>>(),
+                    out.extract::<PyReadwriteArray3<'py, $t>>(),
+                ) {
+                    contiguous("atlas", &a)?;
+                    if !o.is_c_contiguous() {
+                        return Err(layout_error("out", "array must be C-contiguous"));
+                    }
+                    let a = a.as_array();
+                    let o = o.as_array_mut();
+                    return run(py, threads, || {
+                        synth::tile_copy_window_into(a, map, offset, o)
+                    });
+                }
+            };
+        }
+        dispatch!(u8);
+        dispatch!(u16);
+        dispatch!(f32);
+        dispatch!(i32);
+        Err(layout_error(
+            "atlas/out",
+            "expected a 4-d atlas and a 3-d writable out (not sharing memory with atlas) of the same \
+             native-endian dtype, uint8, uint16, float32 or int32",
+        ))
+    })
+}
+
+/// Registers the functions and the hash's name and constants (`HASH_NAME`, `HASH_PCG_MUL`, `HASH_PCG_INC`,
+/// `HASH_ROLE_MUL`, `HASH_ROLES`).
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("HASH_NAME", hash::HASH_NAME)?;
+    m.add("HASH_PCG_MUL", hash::PCG_MUL)?;
+    m.add("HASH_PCG_INC", hash::PCG_INC)?;
+    m.add("HASH_ROLE_MUL", hash::ROLE_MUL)?;
+    m.add(
+        "HASH_ROLES",
+        (
+            hash::ROLE_VERTEX,
+            hash::ROLE_HEDGE,
+            hash::ROLE_VEDGE,
+            hash::ROLE_VARIANT,
+        ),
+    )?;
+    m.add_function(wrap_pyfunction!(ts_hash, m)?)?;
+    m.add_function(wrap_pyfunction!(hashed_index_map, m)?)?;
+    m.add_function(wrap_pyfunction!(tile_copy_window, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,282 @@
+"""Engine export without a browser: files, manifest and schema, atlas, gutters, mips, toroidal index maps."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tilesynth as ts
+from tilesynth._validate import to_uint
+from tilesynth.engine import atlas as xatlas
+from tilesynth.engine import export, hash_layout, manifest_schema, validate_manifest
+from tilesynth.engine.periodic import toroidal_index_map
+from tilesynth.errors import ParameterError
+from tilesynth.io import load_raster
+from tilesynth.tiling import validate_index_map
+
+jsonschema = pytest.importorskip("jsonschema")
+
+
+@pytest.fixture(scope="module")
+def omega_set(small_exemplar: np.ndarray):
+    return ts.build_omega(small_exemplar, tileset="16a", tile_size=32, seed=1)
+
+
+@pytest.fixture(scope="module")
+def wang_set(small_exemplar: np.ndarray):
+    return ts.build(small_exemplar, scheme="wang", tileset="wang8", tile_size=32, seed=1)
+
+
+def _all_files(d: Path) -> set[str]:
+    return {p.relative_to(d).as_posix() for p in d.rglob("*") if p.is_file()}
+
+
+@pytest.mark.parametrize("which", ["omega", "wang"])
+def test_manifest_validates_and_references_every_file(tmp_path, which, omega_set, wang_set, small_exemplar):
+    tileset = omega_set if which == "omega" else wang_set
+    src = tmp_path / "set.tiles"
+    tileset.save(src)
+    normal = (small_exemplar * 65535).astype(np.uint16)
+    height = small_exemplar[..., 0].copy()
+    m = export(
+        ts.load(src),
+        tmp_path / "out",
+        maps={"normal": normal, "height": height},
+        viewer=True,
+        index_size=(6, 4),
+        source_path=src,
+    )
+    out = tmp_path / "out"
+    on_disk = json.loads((out / "manifest.json").read_text())
+    assert on_disk == m
+    validate_manifest(on_disk)
+    referenced = set(m["files"])
+    assert _all_files(out) - {"manifest.json"} == referenced  # every exported file is referenced, and exists
+    level_files = {lv["file"] for mp in m["maps"] for lv in mp["levels"]}
+    assert level_files <= referenced and set(m["shaders"].values()) <= referenced
+    assert m["lookup"]["file"] in referenced
+    maps = {mp["name"]: mp for mp in m["maps"]}
+    assert maps["albedo"]["colour_space"] == "srgb" and maps["normal"]["colour_space"] == "linear"
+    assert maps["normal"]["normal_y"] == "+y" and "normal_y" not in maps["height"]
+    assert maps["normal"]["sample_type"] == "uint16" and maps["height"]["levels"][0]["file"].endswith(".exr")
+    assert m["source"]["content_digest"] == tileset.content_digest()
+    assert len(m["atlas"]["cells"]) == tileset.n_tiles == m["tile_count"]
+    # a tampered manifest fails
+    bad = dict(m, padding=-1)
+    with pytest.raises(jsonschema.ValidationError):
+        validate_manifest(bad)
+    bad = dict(m, lookup=dict(m["lookup"], mode="magic"))
+    with pytest.raises(jsonschema.ValidationError):
+        validate_manifest(bad)
+
+
+def test_schema_is_a_valid_draft_2020_12_schema():
+    jsonschema.Draft202012Validator.check_schema(manifest_schema())
+
+
+def test_atlas_interiors_are_the_tiles_and_mips_stay_in_their_cells(tmp_path, omega_set):
+    m = export(omega_set, tmp_path, index_size=(4, 4))
+    n, p, cols = m["tile_size"], m["padding"], m["atlas"]["columns"]
+    lv0 = load_raster(tmp_path / "atlas_albedo.png")
+    q = to_uint(omega_set.tiles, 8)
+    for t, (x, y, w, h) in enumerate(m["atlas"]["cells"]):
+        assert np.array_equal(lv0[y : y + h, x : x + w], q[t])
+    assert m["atlas"]["max_level"] == 3 and len(m["maps"][0]["levels"]) == 4
+    # change one tile: no texel of any other cell changes at any level
+    other = omega_set.tiles.copy()
+    other[5] = 1.0 - other[5]
+    cells_a = xatlas.quantise(
+        xatlas.padded_tiles(omega_set.tiles, omega_set.exemplar, omega_set.source, p), 8
+    )
+    cells_b = cells_a.copy()
+    cells_b[5, p : p + n, p : p + n] = to_uint(other[5], 8)
+    rows = m["atlas"]["rows"]
+    ca = xatlas.mip_chain(xatlas.pack(cells_a, cols, rows), 3, True)
+    cb = xatlas.mip_chain(xatlas.pack(cells_b, cols, rows), 3, True)
+    s = n + 2 * p
+    for lv in range(4):
+        f = 2**lv
+        diff = np.any(ca[lv] != cb[lv], axis=2)
+        ys, xs = np.nonzero(diff)
+        assert ys.size > 0
+        assert set(zip((ys * f) // s, (xs * f) // s)) == {(5 // cols, 5 % cols)}
+        assert np.array_equal(load_raster(tmp_path / m["maps"][0]["levels"][lv]["file"]), ca[lv])
+
+
+def test_mip_interior_is_the_box_filter_of_the_tile(omega_set):
+    cells = xatlas.quantise(xatlas.padded_tiles(omega_set.tiles, omega_set.exemplar, omega_set.source, 8), 8)
+    chain = xatlas.mip_chain(cells[3], 3, srgb=False)
+    t = cells[3, 8:40, 8:40].astype(np.float64)
+    box = t.reshape(4, 8, 4, 8, 3).mean(axis=(1, 3))
+    assert np.abs(chain[3][1:5, 1:5].astype(np.float64) - box).max() <= 1.5  # rounded at each level
+
+
+def test_gutter_from_provenance(omega_set, wang_set):
+    """First gutter texel exact for every valid neighbour of an omega set with the kept border ring; the
+    deeper ones and the Wang corners are measured, not claimed."""
+    for tileset in (omega_set, wang_set):
+        cells = xatlas.quantise(xatlas.padded_tiles(tileset.tiles, tileset.exemplar, tileset.source, 8), 8)
+        ex = xatlas.gutter_exactness(tileset, cells, 8, to_uint(tileset.tiles, 8))
+        assert ex["pairs"] > 0 and len(ex["by_depth"]) == 8
+        assert all(0.3 < v <= 1.0 for v in ex["by_depth"])
+    cells = xatlas.quantise(xatlas.padded_tiles(omega_set.tiles, omega_set.exemplar, omega_set.source, 8), 8)
+    assert xatlas.gutter_exactness(omega_set, cells, 8, to_uint(omega_set.tiles, 8))["by_depth"][0] == 1.0
+    # the gutter is the exemplar continued: the corner texel (-1, -1) of each tile is the exemplar pixel
+    # diagonally before the provenance of its (0, 0)
+    for t in range(omega_set.n_tiles):
+        r, c = omega_set.source[t, 0, 0]
+        assert np.array_equal(cells[t, 7, 7], to_uint(omega_set.exemplar[r - 1, c - 1], 8))
+
+
+@pytest.mark.parametrize(
+    "name,period,strict",
+    [
+        ("4", 2, True),
+        ("8", 2, True),
+        ("16a", 2, False),
+        ("16b", 4, True),
+        ("32", 2, False),
+        ("B", 3, True),
+        ("n1", 3, True),
+        ("n2", 3, True),
+        ("16ax2", 2, False),
+        ("n2x2", 3, True),
+    ],
+)
+def test_toroidal_index_maps_of_named_corner_sets(name, period, strict):
+    """Measured: the smallest square torus each set tiles; 'strict' sets tile no torus of side period + 1."""
+    from tilesynth.engine.periodic import default_index_size, torus_period
+
+    defn = ts.get_tileset(name)
+    assert torus_period(defn) == period
+    dc, dr = default_index_size(defn)
+    assert dc == dr and dc % period == 0 and abs(dc - 32) <= period
+    for rows, cols in ((dr, dc), (2 * period, 3 * period)):
+        imap = toroidal_index_map(defn, rows, cols, seed=3)
+        assert imap.shape == (rows, cols) and imap.dtype == np.int32
+        validate_index_map(defn, np.tile(imap, (2, 2)))  # valid across the wrap in both directions
+    if strict:
+        with pytest.raises(ParameterError, match=f"multiples of {period}"):
+            toroidal_index_map(defn, period + 1, period + 1)
+
+
+@pytest.mark.parametrize("name", ["wang8", "wang18"])
+def test_toroidal_index_maps_of_wang_sets(name):
+    from tilesynth.wangsets import get_wang_tileset
+
+    defn = get_wang_tileset(name)
+    imap = toroidal_index_map(defn, 8, 8, seed=1)
+    validate_index_map(defn, np.tile(imap, (2, 2)))
+    assert len(np.unique(imap)) > 3
+
+
+def test_toroidal_index_map_is_seeded_and_varied():
+    defn = ts.get_tileset("16a")
+    a, b = toroidal_index_map(defn, 16, 16, 1), toroidal_index_map(defn, 16, 16, 2)
+    assert np.array_equal(a, toroidal_index_map(defn, 16, 16, 1)) and not np.array_equal(a, b)
+    assert len(np.unique(a)) == len(defn)
+
+
+@pytest.mark.parametrize("name", ["n2", "n2x2"])
+def test_toroidal_fallback_repeats_a_small_torus_and_recolours(name, monkeypatch):
+    from tilesynth.engine import periodic
+    from tilesynth.wangsets import get_wang_tileset
+
+    defn = get_wang_tileset(name) if name.startswith("wang") else ts.get_tileset(name)
+    monkeypatch.setattr(periodic, "MAX_NODES", 40)  # the direct search of 12 x 12 cannot finish: fallback
+    imap = toroidal_index_map(defn, 12, 12, seed=5)
+    validate_index_map(defn, np.tile(imap, (2, 2)))
+    assert len(np.unique(imap)) > len(defn) // 2
+
+
+def test_hash_layout_detects_complete_sets_in_hash_order():
+    from tilesynth.tilesets import CornerTileSet
+    from tilesynth.wangsets import WangTileSet
+
+    cols = ("R", "G")
+    tiles, variants = [], []
+    for idx in range(2**4 * 3):
+        rest, v = divmod(idx, 3)
+        rest, br = divmod(rest, 2)
+        rest, tr = divmod(rest, 2)
+        tl, bl = divmod(rest, 2)
+        tiles.append((cols[tl], cols[bl], cols[tr], cols[br]))
+        variants.append(v)
+    assert hash_layout(CornerTileSet("c2", cols, tiles, variants)) == {"kind": "corner", "K": 2, "V": 3}
+    assert hash_layout(CornerTileSet("c2", cols, tiles[::-1], variants[::-1])) is None
+    assert hash_layout(ts.get_tileset("16a")) is None
+    hz, vt = ("a", "b"), ("x", "y", "z")
+    wt = []
+    for idx in range(2 * 2 * 3 * 3):
+        rest, w = divmod(idx, 3)
+        rest, s = divmod(rest, 2)
+        n, e = divmod(rest, 3)
+        wt.append((hz[n], vt[e], hz[s], vt[w]))
+    assert hash_layout(WangTileSet("w", hz, vt, wt)) == {"kind": "edge", "Kh": 2, "Kv": 3, "V": 1}
+
+
+def test_export_parameter_errors(tmp_path, omega_set):
+    for kw, word in (
+        ({"padding": -1}, "padding"),
+        ({"padding": True}, "padding"),
+        ({"bits": 12}, "bits"),
+        ({"seed": 2**32}, "seed"),
+        ({"seed": -1}, "seed"),
+        ({"lookup": "hash"}, "hash"),
+        ({"lookup": "nope"}, "lookup"),
+        ({"wrap": (4, 4)}, "wrap"),
+        ({"normal_y": "up"}, "normal_y"),
+        ({"maps": {"albedo": omega_set.exemplar}}, "albedo"),
+        ({"maps": {"bad name": omega_set.exemplar}}, "map name"),
+    ):
+        with pytest.raises(ParameterError, match=word):
+            export(omega_set, tmp_path / "e", **kw)
+    with pytest.raises(ValueError, match="pixel-aligned"):
+        export(omega_set, tmp_path / "e", maps={"h": np.zeros((5, 5), np.float32)})
+    with pytest.raises(TypeError, match="TileSet"):
+        export("x.tiles", tmp_path / "e")
+
+
+def test_exr_roundtrip(tmp_path, omega_set):
+    from tilesynth.io import read_exr
+
+    h = np.ascontiguousarray(omega_set.exemplar[..., 0] * 3.0 - 1.0)  # float data outside [0, 1]
+    m = export(omega_set, tmp_path, maps={"h": h}, index_size=(2, 2))
+    entry = next(mp for mp in m["maps"] if mp["name"] == "h")
+    y = read_exr(tmp_path / entry["levels"][0]["file"])[0][..., 0]
+    x, yy, w, hh = m["atlas"]["cells"][2]
+    src = omega_set.source[2]
+    assert np.array_equal(y[yy : yy + hh, x : x + w], h[src[..., 0], src[..., 1]])
+
+
+def test_sixteen_bit_atlas(tmp_path, omega_set):
+    m = export(omega_set, tmp_path, bits=16, index_size=(2, 2))
+    lv0 = load_raster(tmp_path / "atlas_albedo.png")
+    assert lv0.dtype == np.uint16
+    x, y, w, h = m["atlas"]["cells"][0]
+    assert np.array_equal(lv0[y : y + h, x : x + w], to_uint(omega_set.tiles[0], 16))
+
+
+def test_padding_zero_has_no_mips(tmp_path, omega_set):
+    m = export(omega_set, tmp_path, padding=0, index_size=(2, 2))
+    assert m["atlas"]["max_level"] == 0 and m["gutter"]["exact_fraction"] is None
+    assert m["atlas"]["width"] == m["atlas"]["columns"] * 32
+
+
+def test_cli_export_and_view(tmp_path, omega_set):
+    from tilesynth.cli import main
+
+    src = tmp_path / "a.tiles"
+    omega_set.save(src)
+    assert main(["export", str(src), "-o", str(tmp_path / "out"), "--index-size", "4x4", "--viewer"]) == 0
+    assert (tmp_path / "out" / "viewer.html").is_file()
+    assert main(["view", str(src), "-o", str(tmp_path / "v.html"), "--index-size", "4x4"]) == 0
+    html = (tmp_path / "v.html").read_text()
+    assert (
+        html.startswith("<!DOCTYPE html>")
+        and "ts_sample_grad" in html
+        and "http" not in html.split("<script")[0]
+    )
+    assert main(["export", str(src), "-o", str(tmp_path / "o2"), "--lookup", "hash"]) == 2
