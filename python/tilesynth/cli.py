@@ -60,6 +60,14 @@ def _pos(text: str) -> int:
     return v
 
 
+def _origin(text: str) -> tuple[int, int]:
+    try:
+        x, y = (int(p) for p in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y (two integers, e.g. -512,256)") from None
+    return x, y
+
+
 def _set_name(text: str) -> str:
     from .tilesets import get_tileset
     from .wangsets import is_wang_set_name
@@ -171,6 +179,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--bits", type=int, choices=(8, 16), default=None,
                    help="bits per channel of the output (default: those of the exemplar)")
     s.add_argument("--threads", type=_pos, default=None, help="copy threads")
+    s.add_argument("--origin", type=_origin, default=(0, 0), metavar="X,Y",
+                   help="complete sets (c3x2, wc2, ...): top-left pixel of the window of the infinite texture to "
+                   "write (any integers; write negative ones as --origin=-512,2048; default 0,0)")
+    s.add_argument("--wrap", action="store_true",
+                   help="complete sets: make the output tile periodically (size a multiple of the tile size)")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
     i = sub.add_parser("info", help="describe a tile set")
@@ -389,7 +402,8 @@ def _map_output(output: str, map_path: str, dtype: np.dtype) -> Path:
 
 def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, map_path: str | None,
            save_map: str | None, bits: int | None, threads: int | None, quiet: bool,
-           with_maps: list[str] | None = None, map_smooth: str = "auto") -> None:
+           with_maps: list[str] | None = None, map_smooth: str = "auto", origin: tuple[int, int] = (0, 0),
+           wrap: bool = False) -> None:
     from ._validate import seed_int
     from .io import atomic_open, save_image
     from .progress import Progress
@@ -407,7 +421,12 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
 
         # memory-mapped first: a header that declares more data than the file holds fails here, cheaply
         index_map = read_npy(map_path, f"--map = {map_path!r}")
-    seed = seed_int(seed) if index_map is None else None
+    from .lookup import hash_seed, hashed_scheme
+
+    hashed = hashed_scheme(ts, origin, wrap, index_map) is not None  # complete sets: 32-bit hashed seeds
+    if with_maps and origin != (0, 0):
+        raise ParameterError("--with and --origin: the maps follow the index map from (0, 0); give one")
+    seed = (hash_seed(seed) if hashed else seed_int(seed)) if index_map is None else None
     bits = bits or int(ts.exemplar_info.get("bits", 8))
     # refuse up front what cannot fit: the image, plus the copy the PNG encoder makes
     check_size(ts, size[0], size[1], np.uint16 if bits == 16 else np.uint8, copies=2)
@@ -438,7 +457,7 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
     t0 = time.perf_counter()
     prog("synthesis", 0, 1)
     img, imap = synthesize(ts, size[0], size[1], seed=seed, index_map=index_map,
-                           dtype=np.uint16 if bits == 16 else np.uint8, threads=threads)
+                           dtype=np.uint16 if bits == 16 else np.uint8, threads=threads, origin=origin, wrap=wrap)
     prog("synthesis", 1, 1)
     prog("writing image", 0, 1)
     save_image(output, img)
@@ -623,7 +642,7 @@ def main(argv: list[str] | None = None) -> int:
                    supplementary=args.supplementary, smooth=args.smooth)
         elif args.command == "synth":
             _synth(args.tileset, args.output, args.size, args.seed, args.map, args.save_map, args.bits,
-                   args.threads, args.quiet, args.with_maps, args.map_smooth)
+                   args.threads, args.quiet, args.with_maps, args.map_smooth, args.origin, args.wrap)
         elif args.command == "info":
             _info(args.tileset, args.json)
         elif args.command == "sheet":
