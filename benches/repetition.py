@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 import tilesynth as ts
+import tilesynth.metrics
 from tilesynth.io import load_image
 from tilesynth.metrics import coverage, detail_repetition, histogram_distance, periodic_copies, seam_score
 from tilesynth.synthesis import source_map
@@ -42,6 +43,9 @@ DEFAULT_TEXTURES = ["bark-lichen", "cracked-mud", "dry-soil", "grass", "roof-til
                     "bricks-red", "sea-foam", "pebbles"]
 QUICK_TEXTURES = ["bark-lichen", "grass", "lettuce-leaves", "pebbles"]
 SETS = ["16a", "c3", "c3x2", "c4"]
+LEVERS = [("c3x2", "div1", {"diversity": 1}), ("c3x2", "free", {"cut_region": "free"}),
+          ("c3x2", "free+div1", {"cut_region": "free", "diversity": 1}),
+          ("c4", "free+div1", {"cut_region": "free", "diversity": 1})]
 
 
 # ------------------------------------------------------------------------------------------ baselines
@@ -207,19 +211,23 @@ def run(textures: list[str], size: int, seed: int, quilt_on: bool, out_png: Path
         h, w = ex.shape[:2]
         n = (min(h, w) // 4) // 2 * 2
         print(f"{name}: {w}x{h}, N = {n}", file=sys.stderr, flush=True)
-        methods = [("16a (default N)", "16a", None)] + [(s, s, n) for s in SETS]
-        for label, set_name, tile in methods:
+        methods = [("16a (default N)", "16a", None, {})] + [(s, s, n, {}) for s in SETS] + [
+            (f"{s} {lab}", s, n, kw) for s, lab, kw in LEVERS]
+        for label, set_name, tile, kw in methods:
             t = time.process_time()
-            tset = ts.build_omega(ex, set_name, tile_size=tile, seed=seed)
+            tset = ts.build_omega(ex, set_name, tile_size=tile, seed=seed, **kw)
             build = time.process_time() - t
             img, imap = ts.synthesize(tset, size, size, seed=seed)
             src = source_map(tset, imap, size, size)
             r = measure(img, ex, src, tset.tile_size)
+            cs = ts.metrics.cut_seam_score(tset)
+            r["cut_seam"] = cs["score"] if cs else None
             r.update(texture=name, method=f"{label}" if tile is None else f"{label} N={tile}", build_s=build,
                      tiles=tset.n_tiles)
             rows.append(r)
             if out_png is not None and name == textures[0]:
-                ts.save_image(out_png / f"{name}-{set_name}-{tset.tile_size}.png", img[:512, :512])
+                tag = label.replace(" ", "_").replace("(", "").replace(")", "")
+                ts.save_image(out_png / f"{name}-{tag}-{tset.tile_size}.png", img[:512, :512])
             print(f"  {r['method']}: {r}", file=sys.stderr, flush=True)
         img, src = periodic(ex, size)
         rows.append({**measure(img, ex, src, None), "texture": name, "method": "periodic", "build_s": 0.0})
@@ -245,14 +253,15 @@ def _f(v, fmt=".3f") -> str:
 
 
 def table(rows: list[dict]) -> str:
-    lines = ["| texture | method | copies | autocorr peak | coverage | hist dist | border seam | build CPU s |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = ["| texture | method | copies | autocorr peak | coverage | hist dist | border seam | cut seam | build CPU s |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['texture']} | {r['method']} | {_f(r['copies'])} | {_f(r['autocorr'])} | "
-                     f"{_f(r['coverage'])} | {_f(r['hist'])} | {_f(r['seam'])} | {_f(r['build_s'], '.2f')} |")
+                     f"{_f(r['coverage'])} | {_f(r['hist'])} | {_f(r['seam'])} | {_f(r.get('cut_seam'))} | "
+                     f"{_f(r['build_s'], '.2f')} |")
     lines += ["", "Means over the textures:", "",
-              "| method | copies | autocorr peak | coverage | hist dist | border seam | build CPU s |",
-              "|---|---|---|---|---|---|---|"]
+              "| method | copies | autocorr peak | coverage | hist dist | border seam | cut seam | build CPU s |",
+              "|---|---|---|---|---|---|---|---|"]
     by: dict[str, list[dict]] = {}
     for r in rows:
         key = r["method"].split(" N=")[0]
@@ -262,7 +271,8 @@ def table(rows: list[dict]) -> str:
             vals = [r[k] for r in rs if r.get(k) is not None]
             return float(np.mean(vals)) if vals else None
         lines.append(f"| {key} | {_f(mean('copies'))} | {_f(mean('autocorr'))} | {_f(mean('coverage'))} | "
-                     f"{_f(mean('hist'))} | {_f(mean('seam'))} | {_f(mean('build_s'), '.2f')} |")
+                     f"{_f(mean('hist'))} | {_f(mean('seam'))} | {_f(mean('cut_seam'))} | "
+                     f"{_f(mean('build_s'), '.2f')} |")
     return "\n".join(lines)
 
 

@@ -146,6 +146,14 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--smooth", action="store_true",
                    help="Poisson-smooth the region inside each cutting curve (002 section 3.3): the matching patch's "
                    "gradients, blended into the tile from the curve; exact to a 1e-6 residual, tile borders kept")
+    b.add_argument("--cut-region", default="circle", choices=("circle", "free"),
+                   help="omega: where the cut may run: the inscribed circle (002, default) or free but for a "
+                   "border ring and corner discs, so most of each tile is its own matching patch (less repetition)")
+    b.add_argument("--cut-bias", type=float, default=None,
+                   help="omega, --cut-region free: area reward that moves the cut outwards (default 0.02)")
+    b.add_argument("--diversity", type=_pos, default=None, metavar="M",
+                   help="omega: assign matching patches so that each exemplar region is used at most M times "
+                   "(less repetition; default: each tile's best match)")
     b.add_argument("--cut", default="dp", choices=("dp", "graph"),
                    help="wang: minimum-error boundary cuts by dynamic programming (default) or graph cuts")
     b.add_argument("--overlap", type=_pos, default=None,
@@ -296,7 +304,7 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
            normalise: bool = False, match: str = "ssd", match_k: str | None = None,
            metric: str = "color", scheme: str = "omega", cut: str = "dp", overlap: int | None = None,
            corners: str | None = None, samples: str = "diamond",
-           supplementary: str = "ssd", smooth: bool = False) -> "TileSet":  # noqa: F821
+           supplementary: str = "ssd", smooth: bool = False, levers: dict | None = None) -> "TileSet":  # noqa: F821
     from .io import load_image
     from .progress import Progress
     from .schemes import DEFAULT_SETS, build
@@ -326,7 +334,10 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
     )
     if scheme == "omega":
         extra: dict = dict(gradients=gradients, keep_border=not literal_border, normalise=normalise, match=match,
-                           match_k=_match_k(match_k), metric=metric, smooth=smooth)
+                           match_k=_match_k(match_k), metric=metric, smooth=smooth,
+                           **{k: v for k, v in (levers or {}).items() if v is not None})  # issue 12
+    elif levers and any(v is not None for v in levers.values()):
+        raise ParameterError("--cut-region, --cut-bias, --diversity: only with --scheme omega")
     elif scheme == "wang":
         extra = dict(cut=cut, overlap=overlap, corners=corners, samples=samples)
     else:
@@ -639,7 +650,9 @@ def main(argv: list[str] | None = None) -> int:
                    args.gradients, args.literal_border, args.select, args.polish, args.generations,
                    args.population, args.normalise, args.match, args.match_k, args.metric, scheme=args.scheme,
                    cut=args.cut, overlap=args.overlap, corners=args.corners, samples=args.samples,
-                   supplementary=args.supplementary, smooth=args.smooth)
+                   supplementary=args.supplementary, smooth=args.smooth,
+                   levers={"cut_region": None if args.cut_region == "circle" else args.cut_region,
+                           "cut_bias": args.cut_bias, "diversity": args.diversity})
         elif args.command == "synth":
             _synth(args.tileset, args.output, args.size, args.seed, args.map, args.save_map, args.bits,
                    args.threads, args.quiet, args.with_maps, args.map_smooth, args.origin, args.wrap)

@@ -435,6 +435,9 @@ def build_omega(
     match_k: int | str | None = None,
     metric: str = "color",
     smooth: bool = False,
+    cut_region: str = "circle",
+    diversity: int | None = None,
+    cut_bias: float | None = None,
 ) -> TileSet:
     """Build a set of ω-tiles from ``exemplar``.
 
@@ -475,6 +478,12 @@ def build_omega(
         gradient difference, 000 eq. 3) or "eq2" (gradient-weighted SSD, 000 eq. 2; not with ``select``).
     smooth : Poisson-smooth the region inside every cutting curve (002 §3.3; :func:`smooth_tiles`). The solver's
         statistics are stored in ``params["smooth"]``; the cut masks, costs and provenance are unchanged.
+    cut_region : "circle" (002's inscribed circle, default) or "free" (free but for a border ring and corner
+        discs, so most of the tile is its own matching patch; :mod:`tilesynth.levers`).
+    cut_bias : "free" only: the area reward of the free cut (default :data:`tilesynth.levers.FREE_BIAS`).
+    diversity : None, or m >= 1: assign the matching patches under a diversity constraint (each exemplar region
+        used at most m times, :func:`tilesynth.levers.diverse_matches`) instead of each tile's best; only with
+        ``match="ssd"`` and ``metric="color"``.
 
     D_j is the distance (``metric``) between intermediate tile j and its matching patch; E is computed from the
     smallest distance of every intermediate tile over all translations, whatever ``match`` chose.
@@ -506,6 +515,12 @@ def build_omega(
     metric = check_metric(metric)
     if not isinstance(smooth, (bool, np.bool_)):
         raise ParameterError(f"smooth = {smooth!r}: must be True or False")
+    if cut_region not in ("circle", "free"):
+        raise ParameterError(f"cut_region = {cut_region!r}: must be 'circle' or 'free'")
+    if cut_bias is not None and (cut_region != "free" or finite_float(cut_bias, "cut_bias") < 0):
+        raise ParameterError(f"cut_bias = {cut_bias!r}: a number >= 0, only with cut_region='free'")
+    if diversity is not None and (strategy != "ssd" or metric != "color"):
+        raise ParameterError("diversity: only with match='ssd' and metric='color'")
     report = progress or (lambda stage, done, total: None)
     index = {c: i for i, c in enumerate(colours)}
     tile_patches = np.array([[index[c] for c in t] for t in defn.tiles], dtype=np.int64)
@@ -564,6 +579,10 @@ def build_omega(
             ex, inter, inter_src, n, n_variants, exclude, strategy, match_k, metric, gradients, keep_border, eps,
             threads, report,
         )
+    if diversity is not None:  # issue 12: diverse matching patches (tilesynth.levers)
+        from .levers import diverse_matches
+
+        chosen, chosen_D = diverse_matches(ex, inter, n_variants, diversity, threads)
     t2 = time.perf_counter()
     report("matching patches", 1, 1)
 
@@ -575,9 +594,15 @@ def build_omega(
     O_tiles = np.stack([ex[r : r + n, c : c + n] for r, c in match_offsets])
     report("cutting curves", 0, k)
     grad = patch_gradients(ex, I_src) if gradients == "patch" else None
-    masks, costs = kernels.omega_cuts(
-        I_tiles, O_tiles, eps=eps, threads=threads, intermediate_grad=grad, keep_border=bool(keep_border)
-    )
+    if cut_region == "free":  # issue 12: the free cut region (tilesynth.levers)
+        from .levers import FREE_BIAS, free_cuts
+
+        cut_bias = FREE_BIAS if cut_bias is None else float(cut_bias)
+        masks, costs = free_cuts(I_tiles, O_tiles, eps, grad, bias=cut_bias)
+    else:
+        masks, costs = kernels.omega_cuts(
+            I_tiles, O_tiles, eps=eps, threads=threads, intermediate_grad=grad, keep_border=bool(keep_border)
+        )
     t3 = time.perf_counter()
     report("cutting curves", k, k)
 
@@ -626,6 +651,8 @@ def build_omega(
             "seed": seed,
             "selection": sel,
             **({"smooth": smooth_info} if smooth_info is not None else {}),
+            **({"cut_region": cut_region, "cut_bias": cut_bias} if cut_region != "circle" else {}),
+            **({"diversity": int(diversity)} if diversity is not None else {}),
         },
         exemplar_info=info,
         timing={
