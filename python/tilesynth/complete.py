@@ -172,3 +172,26 @@ def lookup_scheme(defn: Any) -> LookupScheme | None:
                 return None
         return scheme
     return None
+
+
+def default_complete_tile_size(shape: tuple[int, ...]) -> int:
+    """Default tile size of a complete set: a quarter of the exemplar's shorter side, rounded down to even,
+    capped at 256, at least 8 (or the half-side default of small exemplars)."""
+    from .omega import default_tile_size
+
+    n = min(shape[0], shape[1]) // 4
+    n -= n % 2
+    return min(256, n) if n >= 8 else default_tile_size(shape)
+
+
+def complete_defaults(defn: Any, shape: tuple[int, ...], match: Any, metric: Any) -> dict[str, Any] | None:
+    """The build defaults of a complete corner set (None for other sets): tile size, the free cut region and
+    diversity 1 (only with the plain SSD match, which :func:`tilesynth.levers.diverse_matches` reassigns)."""
+    if lookup_scheme(defn) is None:
+        return None
+    return {
+        "tile_size": default_complete_tile_size(shape),
+        "cut_region": "free",
+        "diversity": 1 if (match, metric) == ("ssd", "color") else 0,
+    }
+

@@ -435,7 +435,7 @@ def build_omega(
     match_k: int | str | None = None,
     metric: str = "color",
     smooth: bool = False,
-    cut_region: str = "circle",
+    cut_region: str | None = None,
     diversity: int | None = None,
     cut_bias: float | None = None,
 ) -> TileSet:
@@ -478,12 +478,17 @@ def build_omega(
         gradient difference, 000 eq. 3) or "eq2" (gradient-weighted SSD, 000 eq. 2; not with ``select``).
     smooth : Poisson-smooth the region inside every cutting curve (002 §3.3; :func:`smooth_tiles`). The solver's
         statistics are stored in ``params["smooth"]``; the cut masks, costs and provenance are unchanged.
-    cut_region : "circle" (002's inscribed circle, default) or "free" (free but for a border ring and corner
-        discs, so most of the tile is its own matching patch; :mod:`tilesynth.levers`).
+    cut_region : "circle" (002's inscribed circle) or "free" (free but for a border ring and corner discs, so
+        most of the tile is its own matching patch; :mod:`tilesynth.levers`). None (default): "free" for the
+        complete sets of the hashed lookup (``c3x2``, ``c4``, ...), "circle" for the papers' sets.
     cut_bias : "free" only: the area reward of the free cut (default :data:`tilesynth.levers.FREE_BIAS`).
-    diversity : None, or m >= 1: assign the matching patches under a diversity constraint (each exemplar region
-        used at most m times, :func:`tilesynth.levers.diverse_matches`) instead of each tile's best; only with
-        ``match="ssd"`` and ``metric="color"``.
+    diversity : m >= 1: assign the matching patches under a diversity constraint (each exemplar region used at
+        most m times, :func:`tilesynth.levers.diverse_matches`) instead of each tile's best; 0: each tile's
+        best. None (default): 1 for complete sets (with ``match="ssd"``, ``metric="color"``), else 0.
+        Complete sets also default to a tile size of a quarter of the exemplar's shorter side
+        (:func:`tilesynth.complete.default_complete_tile_size`) instead of half: the lookup, not the tile
+        size, makes them non-periodic, and K⁴·V tiles of half the exemplar would be slow to build and big.
+    The choice of these defaults was measured with ``benches/repetition.py`` (issue 12).
 
     D_j is the distance (``metric``) between intermediate tile j and its matching patch; E is computed from the
     smallest distance of every intermediate tile over all translations, whatever ``match`` chose.
@@ -499,7 +504,16 @@ def build_omega(
     if not isinstance(tileset, str):
         raise ParameterError(f"tileset = {tileset!r}: expected a tile-set name such as '16a' or 'n2'")
     defn = get_tileset(tileset)
+    from .complete import complete_defaults  # issue 12: complete sets default to the measured levers
+
+    complete = complete_defaults(defn, ex.shape, match, metric)
     n = default_tile_size(ex.shape) if tile_size is None else check_tile_size(tile_size, ex.shape)
+    if complete is not None:
+        n = complete["tile_size"] if tile_size is None else n
+        cut_region = complete["cut_region"] if cut_region is None else cut_region
+        diversity = complete["diversity"] if diversity is None else diversity
+    cut_region = "circle" if cut_region is None else cut_region
+    diversity = None if diversity == 0 else diversity
     seed = seed_int(seed)
     threads = threads_arg(threads)
     eps = finite_float(eps, "eps", positive=True)
@@ -519,6 +533,9 @@ def build_omega(
         raise ParameterError(f"cut_region = {cut_region!r}: must be 'circle' or 'free'")
     if cut_bias is not None and (cut_region != "free" or finite_float(cut_bias, "cut_bias") < 0):
         raise ParameterError(f"cut_bias = {cut_bias!r}: a number >= 0, only with cut_region='free'")
+    if diversity is not None and (isinstance(diversity, (bool, np.bool_)) or not isinstance(diversity, (int, np.integer))
+                                  or diversity < 1):
+        raise ParameterError(f"diversity = {diversity!r}: a positive int (uses per exemplar region), 0 or None")
     if diversity is not None and (strategy != "ssd" or metric != "color"):
         raise ParameterError("diversity: only with match='ssd' and metric='color'")
     report = progress or (lambda stage, done, total: None)
