@@ -94,8 +94,10 @@ def _method(text: str) -> str:
 
 SET_HELP = ("tile-set definition: 4, 8, 16a, 16b, 32 (002), B (the basic 8-set of the extendable rule), n1 (17 tiles), "
             "n2 (38 tiles) or nK for any K >= 1; append x2, x3 or x4 (e.g. 16bx2, n2x2) for 2-4 omega-tiles per "
-            "intermediate tile, i.e. at least that many choices at every tiling step (default 16a); with --scheme "
-            "wang or swang the edge-coloured wang8 (default, 2+2 colours) or wang18 (3+3 colours)")
+            "intermediate tile, i.e. at least that many choices at every tiling step; complete sets c<K> and "
+            "c<K>x<V> (every corner tuple over K colours, hashed lookup: non-periodic, random access, --wrap; "
+            "default c4, measured in benches/repetition.py); with --scheme wang or swang the edge-coloured wang8 "
+            "(default, 2+2 colours), wang18 (3+3 colours) or the complete wc<K>, wc<Kh>-<Kv>")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -205,7 +207,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     d = sub.add_parser("demo", help="build and synthesize on the bundled exemplar (lettuce leaves)")
     d.add_argument("-o", "--output-dir", default="tilesynth-demo", help="directory for the results (default ./tilesynth-demo)")
-    d.add_argument("--set", default="16a", type=_set_name, metavar="SET", help=SET_HELP)
+    d.add_argument("--set", default="c4", type=_set_name, metavar="SET", help=SET_HELP)
     d.add_argument("--size", type=_size, default=(1024, 1024), help="texture size (default 1024x1024)")
     d.add_argument("--seed", type=_nonneg, default=1, help="seed (default 1)")
     d.add_argument("--threads", type=_pos, default=None, help="worker threads")
