@@ -114,3 +114,16 @@ def test_cli_levers_and_hashed_synth(tmp_path, lettuce):
     assert main(["build", str(ex), "-o", str(tmp_path / "w.tiles"), "--set", "wc2", "--scheme", "wang",
                  "--diversity", "1", "-q"]) == 2
     assert main(["synth", str(out), "-o", str(a), "--size", "97x96", "--wrap", "-q"]) == 2
+
+
+def test_cli_plain_omega_on_a_complete_set(tmp_path, lettuce):
+    from tilesynth.cli import main
+    from tilesynth.io import save_image
+
+    ex = tmp_path / "ex.png"
+    save_image(ex, lettuce)
+    out = tmp_path / "plain.tiles"
+    assert main(["build", str(ex), "-o", str(out), "--set", "c2", "--tile-size", "48", "--seed", "1",
+                 "--cut-region", "circle", "--diversity", "0", "-q"]) == 0
+    s = ts.load(out)
+    assert "cut_region" not in s.params and "diversity" not in s.params

@@ -148,14 +148,16 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--smooth", action="store_true",
                    help="Poisson-smooth the region inside each cutting curve (002 section 3.3): the matching patch's "
                    "gradients, blended into the tile from the curve; exact to a 1e-6 residual, tile borders kept")
-    b.add_argument("--cut-region", default="circle", choices=("circle", "free"),
-                   help="omega: where the cut may run: the inscribed circle (002, default) or free but for a "
-                   "border ring and corner discs, so most of each tile is its own matching patch (less repetition)")
+    b.add_argument("--cut-region", default=None, choices=("circle", "free"),
+                   help="omega: where the cut may run: the inscribed circle (002; default for the papers' sets) or "
+                   "free but for a border ring and corner discs, so most of each tile is its own matching patch "
+                   "(less repetition; default for complete sets)")
     b.add_argument("--cut-bias", type=float, default=None,
                    help="omega, --cut-region free: area reward that moves the cut outwards (default 0.02)")
-    b.add_argument("--diversity", type=_pos, default=None, metavar="M",
+    b.add_argument("--diversity", type=_nonneg, default=None, metavar="M",
                    help="omega: assign matching patches so that each exemplar region is used at most M times "
-                   "(less repetition; default: each tile's best match)")
+                   "(less repetition); 0: each tile's best match. Default 1 for complete sets (c4, c3x2, ...), "
+                   "0 for the papers' sets")
     b.add_argument("--cut", default="dp", choices=("dp", "graph"),
                    help="wang: minimum-error boundary cuts by dynamic programming (default) or graph cuts")
     b.add_argument("--overlap", type=_pos, default=None,
@@ -653,7 +655,7 @@ def main(argv: list[str] | None = None) -> int:
                    args.population, args.normalise, args.match, args.match_k, args.metric, scheme=args.scheme,
                    cut=args.cut, overlap=args.overlap, corners=args.corners, samples=args.samples,
                    supplementary=args.supplementary, smooth=args.smooth,
-                   levers={"cut_region": None if args.cut_region == "circle" else args.cut_region,
+                   levers={"cut_region": args.cut_region,
                            "cut_bias": args.cut_bias, "diversity": args.diversity})
         elif args.command == "synth":
             _synth(args.tileset, args.output, args.size, args.seed, args.map, args.save_map, args.bits,
