@@ -27,6 +27,9 @@ def test_free_terminals():
     assert sink[31, 20] and sink[32, 40] and sink[20, 31] and sink[40, 32]
     free = ~src & ~sink
     assert free.mean() > 0.75  # the circle leaves π/4 minus the cross, about 0.72 of a 64-px tile, free
+    for small in (4, 6, 8, 12):  # the smallest tiles still get a valid region
+        s_src, s_sink = free_terminals(small)
+        assert s_sink.any() and not (s_src & s_sink).any() and s_src[0].all()
     with pytest.raises(ParameterError):
         free_terminals(n, ring=0)
     with pytest.raises(ParameterError):

@@ -198,3 +198,10 @@ def test_window_cells_floor_division():
     assert window_cells((-1, -4), 2, 5, 4) == (-1, -1, 2, 2, 3, 0)
     assert window_cells((-1, -5), 2, 6, 4) == (-1, -2, 2, 3, 3, 3)
     assert window_cells((5, 7), 3, 1, 4) == (1, 1, 1, 1, 1, 3)
+
+
+def test_huge_map_is_refused_not_aborted():
+    with pytest.raises(ParameterError, match="cells"):
+        index_map(SCHEMES[0], 0, (2**30, 12))
+    with pytest.raises(ParameterError, match="cells"):
+        _core.hashed_index_map("corner", [2], 1, 0, (0, 0), (2**30, 12))

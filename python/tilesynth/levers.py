@@ -40,12 +40,18 @@ DIVERSE_CANDIDATES = 24
 """Candidate translations per intermediate tile of :func:`diverse_matches`."""
 
 
-def free_terminals(n: int, ring: int = 2, disc: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(source, sink) bool masks ``(n, n)`` of the free cut region (see the module docstring)."""
+def free_terminals(n: int, ring: int | None = None, disc: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(source, sink) bool masks ``(n, n)`` of the free cut region (see the module docstring).
+
+    Defaults: ``ring`` 2 pixels (1 for tiles under 16 pixels), ``disc`` N/8 (at least 1, below N/2)."""
+    if ring is None:
+        ring = 2 if n >= 16 else 1
     if disc is None:
-        disc = max(2, n // 8)
-    if not (1 <= ring < n // 4) or not (0 <= disc < n // 2):
-        raise ParameterError(f"ring = {ring}, disc = {disc}: need 1 <= ring < N/4 and 0 <= disc < N/2 (N = {n})")
+        disc = min(max(1, n // 8), n // 2 - 1)
+    if not (1 <= ring <= n // 2 - 1) or not (0 <= disc < n // 2):
+        raise ParameterError(
+            f"ring = {ring}, disc = {disc}: need 1 <= ring <= N/2 - 1 and 0 <= disc < N/2 (N = {n})"
+        )
     yy, xx = np.mgrid[0:n, 0:n]
     src = (yy < ring) | (yy >= n - ring) | (xx < ring) | (xx >= n - ring)
     c = n - 1
@@ -65,7 +71,7 @@ of straight seams two pixels inside the tile borders that the border seam score 
 
 
 def free_cuts(intermediate: np.ndarray, matching: np.ndarray, eps: float, grad: np.ndarray | None,
-              ring: int = 2, disc: int | None = None, bias: float = FREE_BIAS) -> tuple[np.ndarray, np.ndarray]:
+              ring: int | None = None, disc: int | None = None, bias: float = FREE_BIAS) -> tuple[np.ndarray, np.ndarray]:
     """Masks ``(K, N, N)`` (True = take O) and cut costs of the free cut region, one grid min cut per tile.
 
     ``bias`` > 0 rewards area given to O: every free pixel gets a sink t-link of ``bias`` times the tile's mean

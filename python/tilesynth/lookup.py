@@ -53,6 +53,9 @@ ROLE_MUL: int = _core.HASH_ROLE_MUL
 ROLE_VERTEX, ROLE_HEDGE, ROLE_VEDGE, ROLE_VARIANT = _core.HASH_ROLES
 """The roles: vertex colour 0, horizontal-edge colour 1, vertical-edge colour 2, cell variant 3."""
 
+MAX_MAP_CELLS = 2**28
+"""Most cells of one index map (1 GiB of int32; a map of a ~10^12-pixel texture)."""
+
 _M32 = 0xFFFFFFFF
 _I32_MIN, _I32_MAX = -(2**31), 2**31 - 1
 
@@ -227,6 +230,8 @@ def index_map(scheme: LookupScheme, seed: int, size: tuple[int, int], origin: tu
     seed = hash_seed(seed)
     cols, rows = _pair(size, "size")
     cols, rows = _int(cols, "size", 0), _int(rows, "size", 0)
+    if cols * rows > MAX_MAP_CELLS:
+        raise ParameterError(f"size = ({cols}, {rows}): more than {MAX_MAP_CELLS} cells in one index map")
     cx, cy = _pair(origin, "origin")
     cx, cy = _int(cx, "origin", _I32_MIN, _I32_MAX), _int(cy, "origin", _I32_MIN, _I32_MAX)
     return _core.hashed_index_map(
