@@ -3,7 +3,9 @@
 Methods, on each texture (exemplar = the whole file, tile size N = ⌊min side / 4⌋ rounded down to even):
 
 - ``16a``: the seed paper's set with the scan-line tiler (the old default), at the default tile size and at N;
-- ``c3``, ``c3x2``, ``c4``: complete corner sets (hashed lookup), built by the ω construction at N;
+- ``c3``, ``c3x2``, ``c4``: complete corner sets (hashed lookup), built by the plain ω construction at N (inscribed
+  circle, each tile's best match), and with the levers of :mod:`tilesynth.levers`: ``div1`` (diversity 1),
+  ``free`` (free cut region, area reward 0.02), ``free+div1`` (both: the defaults of complete sets);
 - ``periodic``: the exemplar itself tiled periodically (the worst case of repetition);
 - ``hex``: by-example hex tiling (Heitz & Neyret 2018, Mikkelsen 2022), numpy: a triangle grid of edge N·4/3,
   a random exemplar offset per vertex (kept inside the exemplar), barycentric weights sharpened (w³) and the
@@ -43,7 +45,8 @@ DEFAULT_TEXTURES = ["bark-lichen", "cracked-mud", "dry-soil", "grass", "roof-til
                     "bricks-red", "sea-foam", "pebbles"]
 QUICK_TEXTURES = ["bark-lichen", "grass", "lettuce-leaves", "pebbles"]
 SETS = ["16a", "c3", "c3x2", "c4"]
-LEVERS = [("c3x2", "div1", {"diversity": 1}), ("c3x2", "free", {"cut_region": "free"}),
+LEVERS = [("c3x2", "div1", {"cut_region": "circle", "diversity": 1}),
+          ("c3x2", "free", {"cut_region": "free", "diversity": 0}),
           ("c3x2", "free+div1", {"cut_region": "free", "diversity": 1}),
           ("c4", "free+div1", {"cut_region": "free", "diversity": 1})]
 
@@ -211,7 +214,9 @@ def run(textures: list[str], size: int, seed: int, quilt_on: bool, out_png: Path
         h, w = ex.shape[:2]
         n = (min(h, w) // 4) // 2 * 2
         print(f"{name}: {w}x{h}, N = {n}", file=sys.stderr, flush=True)
-        methods = [("16a (default N)", "16a", None, {})] + [(s, s, n, {}) for s in SETS] + [
+        plain = {"cut_region": "circle", "diversity": 0}  # the plain ω construction (complete sets default to
+        # the levers since issue 12)
+        methods = [("16a (default N)", "16a", None, {})] + [(s, s, n, plain) for s in SETS] + [
             (f"{s} {lab}", s, n, kw) for s, lab, kw in LEVERS]
         for label, set_name, tile, kw in methods:
             t = time.process_time()
