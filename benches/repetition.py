@@ -31,7 +31,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-
 import tilesynth as ts
 import tilesynth.metrics
 from tilesynth.io import load_image
@@ -41,14 +40,25 @@ from tilesynth.synthesis import source_map
 TEXTURES = Path(__file__).resolve().parents[2] / "shared" / "textures"
 if not TEXTURES.exists():
     TEXTURES = Path("/work/shared/textures")
-DEFAULT_TEXTURES = ["bark-lichen", "cracked-mud", "dry-soil", "grass", "roof-tiles", "lettuce-leaves",
-                    "bricks-red", "sea-foam", "pebbles"]
+DEFAULT_TEXTURES = [
+    "bark-lichen",
+    "cracked-mud",
+    "dry-soil",
+    "grass",
+    "roof-tiles",
+    "lettuce-leaves",
+    "bricks-red",
+    "sea-foam",
+    "pebbles",
+]
 QUICK_TEXTURES = ["bark-lichen", "grass", "lettuce-leaves", "pebbles"]
 SETS = ["16a", "c3", "c3x2", "c4"]
-LEVERS = [("c3x2", "div1", {"cut_region": "circle", "diversity": 1}),
-          ("c3x2", "free", {"cut_region": "free", "diversity": 0}),
-          ("c3x2", "free+div1", {"cut_region": "free", "diversity": 1}),
-          ("c4", "free+div1", {"cut_region": "free", "diversity": 1})]
+LEVERS = [
+    ("c3x2", "div1", {"cut_region": "circle", "diversity": 1}),
+    ("c3x2", "free", {"cut_region": "free", "diversity": 0}),
+    ("c3x2", "free+div1", {"cut_region": "free", "diversity": 1}),
+    ("c4", "free+div1", {"cut_region": "free", "diversity": 1}),
+]
 
 
 # ------------------------------------------------------------------------------------------ baselines
@@ -81,7 +91,7 @@ def hex_tiling(ex: np.ndarray, size: int, edge: float, seed: int) -> tuple[np.nd
         (np.where(upper, bi, bi + 1), np.where(upper, bj + 1, bj)),
         (np.where(upper, bi + 1, bi), np.where(upper, bj, bj + 1)),
     ]
-    r = int(math.ceil(edge))
+    r = math.ceil(edge)
     if w <= 2 * r or h <= 2 * r:
         raise ValueError(f"exemplar {w}x{h} too small for hex tiling of edge {edge}")
     # random exemplar centre per vertex, from a per-vertex table (vertices in the window)
@@ -153,7 +163,9 @@ def _dp_cut(err: np.ndarray) -> np.ndarray:
     return path
 
 
-def quilt(ex: np.ndarray, size: int, block: int, seed: int, tol: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+def quilt(
+    ex: np.ndarray, size: int, block: int, seed: int, tol: float = 0.1
+) -> tuple[np.ndarray, np.ndarray]:
     """Efros–Freeman image quilting, exhaustive SSD, tolerance ``tol``, DP cuts."""
     rng = np.random.default_rng(seed)
     h, w, c = ex.shape
@@ -216,8 +228,11 @@ def run(textures: list[str], size: int, seed: int, quilt_on: bool, out_png: Path
         print(f"{name}: {w}x{h}, N = {n}", file=sys.stderr, flush=True)
         plain = {"cut_region": "circle", "diversity": 0}  # the plain ω construction (complete sets default to
         # the levers since issue 12)
-        methods = [("16a (default N)", "16a", None, {})] + [(s, s, n, plain) for s in SETS] + [
-            (f"{s} {lab}", s, n, kw) for s, lab, kw in LEVERS]
+        methods = (
+            [("16a (default N)", "16a", None, {})]
+            + [(s, s, n, plain) for s in SETS]
+            + [(f"{s} {lab}", s, n, kw) for s, lab, kw in LEVERS]
+        )
         for label, set_name, tile, kw in methods:
             t = time.process_time()
             tset = ts.build_omega(ex, set_name, tile_size=tile, seed=seed, **kw)
@@ -227,8 +242,12 @@ def run(textures: list[str], size: int, seed: int, quilt_on: bool, out_png: Path
             r = measure(img, ex, src, tset.tile_size)
             cs = ts.metrics.cut_seam_score(tset)
             r["cut_seam"] = cs["score"] if cs else None
-            r.update(texture=name, method=f"{label}" if tile is None else f"{label} N={tile}", build_s=build,
-                     tiles=tset.n_tiles)
+            r.update(
+                texture=name,
+                method=f"{label}" if tile is None else f"{label} N={tile}",
+                build_s=build,
+                tiles=tset.n_tiles,
+            )
             rows.append(r)
             if out_png is not None and name == textures[0]:
                 tag = label.replace(" ", "_").replace("(", "").replace(")", "")
@@ -238,15 +257,27 @@ def run(textures: list[str], size: int, seed: int, quilt_on: bool, out_png: Path
         rows.append({**measure(img, ex, src, None), "texture": name, "method": "periodic", "build_s": 0.0})
         t = time.process_time()
         img, src = hex_tiling(ex, size, edge=n * 4 / 3, seed=seed)
-        rows.append({**measure(img, ex, src, None), "texture": name, "method": "hex",
-                     "build_s": time.process_time() - t})
+        rows.append(
+            {
+                **measure(img, ex, src, None),
+                "texture": name,
+                "method": "hex",
+                "build_s": time.process_time() - t,
+            }
+        )
         if out_png is not None and name == textures[0]:
             ts.save_image(out_png / f"{name}-hex.png", img[:512, :512])
         if quilt_on:
             t = time.process_time()
             img, src = quilt(ex, size, block=max(16, n // 2), seed=seed)
-            rows.append({**measure(img, ex, src, None), "texture": name, "method": "quilt",
-                         "build_s": time.process_time() - t})
+            rows.append(
+                {
+                    **measure(img, ex, src, None),
+                    "texture": name,
+                    "method": "quilt",
+                    "build_s": time.process_time() - t,
+                }
+            )
             if out_png is not None and name == textures[0]:
                 ts.save_image(out_png / f"{name}-quilt.png", img[:512, :512])
         print("  baselines done", file=sys.stderr, flush=True)
@@ -258,26 +289,38 @@ def _f(v, fmt=".3f") -> str:
 
 
 def table(rows: list[dict]) -> str:
-    lines = ["| texture | method | copies | autocorr peak | coverage | hist dist | border seam | cut seam | build CPU s |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| texture | method | copies | autocorr peak | coverage | hist dist | border seam | cut seam | build CPU s |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
-        lines.append(f"| {r['texture']} | {r['method']} | {_f(r['copies'])} | {_f(r['autocorr'])} | "
-                     f"{_f(r['coverage'])} | {_f(r['hist'])} | {_f(r['seam'])} | {_f(r.get('cut_seam'))} | "
-                     f"{_f(r['build_s'], '.2f')} |")
-    lines += ["", "Means over the textures:", "",
-              "| method | copies | autocorr peak | coverage | hist dist | border seam | cut seam | build CPU s |",
-              "|---|---|---|---|---|---|---|---|"]
+        lines.append(
+            f"| {r['texture']} | {r['method']} | {_f(r['copies'])} | {_f(r['autocorr'])} | "
+            f"{_f(r['coverage'])} | {_f(r['hist'])} | {_f(r['seam'])} | {_f(r.get('cut_seam'))} | "
+            f"{_f(r['build_s'], '.2f')} |"
+        )
+    lines += [
+        "",
+        "Means over the textures:",
+        "",
+        "| method | copies | autocorr peak | coverage | hist dist | border seam | cut seam | build CPU s |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     by: dict[str, list[dict]] = {}
     for r in rows:
         key = r["method"].split(" N=")[0]
         by.setdefault(key, []).append(r)
     for key, rs in by.items():
-        def mean(k):
+
+        def mean(k, rs=rs):
             vals = [r[k] for r in rs if r.get(k) is not None]
             return float(np.mean(vals)) if vals else None
-        lines.append(f"| {key} | {_f(mean('copies'))} | {_f(mean('autocorr'))} | {_f(mean('coverage'))} | "
-                     f"{_f(mean('hist'))} | {_f(mean('seam'))} | {_f(mean('cut_seam'))} | "
-                     f"{_f(mean('build_s'), '.2f')} |")
+
+        lines.append(
+            f"| {key} | {_f(mean('copies'))} | {_f(mean('autocorr'))} | {_f(mean('coverage'))} | "
+            f"{_f(mean('hist'))} | {_f(mean('seam'))} | {_f(mean('cut_seam'))} | "
+            f"{_f(mean('build_s'), '.2f')} |"
+        )
     return "\n".join(lines)
 
 
@@ -298,8 +341,10 @@ def main() -> None:
         png.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     rows = run(textures, size, a.seed, not a.no_quilt, png)
-    text = table(rows) + f"\n\n{len(textures)} textures, {size}² outputs, seed {a.seed}, " \
+    text = (
+        table(rows) + f"\n\n{len(textures)} textures, {size}² outputs, seed {a.seed}, "
         f"{time.perf_counter() - t0:.0f} s wall (shared 2-core machine: times indicative).\n"
+    )
     print(text)
     if a.out:
         Path(a.out).write_text(text)

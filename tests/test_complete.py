@@ -6,7 +6,6 @@ import itertools
 
 import numpy as np
 import pytest
-
 import tilesynth as ts
 from tilesynth.complete import complete_edge_set, lookup_scheme
 from tilesynth.errors import ParameterError
@@ -15,7 +14,9 @@ from tilesynth.tilesets import get_tileset
 from tilesynth.wangsets import get_wang_tileset, is_wang_set_name
 
 
-@pytest.mark.parametrize("name,k,v", [("c2", 2, 1), ("c3", 3, 1), ("c3x2", 3, 2), ("c2x5", 2, 5), ("c4", 4, 1)])
+@pytest.mark.parametrize(
+    "name,k,v", [("c2", 2, 1), ("c3", 3, 1), ("c3x2", 3, 2), ("c2x5", 2, 5), ("c4", 4, 1)]
+)
 def test_corner_sets_are_complete_in_spec_order(name, k, v):
     s = get_tileset(name)
     assert s.name == name and len(s) == k**4 * v
@@ -91,8 +92,15 @@ def test_built_set_is_hashed_and_uses_every_tile(c2x2):
 @pytest.mark.parametrize("dtype", [np.uint8, np.float32])
 def test_random_access_equals_crops(c2x2, dtype):
     big, _ = ts.synthesize(c2x2, 400, 360, seed=0xDEADBEEF, origin=(-200, -170), dtype=dtype)
-    for (x0, y0), (w, h) in [((-200, -170), (400, 360)), ((-1, -1), (3, 2)), ((-33, 31), (70, 40)),
-                             ((0, 0), (1, 1)), ((-64, -64), (64, 64)), ((17, -170), (1, 360)), ((-5, 100), (205, 1))]:
+    for (x0, y0), (w, h) in [
+        ((-200, -170), (400, 360)),
+        ((-1, -1), (3, 2)),
+        ((-33, 31), (70, 40)),
+        ((0, 0), (1, 1)),
+        ((-64, -64), (64, 64)),
+        ((17, -170), (1, 360)),
+        ((-5, 100), (205, 1)),
+    ]:
         win, imap = ts.synthesize(c2x2, w, h, seed=0xDEADBEEF, origin=(x0, y0), dtype=dtype)
         np.testing.assert_array_equal(win, big[y0 + 170 : y0 + 170 + h, x0 + 200 : x0 + 200 + w])
         assert imap.shape == (-(-((y0 % 32) + h) // 32), -(-((x0 % 32) + w) // 32))
@@ -110,6 +118,7 @@ def test_far_origin(c2x2):
 def test_wrap_is_periodic_and_seamless(c2x2):
     w, h = 32 * 7, 32 * 5
     img, imap = ts.synthesize(c2x2, w, h, seed=9, wrap=True, dtype=np.uint8)
+    assert imap.shape == (5, 7)
     # the periodic texture: every window of it is the matching roll of the output
     for x0, y0 in [(w // 2, 0), (-37, 61), (3 * w + 5, -2 * h - 1)]:
         win, _ = ts.synthesize(c2x2, w, h, seed=9, wrap=True, origin=(x0, y0), dtype=np.uint8)

@@ -6,7 +6,6 @@ from importlib import resources
 
 import numpy as np
 import pytest
-
 import tilesynth as ts
 from tilesynth.errors import ParameterError
 from tilesynth.io import load_image
@@ -104,18 +103,70 @@ def test_cli_levers_and_hashed_synth(tmp_path, lettuce):
     ex = tmp_path / "ex.png"
     save_image(ex, lettuce)
     out = tmp_path / "c2.tiles"
-    assert main(["build", str(ex), "-o", str(out), "--set", "c2x2", "--tile-size", "48", "--seed", "1",
-                 "--cut-region", "free", "--diversity", "1", "-q"]) == 0
+    assert (
+        main(
+            [
+                "build",
+                str(ex),
+                "-o",
+                str(out),
+                "--set",
+                "c2x2",
+                "--tile-size",
+                "48",
+                "--seed",
+                "1",
+                "--cut-region",
+                "free",
+                "--diversity",
+                "1",
+                "-q",
+            ]
+        )
+        == 0
+    )
     s = ts.load(out)
     assert s.params["cut_region"] == "free" and s.params["diversity"] == 1 and s.n_tiles == 32
     a, b = tmp_path / "a.png", tmp_path / "b.png"
     assert main(["synth", str(out), "-o", str(a), "--size", "96x96", "--seed", "4", "--wrap", "-q"]) == 0
-    assert main(["synth", str(out), "-o", str(b), "--size", "96x96", "--seed", "4", "--wrap",
-                 "--origin=-48,96", "-q"]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                str(out),
+                "-o",
+                str(b),
+                "--size",
+                "96x96",
+                "--seed",
+                "4",
+                "--wrap",
+                "--origin=-48,96",
+                "-q",
+            ]
+        )
+        == 0
+    )
     ia, ib = load_image(a)[0], load_image(b)[0]
     np.testing.assert_array_equal(np.roll(ia, (0, 48), axis=(0, 1)), ib)
-    assert main(["build", str(ex), "-o", str(tmp_path / "w.tiles"), "--set", "wc2", "--scheme", "wang",
-                 "--diversity", "1", "-q"]) == 2
+    assert (
+        main(
+            [
+                "build",
+                str(ex),
+                "-o",
+                str(tmp_path / "w.tiles"),
+                "--set",
+                "wc2",
+                "--scheme",
+                "wang",
+                "--diversity",
+                "1",
+                "-q",
+            ]
+        )
+        == 2
+    )
     assert main(["synth", str(out), "-o", str(a), "--size", "97x96", "--wrap", "-q"]) == 2
 
 
@@ -126,7 +177,27 @@ def test_cli_plain_omega_on_a_complete_set(tmp_path, lettuce):
     ex = tmp_path / "ex.png"
     save_image(ex, lettuce)
     out = tmp_path / "plain.tiles"
-    assert main(["build", str(ex), "-o", str(out), "--set", "c2", "--tile-size", "48", "--seed", "1",
-                 "--cut-region", "circle", "--diversity", "0", "-q"]) == 0
+    assert (
+        main(
+            [
+                "build",
+                str(ex),
+                "-o",
+                str(out),
+                "--set",
+                "c2",
+                "--tile-size",
+                "48",
+                "--seed",
+                "1",
+                "--cut-region",
+                "circle",
+                "--diversity",
+                "0",
+                "-q",
+            ]
+        )
+        == 0
+    )
     s = ts.load(out)
     assert "cut_region" not in s.params and "diversity" not in s.params

@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
 from tilesynth import _core
 from tilesynth.errors import ParameterError
 from tilesynth.lookup import (
@@ -89,12 +88,18 @@ def test_rust_equals_reference_edges(seed):
     for role in range(4):
         got = ts_hash(xs, ys, seed, role)
         assert got.shape == xs.shape
-        want = [[ts_hash_reference(int(x), int(y), seed, role) for x, y in zip(rx, ry)] for rx, ry in zip(xs, ys)]
+        want = [
+            [ts_hash_reference(int(x), int(y), seed, role) for x, y in zip(rx, ry)] for rx, ry in zip(xs, ys)
+        ]
         assert got.tolist() == want
 
 
-SCHEMES = [LookupScheme("corner", (2,)), LookupScheme("corner", (3,), 2), LookupScheme("edge", (2, 3), 2),
-           LookupScheme("edge", (2, 2))]
+SCHEMES = [
+    LookupScheme("corner", (2,)),
+    LookupScheme("corner", (3,), 2),
+    LookupScheme("edge", (2, 3), 2),
+    LookupScheme("edge", (2, 2)),
+]
 
 
 @pytest.mark.parametrize("scheme", SCHEMES, ids=lambda s: f"{s.kind}{s.colours}x{s.variants}")

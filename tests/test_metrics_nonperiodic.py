@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from tilesynth.errors import ShapeError
 from tilesynth.metrics import (
     detail_layer,
@@ -25,8 +24,10 @@ def test_periodic_image_is_all_copies(period):
     img = np.tile(_noise(py, px, seed=py), (256 // py + 1, 256 // px + 1, 1))[:256, :256]
     pc = periodic_copies(img)
     assert pc.fraction == 1.0
-    assert any((abs(dy), abs(dx)) in ((py, px), (py, 0), (0, px)) or (dy % py == 0 and dx % px == 0)
-               for dy, dx in pc.lags)
+    assert any(
+        (abs(dy), abs(dx)) in ((py, px), (py, 0), (0, px)) or (dy % py == 0 and dx % px == 0)
+        for dy, dx in pc.lags
+    )
     dr = detail_repetition(img)
     assert dr.peak > 0.95
 

@@ -72,13 +72,15 @@ def _check_size(name: str, tiles: int, what: str) -> None:
         )
 
 
-@functools.lru_cache(maxsize=None)
-def complete_corner_set(k: int, v: int = 1):  # noqa: ANN201 - CornerTileSet
+@functools.cache
+def complete_corner_set(k: int, v: int = 1):
     """The complete corner set over ``k`` colours with ``v`` variants per tuple, in the spec's index order."""
     from .tilesets import CornerTileSet
 
     if k < 2 or v < 1:
-        raise ValueError(f"a complete corner set needs K >= 2 colours and V >= 1 variants, got K = {k}, V = {v}")
+        raise ValueError(
+            f"a complete corner set needs K >= 2 colours and V >= 1 variants, got K = {k}, V = {v}"
+        )
     name = f"c{k}" if v == 1 else f"c{k}x{v}"
     _check_size(name, k**4 * v, "K^4 * V")
     cols = corner_colours(k)
@@ -90,8 +92,8 @@ def complete_corner_set(k: int, v: int = 1):  # noqa: ANN201 - CornerTileSet
     return CornerTileSet(name=name, colours=cols, tiles=tuple(tiles), variants=tuple(variants))
 
 
-@functools.lru_cache(maxsize=None)
-def complete_edge_set(kh: int, kv: int):  # noqa: ANN201 - WangTileSet
+@functools.cache
+def complete_edge_set(kh: int, kv: int):
     """The complete Wang set over ``kh`` horizontal and ``kv`` vertical edge colours, in the spec's order."""
     from .wangsets import HORIZONTAL_COLOURS, VERTICAL_COLOURS, WangTileSet
 
@@ -102,13 +104,12 @@ def complete_edge_set(kh: int, kv: int):  # noqa: ANN201 - WangTileSet
     _check_size(name, kh * kh * kv * kv, "Kh^2 * Kv^2")
     h, vv = HORIZONTAL_COLOURS[:kh], VERTICAL_COLOURS[:kv]
     tiles = [
-        (h[n], vv[e], h[s], vv[w])
-        for n in range(kh) for e in range(kv) for s in range(kh) for w in range(kv)
+        (h[n], vv[e], h[s], vv[w]) for n in range(kh) for e in range(kv) for s in range(kh) for w in range(kv)
     ]
     return WangTileSet(name=name, horizontal=h, vertical=vv, tiles=tuple(tiles))
 
 
-def complete_tileset(name: Any):  # noqa: ANN201 - CornerTileSet | None
+def complete_tileset(name: Any):
     """The complete corner set named ``name`` (``c<K>`` / ``c<K>x<V>``), or None if it is no such name."""
     m = _CORNER_NAME.fullmatch(str(name))
     if m is None:
@@ -130,7 +131,7 @@ def is_complete_wang_name(name: Any) -> bool:
     return True
 
 
-def complete_wang_tileset(name: Any):  # noqa: ANN201 - WangTileSet | None
+def complete_wang_tileset(name: Any):
     """The complete Wang set named ``name``, or None if it is no such name (ValueError if too large)."""
     m = _EDGE_NAME.fullmatch(str(name))
     if m is None:
@@ -194,4 +195,3 @@ def complete_defaults(defn: Any, shape: tuple[int, ...], match: Any, metric: Any
         "cut_region": "free",
         "diversity": 1 if (match, metric) == ("ssd", "color") else 0,
     }
-

@@ -70,8 +70,15 @@ copies 0.24; 0.02 gives O 75 %, copies 0.05, autocorrelation peak 0.12, coverage
 of straight seams two pixels inside the tile borders that the border seam score does not see."""
 
 
-def free_cuts(intermediate: np.ndarray, matching: np.ndarray, eps: float, grad: np.ndarray | None,
-              ring: int | None = None, disc: int | None = None, bias: float = FREE_BIAS) -> tuple[np.ndarray, np.ndarray]:
+def free_cuts(
+    intermediate: np.ndarray,
+    matching: np.ndarray,
+    eps: float,
+    grad: np.ndarray | None,
+    ring: int | None = None,
+    disc: int | None = None,
+    bias: float = FREE_BIAS,
+) -> tuple[np.ndarray, np.ndarray]:
     """Masks ``(K, N, N)`` (True = take O) and cut costs of the free cut region, one grid min cut per tile.
 
     ``bias`` > 0 rewards area given to O: every free pixel gets a sink t-link of ``bias`` times the tile's mean
@@ -83,8 +90,9 @@ def free_cuts(intermediate: np.ndarray, matching: np.ndarray, eps: float, grad: 
     masks = np.zeros((k, n, n), bool)
     costs = np.zeros(k)
     for j in range(k):
-        wx, wy = kernels.kwatra_weights(intermediate[j], matching[j], eps=eps,
-                                        a_grad=None if grad is None else grad[j])
+        wx, wy = kernels.kwatra_weights(
+            intermediate[j], matching[j], eps=eps, a_grad=None if grad is None else grad[j]
+        )
         cap = None
         if bias > 0:
             mean_w = float(np.concatenate([wx[:, :-1].ravel(), wy[:-1].ravel()]).mean())
@@ -93,8 +101,9 @@ def free_cuts(intermediate: np.ndarray, matching: np.ndarray, eps: float, grad: 
     return masks, costs
 
 
-def diverse_matches(ex: np.ndarray, inter: np.ndarray, n_variants: int, max_uses: int,
-                    threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+def diverse_matches(
+    ex: np.ndarray, inter: np.ndarray, n_variants: int, max_uses: int, threads: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Matching offsets ``(U, V, 2)`` and their SSD ``(U, V)`` under the diversity constraint (module docstring).
 
     Variants of one tile also stay more than N/4 apart (the candidates are N/4-separated already)."""

@@ -167,8 +167,9 @@ class LookupScheme:
         return (a, b, c, d), v
 
 
-def cell_index_reference(scheme: LookupScheme, seed: int, cx: int, cy: int,
-                         wrap: tuple[int, int] | None = None) -> int:
+def cell_index_reference(
+    scheme: LookupScheme, seed: int, cx: int, cy: int, wrap: tuple[int, int] | None = None
+) -> int:
     """The tile index of cell (cx, cy) in plain Python (the oracle of :func:`index_map`)."""
 
     def red(c: int, p: int | None) -> int:
@@ -218,8 +219,14 @@ def _wrap_arg(wrap: Any) -> tuple[int, int] | None:
     return _int(tx, "wrap", 1, _M32), _int(ty, "wrap", 1, _M32)
 
 
-def index_map(scheme: LookupScheme, seed: int, size: tuple[int, int], origin: tuple[int, int] = (0, 0),
-              wrap: tuple[int, int] | None = None, threads: int | None = None) -> np.ndarray:
+def index_map(
+    scheme: LookupScheme,
+    seed: int,
+    size: tuple[int, int],
+    origin: tuple[int, int] = (0, 0),
+    wrap: tuple[int, int] | None = None,
+    threads: int | None = None,
+) -> np.ndarray:
     """int32 ``(rows, cols)`` tile indices of the cells ``origin + [0, cols) × [0, rows)``.
 
     ``size = (cols, rows)``, ``origin = (cx0, cy0)`` in cells (int32), ``wrap = (Tx, Ty)`` cells or None. Equal
@@ -235,13 +242,20 @@ def index_map(scheme: LookupScheme, seed: int, size: tuple[int, int], origin: tu
     cx, cy = _pair(origin, "origin")
     cx, cy = _int(cx, "origin", _I32_MIN, _I32_MAX), _int(cy, "origin", _I32_MIN, _I32_MAX)
     return _core.hashed_index_map(
-        scheme.kind, list(scheme.colours), scheme.variants, seed, (cx, cy), (cols, rows), _wrap_arg(wrap),
+        scheme.kind,
+        list(scheme.colours),
+        scheme.variants,
+        seed,
+        (cx, cy),
+        (cols, rows),
+        _wrap_arg(wrap),
         threads_arg(threads),
     )
 
 
-def window_cells(origin: tuple[int, int], width: int, height: int, tile_size: int) -> tuple[int, int, int, int,
-                                                                                             int, int]:
+def window_cells(
+    origin: tuple[int, int], width: int, height: int, tile_size: int
+) -> tuple[int, int, int, int, int, int]:
     """The cells a pixel window needs: ``(cx0, cy0, cols, rows, ox, oy)`` for the window of ``width`` x
     ``height`` pixels whose top-left pixel is ``origin = (x0, y0)`` (floor division, negative included);
     ``(ox, oy)`` is the window's offset into cell (cx0, cy0)."""
@@ -261,8 +275,9 @@ def window_cells(origin: tuple[int, int], width: int, height: int, tile_size: in
 
 
 # ------------------------------------------------------------------------------------------ synthesis
-def hashed_scheme(tileset: Any, origin: Any = (0, 0), wrap: Any = False,
-                  index_map: Any = None) -> LookupScheme | None:
+def hashed_scheme(
+    tileset: Any, origin: Any = (0, 0), wrap: Any = False, index_map: Any = None
+) -> LookupScheme | None:
     """The scheme :func:`tilesynth.synthesize` hashes ``tileset`` with, or None for the scan-line tiler.
 
     Complete sets (:func:`tilesynth.complete.lookup_scheme`) are hashed unless an explicit ``index_map`` is
@@ -293,9 +308,18 @@ def hashed_scheme(tileset: Any, origin: Any = (0, 0), wrap: Any = False,
     return scheme
 
 
-def synthesize_hashed(tileset: Any, scheme: LookupScheme, width: int, height: int, seed: Any,
-                      origin: tuple[int, int], wrap: bool, atlas: np.ndarray, out: np.ndarray,
-                      threads: int | None) -> np.ndarray:
+def synthesize_hashed(
+    tileset: Any,
+    scheme: LookupScheme,
+    width: int,
+    height: int,
+    seed: Any,
+    origin: tuple[int, int],
+    wrap: bool,
+    atlas: np.ndarray,
+    out: np.ndarray,
+    threads: int | None,
+) -> np.ndarray:
     """Fill ``out`` with the window of the hashed tiling whose top-left pixel is ``origin = (x0, y0)``;
     returns the index map of the cells the window touches (its first cell is ``floor(origin / N)``).
 
