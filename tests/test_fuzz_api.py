@@ -723,6 +723,65 @@ def write_report(d: st.DrawFn):
 
 
 # -------------------------------------------------------------------------------------------------- maps
+# ------------------------------------------------------------------------------------- hashed lookup (12)
+def complete_set() -> ts.TileSet:
+    """A small complete set (hashed lookup), built once."""
+    if "complete" not in _CACHE:
+        r = np.random.default_rng(8)
+        _CACHE["complete"] = ts.build_omega(r.random((24, 24, 3), dtype=np.float32), tileset="c2x2", tile_size=8,
+                                            seed=1)
+    return _CACHE["complete"]  # type: ignore[return-value]
+
+
+@st.composite
+def synthesize_hashed(d: st.DrawFn):
+    tset = d(st.sampled_from([complete_set(), small_set()]))
+    w, h = d(st.integers(1, 40) | sizes(-1, 40)), d(st.integers(1, 40) | sizes(-1, 40))
+    big = st.integers(-(2**40), 2**40)
+    origin = d(st.tuples(big | st.integers(-100, 100), big | st.integers(-100, 100)) | st.just((0, 0))
+               | st.sampled_from([(1,), "0,0", (0.5, 0), None]))
+    kw = {"seed": d(st.none() | st.integers(-1, 2**33)), "origin": origin,
+          "wrap": d(st.booleans() | st.sampled_from([1, "yes", None])),
+          "dtype": d(st.sampled_from([np.float32, np.uint8, np.uint16]))}
+    return ts.synthesize, (tset, w, h), kw, ()
+
+
+@st.composite
+def lookup_scheme_call(d: st.DrawFn):
+    kind = d(st.sampled_from(["corner", "edge", "hex", 3]))
+    colours = d(st.lists(st.integers(-2, 300) | st.sampled_from([1.5, "2", True]), max_size=3))
+    return ts.LookupScheme, (kind, tuple(colours), d(st.integers(-1, 5) | st.sampled_from([2.5, None]))), {}, ()
+
+
+@st.composite
+def ts_hash_call(d: st.DrawFn):
+    x = d(st.integers(-(2**32), 2**32) | arrays(d(st.integers(1, 2)), d(st.sampled_from([I64, "int32", F64, "uint64"]))))
+    y = d(st.integers(-(2**32), 2**32) | arrays(1, d(st.sampled_from([I64, "int32"]))))
+    seed = d(st.integers(-1, 2**33) | st.sampled_from([None, 1.0, "1"]))
+    return ts.ts_hash, (x, y, seed, d(st.integers(-1, 2**33))), {}, ()
+
+
+@st.composite
+def hashed_index_map_call(d: st.DrawFn):
+    scheme = d(st.sampled_from([ts.LookupScheme("corner", (3,), 2), ts.LookupScheme("edge", (2, 3)), "corner"]))
+    size = d(st.tuples(sizes(-1, 12), sizes(-1, 12)) | st.sampled_from([(3,), None, "3x3"]))
+    origin = d(st.tuples(st.integers(-(2**33), 2**33), st.integers(-(2**33), 2**33)) | st.just((0, 0)))
+    wrap = d(st.none() | st.tuples(st.integers(-1, 5), st.integers(-1, 5)) | st.just(True))
+    seed = d(st.integers(-1, 2**33))
+    return ts.hashed_index_map, (scheme, seed, size), {"origin": origin, "wrap": wrap, "threads": d(threads())}, ()
+
+
+@st.composite
+def repetition_measures(d: st.DrawFn):
+    fn = d(st.sampled_from([ts.periodic_copies, ts.detail_repetition]))
+    return fn, (d(exemplars()),), {}, ()
+
+
+@st.composite
+def histogram_distance_call(d: st.DrawFn):
+    return ts.histogram_distance, (d(exemplars()), d(exemplars())), {}, ()
+
+
 @st.composite
 def synthesize_map(d: st.DrawFn):
     tset = d(tilesets())
@@ -883,6 +942,13 @@ API = {
     "write_report": write_report,
     "synthesize_map": synthesize_map,
     "load_raster": load_raster,
+    "synthesize (hashed)": synthesize_hashed,
+    "LookupScheme": lookup_scheme_call,
+    "ts_hash": ts_hash_call,
+    "hashed_index_map": hashed_index_map_call,
+    "periodic_copies": repetition_measures,
+    "detail_repetition": repetition_measures,
+    "histogram_distance": histogram_distance_call,
 }
 
 NOT_FUZZED = {

@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
 from tilesynth import _core
 from tilesynth.errors import ParameterError
 from tilesynth.lookup import (
@@ -89,12 +88,18 @@ def test_rust_equals_reference_edges(seed):
     for role in range(4):
         got = ts_hash(xs, ys, seed, role)
         assert got.shape == xs.shape
-        want = [[ts_hash_reference(int(x), int(y), seed, role) for x, y in zip(rx, ry)] for rx, ry in zip(xs, ys)]
+        want = [
+            [ts_hash_reference(int(x), int(y), seed, role) for x, y in zip(rx, ry)] for rx, ry in zip(xs, ys)
+        ]
         assert got.tolist() == want
 
 
-SCHEMES = [LookupScheme("corner", (2,)), LookupScheme("corner", (3,), 2), LookupScheme("edge", (2, 3), 2),
-           LookupScheme("edge", (2, 2))]
+SCHEMES = [
+    LookupScheme("corner", (2,)),
+    LookupScheme("corner", (3,), 2),
+    LookupScheme("edge", (2, 3), 2),
+    LookupScheme("edge", (2, 2)),
+]
 
 
 @pytest.mark.parametrize("scheme", SCHEMES, ids=lambda s: f"{s.kind}{s.colours}x{s.variants}")
@@ -198,3 +203,10 @@ def test_window_cells_floor_division():
     assert window_cells((-1, -4), 2, 5, 4) == (-1, -1, 2, 2, 3, 0)
     assert window_cells((-1, -5), 2, 6, 4) == (-1, -2, 2, 3, 3, 3)
     assert window_cells((5, 7), 3, 1, 4) == (1, 1, 1, 1, 1, 3)
+
+
+def test_huge_map_is_refused_not_aborted():
+    with pytest.raises(ParameterError, match="cells"):
+        index_map(SCHEMES[0], 0, (2**30, 12))
+    with pytest.raises(ParameterError, match="cells"):
+        _core.hashed_index_map("corner", [2], 1, 0, (0, 0), (2**30, 12))

@@ -112,4 +112,14 @@ __all__ = [
     "write_report",
     "wang_tiles",
     "export",
+    "LookupScheme",
+    "ts_hash",
+    "hashed_index_map",
+    "periodic_copies",
+    "detail_repetition",
+    "histogram_distance",
 ]
+
+from .lookup import LookupScheme, ts_hash  # noqa: E402 - issue 12: the hashed lookup
+from .lookup import index_map as hashed_index_map  # noqa: E402
+from .metrics import detail_repetition, histogram_distance, periodic_copies  # noqa: E402

@@ -61,6 +61,14 @@ def _pos(text: str) -> int:
     return v
 
 
+def _origin(text: str) -> tuple[int, int]:
+    try:
+        x, y = (int(p) for p in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y (two integers, e.g. -512,256)") from None
+    return x, y
+
+
 def _set_name(text: str) -> str:
     from .tilesets import get_tileset
     from .wangsets import is_wang_set_name
@@ -87,8 +95,10 @@ def _method(text: str) -> str:
 
 SET_HELP = ("tile-set definition: 4, 8, 16a, 16b, 32 (002), B (the basic 8-set of the extendable rule), n1 (17 tiles), "
             "n2 (38 tiles) or nK for any K >= 1; append x2, x3 or x4 (e.g. 16bx2, n2x2) for 2-4 omega-tiles per "
-            "intermediate tile, i.e. at least that many choices at every tiling step (default 16a); with --scheme "
-            "wang or swang the edge-coloured wang8 (default, 2+2 colours) or wang18 (3+3 colours)")
+            "intermediate tile, i.e. at least that many choices at every tiling step; complete sets c<K> and "
+            "c<K>x<V> (every corner tuple over K colours, hashed lookup: non-periodic, random access, --wrap; "
+            "default c4, measured in benches/repetition.py); with --scheme wang or swang the edge-coloured wang8 "
+            "(default, 2+2 colours), wang18 (3+3 colours) or the complete wc<K>, wc<Kh>-<Kv>")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -139,6 +149,16 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--smooth", action="store_true",
                    help="Poisson-smooth the region inside each cutting curve (002 section 3.3): the matching patch's "
                    "gradients, blended into the tile from the curve; exact to a 1e-6 residual, tile borders kept")
+    b.add_argument("--cut-region", default=None, choices=("circle", "free"),
+                   help="omega: where the cut may run: the inscribed circle (002; default for the papers' sets) or "
+                   "free but for a border ring and corner discs, so most of each tile is its own matching patch "
+                   "(less repetition; default for complete sets)")
+    b.add_argument("--cut-bias", type=float, default=None,
+                   help="omega, --cut-region free: area reward that moves the cut outwards (default 0.02)")
+    b.add_argument("--diversity", type=_nonneg, default=None, metavar="M",
+                   help="omega: assign matching patches so that each exemplar region is used at most M times "
+                   "(less repetition); 0: each tile's best match. Default 1 for complete sets (c4, c3x2, ...), "
+                   "0 for the papers' sets")
     b.add_argument("--cut", default="dp", choices=("dp", "graph"),
                    help="wang: minimum-error boundary cuts by dynamic programming (default) or graph cuts")
     b.add_argument("--overlap", type=_pos, default=None,
@@ -174,6 +194,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="bits per channel of the output (default: those of the exemplar)")
     s.add_argument("--threads", type=_pos, default=None, help="copy threads")
     add_png_compression_argument(s)
+    s.add_argument("--origin", type=_origin, default=(0, 0), metavar="X,Y",
+                   help="complete sets (c3x2, wc2, ...): top-left pixel of the window of the infinite texture to "
+                   "write (any integers; write negative ones as --origin=-512,2048; default 0,0)")
+    s.add_argument("--wrap", action="store_true",
+                   help="complete sets: make the output tile periodically (size a multiple of the tile size)")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
     i = sub.add_parser("info", help="describe a tile set")
@@ -188,7 +213,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     d = sub.add_parser("demo", help="build and synthesize on the bundled exemplar (lettuce leaves)")
     d.add_argument("-o", "--output-dir", default="tilesynth-demo", help="directory for the results (default ./tilesynth-demo)")
-    d.add_argument("--set", default="16a", type=_set_name, metavar="SET", help=SET_HELP)
+    d.add_argument("--set", default="c4", type=_set_name, metavar="SET", help=SET_HELP)
     d.add_argument("--size", type=_size, default=(1024, 1024), help="texture size (default 1024x1024)")
     d.add_argument("--seed", type=_nonneg, default=1, help="seed (default 1)")
     d.add_argument("--threads", type=_pos, default=None, help="worker threads")
@@ -295,7 +320,7 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
            normalise: bool = False, match: str = "ssd", match_k: str | None = None,
            metric: str = "color", scheme: str = "omega", cut: str = "dp", overlap: int | None = None,
            corners: str | None = None, samples: str = "diamond",
-           supplementary: str = "ssd", smooth: bool = False) -> "TileSet":  # noqa: F821
+           supplementary: str = "ssd", smooth: bool = False, levers: dict | None = None) -> "TileSet":  # noqa: F821
     from .io import load_image
     from .progress import Progress
     from .schemes import DEFAULT_SETS, build
@@ -325,7 +350,10 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
     )
     if scheme == "omega":
         extra: dict = dict(gradients=gradients, keep_border=not literal_border, normalise=normalise, match=match,
-                           match_k=_match_k(match_k), metric=metric, smooth=smooth)
+                           match_k=_match_k(match_k), metric=metric, smooth=smooth,
+                           **{k: v for k, v in (levers or {}).items() if v is not None})  # issue 12
+    elif levers and any(v is not None for v in levers.values()):
+        raise ParameterError("--cut-region, --cut-bias, --diversity: only with --scheme omega")
     elif scheme == "wang":
         extra = dict(cut=cut, overlap=overlap, corners=corners, samples=samples)
     else:
@@ -401,7 +429,8 @@ def _map_output(output: str, map_path: str, dtype: np.dtype) -> Path:
 
 def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, map_path: str | None,
            save_map: str | None, bits: int | None, threads: int | None, quiet: bool,
-           with_maps: list[str] | None = None, map_smooth: str = "auto") -> None:
+           with_maps: list[str] | None = None, map_smooth: str = "auto", origin: tuple[int, int] = (0, 0),
+           wrap: bool = False) -> None:
     from ._validate import seed_int
     from .io import atomic_open, save_image
     from .progress import Progress
@@ -419,7 +448,12 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
 
         # memory-mapped first: a header that declares more data than the file holds fails here, cheaply
         index_map = read_npy(map_path, f"--map = {map_path!r}")
-    seed = seed_int(seed) if index_map is None else None
+    from .lookup import hash_seed, hashed_scheme
+
+    hashed = hashed_scheme(ts, origin, wrap, index_map) is not None  # complete sets: 32-bit hashed seeds
+    if with_maps and origin != (0, 0):
+        raise ParameterError("--with and --origin: the maps follow the index map from (0, 0); give one")
+    seed = (hash_seed(seed) if hashed else seed_int(seed)) if index_map is None else None
     bits = bits or int(ts.exemplar_info.get("bits", 8))
     out_dtype = np.float32 if Path(output).suffix.lower() == ".exr" else np.uint16 if bits == 16 else np.uint8
     # refuse up front what cannot fit: the image, plus the copy the PNG encoder makes
@@ -451,7 +485,7 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
     t0 = time.perf_counter()
     prog("synthesis", 0, 1)
     img, imap = synthesize(ts, size[0], size[1], seed=seed, index_map=index_map,
-                           dtype=out_dtype, threads=threads)
+                           dtype=out_dtype, threads=threads, origin=origin, wrap=wrap)
     prog("synthesis", 1, 1)
     prog("writing image", 0, 1)
     save_image(output, img)
@@ -634,10 +668,12 @@ def main(argv: list[str] | None = None) -> int:
                    args.gradients, args.literal_border, args.select, args.polish, args.generations,
                    args.population, args.normalise, args.match, args.match_k, args.metric, scheme=args.scheme,
                    cut=args.cut, overlap=args.overlap, corners=args.corners, samples=args.samples,
-                   supplementary=args.supplementary, smooth=args.smooth)
+                   supplementary=args.supplementary, smooth=args.smooth,
+                   levers={"cut_region": args.cut_region,
+                           "cut_bias": args.cut_bias, "diversity": args.diversity})
         elif args.command == "synth":
             _synth(args.tileset, args.output, args.size, args.seed, args.map, args.save_map, args.bits,
-                   args.threads, args.quiet, args.with_maps, args.map_smooth)
+                   args.threads, args.quiet, args.with_maps, args.map_smooth, args.origin, args.wrap)
         elif args.command == "info":
             _info(args.tileset, args.json)
         elif args.command == "sheet":

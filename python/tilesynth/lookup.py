@@ -53,6 +53,9 @@ ROLE_MUL: int = _core.HASH_ROLE_MUL
 ROLE_VERTEX, ROLE_HEDGE, ROLE_VEDGE, ROLE_VARIANT = _core.HASH_ROLES
 """The roles: vertex colour 0, horizontal-edge colour 1, vertical-edge colour 2, cell variant 3."""
 
+MAX_MAP_CELLS = 2**28
+"""Most cells of one index map (1 GiB of int32; a map of a ~10^12-pixel texture)."""
+
 _M32 = 0xFFFFFFFF
 _I32_MIN, _I32_MAX = -(2**31), 2**31 - 1
 
@@ -164,8 +167,9 @@ class LookupScheme:
         return (a, b, c, d), v
 
 
-def cell_index_reference(scheme: LookupScheme, seed: int, cx: int, cy: int,
-                         wrap: tuple[int, int] | None = None) -> int:
+def cell_index_reference(
+    scheme: LookupScheme, seed: int, cx: int, cy: int, wrap: tuple[int, int] | None = None
+) -> int:
     """The tile index of cell (cx, cy) in plain Python (the oracle of :func:`index_map`)."""
 
     def red(c: int, p: int | None) -> int:
@@ -215,8 +219,14 @@ def _wrap_arg(wrap: Any) -> tuple[int, int] | None:
     return _int(tx, "wrap", 1, _M32), _int(ty, "wrap", 1, _M32)
 
 
-def index_map(scheme: LookupScheme, seed: int, size: tuple[int, int], origin: tuple[int, int] = (0, 0),
-              wrap: tuple[int, int] | None = None, threads: int | None = None) -> np.ndarray:
+def index_map(
+    scheme: LookupScheme,
+    seed: int,
+    size: tuple[int, int],
+    origin: tuple[int, int] = (0, 0),
+    wrap: tuple[int, int] | None = None,
+    threads: int | None = None,
+) -> np.ndarray:
     """int32 ``(rows, cols)`` tile indices of the cells ``origin + [0, cols) × [0, rows)``.
 
     ``size = (cols, rows)``, ``origin = (cx0, cy0)`` in cells (int32), ``wrap = (Tx, Ty)`` cells or None. Equal
@@ -227,16 +237,25 @@ def index_map(scheme: LookupScheme, seed: int, size: tuple[int, int], origin: tu
     seed = hash_seed(seed)
     cols, rows = _pair(size, "size")
     cols, rows = _int(cols, "size", 0), _int(rows, "size", 0)
+    if cols * rows > MAX_MAP_CELLS:
+        raise ParameterError(f"size = ({cols}, {rows}): more than {MAX_MAP_CELLS} cells in one index map")
     cx, cy = _pair(origin, "origin")
     cx, cy = _int(cx, "origin", _I32_MIN, _I32_MAX), _int(cy, "origin", _I32_MIN, _I32_MAX)
     return _core.hashed_index_map(
-        scheme.kind, list(scheme.colours), scheme.variants, seed, (cx, cy), (cols, rows), _wrap_arg(wrap),
+        scheme.kind,
+        list(scheme.colours),
+        scheme.variants,
+        seed,
+        (cx, cy),
+        (cols, rows),
+        _wrap_arg(wrap),
         threads_arg(threads),
     )
 
 
-def window_cells(origin: tuple[int, int], width: int, height: int, tile_size: int) -> tuple[int, int, int, int,
-                                                                                             int, int]:
+def window_cells(
+    origin: tuple[int, int], width: int, height: int, tile_size: int
+) -> tuple[int, int, int, int, int, int]:
     """The cells a pixel window needs: ``(cx0, cy0, cols, rows, ox, oy)`` for the window of ``width`` x
     ``height`` pixels whose top-left pixel is ``origin = (x0, y0)`` (floor division, negative included);
     ``(ox, oy)`` is the window's offset into cell (cx0, cy0)."""
@@ -253,3 +272,76 @@ def window_cells(origin: tuple[int, int], width: int, height: int, tile_size: in
                 f"origin = ({x0}, {y0}): the origin cell ({cx0}, {cy0}) must be int32 (|origin| < 2^31 tiles)"
             )
     return cx0, cy0, cols, rows, ox, oy
+
+
+# ------------------------------------------------------------------------------------------ synthesis
+def hashed_scheme(
+    tileset: Any, origin: Any = (0, 0), wrap: Any = False, index_map: Any = None
+) -> LookupScheme | None:
+    """The scheme :func:`tilesynth.synthesize` hashes ``tileset`` with, or None for the scan-line tiler.
+
+    Complete sets (:func:`tilesynth.complete.lookup_scheme`) are hashed unless an explicit ``index_map`` is
+    given. Any other set with ``origin != (0, 0)`` or ``wrap`` is a :class:`ParameterError`: the scan-line
+    tiler of the papers' sets (4 .. 32, B, N1, N2) decides every cell from its left and upper neighbours, so it
+    has no random access and cannot close a period.
+    """
+    from .complete import lookup_scheme
+
+    x0, y0 = _pair(origin, "origin")
+    o = (_int(x0, "origin"), _int(y0, "origin"))
+    if not isinstance(wrap, (bool, np.bool_)):
+        raise ParameterError(f"wrap = {wrap!r}: must be True or False")
+    scheme = lookup_scheme(tileset.definition)
+    special = o != (0, 0) or bool(wrap)
+    if scheme is None:
+        if special:
+            raise ParameterError(
+                f"origin = {o}, wrap = {bool(wrap)}: tile set {tileset.params.get('set', '?')!r} is not complete, so "
+                "it is laid by the scan-line tiler, which has no random access and no periodic mode. Build a "
+                "complete set (--set c3x2, c4, wc2; see tilesynth.complete) for origin and wrap"
+            )
+        return None
+    if index_map is not None:
+        if special:
+            raise ParameterError("index_map with origin or wrap: give one (the hashed lookup makes the map)")
+        return None
+    return scheme
+
+
+def synthesize_hashed(
+    tileset: Any,
+    scheme: LookupScheme,
+    width: int,
+    height: int,
+    seed: Any,
+    origin: tuple[int, int],
+    wrap: bool,
+    atlas: np.ndarray,
+    out: np.ndarray,
+    threads: int | None,
+) -> np.ndarray:
+    """Fill ``out`` with the window of the hashed tiling whose top-left pixel is ``origin = (x0, y0)``;
+    returns the index map of the cells the window touches (its first cell is ``floor(origin / N)``).
+
+    Called by :func:`tilesynth.synthesize` (which validates sizes, dtype and ``out``). ``wrap``: the output is
+    periodic with its own size (which must be a multiple of the tile size N, in both directions), so that it
+    tiles on a REPEAT sampler; the vertex (edge) colours and variants repeat every ``(width/N, height/N)``
+    cells. Time is proportional to the window (the hash is evaluated for its cells only, the copy is the
+    row-slice copy of :func:`tilesynth.kernels.tile_copy`).
+    """
+    n = tileset.tile_size
+    seed = hash_seed(seed)
+    period = None
+    if wrap:
+        if width % n or height % n:
+            raise ParameterError(
+                f"wrap: the output {width}x{height} must be a multiple of the tile size {n} in both directions "
+                f"to be periodic (e.g. {max(n, width // n * n)}x{max(n, height // n * n)})"
+            )
+        period = (width // n, height // n)
+    cx0, cy0, cols, rows, ox, oy = window_cells(origin, width, height, n)
+    imap = index_map(scheme, seed, (cols, rows), (cx0, cy0), period, threads)
+    if imap.size and int(imap.max()) >= tileset.n_tiles:
+        raise ParameterError(f"tile set has {tileset.n_tiles} tiles, its definition {scheme.n_tiles}")
+    _core.tile_copy_window(atlas, imap, (oy, ox), out, threads_arg(threads))
+    return imap

@@ -435,6 +435,9 @@ def build_omega(
     match_k: int | str | None = None,
     metric: str = "color",
     smooth: bool = False,
+    cut_region: str | None = None,
+    diversity: int | None = None,
+    cut_bias: float | None = None,
 ) -> TileSet:
     """Build a set of ω-tiles from ``exemplar``.
 
@@ -475,6 +478,17 @@ def build_omega(
         gradient difference, 000 eq. 3) or "eq2" (gradient-weighted SSD, 000 eq. 2; not with ``select``).
     smooth : Poisson-smooth the region inside every cutting curve (002 §3.3; :func:`smooth_tiles`). The solver's
         statistics are stored in ``params["smooth"]``; the cut masks, costs and provenance are unchanged.
+    cut_region : "circle" (002's inscribed circle) or "free" (free but for a border ring and corner discs, so
+        most of the tile is its own matching patch; :mod:`tilesynth.levers`). None (default): "free" for the
+        complete sets of the hashed lookup (``c3x2``, ``c4``, ...), "circle" for the papers' sets.
+    cut_bias : "free" only: the area reward of the free cut (default :data:`tilesynth.levers.FREE_BIAS`).
+    diversity : m >= 1: assign the matching patches under a diversity constraint (each exemplar region used at
+        most m times, :func:`tilesynth.levers.diverse_matches`) instead of each tile's best; 0: each tile's
+        best. None (default): 1 for complete sets (with ``match="ssd"``, ``metric="color"``), else 0.
+        Complete sets also default to a tile size of a quarter of the exemplar's shorter side
+        (:func:`tilesynth.complete.default_complete_tile_size`) instead of half: the lookup, not the tile
+        size, makes them non-periodic, and K⁴·V tiles of half the exemplar would be slow to build and big.
+    The choice of these defaults was measured with ``benches/repetition.py`` (issue 12).
 
     D_j is the distance (``metric``) between intermediate tile j and its matching patch; E is computed from the
     smallest distance of every intermediate tile over all translations, whatever ``match`` chose.
@@ -490,7 +504,16 @@ def build_omega(
     if not isinstance(tileset, str):
         raise ParameterError(f"tileset = {tileset!r}: expected a tile-set name such as '16a' or 'n2'")
     defn = get_tileset(tileset)
+    from .complete import complete_defaults  # issue 12: complete sets default to the measured levers
+
+    complete = complete_defaults(defn, ex.shape, match, metric)
     n = default_tile_size(ex.shape) if tile_size is None else check_tile_size(tile_size, ex.shape)
+    if complete is not None:
+        n = complete["tile_size"] if tile_size is None else n
+        cut_region = complete["cut_region"] if cut_region is None else cut_region
+        diversity = complete["diversity"] if diversity is None else diversity
+    cut_region = "circle" if cut_region is None else cut_region
+    diversity = None if diversity == 0 else diversity
     seed = seed_int(seed)
     threads = threads_arg(threads)
     eps = finite_float(eps, "eps", positive=True)
@@ -506,6 +529,15 @@ def build_omega(
     metric = check_metric(metric)
     if not isinstance(smooth, (bool, np.bool_)):
         raise ParameterError(f"smooth = {smooth!r}: must be True or False")
+    if cut_region not in ("circle", "free"):
+        raise ParameterError(f"cut_region = {cut_region!r}: must be 'circle' or 'free'")
+    if cut_bias is not None and (cut_region != "free" or finite_float(cut_bias, "cut_bias") < 0):
+        raise ParameterError(f"cut_bias = {cut_bias!r}: a number >= 0, only with cut_region='free'")
+    if diversity is not None and (isinstance(diversity, (bool, np.bool_)) or not isinstance(diversity, (int, np.integer))
+                                  or diversity < 1):
+        raise ParameterError(f"diversity = {diversity!r}: a positive int (uses per exemplar region), 0 or None")
+    if diversity is not None and (strategy != "ssd" or metric != "color"):
+        raise ParameterError("diversity: only with match='ssd' and metric='color'")
     report = progress or (lambda stage, done, total: None)
     index = {c: i for i, c in enumerate(colours)}
     tile_patches = np.array([[index[c] for c in t] for t in defn.tiles], dtype=np.int64)
@@ -564,6 +596,10 @@ def build_omega(
             ex, inter, inter_src, n, n_variants, exclude, strategy, match_k, metric, gradients, keep_border, eps,
             threads, report,
         )
+    if diversity is not None:  # issue 12: diverse matching patches (tilesynth.levers)
+        from .levers import diverse_matches
+
+        chosen, chosen_D = diverse_matches(ex, inter, n_variants, diversity, threads)
     t2 = time.perf_counter()
     report("matching patches", 1, 1)
 
@@ -575,9 +611,15 @@ def build_omega(
     O_tiles = np.stack([ex[r : r + n, c : c + n] for r, c in match_offsets])
     report("cutting curves", 0, k)
     grad = patch_gradients(ex, I_src) if gradients == "patch" else None
-    masks, costs = kernels.omega_cuts(
-        I_tiles, O_tiles, eps=eps, threads=threads, intermediate_grad=grad, keep_border=bool(keep_border)
-    )
+    if cut_region == "free":  # issue 12: the free cut region (tilesynth.levers)
+        from .levers import FREE_BIAS, free_cuts
+
+        cut_bias = FREE_BIAS if cut_bias is None else float(cut_bias)
+        masks, costs = free_cuts(I_tiles, O_tiles, eps, grad, bias=cut_bias)
+    else:
+        masks, costs = kernels.omega_cuts(
+            I_tiles, O_tiles, eps=eps, threads=threads, intermediate_grad=grad, keep_border=bool(keep_border)
+        )
     t3 = time.perf_counter()
     report("cutting curves", k, k)
 
@@ -626,6 +668,8 @@ def build_omega(
             "seed": seed,
             "selection": sel,
             **({"smooth": smooth_info} if smooth_info is not None else {}),
+            **({"cut_region": cut_region, "cut_bias": cut_bias} if cut_region != "circle" else {}),
+            **({"diversity": int(diversity)} if diversity is not None else {}),
         },
         exemplar_info=info,
         timing={

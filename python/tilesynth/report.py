@@ -296,6 +296,18 @@ def metrics_rows(m: dict[str, Any]) -> list[tuple[str, str, str]]:
         off = "none" if rp["offset"] is None else f"(dy, dx) = ({rp['offset'][0]}, {rp['offset'][1]})"
         rows.append(("repetition peak", _fmt(rp["peak"], ".4f"),
                      f"strongest non-zero peak of the normalised autocorrelation, at {off}"))
+    dr, pc, hd = (m.get(k) for k in ("detail_repetition", "periodic_copies", "histogram"))
+    if pc:
+        rows.append(("periodic-copy fraction", _fmt(pc["fraction"], ".4f"),
+                     f"share of {pc['patch']}x{pc['patch']} grid patches equal (mse <= (2/255)²) to the patch one "
+                     "dominant autocorrelation lag away; 0 = no visible repetition"))
+    if dr:
+        rows.append(("detail autocorrelation peak", _fmt(dr["peak"], ".4f"),
+                     f"strongest off-origin peak of the autocorrelation of luminance minus a σ = {dr['sigma']:g} blur"))
+    if hd:
+        rows.append(("histogram distance", _fmt(hd["distance"], ".4f"),
+                     "mean 1-D Wasserstein distance to the exemplar of colour channels and gradient magnitude "
+                     f"(scales {hd['scales']})"))
     if ob:
         rows += [
             ("E", _fmt(ob["E"], ".6g"), f"λ·ΣD_j + (1−λ)·Var(D_j), λ = {ob['lambda']}, "

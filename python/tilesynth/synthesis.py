@@ -69,6 +69,8 @@ def synthesize(
     threads: int | None = None,
     out: np.ndarray | None = None,
     max_bytes: int | None = None,
+    origin: tuple[int, int] = (0, 0),
+    wrap: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Synthesize a ``height`` x ``width`` texture.
 
@@ -84,6 +86,12 @@ def synthesize(
     out : optional preallocated C-contiguous ``(height, width, C)`` array of ``dtype`` to write into.
     max_bytes : refuse (:class:`ParameterError`, with the estimate) if the synthesis would need more memory
         than this; default :func:`memory_limit` (see the module docstring).
+    origin : ``(x0, y0)``, any integers: the top-left pixel of the window of the infinite texture to return.
+        Complete sets (``c3x2``, ``wc2``, ...: :mod:`tilesynth.complete`) are laid by the hashed lookup
+        (:mod:`tilesynth.lookup`): every window is the same crop of one infinite texture, computed in time
+        proportional to the window. Other sets only take ``(0, 0)`` (:class:`ParameterError` otherwise).
+    wrap : complete sets: make the output periodic with its own size (a multiple of the tile size), for a
+        REPEAT sampler. Seeds of the hashed lookup are in [0, 2^32).
 
     Returns
     -------
@@ -102,10 +110,15 @@ def synthesize(
     if dt not in (np.float32, np.uint8, np.uint16):
         raise ParameterError(f"dtype = {dt}: must be float32, uint8 or uint16")
     check_size(tileset, w, h, dt, out is None, max_bytes)
+    from .lookup import hashed_scheme
+
+    scheme = hashed_scheme(tileset, origin, wrap, index_map)  # complete sets: the hashed lookup
     n = tileset.tile_size
     rows, cols = -(-h // n), -(-w // n)
     defn = tileset.definition
-    if index_map is None:
+    if scheme is not None:
+        imap = None
+    elif index_map is None:
         imap = scanline_index_map(defn, rows, cols, seed_int(seed))
     else:
         imap = np.asarray(index_map)
@@ -120,7 +133,8 @@ def synthesize(
             validate_index_map(defn, imap)
         except ValueError as exc:
             raise ParameterError(f"index_map: {exc}") from None
-    imap = np.ascontiguousarray(imap, dtype=np.int32)
+    if imap is not None:
+        imap = np.ascontiguousarray(imap, dtype=np.int32)
     if dt == np.float32:
         atlas = tileset.tiles
     elif dt == np.uint8:
@@ -138,6 +152,10 @@ def synthesize(
             f"out has shape {np.shape(out)} and dtype {getattr(out, 'dtype', type(out).__name__)}, expected a "
             f"writeable C-contiguous {shape} {dt} array"
         )
+    if scheme is not None:
+        from .lookup import synthesize_hashed
+
+        return out, synthesize_hashed(tileset, scheme, w, h, seed, origin, wrap, atlas, out, threads)
     kernels.tile_copy(atlas, imap, out, threads=threads)
     return out, imap
 

@@ -988,6 +988,11 @@ def get_tileset(name: str) -> CornerTileSet:
         If ``name`` is not a known set; the message lists the valid names.
     """
     key = str(name)
+    from .complete import complete_tileset  # c<K>, c<K>x<V>: complete sets for the hashed lookup
+
+    complete = complete_tileset(key)
+    if complete is not None:
+        return complete
     times = _VARIANTS_PATTERN.fullmatch(key)
     if times is not None and times.group(1) not in ("", "32"):
         return with_variants(get_tileset(times.group(1)), int(times.group(2)))
@@ -1007,7 +1012,8 @@ def get_tileset(name: str) -> CornerTileSet:
     raise ValueError(
         f"unknown tile set {name!r}; valid names are: "
         f"{', '.join(TILESET_NAMES + EXTENDABLE_TILESET_NAMES)} (and n<K> for any K >= 1; any of them "
-        "with x2, x3 or x4 appended for 2-4 variants of every tile)"
+        "with x2, x3 or x4 appended for 2-4 variants of every tile; complete sets c<K> and c<K>x<V>, "
+        "see tilesynth.complete)"
     )
 
 

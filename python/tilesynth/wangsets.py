@@ -246,6 +246,10 @@ def complete_choice_set(k: int, name: str | None = None) -> WangTileSet:
 
 def is_wang_set_name(name: str) -> bool:
     """Whether ``name`` names a Wang set (``"wang<2k²>"``), without building it."""
+    from .complete import is_complete_wang_name  # wc<K>, wc<Kh>-<Kv>: complete edge sets
+
+    if is_complete_wang_name(name):
+        return True
     m = _NAME.fullmatch(str(name))
     if m is None or len(m.group(1)) > 3:  # at most wang128 (k = 8); a longer number is no set (and no float)
         return False
@@ -262,6 +266,11 @@ def get_wang_tileset(name: str) -> WangTileSet:
     ValueError
         If ``name`` is not such a name; the message lists the valid names.
     """
+    from .complete import complete_wang_tileset
+
+    complete = complete_wang_tileset(name)
+    if complete is not None:
+        return complete
     if not is_wang_set_name(name):
         raise ValueError(
             f"unknown Wang tile set {name!r}; valid names are: {', '.join(WANG_TILESET_NAMES)} "

@@ -102,11 +102,13 @@ fn hashed_index_map<'py>(
         let seed = seed_arg(seed)?;
         let scheme = scheme_arg(kind, &colours, variants)?;
         let (cols, rows) = size;
-        if rows.saturating_mul(cols) > 1 << 34 {
+        // 2^28 cells (1 GiB of int32) is a map for a ~10^12-pixel texture: anything larger is a mistake, and
+        // an allocation failure would abort the process instead of raising.
+        if rows.saturating_mul(cols) > 1 << 28 {
             return Err(to_pyerr(TilesynthError::param(
                 "size",
-                format!("({rows}, {cols})"),
-                "more than 2^34 cells",
+                format!("({cols}, {rows})"),
+                "more than 2^28 cells in one index map",
             )));
         }
         let map = run(py, threads, || {

@@ -15,7 +15,13 @@ COORDS = [0, 1, -1, 2**31 - 1, -(2**31), 12345, -54321]
 SEEDS = [0, 1, 2**32 - 1, 0xDEADBEEF]
 ROLES = [0, 1, 2, 3]
 CELLS = [(0, 0), (-1, -1), (5, -3), (2**31 - 1, -(2**31)), (-54321, 12345)]
-SCHEMES = [("corner", (2,), 1), ("corner", (3,), 2), ("corner", (4,), 3), ("edge", (2, 2), 1), ("edge", (2, 3), 2)]
+SCHEMES = [
+    ("corner", (2,), 1),
+    ("corner", (3,), 2),
+    ("corner", (4,), 3),
+    ("edge", (2, 2), 1),
+    ("edge", (2, 3), 2),
+]
 
 
 def vectors() -> dict:
@@ -26,17 +32,34 @@ def vectors() -> dict:
         "roles": {"vertex": 0, "hedge": 1, "vedge": 2, "variant": 3},
         "pcg3d": [
             {"in": [x & 0xFFFFFFFF, y & 0xFFFFFFFF, s], "out": list(pcg3d_reference(x, y, s))}
-            for x in COORDS for y in COORDS for s in SEEDS
+            for x in COORDS
+            for y in COORDS
+            for s in SEEDS
         ],
         "ts_hash": [
             {"x": x, "y": y, "seed": s, "role": r, "value": ts_hash_reference(x, y, s, r)}
-            for x in COORDS for y in COORDS for s in SEEDS for r in ROLES
+            for x in COORDS
+            for y in COORDS
+            for s in SEEDS
+            for r in ROLES
         ],
         "cells": [
-            {"kind": kind, "colours": list(colours), "variants": v, "seed": s, "cx": cx, "cy": cy,
-             "wrap": wrap, "index": cell_index_reference(LookupScheme(kind, colours, v), s, cx, cy,
-                                                         tuple(wrap) if wrap else None)}
-            for kind, colours, v in SCHEMES for s in SEEDS for cx, cy in CELLS for wrap in (None, [3, 5])
+            {
+                "kind": kind,
+                "colours": list(colours),
+                "variants": v,
+                "seed": s,
+                "cx": cx,
+                "cy": cy,
+                "wrap": wrap,
+                "index": cell_index_reference(
+                    LookupScheme(kind, colours, v), s, cx, cy, tuple(wrap) if wrap else None
+                ),
+            }
+            for kind, colours, v in SCHEMES
+            for s in SEEDS
+            for cx, cy in CELLS
+            for wrap in (None, [3, 5])
         ],
     }
 

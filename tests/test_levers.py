@@ -1,0 +1,203 @@
+"""The levers of issue 12: the free cut region and diverse matching patches (tilesynth.levers)."""
+
+from __future__ import annotations
+
+from importlib import resources
+
+import numpy as np
+import pytest
+import tilesynth as ts
+from tilesynth.errors import ParameterError
+from tilesynth.io import load_image
+from tilesynth.levers import free_terminals
+
+
+@pytest.fixture(scope="module")
+def lettuce():
+    return load_image(resources.files("tilesynth") / "data" / "lettuce-leaves.png")[0][:256, :256]
+
+
+def test_free_terminals():
+    n = 64
+    src, sink = free_terminals(n, ring=2, disc=8)
+    assert not (src & sink).any()
+    assert src[:2].all() and src[-2:].all() and src[:, :2].all() and src[:, -2:].all()
+    assert src[5, 5] and not src[6, 6] and src[58, 58] and not src[57, 57]  # corner discs of radius 8
+    assert sink[31, 20] and sink[32, 40] and sink[20, 31] and sink[40, 32]
+    free = ~src & ~sink
+    assert free.mean() > 0.75  # the circle leaves π/4 minus the cross, about 0.72 of a 64-px tile, free
+    for small in (4, 6, 8, 12):  # the smallest tiles still get a valid region
+        s_src, s_sink = free_terminals(small)
+        assert s_sink.any() and not (s_src & s_sink).any() and s_src[0].all()
+    with pytest.raises(ParameterError):
+        free_terminals(n, ring=0)
+    with pytest.raises(ParameterError):
+        free_terminals(n, ring=2, disc=32)
+
+
+@pytest.mark.parametrize("bias", [0.0, 0.02])
+def test_free_cut_keeps_the_border_and_covers_the_cross(lettuce, bias):
+    genes = np.array([[10, 10], [100, 30], [30, 150], [150, 150]])
+    circle = ts.build_omega(lettuce, "c2", tile_size=64, genes=genes[:2], cut_region="circle")
+    free = ts.build_omega(lettuce, "c2", tile_size=64, genes=genes[:2], cut_region="free", cut_bias=bias)
+    src, sink = free_terminals(64)
+    assert not free.cut_masks[:, src].any()
+    assert free.cut_masks[:, sink].all()
+    # the border ring is the intermediate tile's, as with the circle: tiles still match their neighbours
+    ring = ~np.pad(np.ones((62, 62), bool), 1)  # the outer pixel ring (the circle keeps only that one)
+    np.testing.assert_array_equal(free.source[:, ring], circle.source[:, ring])
+    assert free.params["cut_region"] == "free" and free.params["cut_bias"] == bias
+    if bias > 0:
+        assert free.cut_masks.mean() > circle.cut_masks.mean()
+
+
+def test_diversity_spreads_the_matching_patches(lettuce):
+    n = 48
+    plain = ts.build_omega(lettuce, "c2", tile_size=n, seed=3, diversity=0)
+    div = ts.build_omega(lettuce, "c2", tile_size=n, seed=3, diversity=1)
+    np.testing.assert_array_equal(div.genes, plain.genes)
+
+    def close_pairs(offsets):
+        d = np.abs(offsets[:, None, :] - offsets[None, :, :]).max(axis=2)
+        return int(((d <= n // 2) & ~np.eye(len(offsets), dtype=bool)).sum()) // 2
+
+    assert close_pairs(div.match_offsets) == 0
+    assert close_pairs(plain.match_offsets) > 0  # the independent best matches cluster (what the lever fixes)
+    assert (div.D >= plain.D - 1e-9).all()  # never better than each tile's own best
+    assert div.params["diversity"] == 1
+
+
+def test_diversity_with_variants(lettuce):
+    s = ts.build_omega(lettuce, "c2x2", tile_size=48, seed=3, diversity=2)
+    off = s.match_offsets.reshape(16, 2, 2)
+    assert (np.abs(off[:, 0] - off[:, 1]).max(axis=1) > 48 // 4).all()  # variants are not near-copies
+
+
+def test_complete_set_defaults(lettuce):
+    s = ts.build_omega(lettuce, "c2", seed=1)
+    assert s.tile_size == 64 and s.params["cut_region"] == "free" and s.params["diversity"] == 1
+    off = ts.build_omega(lettuce, "c2", seed=1, cut_region="circle", diversity=0)
+    assert "cut_region" not in off.params and "diversity" not in off.params
+    old = ts.build_omega(lettuce, "16a", tile_size=64, seed=1)
+    assert "cut_region" not in old.params and "diversity" not in old.params and old.tile_size == 64
+    assert ts.build_omega(lettuce, "16a", seed=1).tile_size == 128  # the papers' sets keep half the side
+
+
+def test_lever_parameter_errors(lettuce):
+    with pytest.raises(ParameterError, match="cut_region"):
+        ts.build_omega(lettuce, "c2", tile_size=64, cut_region="square")
+    with pytest.raises(ParameterError, match="cut_bias"):
+        ts.build_omega(lettuce, "c2", tile_size=64, cut_region="circle", cut_bias=0.1)
+    with pytest.raises(ParameterError, match="cut_bias"):
+        ts.build_omega(lettuce, "c2", tile_size=64, cut_region="free", cut_bias=-1.0)
+    with pytest.raises(ParameterError, match="diversity"):
+        ts.build_omega(lettuce, "c2", tile_size=64, diversity=-1)
+    with pytest.raises(ParameterError, match="diversity"):
+        ts.build_omega(lettuce, "c2", tile_size=64, diversity=1, match="best-cut")
+
+
+def test_cli_levers_and_hashed_synth(tmp_path, lettuce):
+    from tilesynth.cli import main
+    from tilesynth.io import save_image
+
+    ex = tmp_path / "ex.png"
+    save_image(ex, lettuce)
+    out = tmp_path / "c2.tiles"
+    assert (
+        main(
+            [
+                "build",
+                str(ex),
+                "-o",
+                str(out),
+                "--set",
+                "c2x2",
+                "--tile-size",
+                "48",
+                "--seed",
+                "1",
+                "--cut-region",
+                "free",
+                "--diversity",
+                "1",
+                "-q",
+            ]
+        )
+        == 0
+    )
+    s = ts.load(out)
+    assert s.params["cut_region"] == "free" and s.params["diversity"] == 1 and s.n_tiles == 32
+    a, b = tmp_path / "a.png", tmp_path / "b.png"
+    assert main(["synth", str(out), "-o", str(a), "--size", "96x96", "--seed", "4", "--wrap", "-q"]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                str(out),
+                "-o",
+                str(b),
+                "--size",
+                "96x96",
+                "--seed",
+                "4",
+                "--wrap",
+                "--origin=-48,96",
+                "-q",
+            ]
+        )
+        == 0
+    )
+    ia, ib = load_image(a)[0], load_image(b)[0]
+    np.testing.assert_array_equal(np.roll(ia, (0, 48), axis=(0, 1)), ib)
+    assert (
+        main(
+            [
+                "build",
+                str(ex),
+                "-o",
+                str(tmp_path / "w.tiles"),
+                "--set",
+                "wc2",
+                "--scheme",
+                "wang",
+                "--diversity",
+                "1",
+                "-q",
+            ]
+        )
+        == 2
+    )
+    assert main(["synth", str(out), "-o", str(a), "--size", "97x96", "--wrap", "-q"]) == 2
+
+
+def test_cli_plain_omega_on_a_complete_set(tmp_path, lettuce):
+    from tilesynth.cli import main
+    from tilesynth.io import save_image
+
+    ex = tmp_path / "ex.png"
+    save_image(ex, lettuce)
+    out = tmp_path / "plain.tiles"
+    assert (
+        main(
+            [
+                "build",
+                str(ex),
+                "-o",
+                str(out),
+                "--set",
+                "c2",
+                "--tile-size",
+                "48",
+                "--seed",
+                "1",
+                "--cut-region",
+                "circle",
+                "--diversity",
+                "0",
+                "-q",
+            ]
+        )
+        == 0
+    )
+    s = ts.load(out)
+    assert "cut_region" not in s.params and "diversity" not in s.params

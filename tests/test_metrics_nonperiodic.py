@@ -1,0 +1,91 @@
+"""Oracles of the non-periodicity measures (issue 12): periodic copies, detail autocorrelation, histograms."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from tilesynth.errors import ShapeError
+from tilesynth.metrics import (
+    detail_layer,
+    detail_repetition,
+    histogram_distance,
+    image_metrics,
+    periodic_copies,
+)
+
+
+def _noise(h, w, c=3, seed=0):
+    return np.random.default_rng(seed).random((h, w, c)).astype(np.float32)
+
+
+@pytest.mark.parametrize("period", [(37, 53), (64, 64), (23, 100)])
+def test_periodic_image_is_all_copies(period):
+    py, px = period
+    img = np.tile(_noise(py, px, seed=py), (256 // py + 1, 256 // px + 1, 1))[:256, :256]
+    pc = periodic_copies(img)
+    assert pc.fraction == 1.0
+    assert any(
+        (abs(dy), abs(dx)) in ((py, px), (py, 0), (0, px)) or (dy % py == 0 and dx % px == 0)
+        for dy, dx in pc.lags
+    )
+    dr = detail_repetition(img)
+    assert dr.peak > 0.95
+
+
+def test_noise_has_no_copies():
+    img = _noise(256, 256, seed=5)
+    assert periodic_copies(img).fraction == 0.0
+    assert detail_repetition(img).peak < 0.1
+
+
+def test_half_periodic_image():
+    """Left half periodic (period 32 along y), right half noise: about half the patches are copies."""
+    img = _noise(256, 256, seed=1)
+    img[:, :128] = np.tile(_noise(32, 128, seed=2), (8, 1, 1))
+    f = periodic_copies(img).fraction
+    assert 0.4 <= f <= 0.55
+
+
+def test_tolerance_is_two_levels():
+    base = np.tile(_noise(32, 32, seed=3), (8, 8, 1))
+    rng = np.random.default_rng(4)
+    small = np.clip(base + rng.choice([-1, 1], base.shape) * (1.0 / 255), 0, 1).astype(np.float32)
+    big = np.clip(base + rng.choice([-1, 1], base.shape) * (4.0 / 255), 0, 1).astype(np.float32)
+    assert periodic_copies(small).fraction > 0.9  # differences of ~2/255 between partners: mse <= (2/255)^2
+    assert periodic_copies(big).fraction < 0.1
+
+
+def test_detail_layer_removes_smooth_variation():
+    y, x = np.mgrid[0:128, 0:128] / 128.0
+    ramp = np.repeat(((x + y) / 2)[..., None], 3, axis=2).astype(np.float32)
+    d = detail_layer(ramp)
+    assert np.abs(d[36:-36, 36:-36]).max() < 1e-6  # beyond the kernel radius 4σ of the borders
+    assert np.abs(detail_layer(_noise(128, 128))).max() > 0.3
+
+
+def test_histogram_distance_oracles():
+    ex = _noise(128, 128, seed=7)
+    assert histogram_distance(ex, ex).distance == 0.0
+    shuffled = np.random.default_rng(1).permutation(ex.reshape(-1, 3)).reshape(ex.shape)
+    hd = histogram_distance(shuffled, ex)
+    assert max(hd.colour) < 1e-3  # the same colours
+    flat = np.full_like(ex, 0.5)
+    assert histogram_distance(flat, ex).distance > 0.1
+    # colour shift of 0.1 on every channel: W1 = 0.1 on each colour channel, gradients unchanged
+    shifted = ex * 0.5 + 0.1
+    ref = ex * 0.5
+    hd = histogram_distance(shifted.astype(np.float32), ref.astype(np.float32))
+    assert hd.colour == pytest.approx([0.1, 0.1, 0.1], abs=1e-3)
+    assert max(hd.gradient) < 1e-6
+    with pytest.raises(ShapeError):
+        histogram_distance(ex, ex[..., :1])
+
+
+def test_image_metrics_include_the_new_measures():
+    img = np.tile(_noise(32, 32, seed=9), (4, 4, 1))
+    m = image_metrics(img, exemplar=_noise(64, 64, seed=9))
+    assert m["periodic_copies"]["fraction"] == 1.0
+    assert m["detail_repetition"]["peak"] > 0.95
+    assert m["histogram"]["distance"] >= 0.0
+    small = image_metrics(_noise(8, 8))
+    assert small["periodic_copies"] is None
