@@ -21,13 +21,7 @@ Kernels (Rust, GIL released, thread-count independent): :func:`patch_ssd`, :func
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("tilesynth")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    from ._core import __version__
-
+from ._version import __version__
 from .errors import InternalError, ParameterError, ShapeError, TileSetFormatError, TilesynthError
 from .io import load_image, load_raster, save_image
 from .kernels import (

@@ -113,16 +113,8 @@ import numpy as np
 from . import kernels
 from ._validate import as_image, positive_int, seed_int
 from .errors import ParameterError
-from .omega import (
-    LAMBDA,
-    check_exemplar_size,
-    check_genes,
-    check_tile_size,
-    default_tile_size,
-    energy,
-    patch_gradients,
-    random_genes,
-)
+from .genes import LAMBDA, check_exemplar_size, check_genes, check_tile_size, default_tile_size, energy, random_genes
+from .stages.compose import patch_gradients
 from .tilefile import TileSet, exemplar_digest
 from .wangsets import WangTileSet, get_wang_tileset
 
@@ -335,6 +327,7 @@ def _genes(
 
 def build_wang(
     exemplar: np.ndarray,
+    *,
     tileset: str | WangTileSet = "wang8",
     tile_size: int | None = None,
     overlap: int | None = None,
@@ -448,7 +441,7 @@ def build_wang(
     cut_masks = (labels == EAST) | (labels == WEST)
     D = np.array([((s[0] + s[1]) + s[2]) + s[3] for s in stats[:, :, 4].tolist()], dtype=np.float64)
     costs = np.array([((s[0] + s[1]) + s[2]) + s[3] for s in stats[:, :, 5].tolist()], dtype=np.float64)
-    from . import __version__
+    from ._version import __version__
 
     return TileSet(
         scheme="wang",
@@ -533,6 +526,7 @@ SUPPLEMENTARY_METHODS = ("ssd", "cut")
 
 def build_swang(
     exemplar: np.ndarray,
+    *,
     tileset: str | WangTileSet = "wang8",
     tile_size: int | None = None,
     genes: np.ndarray | None = None,
@@ -671,7 +665,7 @@ def build_swang(
     source = np.where(masks[..., None], O_src, I_src).astype(np.int32)
     tiles = ex[source[..., 0], source[..., 1]]
     labels = np.where(masks, SUPPLEMENTARY, I_lab).astype(np.uint8)
-    from . import __version__
+    from ._version import __version__
 
     return TileSet(
         scheme="swang",

@@ -1,0 +1,99 @@
+"""Composing tiles with their provenance, and the one :class:`~tilesynth.tilefile.TileSet` ending of every builder.
+
+Every scheme ends the same way: the composed tiles, the exemplar (row, col) of every tile pixel, the cut masks
+and costs, the genes and the objective go into a :class:`~tilesynth.tilefile.TileSet` with the exemplar's
+digest and the build's timing. :func:`finish_tileset` is that ending, written once.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from ..tilefile import TileSet, exemplar_digest
+
+__all__ = ["exemplar_record", "finish_tileset", "offset_source", "patch_gradients", "patches_at"]
+
+
+def patch_gradients(exemplar: np.ndarray, source: np.ndarray) -> np.ndarray:
+    """Gradient norms of the exemplar at the positions ``source`` (``(..., 2)`` row, col): ``(..., 2)`` float64.
+
+    Index 0 is ‖E(r, c+1) − E(r, c)‖, index 1 is ‖E(r+1, c) − E(r, c)‖ (L2 over channels, 0 past the exemplar edge).
+    These are the gradients "of the patch a pixel came from" that the Kwatra seam weights of the ω and s-Wang
+    cuts use (``gradients="patch"``).
+    """
+    e = exemplar.astype(np.float64)
+    h, w = e.shape[:2]
+    gx = np.zeros((h, w))
+    gy = np.zeros((h, w))
+    gx[:, :-1] = np.sqrt(((e[:, 1:] - e[:, :-1]) ** 2).sum(-1))
+    gy[:-1] = np.sqrt(((e[1:] - e[:-1]) ** 2).sum(-1))
+    r, c = source[..., 0], source[..., 1]
+    return np.ascontiguousarray(np.stack([gx[r, c], gy[r, c]], axis=-1))
+
+
+def patches_at(exemplar: np.ndarray, offsets: np.ndarray, n: int) -> np.ndarray:
+    """The ``n x n`` exemplar patches at the top-left ``offsets`` ``(K, 2)``: ``(K, n, n, C)``."""
+    return np.stack([exemplar[r : r + n, c : c + n] for r, c in offsets])
+
+
+def offset_source(offsets: np.ndarray, n: int) -> np.ndarray:
+    """Provenance ``(K, n, n, 2)`` int32 of the ``n x n`` patches at the top-left ``offsets`` ``(K, 2)``."""
+    yy, xx = np.mgrid[0:n, 0:n]
+    return np.stack([np.stack([yy + r, xx + c], axis=-1) for r, c in offsets]).astype(np.int32)
+
+
+def exemplar_record(ex: np.ndarray, extra: dict[str, Any] | None) -> dict[str, Any]:
+    """What the tile set records about its exemplar: shape, content digest, and the caller's facts (file, bits)."""
+    info: dict[str, Any] = {"shape": list(ex.shape), "sha256": exemplar_digest(ex)}
+    info.update(extra or {})
+    return info
+
+
+def finish_tileset(
+    *,
+    scheme: str,
+    definition: Any,
+    exemplar: np.ndarray,
+    tiles: np.ndarray,
+    source: np.ndarray,
+    cut_masks: np.ndarray,
+    genes: np.ndarray,
+    tile_patches: np.ndarray,
+    match_offsets: np.ndarray,
+    D: np.ndarray,
+    cut_costs: np.ndarray,
+    E: float,
+    params: dict[str, Any],
+    exemplar_info: dict[str, Any] | None,
+    timing: dict[str, float],
+    started: float,
+    labels: np.ndarray | None = None,
+    cut_stats: np.ndarray | None = None,
+) -> TileSet:
+    """The :class:`TileSet` of a finished build: every array contiguous in its file dtype, the exemplar record,
+    and ``timing`` completed with ``total_s`` (seconds since ``started``, a :func:`time.perf_counter` value)."""
+    from .._version import __version__
+
+    return TileSet(
+        scheme=scheme,
+        layout=definition.to_dict(),
+        tiles=np.ascontiguousarray(tiles, dtype=np.float32),
+        source=np.ascontiguousarray(source, dtype=np.int32),
+        cut_masks=np.ascontiguousarray(cut_masks, dtype=bool),
+        genes=np.ascontiguousarray(genes, dtype=np.int64),
+        tile_patches=np.ascontiguousarray(tile_patches, dtype=np.int64),
+        match_offsets=np.ascontiguousarray(match_offsets, dtype=np.int64),
+        D=np.ascontiguousarray(D, dtype=np.float64),
+        cut_costs=np.ascontiguousarray(cut_costs, dtype=np.float64),
+        exemplar=exemplar,
+        E=float(E),
+        params=params,
+        exemplar_info=exemplar_record(exemplar, exemplar_info),
+        timing={**timing, "total_s": time.perf_counter() - started},
+        version=__version__,
+        labels=None if labels is None else np.ascontiguousarray(labels, dtype=np.uint8),
+        cut_stats=None if cut_stats is None else np.ascontiguousarray(cut_stats, dtype=np.float64),
+    )
