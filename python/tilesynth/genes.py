@@ -15,7 +15,7 @@ gene vector (given, random or selected) is :func:`tilesynth.select.choose_genes`
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
