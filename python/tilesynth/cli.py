@@ -24,6 +24,7 @@ import numpy as np
 
 from .errors import InternalError, ParameterError, TilesynthError
 from .schemes import REGISTRY, SCHEMES, Option, Scheme, get_scheme
+from .schemes.base import layout_kind
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
@@ -441,7 +442,7 @@ def _info(ts_path: str, as_json: bool) -> None:
         ),
         "",
     ]
-    if ts.layout.get("kind", "corner") == "wang":
+    if layout_kind(ts.layout) == "edge":
         lines += _wang_lines(ts)
         print("\n".join(lines))
         return
@@ -489,7 +490,7 @@ def _wang_lines(ts) -> list[str]:  # noqa: ANN001
 
 def _colours(layout: dict) -> list[str]:
     """The sample colours of a layout, in gene order (Wang sets: horizontal-edge colours, then vertical)."""
-    if layout.get("kind", "corner") == "wang":
+    if layout_kind(layout) == "edge":
         return [*layout.get("horizontal", []), *layout.get("vertical", [])]
     return list(layout.get("colours", []))
 

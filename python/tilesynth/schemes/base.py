@@ -21,13 +21,18 @@ if TYPE_CHECKING:
 
     from ..tilefile import TileSet
 
-__all__ = ["LAYOUT_KINDS", "Option", "Scheme", "layout_of_set", "positive_int_text"]
+__all__ = ["LAYOUT_KINDS", "Option", "Scheme", "layout_kind", "layout_of_set", "positive_int_text"]
 
 #: The two square-grid layouts: tiles keyed by corner colours ⟨TL, BL, TR, BR⟩, or by edge colours ⟨N, E, S, W⟩.
 LAYOUT_KINDS: tuple[str, ...] = ("corner", "edge")
 
 #: The ``kind`` a layout has in the tile-set file (the format predates the names "edge" and keeps "wang").
 FILE_KIND = {"corner": "corner", "edge": "wang"}
+
+
+def layout_kind(layout: dict[str, Any]) -> str:
+    """"corner" or "edge": the layout kind of a tile-set file's ``layout`` (its ``kind``, "corner" if absent)."""
+    return "edge" if layout.get("kind", "corner") == FILE_KIND["edge"] else "corner"
 
 
 def positive_int_text(text: str) -> int:
