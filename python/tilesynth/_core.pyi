@@ -8,6 +8,14 @@ from typing_extensions import Self
 
 __all__ = [
     "__version__",
+    "DEFAULT_EPS",
+    "DEFAULT_POISSON_TOL",
+    "DEFAULT_LAMBDA",
+    "DEFAULT_OMEGA",
+    "DEFAULT_CACHE_BYTES",
+    "MAX_THREADS",
+    "THREADS_ENV",
+    "WANG_SIDES",
     "SsdIndex",
     "PopulationEvaluator",
     "WangEvaluator",
@@ -26,6 +34,14 @@ __all__ = [
 ]
 
 __version__: str
+DEFAULT_EPS: float
+DEFAULT_POISSON_TOL: float
+DEFAULT_LAMBDA: float
+DEFAULT_OMEGA: float
+DEFAULT_CACHE_BYTES: int
+MAX_THREADS: int
+THREADS_ENV: str
+WANG_SIDES: tuple[int, int, int, int]
 
 @final
 class SsdIndex:

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from . import _core
 from ._validate import finite_float, positive_int
 from .errors import ParameterError
 
@@ -36,8 +37,8 @@ __all__ = [
     "random_genes",
 ]
 
-LAMBDA = 0.8
-"""Default λ of E = λ·ΣD + (1−λ)·Var(D) (paper 000)."""
+LAMBDA: float = _core.DEFAULT_LAMBDA
+"""Default λ of E = λ·ΣD + (1−λ)·Var(D) (paper 000: 0.8), defined in the core (``rust/population.rs``)."""
 
 MIN_TILE_SIZE = 4
 """The smallest tile: 4 x 4 (2 x 2 quadrants; the cut needs a border ring and a cross inside it)."""

@@ -758,6 +758,39 @@ def bga_mutation(
     return out
 
 
+def _ais_params(
+    population: Any, s_min: Any, s_max: Any, alpha: Any, beta: Any, deaths: Any, generations: Any, stagnation: Any
+) -> dict[str, Any]:
+    """:func:`run_ais`'s parameters, validated (the record stored with the result)."""
+    size = _int_param("population", population, 2, MAX_POPULATION)
+    params: dict[str, Any] = {
+        "population": size,
+        "s_min": _float_param("s_min", s_min, 0.0, 1.0, lo_open=True, hi_open=True),
+        "s_max": _float_param("s_max", s_max, 0.0, 1.0, lo_open=True, hi_open=True),
+        "alpha": _float_param("alpha", alpha, 0.0, math.inf, lo_open=True, hi_open=True),
+        "beta": _float_param("beta", beta, 0.0, math.inf, lo_open=True, hi_open=True),
+        "deaths": size // 4 if deaths is None else _int_param("deaths", deaths, 0, size - 1),
+        "generations": _int_param("generations", generations, 1, MAX_GENERATIONS),
+        "stagnation": _int_param("stagnation", stagnation, 1),
+    }
+    if params["s_min"] > params["s_max"]:
+        raise ParameterError(f"s_min = {params['s_min']}: must not exceed s_max = {params['s_max']}")
+    return params
+
+
+def _replace_by_best_clone(
+    pop: np.ndarray, E: np.ndarray, cand: np.ndarray, cand_parent: np.ndarray, E_cand: np.ndarray
+) -> None:
+    """In place: each parent is replaced by its best mutated clone (first on ties) if that is strictly better."""
+    o = np.lexsort((E_cand, cand_parent))  # sort by (parent, E)
+    first = np.ones(o.size, dtype=bool)
+    first[1:] = cand_parent[o][1:] != cand_parent[o][:-1]
+    best = o[first]
+    win = best[E_cand[best] < E[cand_parent[best]]]
+    pop[cand_parent[win]] = cand[win]
+    E[cand_parent[win]] = E_cand[win]
+
+
 def run_ais(
     evaluate: Evaluate,
     shape: tuple[int, ...],
@@ -811,19 +844,8 @@ def run_ais(
     """
     t0 = time.perf_counter()
     shp, n, t, region = _region(shape, n, tile_size)
-    size = _int_param("population", population, 2, MAX_POPULATION)
-    params: dict[str, Any] = {
-        "population": size,
-        "s_min": _float_param("s_min", s_min, 0.0, 1.0, lo_open=True, hi_open=True),
-        "s_max": _float_param("s_max", s_max, 0.0, 1.0, lo_open=True, hi_open=True),
-        "alpha": _float_param("alpha", alpha, 0.0, math.inf, lo_open=True, hi_open=True),
-        "beta": _float_param("beta", beta, 0.0, math.inf, lo_open=True, hi_open=True),
-        "deaths": size // 4 if deaths is None else _int_param("deaths", deaths, 0, size - 1),
-        "generations": _int_param("generations", generations, 1, MAX_GENERATIONS),
-        "stagnation": _int_param("stagnation", stagnation, 1),
-    }
-    if params["s_min"] > params["s_max"]:
-        raise ParameterError(f"s_min = {params['s_min']}: must not exceed s_max = {params['s_max']}")
+    params = _ais_params(population, s_min, s_max, alpha, beta, deaths, generations, stagnation)
+    size = params["population"]
     g = as_generator(rng)
     ev = _Evaluator(evaluate, n)
     run = _Run("ais", params["generations"], params["stagnation"], progress)
@@ -866,15 +888,7 @@ def run_ais(
                 f"evaluate returned E = {float(E_batch.min())!r} < 0: the AIS affinity 1/E needs E >= 0"
             )
         if cand.shape[0]:
-            # best clone of each parent (first on ties): sort by (parent, E)
-            o = np.lexsort((E_cand, cand_parent))
-            first = np.ones(o.size, dtype=bool)
-            first[1:] = cand_parent[o][1:] != cand_parent[o][:-1]
-            best = o[first]
-            better = E_cand[best] < E[cand_parent[best]]
-            win = best[better]
-            pop[cand_parent[win]] = cand[win]
-            E[cand_parent[win]] = E_cand[win]
+            _replace_by_best_clone(pop, E, cand, cand_parent, E_cand)
 
         if params["deaths"]:
             order = np.argsort(E, kind="stable")
@@ -1005,6 +1019,49 @@ _METHOD_PARAMS: dict[str, dict[str, Any]] = {
 }
 
 
+def _method_kwargs(
+    name: str, params: dict[str, Any], generations: int | None, population: int | None
+) -> dict[str, Any]:
+    """The runner's keywords of method ``name``: its parameters checked against the method's known ones, with
+    ``generations`` / ``population`` mapped onto it (``population`` is best-of's ``count``)."""
+    allowed = _METHOD_PARAMS[name]
+    for key in params:
+        if key not in allowed or key in ("generations", "population"):
+            known = sorted((set(allowed) - {"generations", "population"}) | set(POLISH_DEFAULTS))
+            raise ParameterError(
+                f"{key} = {params[key]!r}: not a parameter of method {name!r}"
+                + (f" (known: {', '.join(known)})" if known else "")
+            )
+    kwargs = dict(params)
+    if generations is not None:
+        if "generations" not in allowed:
+            raise ParameterError(f"generations = {generations!r}: method {name!r} has no generations")
+        kwargs["generations"] = generations
+    if population is not None:
+        if name == "best-of":
+            if "count" in kwargs:
+                raise ParameterError("population and count: give one (both set the best-of count)")
+            kwargs["count"] = population
+        elif "population" in allowed:
+            kwargs["population"] = population
+        else:
+            raise ParameterError(f"population = {population!r}: method {name!r} has no population")
+
+    return kwargs
+
+
+def _polish_settings(polish_opts: dict[str, Any]) -> tuple[int | None, int, int | None]:
+    """``(polish_sweeps, polish_batch, polish_min_distance)`` from the given polish options and the defaults."""
+    p_sweeps = polish_opts.get("polish_sweeps", POLISH_DEFAULTS["polish_sweeps"])
+    p_batch = _int_param("polish_batch", polish_opts.get("polish_batch", POLISH_DEFAULTS["polish_batch"]), 1)
+    if p_sweeps is not None:
+        p_sweeps = _int_param("polish_sweeps", p_sweeps, 1)
+    p_min = polish_opts.get("polish_min_distance", POLISH_DEFAULTS["polish_min_distance"])
+    if p_min is not None:
+        p_min = _int_param("polish_min_distance", p_min, 0)
+    return p_sweeps, p_batch, p_min
+
+
 def select_genes(
     method: str,
     evaluate: Evaluate,
@@ -1057,49 +1114,15 @@ def select_genes(
     polish_opts = {k: params.pop(k) for k in list(params) if k in POLISH_DEFAULTS}
     if polish_opts and not polish:
         raise ParameterError(f"{next(iter(polish_opts))}: only used with polish=True")
-    allowed = _METHOD_PARAMS[name]
-    for key in params:
-        if key not in allowed or key in ("generations", "population"):
-            known = sorted((set(allowed) - {"generations", "population"}) | set(POLISH_DEFAULTS))
-            raise ParameterError(
-                f"{key} = {params[key]!r}: not a parameter of method {name!r}"
-                + (f" (known: {', '.join(known)})" if known else "")
-            )
-    kwargs = dict(params)
-    if generations is not None:
-        if "generations" not in allowed:
-            raise ParameterError(f"generations = {generations!r}: method {name!r} has no generations")
-        kwargs["generations"] = generations
-    if population is not None:
-        if name == "best-of":
-            if "count" in kwargs:
-                raise ParameterError("population and count: give one (both set the best-of count)")
-            kwargs["count"] = population
-        elif "population" in allowed:
-            kwargs["population"] = population
-        else:
-            raise ParameterError(f"population = {population!r}: method {name!r} has no population")
-
+    kwargs = _method_kwargs(name, params, generations, population)
     runner: Callable[..., SelectionResult] = {
         "random": run_random,
         "best-of": run_best_of,
         "ga": run_ga,
         "ais": run_ais,
     }[name]
-    p_sweeps: int | None = None
-    p_batch = 0
-    p_min: int | None = None
-    if polish:
-        # validate polish options before the (possibly long) run
-        p_sweeps = polish_opts.get("polish_sweeps", POLISH_DEFAULTS["polish_sweeps"])
-        p_batch = _int_param(
-            "polish_batch", polish_opts.get("polish_batch", POLISH_DEFAULTS["polish_batch"]), 1
-        )
-        if p_sweeps is not None:
-            p_sweeps = _int_param("polish_sweeps", p_sweeps, 1)
-        p_min = polish_opts.get("polish_min_distance", POLISH_DEFAULTS["polish_min_distance"])
-        if p_min is not None:
-            p_min = _int_param("polish_min_distance", p_min, 0)
+    # validate polish options before the (possibly long) run
+    p_sweeps, p_batch, p_min = _polish_settings(polish_opts) if polish else (None, 0, None)
     res = runner(evaluate, shape, n, tile_size, rng, progress=progress, **kwargs)
     res.params = {**res.params, "polish": polish}
     if polish:

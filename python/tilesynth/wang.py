@@ -110,7 +110,7 @@ from typing import Any
 
 import numpy as np
 
-from . import kernels
+from . import _core, kernels
 from ._validate import as_image, positive_int
 from .errors import ParameterError
 from .genes import LAMBDA, energy
@@ -139,8 +139,8 @@ __all__ = [
     "wang_energy",
 ]
 
-DEFAULT_OMEGA = 0.8
-"""ω of D_boundary and E (001 gives none; 000 uses 0.8 for the same weighting)."""
+DEFAULT_OMEGA: float = _core.DEFAULT_OMEGA
+"""ω of D_boundary and E (001 gives none; 000 uses 0.8 for the same weighting); defined in the core."""
 
 GA_001: dict[str, Any] = {
     "population": 50,
@@ -152,8 +152,9 @@ GA_001: dict[str, Any] = {
 }
 """001's GA: pop_size 50, α 0.05, P_c 0.3, P_m 0.2, 200 generations, stop after 8 without improvement."""
 
-NORTH, EAST, SOUTH, WEST = 0, 1, 2, 3
-"""Label values of the four samples (``labels``, columns of ``tile_patches``); 4 is the supplementary patch."""
+NORTH, EAST, SOUTH, WEST = _core.WANG_SIDES
+"""Label values of the four samples (``labels``, columns of ``tile_patches``), the core's side indices
+(``rust/wang.rs``); 4 is the supplementary patch."""
 SUPPLEMENTARY = 4
 
 #: (dy, dx) of each role's sample relative to the tile, in units of h (see the mapping above).
