@@ -86,7 +86,9 @@ def test_cli_build_synth_info_sheet_report(small_exemplar, tmp_path, capsys):
                  "--literal-border", "-q"]) == 0  # fmt: skip
     ts = tilesynth.load(out)
     assert ts.scheme == "patch" and ts.params["keep_border"] is False
-    assert main(["synth", str(out), "-o", str(tmp_path / "s.png"), "--size", "90x60", "--seed", "1", "-q"]) == 0
+    assert (
+        main(["synth", str(out), "-o", str(tmp_path / "s.png"), "--size", "90x60", "--seed", "1", "-q"]) == 0
+    )
     capsys.readouterr()
     assert main(["info", str(out)]) == 0
     text = capsys.readouterr().out
@@ -95,6 +97,9 @@ def test_cli_build_synth_info_sheet_report(small_exemplar, tmp_path, capsys):
     assert main(["report", str(out), "-o", str(tmp_path / "rep"), "--size", "96x96", "-q"]) == 0
     assert (tmp_path / "rep" / "index.html").is_file()
     # an option of another scheme is refused, naming the schemes that have it
-    assert main(["build", str(ex), "-o", str(tmp_path / "x.tiles"), "--scheme", "patch", "--match", "best-cut"]) == 2
+    assert (
+        main(["build", str(ex), "-o", str(tmp_path / "x.tiles"), "--scheme", "patch", "--match", "best-cut"])
+        == 2
+    )
     assert "--match: not used with --scheme patch (only with omega)" in capsys.readouterr().err
     assert not (tmp_path / "x.tiles").exists()

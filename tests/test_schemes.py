@@ -21,11 +21,18 @@ BUILDERS = [tilesynth.build_omega, tilesynth.build_wang, tilesynth.build_swang, 
 def test_registry_names_and_defaults():
     assert SCHEMES == ("omega", "wang", "swang", "patch")
     assert [s.name for s in REGISTRY] == list(SCHEMES)
-    assert tilesynth.schemes.DEFAULT_SETS == {"omega": "16a", "wang": "wang8", "swang": "wang8", "patch": "16a"}
+    assert tilesynth.schemes.DEFAULT_SETS == {
+        "omega": "16a",
+        "wang": "wang8",
+        "swang": "wang8",
+        "patch": "16a",
+    }
     for s in REGISTRY:
         assert get_scheme(s.name) is s
         assert s.layout in ("corner", "edge")
-    with pytest.raises(tilesynth.ParameterError, match="scheme = 'hex': must be one of omega, wang, swang, patch"):
+    with pytest.raises(
+        tilesynth.ParameterError, match="scheme = 'hex': must be one of omega, wang, swang, patch"
+    ):
         get_scheme("hex")
 
 
@@ -116,7 +123,9 @@ def test_seed_records_and_refusals():
     ss = np.random.SeedSequence(7).spawn(2)[1]
     rec, rng = resolve_seed(ss)
     assert rec == {"entropy": 7, "spawn_key": [1]}
-    assert rng.integers(1 << 30) == np.random.default_rng(np.random.SeedSequence(7).spawn(2)[1]).integers(1 << 30)
+    assert rng.integers(1 << 30) == np.random.default_rng(np.random.SeedSequence(7).spawn(2)[1]).integers(
+        1 << 30
+    )
     rec, _ = resolve_seed(None)
     assert isinstance(rec, int) and rec >= 0
     for bad in (-1, 1.5, "3", True, np.random.PCG64(1)):

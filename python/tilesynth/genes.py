@@ -43,6 +43,7 @@ LAMBDA: float = _core.DEFAULT_LAMBDA
 MIN_TILE_SIZE = 4
 """The smallest tile: 4 x 4 (2 x 2 quadrants; the cut needs a border ring and a cross inside it)."""
 
+
 def default_tile_size(shape: tuple[int, ...]) -> int:
     """Half the exemplar's shorter side, rounded down to even, capped at 256 (002 used 64 on 128 inputs), and
     at least :data:`MIN_TILE_SIZE` (exemplars of 4 to 7 pixels a side get 4: the whole-side tile)."""
@@ -64,7 +65,9 @@ def check_tile_size(tile_size: Any, shape: tuple[int, ...]) -> int:
     """Validate ``tile_size`` against an exemplar of ``shape`` (even, >= 4, fits inside the exemplar)."""
     n = positive_int(tile_size, "tile_size", minimum=MIN_TILE_SIZE)
     if n % 2:
-        raise ParameterError(f"tile_size = {n}: must be even (the tile is cut from the centre of a 2x2 block)")
+        raise ParameterError(
+            f"tile_size = {n}: must be even (the tile is cut from the centre of a 2x2 block)"
+        )
     if n > shape[0] or n > shape[1]:
         raise ParameterError(
             f"tile_size = {n}: larger than the exemplar ({shape[1]}x{shape[0]} pixels); "

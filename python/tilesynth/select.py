@@ -488,6 +488,7 @@ def segment_mutation(rng: np.random.Generator, genes: np.ndarray, region: Region
     return region.unflat(flat)
 
 
+# Length: 94 lines, of which 43 are the docstring (000's operators and stop rules); the body is 51.
 def run_ga(
     evaluate: Evaluate,
     shape: tuple[int, ...],
@@ -791,6 +792,7 @@ def _replace_by_best_clone(
     E[cand_parent[win]] = E_cand[win]
 
 
+# Length: 106 lines, of which 34 are the docstring (003's seven steps); the body is one generation loop.
 def run_ais(
     evaluate: Evaluate,
     shape: tuple[int, ...],
@@ -903,6 +905,7 @@ def run_ais(
 # Polish
 
 
+# Length: 103 lines, of which 32 are the docstring; the body is one coordinate-descent loop.
 def polish_genes(
     evaluate: Evaluate,
     genes: np.ndarray,
@@ -1062,6 +1065,7 @@ def _polish_settings(polish_opts: dict[str, Any]) -> tuple[int | None, int, int 
     return p_sweeps, p_batch, p_min
 
 
+# Length: 84 lines, of which 28 are the docstring; the body (56) dispatches to the methods.
 def select_genes(
     method: str,
     evaluate: Evaluate,

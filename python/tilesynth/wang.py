@@ -312,6 +312,7 @@ def _sum4(values: np.ndarray) -> np.ndarray:
 # Cohen / Burke
 
 
+# Length: 91 lines, of which 33 are the docstring of its options; the body (58) is the stage sequence.
 def build_wang(
     exemplar: np.ndarray,
     *,
@@ -529,6 +530,7 @@ def _closed_cuts(
     return choice, all_masks.reshape(k, n_cand, n, n)[np.arange(k), choice], all_costs[np.arange(k), choice]
 
 
+# Length: 86 lines, of which 25 are the docstring; the body (61) is the stage sequence.
 def build_swang(
     exemplar: np.ndarray,
     *,

@@ -31,7 +31,7 @@ FILE_KIND = {"corner": "corner", "edge": "wang"}
 
 
 def layout_kind(layout: dict[str, Any]) -> str:
-    """"corner" or "edge": the layout kind of a tile-set file's ``layout`` (its ``kind``, "corner" if absent)."""
+    """ "corner" or "edge": the layout kind of a tile-set file's ``layout`` (its ``kind``, "corner" if absent)."""
     return "edge" if layout.get("kind", "corner") == FILE_KIND["edge"] else "corner"
 
 
@@ -141,7 +141,9 @@ class Scheme:
         sig = inspect.signature(self.builder).parameters
         for opt in self.options:
             if opt.name not in sig or sig[opt.name].kind is not inspect.Parameter.KEYWORD_ONLY:
-                raise ValueError(f"scheme {self.name!r}: option {opt.name!r} is not a keyword-only builder option")
+                raise ValueError(
+                    f"scheme {self.name!r}: option {opt.name!r} is not a keyword-only builder option"
+                )
 
     @property
     def file_kind(self) -> str:
@@ -158,7 +160,11 @@ class Scheme:
     def check_set(self, name: str) -> None:
         """Refuse a tile-set name of the other layout."""
         if layout_of_set(name) != self.layout:
-            want = "a corner set (4, 8, 16a, ...)" if self.layout == "corner" else "an edge-coloured set (wang8, wang18)"
+            want = (
+                "a corner set (4, 8, 16a, ...)"
+                if self.layout == "corner"
+                else "an edge-coloured set (wang8, wang18)"
+            )
             raise ParameterError(f"--set = {name!r}: --scheme {self.name} needs {want}")
 
     def build(self, exemplar: np.ndarray, **kwargs: Any) -> TileSet:

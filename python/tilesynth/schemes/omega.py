@@ -37,7 +37,11 @@ def _describe(ts: Any) -> list[str]:
         + ("" if p.get("keep_border", False) else ", literal border (002's cut may reach the tile border)")
     )
     sm = p.get("smooth")
-    return [match, *([smoothing_line(sm)] if isinstance(sm, dict) else []), energy_line(p, ts.E, "intermediate tiles")]
+    return [
+        match,
+        *([smoothing_line(sm)] if isinstance(sm, dict) else []),
+        energy_line(p, ts.E, "intermediate tiles"),
+    ]
 
 
 def _match_k(text: str | None) -> int | str | None:
@@ -61,21 +65,43 @@ SCHEME = Scheme(
     options=(
         GRADIENTS,
         LITERAL_BORDER,
-        Option("normalise", "--normalise", "optimise 003's normalised objective (SSD divided by the tile's pixel "
-               "count)", store_true=True),
-        Option("match", "--match", "how each tile's matching patch is chosen: ssd (smallest SSD, default), "
-               "circle / midpoints (002's heuristics: smallest seam weights around the circle / near the side "
-               "midpoints), best-cut (run the real cut for the --match-k nearest candidates, keep the cheapest)",
-               choices=("ssd", "circle", "midpoints", "best-cut")),
-        Option("match_k", "--match-k", "candidates of --match best-cut: a positive integer (default 16) or 'all'",
-               metavar="K|all", flag_value=_match_k),
-        Option("metric", "--metric", "distance for the matching search and the objective E: color (SSD, "
-               "default), eq3 (SSD + 10 x squared gradient difference, 000 eq. 3), eq2 (SSD weighted by 1/(10 "
-               "(|grad T| + |grad I|)), 000 eq. 2, exact but slow: direct sums, not with --select)",
-               choices=("color", "eq2", "eq3")),
-        Option("smooth", "--smooth", "Poisson-smooth the region inside each cutting curve (002 section 3.3): the "
-               "matching patch's gradients, blended into the tile from the curve; exact to a 1e-6 residual, tile "
-               "borders kept", store_true=True),
+        Option(
+            "normalise",
+            "--normalise",
+            "optimise 003's normalised objective (SSD divided by the tile's pixel count)",
+            store_true=True,
+        ),
+        Option(
+            "match",
+            "--match",
+            "how each tile's matching patch is chosen: ssd (smallest SSD, default), "
+            "circle / midpoints (002's heuristics: smallest seam weights around the circle / near the side "
+            "midpoints), best-cut (run the real cut for the --match-k nearest candidates, keep the cheapest)",
+            choices=("ssd", "circle", "midpoints", "best-cut"),
+        ),
+        Option(
+            "match_k",
+            "--match-k",
+            "candidates of --match best-cut: a positive integer (default 16) or 'all'",
+            metavar="K|all",
+            flag_value=_match_k,
+        ),
+        Option(
+            "metric",
+            "--metric",
+            "distance for the matching search and the objective E: color (SSD, "
+            "default), eq3 (SSD + 10 x squared gradient difference, 000 eq. 3), eq2 (SSD weighted by 1/(10 "
+            "(|grad T| + |grad I|)), 000 eq. 2, exact but slow: direct sums, not with --select)",
+            choices=("color", "eq2", "eq3"),
+        ),
+        Option(
+            "smooth",
+            "--smooth",
+            "Poisson-smooth the region inside each cutting curve (002 section 3.3): the "
+            "matching patch's gradients, blended into the tile from the curve; exact to a 1e-6 residual, tile "
+            "borders kept",
+            store_true=True,
+        ),
     ),
     describe=_describe,
 )

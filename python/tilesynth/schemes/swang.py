@@ -23,9 +23,13 @@ SCHEME = Scheme(
     builder=build_swang,
     options=(
         GRADIENTS,
-        Option("supplementary", "--supplementary", "the supplementary patch with the smallest SSD to the initial "
-               "tile (default), or the one with the cheapest closed cut among the 8 best SSD candidates",
-               choices=("ssd", "cut")),
+        Option(
+            "supplementary",
+            "--supplementary",
+            "the supplementary patch with the smallest SSD to the initial "
+            "tile (default), or the one with the cheapest closed cut among the 8 best SSD candidates",
+            choices=("ssd", "cut"),
+        ),
     ),
     describe=_describe,
 )

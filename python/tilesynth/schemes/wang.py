@@ -10,10 +10,11 @@ from .base import Option, Scheme, positive_int_text
 
 def _describe(ts: Any) -> list[str]:
     p = ts.params
-    return [
+    line = (
         f"E             {ts.E:.6g}  (ω={p.get('omega')}: ω·ΣD_sum + (1−ω)·Var D_sum, 001; "
         f"{p.get('samples')} samples, overlap {p.get('overlap')}, {p.get('corners')} corners, {p.get('cut')} cuts)"
-    ]
+    )
+    return [line]
 
 
 SCHEME = Scheme(
@@ -24,14 +25,31 @@ SCHEME = Scheme(
     default_set="wang8",
     builder=build_wang,
     options=(
-        Option("cut", "--cut", "minimum-error boundary cuts by dynamic programming (default) or graph cuts",
-               choices=("dp", "graph")),
-        Option("overlap", "--overlap", "width of the overlap band of two diamonds, even (default N/4)",
-               cli_type=positive_int_text),
-        Option("corners", "--corners", "free (Cohen: the cut may miss the corner; default for diamonds) or pinned "
-               "(the cut ends at the corner, edges match exactly)", choices=("free", "pinned")),
-        Option("samples", "--samples", "diamond samples (Cohen, default) or N x N square samples (Burke, 002 "
-               "section 2)", choices=("diamond", "square")),
+        Option(
+            "cut",
+            "--cut",
+            "minimum-error boundary cuts by dynamic programming (default) or graph cuts",
+            choices=("dp", "graph"),
+        ),
+        Option(
+            "overlap",
+            "--overlap",
+            "width of the overlap band of two diamonds, even (default N/4)",
+            cli_type=positive_int_text,
+        ),
+        Option(
+            "corners",
+            "--corners",
+            "free (Cohen: the cut may miss the corner; default for diamonds) or pinned "
+            "(the cut ends at the corner, edges match exactly)",
+            choices=("free", "pinned"),
+        ),
+        Option(
+            "samples",
+            "--samples",
+            "diamond samples (Cohen, default) or N x N square samples (Burke, 002 section 2)",
+            choices=("diamond", "square"),
+        ),
     ),
     describe=_describe,
 )

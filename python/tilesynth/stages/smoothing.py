@@ -65,4 +65,3 @@ def smooth_tiles(
         "clipped": clipped,
     }
     return out, info
-
