@@ -45,6 +45,7 @@ from .omega import build_omega, energy
 from .render import contact_sheet
 from .report import write_report
 from .schemes import SCHEMES, build
+from .schemes.patch import build_patch
 from .synthesis import source_map, synthesize, synthesize_map
 from .tilefile import TileSet
 from .tilesets import TILESET_NAMES, get_tileset
@@ -103,4 +104,5 @@ __all__ = [
     "validate_index_map",
     "write_report",
     "wang_tiles",
+    "build_patch",
 ]
