@@ -12,7 +12,10 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["CornerPlan", "intermediate_tiles"]
+from .errors import ParameterError
+from .tilesets import get_tileset
+
+__all__ = ["CornerPlan", "corner_set", "intermediate_tiles"]
 
 
 @dataclass(frozen=True)
@@ -76,3 +79,10 @@ def intermediate_tiles(
             src[j, rs, cs, 0] = yy + r0
             src[j, rs, cs, 1] = xx + c0
     return tiles, src
+
+
+def corner_set(tileset: Any) -> Any:
+    """The corner tile-set definition named ``tileset``."""
+    if not isinstance(tileset, str):
+        raise ParameterError(f"tileset = {tileset!r}: expected a tile-set name such as '16a' or 'n2'")
+    return get_tileset(tileset)

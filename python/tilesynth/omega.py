@@ -69,14 +69,13 @@ from .genes import (  # noqa: F401 - re-exported: the public names of the genes 
     energy,
     random_genes,
 )
-from .layouts import CornerPlan, intermediate_tiles
+from .layouts import CornerPlan, corner_set, intermediate_tiles
 from .matching import EQ2_EPS, MU, augmented, check_metric, check_strategy, gradient_norm, pick_distinct, strategy_edges
 from .options import BuildOptions, Progress, SeedLike, common_options
 from .select import choose_genes, wants_selection
-from .stages.compose import finish_tileset, offset_source, patch_gradients, patches_at
+from .stages.compose import cut_and_compose, finish_tileset, patch_gradients
 from .stages.smoothing import POISSON_TOL, smooth_tiles  # noqa: F401 - re-exported
 from .tilefile import TileSet
-from .tilesets import get_tileset
 
 
 def _distance_search(
@@ -250,13 +249,6 @@ def omega_options(
     return OmegaOptions(eps, gradients, bool(keep_border), strategy, k, metric, bool(smooth), bool(normalise))
 
 
-def corner_set(tileset: Any) -> Any:
-    """The corner tile-set definition named ``tileset``."""
-    if not isinstance(tileset, str):
-        raise ParameterError(f"tileset = {tileset!r}: expected a tile-set name such as '16a' or 'n2'")
-    return get_tileset(tileset)
-
-
 def omega_evaluator(
     ex: np.ndarray, n: int, plan: CornerPlan, opts: OmegaOptions, threads: int | None
 ) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
@@ -287,35 +279,6 @@ def _matching_patches(
             "patches per intermediate tile; use a smaller tile size or a larger exemplar"
         )
     return offsets, ssd, ssd[:, 0]
-
-
-def cut_and_compose(
-    b: BuildOptions, opts: OmegaOptions, I_tiles: np.ndarray, I_src: np.ndarray, offsets: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any] | None, dict[str, float]]:
-    """Cut each intermediate tile against the patch at ``offsets`` (``(K, 2)``) and compose (or smooth) the tiles.
-
-    Returns ``(tiles, source, masks, costs, smooth_info, timing)``; shared by the corner schemes (ω, patch).
-    """
-    ex, n, k = b.exemplar, b.tile_size, I_tiles.shape[0]
-    t0 = time.perf_counter()
-    O_tiles = patches_at(ex, offsets, n)
-    b.report("cutting curves", 0, k)
-    grad = patch_gradients(ex, I_src) if opts.grad_from_patches else None
-    masks, costs = kernels.omega_cuts(
-        I_tiles, O_tiles, eps=opts.eps, threads=b.threads, intermediate_grad=grad, keep_border=opts.keep_border
-    )
-    t1 = time.perf_counter()
-    b.report("cutting curves", k, k)
-    smooth_info = None
-    if opts.smooth:
-        b.report("poisson smoothing", 0, k)
-        tiles, smooth_info = smooth_tiles(I_tiles, O_tiles, masks, threads=b.threads)
-        b.report("poisson smoothing", k, k)
-    else:
-        tiles = np.where(masks[..., None], O_tiles, I_tiles).astype(np.float32)
-    source = np.where(masks[..., None], offset_source(offsets, n), I_src).astype(np.int32)
-    timing = {"cutting_s": t1 - t0, **({"smoothing_s": time.perf_counter() - t1} if opts.smooth else {})}
-    return tiles, source, masks, costs, smooth_info, timing
 
 
 def _omega_params(b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, sel: dict, smooth_info: Any) -> dict:
@@ -443,8 +406,9 @@ def build_omega(
     # each tile: its tuple's intermediate tile and the (variant+1)-th best matching patch of it
     offsets = chosen[plan.inverse, plan.variants]
     tiles, source, masks, costs, smooth_info, timing = cut_and_compose(
-        b, opts, inter[plan.inverse], inter_src[plan.inverse], offsets
-    )
+        b, inter[plan.inverse], inter_src[plan.inverse], offsets, eps=opts.eps,
+        grad_from_patches=opts.grad_from_patches, keep_border=opts.keep_border, smooth=opts.smooth,
+    )  # fmt: skip
     return finish_tileset(
         scheme="omega", definition=b.definition, exemplar=b.exemplar, tiles=tiles, source=source,
         cut_masks=masks, genes=genes_arr, tile_patches=plan.tile_patches, match_offsets=offsets,

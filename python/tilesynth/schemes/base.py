@@ -21,7 +21,15 @@ if TYPE_CHECKING:
 
     from ..tilefile import TileSet
 
-__all__ = ["LAYOUT_KINDS", "Option", "Scheme", "layout_kind", "layout_of_set", "positive_int_text"]
+__all__ = [
+    "LAYOUT_KINDS",
+    "Option",
+    "Scheme",
+    "lambda_energy_line",
+    "layout_kind",
+    "layout_of_set",
+    "positive_int_text",
+]
 
 #: The two square-grid layouts: tiles keyed by corner colours ⟨TL, BL, TR, BR⟩, or by edge colours ⟨N, E, S, W⟩.
 LAYOUT_KINDS: tuple[str, ...] = ("corner", "edge")
@@ -170,3 +178,9 @@ class Scheme:
     def build(self, exemplar: np.ndarray, **kwargs: Any) -> TileSet:
         """Build a tile set of this scheme (``kwargs`` go to :attr:`builder`)."""
         return self.builder(exemplar, **kwargs)
+
+
+def lambda_energy_line(p: dict[str, Any], E: float, what: str) -> str:
+    """``info``'s E line of the λ objective (ω, s-Wang, patch) over ``what`` (the tiles D_j is taken on)."""
+    metric = f", D in {p.get('metric')}" if p.get("metric", "color") != "color" else ""
+    return f"E             {E:.6g}  (λ={p.get('lambda')}: λ·ΣD + (1−λ)·Var D over the {what}{metric})"

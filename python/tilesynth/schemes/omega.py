@@ -5,14 +5,8 @@ from __future__ import annotations
 from typing import Any
 
 from ..omega import build_omega
-from .base import Option, Scheme
+from .base import Option, Scheme, lambda_energy_line
 from .common import GRADIENTS, LITERAL_BORDER
-
-
-def energy_line(p: dict[str, Any], E: float, what: str) -> str:
-    """``info``'s E line of the λ objective (ω, s-Wang, patch) over ``what`` (the tiles D_j is taken on)."""
-    metric = f", D in {p.get('metric')}" if p.get("metric", "color") != "color" else ""
-    return f"E             {E:.6g}  (λ={p.get('lambda')}: λ·ΣD + (1−λ)·Var D over the {what}{metric})"
 
 
 def smoothing_line(sm: dict) -> str:
@@ -40,7 +34,7 @@ def _describe(ts: Any) -> list[str]:
     return [
         match,
         *([smoothing_line(sm)] if isinstance(sm, dict) else []),
-        energy_line(p, ts.E, "intermediate tiles"),
+        lambda_energy_line(p, ts.E, "intermediate tiles"),
     ]
 
 

@@ -25,16 +25,16 @@ from typing import Any
 import numpy as np
 
 from .. import kernels
+from .._validate import finite_float
+from ..errors import ParameterError
 from ..genes import LAMBDA, energy
-from ..layouts import CornerPlan, intermediate_tiles
-from ..omega import corner_set, cut_and_compose, omega_options
+from ..layouts import CornerPlan, corner_set, intermediate_tiles
 from ..options import Progress, SeedLike, common_options
 from ..select import choose_genes
-from ..stages.compose import finish_tileset
+from ..stages.compose import cut_and_compose, finish_tileset, patches_at
 from ..tilefile import TileSet
-from .base import Scheme
+from .base import Scheme, lambda_energy_line
 from .common import GRADIENTS, LITERAL_BORDER
-from .omega import energy_line
 
 __all__ = ["SCHEME", "build_patch"]
 
@@ -75,10 +75,10 @@ def build_patch(
         exemplar, tileset=tileset, resolve_set=corner_set, tile_size=tile_size, seed=seed, threads=threads,
         progress=progress, exemplar_info=exemplar_info,
     )  # fmt: skip
-    opts = omega_options(
-        eps=eps, gradients=gradients, keep_border=keep_border, match="ssd", match_k=None, metric="color",
-        smooth=False, normalise=False,
-    )  # fmt: skip
+    eps = finite_float(eps, "eps", positive=True)
+    if gradients not in ("patch", "tile"):
+        raise ParameterError(f"gradients = {gradients!r}: must be 'patch' or 'tile'")
+    keep_border = bool(keep_border)
     plan = CornerPlan.of(b.definition)
     genes_arr, sel = choose_genes(
         genes, n=plan.n_colours, size=b.tile_size, shape=b.exemplar.shape, rng=b.rng, evaluator=None,
@@ -91,15 +91,24 @@ def build_patch(
     cols = w - n + 1
     flat = b.rng.integers(0, (h - n + 1) * cols, size=plan.tile_patches.shape[0])
     crops = np.stack([flat // cols, flat % cols], axis=1).astype(np.int64)
-    diff = I_tiles.astype(np.float64) - np.stack([b.exemplar[r : r + n, c : c + n] for r, c in crops])
+    diff = I_tiles.astype(np.float64) - patches_at(b.exemplar, crops, n)
     D = (diff * diff).sum(axis=(1, 2, 3))
-    tiles, source, masks, costs, _, timing = cut_and_compose(b, opts, I_tiles, I_src, crops)
+    tiles, source, masks, costs, _, timing = cut_and_compose(
+        b,
+        I_tiles,
+        I_src,
+        crops,
+        eps=eps,
+        grad_from_patches=gradients == "patch",
+        keep_border=keep_border,
+        smooth=False,
+    )
     params = {
         "set": b.definition.name,
         "tile_size": n,
-        "eps": float(opts.eps),
-        "gradients": opts.gradients,
-        "keep_border": opts.keep_border,
+        "eps": float(eps),
+        "gradients": gradients,
+        "keep_border": keep_border,
         "lambda": LAMBDA,
         "crops": "random",
         "seed": b.seed,
@@ -116,7 +125,7 @@ def build_patch(
 def _describe(ts: Any) -> list[str]:
     return [
         "matching      none: one random exemplar crop per tile (the patch baseline)",
-        energy_line(ts.params, ts.E, "tiles and their random crops"),
+        lambda_energy_line(ts.params, ts.E, "tiles and their random crops"),
     ]
 
 

@@ -5,13 +5,12 @@ from __future__ import annotations
 from typing import Any
 
 from ..wang import build_swang
-from .base import Option, Scheme
+from .base import Option, Scheme, lambda_energy_line
 from .common import GRADIENTS
-from .omega import energy_line
 
 
 def _describe(ts: Any) -> list[str]:
-    return [energy_line(ts.params, ts.E, "initial tiles")]
+    return [lambda_energy_line(ts.params, ts.E, "initial tiles")]
 
 
 SCHEME = Scheme(

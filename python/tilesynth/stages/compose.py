@@ -8,13 +8,25 @@ digest and the build's timing. :func:`finish_tileset` is that ending, written on
 from __future__ import annotations
 
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .. import kernels
 from ..tilefile import TileSet, exemplar_digest
+from .smoothing import smooth_tiles
 
-__all__ = ["exemplar_record", "finish_tileset", "offset_source", "patch_gradients", "patches_at"]
+if TYPE_CHECKING:
+    from ..options import BuildOptions
+
+__all__ = [
+    "cut_and_compose",
+    "exemplar_record",
+    "finish_tileset",
+    "offset_source",
+    "patch_gradients",
+    "patches_at",
+]
 
 
 def patch_gradients(exemplar: np.ndarray, source: np.ndarray) -> np.ndarray:
@@ -97,3 +109,41 @@ def finish_tileset(
         labels=None if labels is None else np.ascontiguousarray(labels, dtype=np.uint8),
         cut_stats=None if cut_stats is None else np.ascontiguousarray(cut_stats, dtype=np.float64),
     )
+
+
+def cut_and_compose(
+    b: BuildOptions,
+    I_tiles: np.ndarray,
+    I_src: np.ndarray,
+    offsets: np.ndarray,
+    *,
+    eps: float,
+    grad_from_patches: bool,
+    keep_border: bool,
+    smooth: bool,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any] | None, dict[str, float]]:
+    """The ω cut of each intermediate tile against the patch at ``offsets`` (``(K, 2)``), then the composed (or
+    Poisson-smoothed) tiles and their provenance; the corner schemes' shared cut stage (ω, patch).
+
+    Returns ``(tiles, source, masks, costs, smooth_info, timing)``.
+    """
+    ex, n, k = b.exemplar, b.tile_size, I_tiles.shape[0]
+    t0 = time.perf_counter()
+    O_tiles = patches_at(ex, offsets, n)
+    b.report("cutting curves", 0, k)
+    grad = patch_gradients(ex, I_src) if grad_from_patches else None
+    masks, costs = kernels.omega_cuts(
+        I_tiles, O_tiles, eps=eps, threads=b.threads, intermediate_grad=grad, keep_border=keep_border
+    )
+    t1 = time.perf_counter()
+    b.report("cutting curves", k, k)
+    smooth_info = None
+    if smooth:
+        b.report("poisson smoothing", 0, k)
+        tiles, smooth_info = smooth_tiles(I_tiles, O_tiles, masks, threads=b.threads)
+        b.report("poisson smoothing", k, k)
+    else:
+        tiles = np.where(masks[..., None], O_tiles, I_tiles).astype(np.float32)
+    source = np.where(masks[..., None], offset_source(offsets, n), I_src).astype(np.int32)
+    timing = {"cutting_s": t1 - t0, **({"smoothing_s": time.perf_counter() - t1} if smooth else {})}
+    return tiles, source, masks, costs, smooth_info, timing
