@@ -301,7 +301,7 @@ def _omega_params(b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, sel: di
     }
 
 
-# Length: 115 lines, of which 46 are the docstring of its 22 options; the body (69) is the stage sequence.
+# Length: 116 lines, of which 46 are the docstring of its 22 options; the body (70) is the stage sequence.
 def build_omega(
     exemplar: np.ndarray,
     *,

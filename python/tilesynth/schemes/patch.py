@@ -39,6 +39,7 @@ from .common import GRADIENTS, LITERAL_BORDER
 __all__ = ["SCHEME", "build_patch"]
 
 
+# Length: 81 lines, of which 12 are the docstring and 17 the signature (one option a line); the body is 52.
 def build_patch(
     exemplar: np.ndarray,
     *,
