@@ -2,7 +2,7 @@
 PYTHON ?= python3
 .DEFAULT_GOAL := all
 
-.PHONY: all install test test-rust test-python lint bench bench-compare clean
+.PHONY: all install test test-rust test-python lint lint-python stubtest bench bench-compare clean
 
 all: lint test
 
@@ -20,10 +20,20 @@ test-rust:
 test-python: install
 	$(PYTHON) -m pytest -q
 
-lint:
+## Rust: fmt and clippy (with and without the Python bindings); Python: ruff and the stub check.
+lint: lint-python stubtest
 	cargo fmt --check
 	cargo clippy --all-targets -- -D warnings
 	cargo clippy --all-targets --features python -- -D warnings
+
+## ruff (configured in pyproject.toml) over the package, the tests and the benches.
+lint-python:
+	$(PYTHON) -m ruff check python tests benches
+	$(PYTHON) -m ruff format --check python tests benches
+
+## python/tilesynth/_core.pyi against the compiled module (mypy's stubtest; needs the installed build).
+stubtest: install
+	$(PYTHON) -m mypy.stubtest tilesynth._core
 
 ## Criterion benches (size sweeps), then the side-by-side comparison with the Python baselines.
 bench:

@@ -307,6 +307,8 @@ SCHEMES: list[Scheme] = [
                                                                  seed=seed, threads=th, select="ga")),
     Scheme("s-Wang-8", lambda ex, n, seed, th: ts.build_swang(ex, tileset="wang8", tile_size=n, seed=seed,
                                                               threads=th)),
+    Scheme("patch-16 (random crops)", lambda ex, n, seed, th: ts.build(ex, scheme="patch", tileset="16a",
+                                                                       tile_size=n, seed=seed, threads=th)),
 ]
 """The schemes compared; a new one is one entry (``build`` returns a TileSet that ``tilesynth.synthesize`` lays)."""
 

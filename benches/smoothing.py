@@ -41,8 +41,8 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for name in args.textures.split(","):
         ex, _ = ts.load_image(Path(args.dir) / f"{name}.png")
-        plain = ts.build_omega(ex, args.set, seed=args.seed)
-        smooth = ts.build_omega(ex, args.set, seed=args.seed, smooth=True)
+        plain = ts.build_omega(ex, tileset=args.set, seed=args.seed)
+        smooth = ts.build_omega(ex, tileset=args.set, seed=args.seed, smooth=True)
         info = smooth.params["smooth"]
         a, b = cut_seam_score(plain)["score"], cut_seam_score(smooth)["score"]
         rows.append((name, smooth.tile_size, smooth.n_tiles, a, b, info["iterations_max"], info["residual_max"],

@@ -7,7 +7,8 @@
 //! - [`ssd`]: exhaustive sum of squared differences of a template over every translation of an image,
 //!   by FFT correlation against a cached image spectrum, with exact re-ranking of the best matches.
 //! - [`maxflow`]: a Boykov–Kolmogorov max-flow / min-cut solver and a 4-connected pixel-grid front end.
-//! - [`omega`]: the ω-tile cutting curve (Kwatra edge weights, circle and cross terminals) and composition.
+//! - [`seams`]: Kwatra's gradient-normalised seam weights, shared by every cut.
+//! - [`omega`]: the ω-tile cutting curve (circle and cross terminals) and composition.
 //! - [`poisson`]: Poisson smoothing (guided interpolation) of a region, by multigrid-preconditioned
 //!   conjugate gradients to a stated relative residual.
 //! - [`synth`]: copying tiles into a large output by an index map.
@@ -34,6 +35,7 @@ pub mod parallel;
 pub mod png;
 pub mod poisson;
 pub mod population;
+pub mod seams;
 pub mod ssd;
 pub mod synth;
 pub mod wang;

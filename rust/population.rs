@@ -51,8 +51,12 @@
 //! fixed order. Outputs are bit-identical at any thread count and any cache size.
 
 use crate::error::{fmt_shape, Result, TilesynthError};
-use crate::ssd::{ssd_map_brute, SsdIndex};
-use ndarray::{s, Array2, Array3, ArrayView2, ArrayView3};
+#[cfg(any(test, feature = "oracles"))]
+use crate::ssd::ssd_map_brute;
+use crate::ssd::SsdIndex;
+#[cfg(any(test, feature = "oracles"))]
+use ndarray::Array3;
+use ndarray::{s, Array2, ArrayView2, ArrayView3};
 use rayon::prelude::*;
 use std::collections::{BTreeMap, HashMap};
 use std::sync::{Arc, Mutex};
@@ -758,6 +762,7 @@ impl PopulationEvaluator {
 /// over every translation ([`crate::ssd::ssd_map_brute`]). Same arguments, validation and results as
 /// [`PopulationEvaluator::new`] followed by [`PopulationEvaluator::evaluate`].
 #[doc(hidden)]
+#[cfg(any(test, feature = "oracles"))]
 pub fn evaluate_brute(
     exemplar: ArrayView3<f32>,
     tile_size: usize,

@@ -943,6 +943,7 @@ fn check_image_template(
 
 /// Slow obvious oracle (`f64` loops over every translation and template pixel), public so tests and
 /// benches can use it. Same shape rules and errors as [`SsdIndex::ssd_map`].
+#[cfg(any(test, feature = "oracles"))]
 pub fn ssd_map_brute(
     image: ArrayView3<f32>,
     template: ArrayView3<f32>,

@@ -50,7 +50,7 @@
 //! ```
 //!
 //! The graph-cut option replaces the path by a minimum cut of the quadrant (plus margin) with Kwatra
-//! weights between A and B ([`crate::omega::kwatra_weights`], [`crate::maxflow::grid_mincut`]): left column of
+//! weights between A and B ([`crate::seams::kwatra_weights`], [`crate::maxflow::grid_mincut`]): left column of
 //! the quadrant tied to A, bottom row to B (with pinned corners also the top row to A and the right column to
 //! B), the band free; the seam pixels (A pixels with a B neighbour) play the role of the path.
 //!
@@ -65,7 +65,7 @@
 
 use crate::error::{fmt_shape, Result, TilesynthError};
 use crate::maxflow::grid_mincut;
-use crate::omega::kwatra_weights;
+use crate::seams::kwatra_weights;
 use ndarray::{Array2, Array3, ArrayView2, ArrayView3, ArrayView4, Axis};
 use rayon::prelude::*;
 

@@ -557,10 +557,46 @@ def build_swang(d: st.DrawFn):
 
 
 @st.composite
+def build_patch(d: st.DrawFn):
+    """The patch baseline: valid calls (any SPEC 7 seed) or one careless argument; any select but random is refused."""
+    broken = d(st.sampled_from(["none"] * 4 + ["exemplar", "tileset", "tile_size", "seed", "threads", "gradients",
+                                               "eps", "select", "genes"]))  # fmt: skip
+    ex = d(exemplars()) if broken == "exemplar" else good_exemplar(d)
+    seed = d(st.integers(0, 2**64))
+    kw: dict = {
+        "tileset": d(st.sampled_from(["4", "8", "16a", "16bx2", "n1"])),
+        "tile_size": d(st.sampled_from([None, 4, 6, 8])),
+        "seed": d(st.sampled_from([seed, np.random.SeedSequence(seed), None])),
+        "threads": d(st.sampled_from([None, 1, 2])),
+        "gradients": d(st.sampled_from(["patch", "tile"])),
+        "keep_border": d(st.booleans()),
+    }
+    if broken == "tileset":
+        kw["tileset"] = d(st.sampled_from(["17", "wang8", "", 8, None]) | st.text(max_size=4))
+    elif broken == "tile_size":
+        kw["tile_size"] = d(sizes(-2, 26))
+    elif broken == "seed":
+        kw["seed"] = d(st.sampled_from([-1, 1.5, "1", True, np.random.PCG64(1)]))
+    elif broken == "threads":
+        kw["threads"] = d(threads())
+    elif broken == "gradients":
+        kw["gradients"] = d(st.sampled_from(["x", "", None, 1]))
+    elif broken == "eps":
+        kw["eps"] = d(floats())
+    kw.update(select_kwargs(d, broken == "select"))
+    if broken == "genes":
+        for key in ("select", "generations", "population"):
+            kw.pop(key, None)
+        kw["genes"] = d(arrays(2, I64, (None, 2), max_side=6, lo=-1, hi=24))
+    return ts.build_patch, (ex,), kw, ()
+
+
+@st.composite
 def build(d: st.DrawFn):
-    """The dispatcher: a call of one of the three builders' strategies, through ``build(scheme=...)``."""
-    scheme = d(st.sampled_from(["omega", "wang", "swang"]))
-    _, args, kw, mutable = d({"omega": build_omega, "wang": build_wang, "swang": build_swang}[scheme]())
+    """The dispatcher: a call of one of the builders' strategies, through ``build(scheme=...)``."""
+    strategies = {"omega": build_omega, "wang": build_wang, "swang": build_swang, "patch": build_patch}
+    scheme = d(st.sampled_from(sorted(strategies)))
+    _, args, kw, mutable = d(strategies[scheme]())
     if one_in(d, 5):  # an unknown scheme, or the kwargs of another scheme
         scheme = d(st.sampled_from(["Omega", "", None, 1, "wang", "swang", "omega"]))
     return ts.build, args, {"scheme": scheme, **kw}, mutable
@@ -930,6 +966,7 @@ API = {
     "get_wang_tileset": get_wang_tileset,
     "build_wang": build_wang,
     "build_swang": build_swang,
+    "build_patch": build_patch,
     "build": build,
     "wang_tiles": wang_tiles,
     "WangEvaluator": wang_evaluator,

@@ -364,6 +364,6 @@ def test_cut_seam_score_oracle_and_smoothing(small_exemplar):
     assert got["cut_pairs"] == 4 and got["pairs"] == 24 and got["score"] == pytest.approx(6.0)
     assert cut_seam_score(types.SimpleNamespace(tiles=tiles, cut_masks=np.zeros_like(masks))) is None
     # smoothing lowers it on a real set
-    plain = ts.build_omega(small_exemplar, "16a", tile_size=48, seed=2)
-    smooth = ts.build_omega(small_exemplar, "16a", tile_size=48, seed=2, smooth=True)
+    plain = ts.build_omega(small_exemplar, tileset="16a", tile_size=48, seed=2)
+    smooth = ts.build_omega(small_exemplar, tileset="16a", tile_size=48, seed=2, smooth=True)
     assert cut_seam_score(smooth)["score"] < cut_seam_score(plain)["score"]

@@ -15,8 +15,8 @@ from tilesynth.omega import smooth_tiles
 
 @pytest.fixture(scope="module")
 def pair(small_exemplar):
-    plain = ts.build_omega(small_exemplar, "16a", tile_size=32, seed=11)
-    smoothed = ts.build_omega(small_exemplar, "16a", tile_size=32, seed=11, smooth=True)
+    plain = ts.build_omega(small_exemplar, tileset="16a", tile_size=32, seed=11)
+    smoothed = ts.build_omega(small_exemplar, tileset="16a", tile_size=32, seed=11, smooth=True)
     return plain, smoothed
 
 
@@ -58,8 +58,8 @@ def test_region_is_the_scipy_solution(pair, small_exemplar):
 
 
 def test_literal_border_keeps_every_border_pixel(small_exemplar):
-    plain = ts.build_omega(small_exemplar, "16a", tile_size=32, seed=5, keep_border=False)
-    smoothed = ts.build_omega(small_exemplar, "16a", tile_size=32, seed=5, keep_border=False, smooth=True)
+    plain = ts.build_omega(small_exemplar, tileset="16a", tile_size=32, seed=5, keep_border=False)
+    smoothed = ts.build_omega(small_exemplar, tileset="16a", tile_size=32, seed=5, keep_border=False, smooth=True)
     ring = np.ones((32, 32), bool)
     ring[1:-1, 1:-1] = False
     assert (plain.cut_masks[:, ring]).any(), "the literal cut should reach the border for this test to mean much"
@@ -102,7 +102,7 @@ def test_smooth_round_trips_and_rejects_non_bools(pair, tmp_path, small_exemplar
     assert back.params["smooth"] == smoothed.params["smooth"]
     np.testing.assert_array_equal(back.tiles, smoothed.tiles)
     with pytest.raises(ts.ParameterError, match="smooth = 'yes'"):
-        ts.build_omega(small_exemplar, "4", tile_size=32, seed=1, smooth="yes")
+        ts.build_omega(small_exemplar, tileset="4", tile_size=32, seed=1, smooth="yes")
 
 
 def test_cli_build_smooth(tmp_path, lettuce_path, capsys):

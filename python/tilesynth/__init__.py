@@ -21,13 +21,7 @@ Kernels (Rust, GIL released, thread-count independent): :func:`patch_ssd`, :func
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("tilesynth")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    from ._core import __version__
-
+from ._version import __version__
 from .errors import InternalError, ParameterError, ShapeError, TileSetFormatError, TilesynthError
 from .io import load_image, load_raster, save_image
 from .kernels import (
@@ -51,6 +45,7 @@ from .omega import build_omega, energy
 from .render import contact_sheet
 from .report import write_report
 from .schemes import SCHEMES, build
+from .schemes.patch import build_patch
 from .synthesis import source_map, synthesize, synthesize_map
 from .tilefile import TileSet
 from .tilesets import TILESET_NAMES, get_tileset
@@ -118,6 +113,7 @@ __all__ = [
     "periodic_copies",
     "detail_repetition",
     "histogram_distance",
+    "build_patch",
 ]
 
 from .lookup import LookupScheme, ts_hash  # noqa: E402 - issue 12: the hashed lookup

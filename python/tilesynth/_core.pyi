@@ -1,12 +1,51 @@
 """Type stubs of the compiled extension ``tilesynth._core`` (see rust/py/mod.rs)."""
 
+from typing import final
+
 import numpy as np
 import numpy.typing as npt
+from typing_extensions import Self
+
+__all__ = [
+    "__version__",
+    "DEFAULT_EPS",
+    "DEFAULT_POISSON_TOL",
+    "DEFAULT_LAMBDA",
+    "DEFAULT_OMEGA",
+    "DEFAULT_CACHE_BYTES",
+    "MAX_THREADS",
+    "THREADS_ENV",
+    "WANG_SIDES",
+    "SsdIndex",
+    "PopulationEvaluator",
+    "WangEvaluator",
+    "grid_mincut",
+    "kwatra_weights",
+    "omega_cuts",
+    "poisson_smooth",
+    "tile_copy",
+    "wang_tiles",
+    "swang_cuts",
+    "resolve_threads",
+    "png_unfilter",
+    "edge_weight_sums",
+    "weighted_ssd_map",
+    "_raise_panic",
+]
 
 __version__: str
+DEFAULT_EPS: float
+DEFAULT_POISSON_TOL: float
+DEFAULT_LAMBDA: float
+DEFAULT_OMEGA: float
+DEFAULT_CACHE_BYTES: int
+MAX_THREADS: int
+THREADS_ENV: str
+WANG_SIDES: tuple[int, int, int, int]
 
+@final
 class SsdIndex:
-    def __init__(self, image: npt.NDArray[np.float32], threads: int | None = None) -> None: ...
+    def __new__(cls, image: npt.NDArray[np.float32], threads: int | None = None) -> Self: ...
     @property
     def shape(self) -> tuple[int, int, int]: ...
     def ssd_maps(
@@ -24,17 +63,18 @@ class SsdIndex:
         threads: int | None = None,
     ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]: ...
 
+@final
 class PopulationEvaluator:
-    def __init__(
-        self,
+    def __new__(
+        cls,
         exemplar: npt.NDArray[np.float32],
         tile_size: int,
         tile_patches: npt.NDArray[np.int64],
         n_patches: int,
-        lam: float = 0.8,
+        lam: float = ...,
         normalise: bool = False,
-        cache_bytes: int = 268435456,
-    ) -> None: ...
+        cache_bytes: int = ...,
+    ) -> Self: ...
     @property
     def dims(self) -> tuple[int, int, int]: ...
     def evaluate(
@@ -55,13 +95,13 @@ def kwatra_weights(
     a: npt.NDArray[np.float32],
     b: npt.NDArray[np.float32],
     region: npt.NDArray[np.bool_] | None = None,
-    eps: float = 1e-6,
+    eps: float = ...,
     a_grad: npt.NDArray[np.float64] | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 def omega_cuts(
     intermediate: npt.NDArray[np.float32],
     matching: npt.NDArray[np.float32],
-    eps: float = 1e-6,
+    eps: float = ...,
     threads: int | None = None,
     intermediate_grad: npt.NDArray[np.float64] | None = None,
     keep_border: bool = True,
@@ -70,7 +110,7 @@ def poisson_smooth(
     dst: npt.NDArray[np.float32],
     src: npt.NDArray[np.float32],
     region: npt.NDArray[np.bool_],
-    tol: float = 1e-6,
+    tol: float = ...,
     threads: int | None = None,
 ) -> tuple[
     npt.NDArray[np.float32], npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.int64]
@@ -89,7 +129,7 @@ def edge_weight_sums(
     image: npt.NDArray[np.float32],
     wx_mask: npt.NDArray[np.bool_],
     wy_mask: npt.NDArray[np.bool_],
-    eps: float = 1e-6,
+    eps: float = ...,
     template_grad: npt.NDArray[np.float64] | None = None,
     threads: int | None = None,
 ) -> npt.NDArray[np.float64]: ...
@@ -103,9 +143,10 @@ def weighted_ssd_map(
     threads: int | None = None,
 ) -> npt.NDArray[np.float64]: ...
 
+@final
 class WangEvaluator:
-    def __init__(
-        self,
+    def __new__(
+        cls,
         exemplar: npt.NDArray[np.float32],
         tile_samples: npt.NDArray[np.int64],
         n_samples: int,
@@ -114,9 +155,9 @@ class WangEvaluator:
         corners: str = "free",
         samples: str = "diamond",
         cut: str = "dp",
-        omega: float = 0.8,
-        eps: float = 1e-6,
-    ) -> None: ...
+        omega: float = ...,
+        eps: float = ...,
+    ) -> Self: ...
     @property
     def dims(self) -> tuple[int, int, int]: ...
     def evaluate(
@@ -132,14 +173,14 @@ def wang_tiles(
     corners: str = "free",
     samples: str = "diamond",
     cut: str = "dp",
-    omega: float = 0.8,
-    eps: float = 1e-6,
+    omega: float = ...,
+    eps: float = ...,
     threads: int | None = None,
 ) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.float64]]: ...
 def swang_cuts(
     initial: npt.NDArray[np.float32],
     supplementary: npt.NDArray[np.float32],
-    eps: float = 1e-6,
+    eps: float = ...,
     threads: int | None = None,
     initial_grad: npt.NDArray[np.float64] | None = None,
 ) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]: ...

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from . import _core
 from .errors import ParameterError, ShapeError
 
 
@@ -133,7 +134,7 @@ def as_image_stack(images: Any, name: str = "templates") -> tuple[np.ndarray, bo
 
 
 def threads_arg(threads: Any) -> int | None:
-    """``None`` or a thread count in [1, MAX_THREADS] (``tilesynth._core`` caps it at 1024)."""
+    """``None`` or a thread count in [1, MAX_THREADS] (the core's cap, 1024)."""
     if threads is None:
         return None
     n = positive_int(threads, "threads")
@@ -142,8 +143,8 @@ def threads_arg(threads: Any) -> int | None:
     return n
 
 
-MAX_THREADS = 1024
-"""The largest thread count the Rust core accepts (``rust/parallel.rs``, ``MAX_THREADS``)."""
+MAX_THREADS: int = _core.MAX_THREADS
+"""The largest thread count the Rust core accepts (``rust/parallel.rs``, ``MAX_THREADS``, exported by the core)."""
 
 
 def nonneg_int(value: Any, name: str) -> int:

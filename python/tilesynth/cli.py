@@ -1,6 +1,6 @@
 """The ``tilesynth`` command line.
 
-Subcommands: ``build`` (exemplar -> tile set of ``--scheme omega | wang | swang``), ``synth`` (tile set -> texture of any size), ``info`` (what a tile
+Subcommands: ``build`` (exemplar -> tile set of any registered ``--scheme``, :mod:`tilesynth.schemes`), ``synth`` (tile set -> texture of any size), ``info`` (what a tile
 set holds), ``sheet`` (contact sheet of the tiles), ``demo`` (all of it on the bundled exemplar).
 
 Exit status: 0 success; 2 usage or input error (one line on stderr naming the problem, no traceback, no partial
@@ -24,6 +24,8 @@ import numpy as np
 
 from .errors import InternalError, ParameterError, TilesynthError
 from .io import add_png_compression_argument, set_png_compression
+from .schemes import REGISTRY, SCHEMES, Option, Scheme, get_scheme
+from .schemes.base import layout_kind
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
@@ -102,7 +104,7 @@ SET_HELP = ("tile-set definition: 4, 8, 16a, 16b, 32 (002), B (the basic 8-set o
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from . import __version__
+    from ._version import __version__
 
     p = _Parser(prog="tilesynth", description="Tile sets from one example texture, and seamless textures of any size.")
     p.add_argument("--version", action="version", version=f"tilesynth {__version__}")
@@ -112,20 +114,13 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("build", help="build a tile set from an exemplar image")
     b.add_argument("input", help="exemplar image (PNG, JPEG, ...)")
     b.add_argument("-o", "--output", required=True, help="tile-set file to write (.tiles)")
-    b.add_argument("--scheme", default="omega", choices=("omega", "wang", "swang"),
-                   help="omega (ω-tiles, 002; default), wang (Cohen et al.'s Wang tiles with 001's match) or swang "
-                   "(strict Wang tiles, 004)")
+    b.add_argument("--scheme", default="omega", choices=SCHEMES,
+                   help="; ".join(f"{sc.name}: {sc.summary}" for sc in REGISTRY))
     b.add_argument("--set", default=None, type=_set_name, metavar="SET", help=SET_HELP)
     b.add_argument("--tile-size", type=_pos, default=None, help="tile size N in pixels, even (default: half the "
                    "exemplar's shorter side, at most 256)")
     b.add_argument("--seed", type=_nonneg, default=None, help="random seed (default: a fresh one, recorded)")
     b.add_argument("--threads", type=_pos, default=None, help="worker threads (default: TILESYNTH_NUM_THREADS or all cores)")
-    b.add_argument("--gradients", default="patch", choices=("patch", "tile"),
-                   help="gradients of the intermediate tile in the seam weight: of the sample patches (default) or "
-                   "of the assembled tile (the literal formula; cuts tend to hug the central cross)")
-    b.add_argument("--literal-border", action="store_true",
-                   help="002's literal cut: let the matching patch reach the tile border near the side midpoints "
-                   "(default: the border ring keeps the intermediate tile, so neighbouring tiles stay continuous)")
     b.add_argument("--select", type=_method, default="random", metavar="METHOD",
                    help="how to choose the sample patches: random (default), best-of (best of 100 random sets), "
                    "ga (000's genetic algorithm) or ais (003's immune system), all minimising E")
@@ -134,43 +129,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--generations", type=_pos, default=None, help="N_g of ga/ais (default 50)")
     b.add_argument("--population", type=_pos, default=None,
                    help="population of ga/ais (default 40), count of best-of (default 100)")
-    b.add_argument("--normalise", action="store_true",
-                   help="optimise 003's normalised objective (SSD divided by the tile's pixel count)")
-    b.add_argument("--match", default="ssd", choices=("ssd", "circle", "midpoints", "best-cut"),
-                   help="how each tile's matching patch is chosen: ssd (smallest SSD, default), circle / midpoints "
-                   "(002's heuristics: smallest seam weights around the circle / near the side midpoints), "
-                   "best-cut (run the real cut for the --match-k nearest candidates, keep the cheapest)")
-    b.add_argument("--match-k", default=None, metavar="K|all",
-                   help="candidates of --match best-cut: a positive integer (default 16) or 'all'")
-    b.add_argument("--metric", default="color", choices=("color", "eq2", "eq3"),
-                   help="distance for the matching search and the objective E: color (SSD, default), eq3 (SSD + "
-                   "10 x squared gradient difference, 000 eq. 3), eq2 (SSD weighted by 1/(10 (|grad T| + "
-                   "|grad I|)), 000 eq. 2, exact but slow: direct sums, not with --select)")
-    b.add_argument("--smooth", action="store_true",
-                   help="Poisson-smooth the region inside each cutting curve (002 section 3.3): the matching patch's "
-                   "gradients, blended into the tile from the curve; exact to a 1e-6 residual, tile borders kept")
-    b.add_argument("--cut-region", default=None, choices=("circle", "free"),
-                   help="omega: where the cut may run: the inscribed circle (002; default for the papers' sets) or "
-                   "free but for a border ring and corner discs, so most of each tile is its own matching patch "
-                   "(less repetition; default for complete sets)")
-    b.add_argument("--cut-bias", type=float, default=None,
-                   help="omega, --cut-region free: area reward that moves the cut outwards (default 0.02)")
-    b.add_argument("--diversity", type=_nonneg, default=None, metavar="M",
-                   help="omega: assign matching patches so that each exemplar region is used at most M times "
-                   "(less repetition); 0: each tile's best match. Default 1 for complete sets (c4, c3x2, ...), "
-                   "0 for the papers' sets")
-    b.add_argument("--cut", default="dp", choices=("dp", "graph"),
-                   help="wang: minimum-error boundary cuts by dynamic programming (default) or graph cuts")
-    b.add_argument("--overlap", type=_pos, default=None,
-                   help="wang: width of the overlap band of two diamonds, even (default N/4)")
-    b.add_argument("--corners", default=None, choices=("free", "pinned"),
-                   help="wang: free (Cohen: the cut may miss the corner; default for diamonds) or pinned (the cut "
-                   "ends at the corner, edges match exactly)")
-    b.add_argument("--samples", default="diamond", choices=("diamond", "square"),
-                   help="wang: diamond samples (Cohen, default) or N x N square samples (Burke, 002 section 2)")
-    b.add_argument("--supplementary", default="ssd", choices=("ssd", "cut"),
-                   help="swang: the supplementary patch with the smallest SSD to the initial tile (default), or the "
-                   "one with the cheapest closed cut among the 8 best SSD candidates")
+    _add_scheme_options(b)
     b.add_argument("--sheet", default=None, help="also write a contact sheet of the tiles to this PNG")
     b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     add_png_compression_argument(b)
@@ -313,28 +272,47 @@ def _report(args: argparse.Namespace) -> None:
 
 
 # ------------------------------------------------------------------------------------------------ commands
-def _build(input_path: str, output: str, set_name: str, tile_size: int | None, seed: int | None,
-           threads: int | None, quiet: bool, sheet: str | None, gradients: str = "patch",
-           literal_border: bool = False, select: str = "random", polish: bool = False,
+def _add_scheme_options(parser: argparse.ArgumentParser) -> None:
+    """One flag per option of the registered schemes (a flag shared by several schemes is added once)."""
+    seen: dict[str, tuple[Option, Scheme]] = {}
+    users: dict[str, list[str]] = {}
+    for sc in REGISTRY:
+        for opt in sc.options:
+            if opt.flag in seen and not opt.same_flag(seen[opt.flag][0]):
+                raise RuntimeError(f"{opt.flag}: schemes {seen[opt.flag][1].name} and {sc.name} disagree on it")
+            seen.setdefault(opt.flag, (opt, sc))
+            users.setdefault(opt.flag, []).append(sc.name)
+    for flag, (opt, sc) in seen.items():
+        opt.add_to(parser, sc.default(opt), users[flag])
+
+
+def _scheme_kwargs(args: argparse.Namespace, scheme: Scheme) -> dict:
+    """The builder's keywords for ``scheme`` from the parsed flags; a flag given for a scheme that does not
+    declare it is refused (one line, exit 2)."""
+    mine = {opt.flag for opt in scheme.options}
+    for sc in REGISTRY:
+        for opt in sc.options:
+            if opt.flag not in mine and opt.given(getattr(args, opt.dest), sc.default(opt)):
+                users = [u.name for u in REGISTRY if any(o.flag == opt.flag for o in u.options)]
+                raise ParameterError(
+                    f"{opt.flag}: not used with --scheme {scheme.name} (only with {' or '.join(users)})"
+                )
+    return {opt.name: opt.to_builder(getattr(args, opt.dest)) for opt in scheme.options}
+
+
+def _build(input_path: str, output: str, *, scheme: str = "omega", set_name: str | None = None,
+           tile_size: int | None = None, seed: int | None = None, threads: int | None = None, quiet: bool = False,
+           sheet: str | None = None, select: str = "random", polish: bool = False,
            generations: int | None = None, population: int | None = None,
-           normalise: bool = False, match: str = "ssd", match_k: str | None = None,
-           metric: str = "color", scheme: str = "omega", cut: str = "dp", overlap: int | None = None,
-           corners: str | None = None, samples: str = "diamond",
-           supplementary: str = "ssd", smooth: bool = False, levers: dict | None = None) -> "TileSet":  # noqa: F821
+           options: dict | None = None) -> "TileSet":  # noqa: F821
+    """``tilesynth build``: ``options`` are the scheme's own builder keywords (:func:`_scheme_kwargs`)."""
     from .io import load_image
     from .progress import Progress
-    from .schemes import DEFAULT_SETS, build
-    from .wangsets import is_wang_set_name
 
+    sc = get_scheme(scheme)
     prog = Progress(quiet)
-    set_name = set_name or DEFAULT_SETS[scheme]
-    if is_wang_set_name(set_name) != (scheme != "omega"):
-        want = "a corner set (4, 8, 16a, ...)" if scheme == "omega" else "an edge-coloured set (wang8, wang18)"
-        raise ParameterError(f"--set = {set_name!r}: --scheme {scheme} needs {want}")
-    _scheme_options(scheme, gradients=gradients != "patch", literal_border=literal_border, normalise=normalise,
-                    cut=cut != "dp", overlap=overlap is not None, corners=corners is not None,
-                    samples=samples != "diamond", supplementary=supplementary != "ssd", match=match != "ssd",
-                    match_k=match_k is not None, metric=metric != "color", smooth=smooth)
+    set_name = set_name or sc.default_set
+    sc.check_set(set_name)
     image, bits = load_image(input_path)
     _check_output_dir(output)
     if sheet:
@@ -343,68 +321,23 @@ def _build(input_path: str, output: str, set_name: str, tile_size: int | None, s
         raise ParameterError(f"--generations = {generations}: only used with --select ga or ais")
     if select == "random" and population is not None:
         raise ParameterError(f"--population = {population}: not used with --select random")
-    common: dict = dict(
-        tileset=set_name, tile_size=tile_size, seed=seed, threads=threads, progress=prog,
-        exemplar_info={"file": os.path.basename(input_path), "bits": bits},
-        select=select, polish=polish, generations=generations, population=population,
+    ts = sc.build(
+        image, tileset=set_name, tile_size=tile_size, seed=seed, threads=threads, progress=prog,
+        exemplar_info={"file": os.path.basename(input_path), "bits": bits}, select=select, polish=polish,
+        generations=generations, population=population, **(options or {}),
     )
-    if scheme == "omega":
-        extra: dict = dict(gradients=gradients, keep_border=not literal_border, normalise=normalise, match=match,
-                           match_k=_match_k(match_k), metric=metric, smooth=smooth,
-                           **{k: v for k, v in (levers or {}).items() if v is not None})  # issue 12
-    elif levers and any(v is not None for v in levers.values()):
-        raise ParameterError("--cut-region, --cut-bias, --diversity: only with --scheme omega")
-    elif scheme == "wang":
-        extra = dict(cut=cut, overlap=overlap, corners=corners, samples=samples)
-    else:
-        extra = dict(gradients=gradients, supplementary=supplementary)
-    ts = build(image, scheme=scheme, **common, **extra)
     ts.save(output)
     sel = ts.params.get("selection", {})
     how = sel.get("method", "random") + (" + polish" if sel.get("params", {}).get("polish") else "")
     how += ", Poisson-smoothed" if ts.params.get("smooth") else ""
-    kind = {"omega": "ω-tiles", "wang": "Wang tiles", "swang": "s-Wang tiles"}[scheme]
     prog.message(
-        f"wrote {output}: {ts.n_tiles} {kind} of {ts.tile_size}x{ts.tile_size} (set {set_name}, {how}, seed "
+        f"wrote {output}: {ts.n_tiles} {sc.title} of {ts.tile_size}x{ts.tile_size} (set {set_name}, {how}, seed "
         f"{ts.params['seed']}), E = {ts.E:.6g}, {ts.timing['total_s']:.2f} s"
     )
     if sheet:
         _write_sheet(ts, sheet, True)
         prog.message(f"wrote {sheet}: contact sheet")
     return ts
-
-
-def _match_k(text: str | None) -> int | str | None:
-    if text is None or text.strip().lower() == "all":
-        return None if text is None else "all"
-    try:
-        return int(text)
-    except ValueError:
-        raise ParameterError(f"--match-k = {text!r}: expected a positive integer or 'all'") from None
-
-
-_SCHEME_OPTIONS = {
-    "gradients": ("--gradients", ("omega", "swang")),
-    "literal_border": ("--literal-border", ("omega",)),
-    "normalise": ("--normalise", ("omega",)),
-    "match": ("--match", ("omega",)),
-    "match_k": ("--match-k", ("omega",)),
-    "metric": ("--metric", ("omega",)),
-    "smooth": ("--smooth", ("omega",)),
-    "cut": ("--cut", ("wang",)),
-    "overlap": ("--overlap", ("wang",)),
-    "corners": ("--corners", ("wang",)),
-    "samples": ("--samples", ("wang",)),
-    "supplementary": ("--supplementary", ("swang",)),
-}
-
-
-def _scheme_options(scheme: str, **given: bool) -> None:
-    """Reject an option given for a scheme that does not use it (one line, exit 2)."""
-    for key, used in given.items():
-        flag, schemes = _SCHEME_OPTIONS[key]
-        if used and scheme not in schemes:
-            raise ParameterError(f"{flag}: not used with --scheme {scheme} (only with {' or '.join(schemes)})")
 
 
 def _write_sheet(ts, path: str, cuts: bool) -> None:  # noqa: ANN001
@@ -509,16 +442,6 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
                  f"{time.perf_counter() - t0:.2f} s")
 
 
-def _smoothing_line(sm: dict) -> str:
-    """The ``info`` line of a smoothed set (values shown as stored; a tampered field prints as "?")."""
-    def num(key: str, spec: str = "") -> str:
-        v = sm.get(key)
-        return format(v, spec) if isinstance(v, (int, float)) and not isinstance(v, bool) else "?"
-
-    return (f"smoothing     Poisson, {num('unknowns')} unknowns, at most {num('iterations_max')} iterations, "
-            f"residual <= {num('residual_max', '.1e')}, {num('clipped')} values clipped to [0, 1]")
-
-
 def _info(ts_path: str, as_json: bool) -> None:
     from .tilefile import TileSet
 
@@ -544,13 +467,7 @@ def _info(ts_path: str, as_json: bool) -> None:
         f"exemplar      {ex.get('file', '?')} {ex['shape'][1]}x{ex['shape'][0]}, {ex.get('bits', '?')}-bit",
         *_selection_lines(sel, ts.timing.get("selection_s")),
         f"seed          {p.get('seed')}",
-        *([f"matching      {p.get('match', 'ssd')}"
-           + (f" (k = {p['match_k']})" if p.get("match_k") is not None else "")
-           + f", distance {p.get('metric', 'color')}"
-           + ("" if p.get("keep_border", False) else ", literal border (002's cut may reach the tile border)")]
-          if ts.scheme == "omega" else []),
-        *([_smoothing_line(sm)] if isinstance(sm := p.get("smooth"), dict) else []),
-        _energy_line(ts),
+        *_describe(ts),
         f"build time    {ts.timing.get('total_s', float('nan')):.3f} s"
         + "".join(f", {k[:-2]} {v:.3f}" for k, v in ts.timing.items() if k != "total_s"),
         f"version       tilesynth {ts.version}, content sha256 {data['content_sha256'][:16]}",
@@ -559,7 +476,7 @@ def _info(ts_path: str, as_json: bool) -> None:
         ),
         "",
     ]
-    if ts.layout.get("kind", "corner") == "wang":
+    if layout_kind(ts.layout) == "edge":
         lines += _wang_lines(ts)
         print("\n".join(lines))
         return
@@ -574,20 +491,22 @@ def _info(ts_path: str, as_json: bool) -> None:
     print("\n".join(lines))
 
 
-def _energy_line(ts) -> str:  # noqa: ANN001
-    p = ts.params
-    if ts.scheme == "wang":
-        return (f"E             {ts.E:.6g}  (ω={p.get('omega')}: ω·ΣD_sum + (1−ω)·Var D_sum, 001; "
-                f"{p.get('samples')} samples, overlap {p.get('overlap')}, {p.get('corners')} corners, "
-                f"{p.get('cut')} cuts)")
-    what = "initial tiles" if ts.scheme == "swang" else "intermediate tiles"
-    metric = f", D in {p.get('metric')}" if p.get("metric", "color") != "color" else ""
-    return f"E             {ts.E:.6g}  (λ={p.get('lambda')}: λ·ΣD + (1−λ)·Var D over the {what}{metric})"
+def _describe(ts) -> list[str]:  # noqa: ANN001
+    """The scheme's own ``info`` lines (its matching, its E), asked of the registry; a file of a scheme this
+    version does not know still shows its E."""
+    try:
+        sc = get_scheme(ts.scheme)
+    except ParameterError:
+        sc = None
+    if sc is None or sc.describe is None:
+        return [f"E             {ts.E:.6g}"]
+    return sc.describe(ts)
 
 
 def _wang_lines(ts) -> list[str]:  # noqa: ANN001
-    """Per-tile table of a Wang or s-Wang set."""
-    if ts.scheme == "wang":
+    """Per-tile table of an edge-coloured set: the four cuts' D_boundary when the set has Cohen's cut statistics
+    (``cut_stats``), else each tile's supplementary patch."""
+    if ts.cut_stats is not None:
         out = [f"{'tile':>4}  {'N E S W':<7}  {'D_sum':>10}  {'cut cost':>10}  "
                f"{'D_boundary NE / ES / SW / WN':>36}"]
         for row in ts.per_tile():
@@ -605,7 +524,7 @@ def _wang_lines(ts) -> list[str]:  # noqa: ANN001
 
 def _colours(layout: dict) -> list[str]:
     """The sample colours of a layout, in gene order (Wang sets: horizontal-edge colours, then vertical)."""
-    if layout.get("kind", "corner") == "wang":
+    if layout_kind(layout) == "edge":
         return [*layout.get("horizontal", []), *layout.get("vertical", [])]
     return list(layout.get("colours", []))
 
@@ -653,7 +572,8 @@ def _demo(out_dir: str, set_name: str, size: tuple[int, int], seed: int, threads
     with resources.as_file(src) as exemplar:
         prog.message(f"exemplar: bundled lettuce-leaves.png (DCor, BSD-3-Clause) {exemplar}")
         tiles = str(d / "lettuce.tiles")
-        _build(str(exemplar), tiles, set_name, None, seed, threads, quiet, str(d / "tiles.png"))
+        _build(str(exemplar), tiles, set_name=set_name, seed=seed, threads=threads, quiet=quiet,
+               sheet=str(d / "tiles.png"))
     _synth(tiles, str(d / "texture.png"), size, seed, None, str(d / "texture-map.npy"), None, threads, quiet)
     prog.message(f"done: open {d / 'tiles.png'} and {d / 'texture.png'}")
 
@@ -664,13 +584,10 @@ def main(argv: list[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
         set_png_compression(getattr(args, "png_compression", None))
         if args.command == "build":
-            _build(args.input, args.output, args.set, args.tile_size, args.seed, args.threads, args.quiet, args.sheet,
-                   args.gradients, args.literal_border, args.select, args.polish, args.generations,
-                   args.population, args.normalise, args.match, args.match_k, args.metric, scheme=args.scheme,
-                   cut=args.cut, overlap=args.overlap, corners=args.corners, samples=args.samples,
-                   supplementary=args.supplementary, smooth=args.smooth,
-                   levers={"cut_region": args.cut_region,
-                           "cut_bias": args.cut_bias, "diversity": args.diversity})
+            _build(args.input, args.output, scheme=args.scheme, set_name=args.set, tile_size=args.tile_size,
+                   seed=args.seed, threads=args.threads, quiet=args.quiet, sheet=args.sheet, select=args.select,
+                   polish=args.polish, generations=args.generations, population=args.population,
+                   options=_scheme_kwargs(args, get_scheme(args.scheme)))
         elif args.command == "synth":
             _synth(args.tileset, args.output, args.size, args.seed, args.map, args.save_map, args.bits,
                    args.threads, args.quiet, args.with_maps, args.map_smooth, args.origin, args.wrap)

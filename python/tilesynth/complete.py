@@ -178,7 +178,7 @@ def lookup_scheme(defn: Any) -> LookupScheme | None:
 def default_complete_tile_size(shape: tuple[int, ...]) -> int:
     """Default tile size of a complete set: a quarter of the exemplar's shorter side, rounded down to even,
     capped at 256, at least 8 (or the half-side default of small exemplars)."""
-    from .omega import default_tile_size
+    from .genes import default_tile_size
 
     n = min(shape[0], shape[1]) // 4
     n -= n % 2

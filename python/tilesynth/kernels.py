@@ -26,10 +26,11 @@ from ._validate import (
 )
 from .errors import ParameterError, ShapeError
 
-DEFAULT_EPS = 1e-6
-"""Epsilon in the denominator of the Kwatra edge weight (guards flat regions)."""
+DEFAULT_EPS: float = _core.DEFAULT_EPS
+"""Epsilon in the denominator of the Kwatra edge weight (guards flat regions); defined in the core
+(``rust/seams.rs``) and exported from there."""
 
-DEFAULT_POISSON_TOL = 1e-6
+DEFAULT_POISSON_TOL: float = _core.DEFAULT_POISSON_TOL
 """Default relative residual ‖b − A f‖₂ / ‖b‖₂ at which :func:`poisson_smooth` stops."""
 
 
@@ -504,9 +505,9 @@ class PopulationEvaluator:
         tile_size: int,
         tile_patches: np.ndarray,
         n_patches: int,
-        lam: float = 0.8,
+        lam: float = _core.DEFAULT_LAMBDA,
         normalise: bool = False,
-        cache_bytes: int = 256 << 20,
+        cache_bytes: int = _core.DEFAULT_CACHE_BYTES,
         features: bool = False,
     ) -> None:
         # features=True: any channel count and finite values (e.g. the eq. 3 augmented exemplar)
@@ -553,7 +554,7 @@ def evaluate_population(
     genes: np.ndarray,
     tile_patches: np.ndarray,
     tile_size: int,
-    lam: float = 0.8,
+    lam: float = _core.DEFAULT_LAMBDA,
     normalise: bool = False,
     threads: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -589,7 +590,7 @@ def wang_tiles(
     corners: str = "free",
     samples: str = "diamond",
     cut: str = "dp",
-    omega: float = 0.8,
+    omega: float = _core.DEFAULT_OMEGA,
     eps: float = DEFAULT_EPS,
     threads: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -634,7 +635,7 @@ class WangEvaluator:
         corners: str = "free",
         samples: str = "diamond",
         cut: str = "dp",
-        omega: float = 0.8,
+        omega: float = _core.DEFAULT_OMEGA,
         eps: float = DEFAULT_EPS,
     ) -> None:
         self.exemplar = as_image(exemplar, "exemplar")

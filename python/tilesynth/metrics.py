@@ -506,7 +506,7 @@ def objective(tileset: Any) -> dict[str, Any]:
     E is over the intermediate tiles, i.e. the D_j of the variant-0 tile of every distinct corner tuple (a
     tile set's variants share their intermediate tile); it equals the stored ``tileset.E``.
     """
-    from .omega import LAMBDA, energy
+    from .genes import LAMBDA, energy
 
     lam = float(tileset.params.get("lambda", LAMBDA))
     variants = getattr(tileset.definition, "variants", None)

@@ -49,153 +49,34 @@ variance), the objective of the selection papers (000, 003).
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from . import kernels
-from ._validate import as_image, finite_float, positive_int, seed_int, threads_arg
+from ._validate import finite_float
 from .errors import ParameterError
-from .tilefile import TileSet, exemplar_digest
+from .genes import (  # noqa: F401 - re-exported: the public names of the genes stage lived here
+    LAMBDA,
+    MIN_TILE_SIZE,
+    check_exemplar_size,
+    check_genes,
+    check_tile_size,
+    default_tile_size,
+    energy,
+    random_genes,
+)
+from .layouts import CornerPlan, corner_set, intermediate_tiles
 from .matching import EQ2_EPS, MU, augmented, check_metric, check_strategy, gradient_norm, pick_distinct, strategy_edges
-from .tilesets import get_tileset
-
-LAMBDA = 0.8
-"""Default λ of E = λ·ΣD + (1−λ)·Var(D) (paper 000)."""
-
-Progress = Callable[[str, int, int], None]
-"""Progress callback: (stage, done, total)."""
-
-
-MIN_TILE_SIZE = 4
-"""The smallest tile: 4 x 4 (2 x 2 quadrants; the cut needs a border ring and a cross inside it)."""
-
-
-def default_tile_size(shape: tuple[int, ...]) -> int:
-    """Half the exemplar's shorter side, rounded down to even, capped at 256 (002 used 64 on 128 inputs), and
-    at least :data:`MIN_TILE_SIZE` (exemplars of 4 to 7 pixels a side get 4: the whole-side tile)."""
-    n = min(shape[0], shape[1]) // 2
-    n -= n % 2
-    return max(MIN_TILE_SIZE, min(n, 256))
-
-
-def check_exemplar_size(shape: tuple[int, ...]) -> None:
-    """Refuse exemplars smaller than the smallest tile (a 1x1 image is a valid file, not a texture)."""
-    if min(shape[0], shape[1]) < MIN_TILE_SIZE:
-        raise ParameterError(
-            f"exemplar has shape {tuple(shape)}: too small, at least {MIN_TILE_SIZE}x{MIN_TILE_SIZE} pixels are "
-            f"needed (the smallest tile is {MIN_TILE_SIZE}x{MIN_TILE_SIZE})"
-        )
-
-
-def check_tile_size(tile_size: Any, shape: tuple[int, ...]) -> int:
-    """Validate ``tile_size`` against an exemplar of ``shape`` (even, >= 4, fits inside the exemplar)."""
-    n = positive_int(tile_size, "tile_size", minimum=MIN_TILE_SIZE)
-    if n % 2:
-        raise ParameterError(f"tile_size = {n}: must be even (the tile is cut from the centre of a 2x2 block)")
-    if n > shape[0] or n > shape[1]:
-        raise ParameterError(
-            f"tile_size = {n}: larger than the exemplar ({shape[1]}x{shape[0]} pixels); "
-            f"use at most {min(shape[0], shape[1]) - min(shape[0], shape[1]) % 2}"
-        )
-    return n
-
-
-def random_genes(shape: tuple[int, ...], n: int, tile_size: int, rng: np.random.Generator) -> np.ndarray:
-    """``n`` distinct random top-left positions of ``tile_size`` patches inside an exemplar of ``shape``.
-
-    Returns int64 ``(n, 2)`` (row, col). Positions are uniform over all valid translations.
-    """
-    rows, cols = max(shape[0] - tile_size + 1, 0), max(shape[1] - tile_size + 1, 0)  # (-2) x (-2) is not 4
-    if rows * cols < n:
-        raise ParameterError(
-            f"tile_size = {tile_size}: the exemplar has only {rows * cols} patch positions, {n} needed"
-        )
-    flat = rng.choice(rows * cols, size=n, replace=False)
-    return np.stack([flat // cols, flat % cols], axis=1).astype(np.int64)
-
-
-def check_genes(genes: Any, n: int, shape: tuple[int, ...], tile_size: int) -> np.ndarray:
-    """Validate a gene vector: ``n`` distinct (row, col) positions with the patch inside the exemplar."""
-    g = np.asarray(genes)
-    if g.shape != (n, 2) or not np.issubdtype(g.dtype, np.integer):
-        raise ParameterError(f"genes has shape {g.shape} and dtype {g.dtype}, expected integer ({n}, 2)")
-    g = g.astype(np.int64)
-    hi = np.array([shape[0] - tile_size, shape[1] - tile_size])
-    bad = np.nonzero((g < 0).any(axis=1) | (g > hi).any(axis=1))[0]
-    if bad.size:
-        i = int(bad[0])
-        raise ParameterError(
-            f"genes[{i}] = {tuple(int(v) for v in g[i])}: patch must lie inside the exemplar "
-            f"(row in [0, {hi[0]}], col in [0, {hi[1]}])"
-        )
-    if len({tuple(r) for r in g.tolist()}) != n:
-        raise ParameterError("genes: positions must be distinct")
-    return g
-
-
-def energy(D: np.ndarray, lam: float = LAMBDA) -> float:
-    """E = λ·ΣD_j + (1−λ)·Var(D_j) with the population variance."""
-    try:
-        d = np.asarray(D)
-    except (ValueError, TypeError) as exc:
-        raise ParameterError(f"D: expected real numbers ({exc})") from None
-    if d.dtype.kind not in "biuf":
-        raise TypeError(f"D has dtype {d.dtype}, expected real numbers")
-    d = d.astype(np.float64)
-    if d.ndim != 1 or d.size == 0 or not np.isfinite(d).all():
-        raise ParameterError(f"D has shape {d.shape}: expected a non-empty 1-d array of finite values")
-    lam = finite_float(lam, "lam")
-    if not 0.0 <= lam <= 1.0:
-        raise ParameterError(f"lam = {lam}: must be in [0, 1]")
-    return float(lam * d.sum() + (1.0 - lam) * d.var())
-
-
-def intermediate_tiles(
-    exemplar: np.ndarray, genes: np.ndarray, tile_patches: np.ndarray, tile_size: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """Assemble intermediate tiles and their provenance.
-
-    ``tile_patches`` is ``(K, 4)``: the gene index of each tile's ⟨TL, BL, TR, BR⟩ patch. Returns float32
-    ``(K, N, N, C)`` tiles and int32 ``(K, N, N, 2)`` exemplar coordinates of every pixel.
-    """
-    h = tile_size // 2
-    k = tile_patches.shape[0]
-    c = exemplar.shape[2]
-    tiles = np.empty((k, tile_size, tile_size, c), np.float32)
-    src = np.empty((k, tile_size, tile_size, 2), np.int32)
-    yy, xx = np.mgrid[0:h, 0:h].astype(np.int32)
-    # quadrant (tile rows, tile cols) <- patch offset (rows, cols) inside the patch, for TL, BL, TR, BR
-    quads = [
-        ((slice(0, h), slice(0, h)), (h, h)),  # TL: bottom-right quarter of the TL patch
-        ((slice(h, None), slice(0, h)), (0, h)),  # BL: top-right quarter of the BL patch
-        ((slice(0, h), slice(h, None)), (h, 0)),  # TR: bottom-left quarter of the TR patch
-        ((slice(h, None), slice(h, None)), (0, 0)),  # BR: top-left quarter of the BR patch
-    ]
-    for j in range(k):
-        for q, ((rs, cs), (dy, dx)) in enumerate(quads):
-            r0, c0 = genes[tile_patches[j, q]] + (dy, dx)
-            tiles[j, rs, cs] = exemplar[r0 : r0 + h, c0 : c0 + h]
-            src[j, rs, cs, 0] = yy + r0
-            src[j, rs, cs, 1] = xx + c0
-    return tiles, src
-
-
-def patch_gradients(exemplar: np.ndarray, source: np.ndarray) -> np.ndarray:
-    """Gradient norms of the exemplar at the positions ``source`` (``(..., 2)`` row, col): ``(..., 2)`` float64.
-
-    Index 0 is ‖E(r, c+1) − E(r, c)‖, index 1 is ‖E(r+1, c) − E(r, c)‖ (L2 over channels, 0 past the exemplar edge).
-    """
-    e = exemplar.astype(np.float64)
-    h, w = e.shape[:2]
-    gx = np.zeros((h, w))
-    gy = np.zeros((h, w))
-    gx[:, :-1] = np.sqrt(((e[:, 1:] - e[:, :-1]) ** 2).sum(-1))
-    gy[:-1] = np.sqrt(((e[1:] - e[:-1]) ** 2).sum(-1))
-    r, c = source[..., 0], source[..., 1]
-    return np.ascontiguousarray(np.stack([gx[r, c], gy[r, c]], axis=-1))
+from .options import BuildOptions, Progress, SeedLike, common_options
+from .select import choose_genes, wants_selection
+from .stages.compose import cut_and_compose, finish_tileset, patch_gradients
+from .stages.smoothing import POISSON_TOL, smooth_tiles  # noqa: F401 - re-exported
+from .tilefile import TileSet
 
 
 def _distance_search(
@@ -236,17 +117,14 @@ def _choose_matches(
     n: int,
     n_variants: int,
     exclude: int,
-    strategy: str,
-    match_k: int | None,
-    metric: str,
-    gradients: str,
-    keep_border: bool,
-    eps: float,
+    opts: OmegaOptions,
     threads: int | None,
     report: Progress,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Matching patches by ``strategy`` (see :mod:`tilesynth.matching`): offsets ``(U, v, 2)``, their distances
-    ``(U, v)`` and each tile's smallest distance ``(U,)`` (for E)."""
+    """Matching patches by ``opts.strategy`` (see :mod:`tilesynth.matching`): offsets ``(U, v, 2)``, their
+    distances ``(U, v)`` and each tile's smallest distance ``(U,)`` (for E)."""
+    strategy, match_k, metric, eps = opts.strategy, opts.match_k, opts.metric, opts.eps
+    gradients, keep_border = opts.gradients, opts.keep_border
     U = inter.shape[0]
     maps, exact, best = _distance_search(ex, inter, inter_src, metric, threads)
     cols = maps[0].shape[1]
@@ -287,25 +165,8 @@ def _choose_matches(
             order = np.argsort(score, axis=None, kind="stable")
         else:  # best-cut: the real cut for the k nearest candidates (per variant, away from earlier picks)
             kk = total if match_k is None or match_k < 0 else min(match_k, total)
-            order_list: list[int] = []
-            for _v in range(n_variants):
-                far = [f for f in dist_order.tolist()
-                       if all(max(abs(f // cols - p // cols), abs(f % cols - p % cols)) > exclude
-                              for p in order_list)] if order_list else dist_order.tolist()
-                cand = np.asarray(far[:kk], dtype=np.int64)
-                if cand.size == 0:
-                    break
-                costs = np.empty(cand.size)
-                for s0 in range(0, cand.size, 256):
-                    chunk = cand[s0 : s0 + 256]
-                    O = np.stack([ex[r : r + n, c : c + n] for r, c in (divmod(int(f), cols) for f in chunk)])
-                    I = np.repeat(inter[u][None], len(chunk), axis=0)
-                    g = None if grads is None else np.repeat(grads[u][None], len(chunk), axis=0)
-                    _, cc = kernels.omega_cuts(I, O, eps=eps, threads=threads, intermediate_grad=g,
-                                               keep_border=keep_border)
-                    costs[s0 : s0 + len(chunk)] = cc
-                order_list.append(int(cand[int(np.argmin(costs))]))  # first of the cheapest (nearest first)
-            order = np.asarray(order_list, dtype=np.int64)
+            g_u = None if grads is None else grads[u]
+            order = _best_cut_order(ex, inter[u], g_u, dist_order, cols, n, n_variants, exclude, kk, opts, threads)
         picks = pick_distinct(order, cols, n_variants, exclude)
         if len(picks) < n_variants:
             raise ParameterError(
@@ -320,104 +181,165 @@ def _choose_matches(
     return chosen, chosen_D, best_D
 
 
-def _select(
+def _best_cut_order(
     ex: np.ndarray,
+    tile: np.ndarray,
+    grad: np.ndarray | None,
+    dist_order: np.ndarray,
+    cols: int,
     n: int,
-    tile_patches: np.ndarray,
-    n_colours: int,
-    rng: np.random.Generator,
-    method: str,
-    polish: bool,
-    generations: int | None,
-    population: int | None,
-    normalise: bool,
-    params: dict[str, Any],
+    n_variants: int,
+    exclude: int,
+    kk: int,
+    opts: OmegaOptions,
     threads: int | None,
-    report: Progress,
-) -> tuple[np.ndarray, dict[str, Any]]:
-    """Genes chosen by :func:`tilesynth.select.select_genes` on the exact population objective."""
-    from .select import select_genes
+) -> np.ndarray:
+    """``match="best-cut"`` for one intermediate tile: per variant, of the ``kk`` nearest candidates more than
+    ``exclude`` pixels from the earlier picks, the one with the cheapest real cut (the nearest of equals)."""
+    order_list: list[int] = []
+    for _v in range(n_variants):
+        far = [f for f in dist_order.tolist()
+               if all(max(abs(f // cols - p // cols), abs(f % cols - p % cols)) > exclude
+                      for p in order_list)] if order_list else dist_order.tolist()  # fmt: skip
+        cand = np.asarray(far[:kk], dtype=np.int64)
+        if cand.size == 0:
+            break
+        costs = np.empty(cand.size)
+        for s0 in range(0, cand.size, 256):
+            chunk = cand[s0 : s0 + 256]
+            O = np.stack([ex[r : r + n, c : c + n] for r, c in (divmod(int(f), cols) for f in chunk)])
+            I = np.repeat(tile[None], len(chunk), axis=0)
+            g = None if grad is None else np.repeat(grad[None], len(chunk), axis=0)
+            _, cc = kernels.omega_cuts(I, O, eps=opts.eps, threads=threads, intermediate_grad=g,
+                                       keep_border=opts.keep_border)  # fmt: skip
+            costs[s0 : s0 + len(chunk)] = cc
+        order_list.append(int(cand[int(np.argmin(costs))]))  # first of the cheapest (nearest first)
+    return np.asarray(order_list, dtype=np.int64)
 
-    # E is over the intermediate tiles: one per distinct corner tuple (the 32-set's variants share theirs).
-    uniq = np.unique(tile_patches, axis=0)
-    ev = kernels.PopulationEvaluator(ex, n, uniq, n_colours, lam=LAMBDA, normalise=bool(normalise), features=True)
-    res = select_genes(
-        method, lambda g: ev.evaluate(g, threads), ex.shape, n_colours, n, rng, polish=polish,
-        generations=generations, population=population, progress=report, **params,
+
+@dataclass(frozen=True)
+class OmegaOptions:
+    """The ω scheme's own options of one build, validated once (:func:`omega_options`)."""
+
+    eps: float
+    gradients: str
+    keep_border: bool
+    strategy: str
+    match_k: int | None
+    metric: str
+    smooth: bool
+    normalise: bool
+    cut_region: str = "circle"
+    cut_bias: float | None = None
+    diversity: int | None = None
+
+    @property
+    def grad_from_patches(self) -> bool:
+        return self.gradients == "patch"
+
+
+def omega_options(
+    *, eps: Any, gradients: Any, keep_border: Any, match: Any, match_k: Any, metric: Any, smooth: Any,
+    normalise: Any, cut_region: Any = "circle", cut_bias: Any = None, diversity: Any = None,
+) -> OmegaOptions:  # fmt: skip
+    """Validate the ω options (names as in :func:`build_omega`; ``cut_region`` and ``diversity`` already
+    resolved from the set's defaults, ``diversity`` 0 meaning off)."""
+    eps = finite_float(eps, "eps", positive=True)
+    if gradients not in ("patch", "tile"):
+        raise ParameterError(f"gradients = {gradients!r}: must be 'patch' or 'tile'")
+    strategy, k = check_strategy(match, match_k)
+    metric = check_metric(metric)
+    if not isinstance(smooth, (bool, np.bool_)):
+        raise ParameterError(f"smooth = {smooth!r}: must be True or False")
+    if cut_region not in ("circle", "free"):
+        raise ParameterError(f"cut_region = {cut_region!r}: must be 'circle' or 'free'")
+    if cut_bias is not None and (cut_region != "free" or finite_float(cut_bias, "cut_bias") < 0):
+        raise ParameterError(f"cut_bias = {cut_bias!r}: a number >= 0, only with cut_region='free'")
+    if cut_region == "free":  # issue 12: the free cut region (tilesynth.levers)
+        from .levers import FREE_BIAS
+
+        cut_bias = FREE_BIAS if cut_bias is None else float(cut_bias)
+    diversity = None if diversity == 0 else diversity
+    if diversity is not None and (
+        isinstance(diversity, (bool, np.bool_)) or not isinstance(diversity, (int, np.integer)) or diversity < 1
+    ):
+        raise ParameterError(f"diversity = {diversity!r}: a positive int (uses per exemplar region), 0 or None")
+    if diversity is not None and (strategy != "ssd" or metric != "color"):
+        raise ParameterError("diversity: only with match='ssd' and metric='color'")
+    return OmegaOptions(
+        eps, gradients, bool(keep_border), strategy, k, metric, bool(smooth), bool(normalise), cut_region,
+        cut_bias, None if diversity is None else int(diversity),
+    )  # fmt: skip
+
+
+def omega_evaluator(
+    ex: np.ndarray, n: int, plan: CornerPlan, opts: OmegaOptions, threads: int | None
+) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """E of gene populations (:class:`~tilesynth.kernels.PopulationEvaluator`) over the intermediate tiles: one
+    per distinct corner tuple (the 32-set's variants share theirs), on 000's eq. 3 features for ``metric="eq3"``."""
+    search = augmented(ex) if opts.metric == "eq3" else ex
+    uniq = np.unique(plan.tile_patches, axis=0)
+    ev = kernels.PopulationEvaluator(
+        search, n, uniq, plan.n_colours, lam=LAMBDA, normalise=opts.normalise, features=True
     )
-    info = res.to_dict()
-    info.pop("genes")
-    info["normalise"] = bool(normalise)
-    info["objective_E"] = info.pop("E")
-    info["objective_D"] = info.pop("D")
-    # wall time goes in the tile set's timing (selection_s), not in the content: same seed, same bytes.
-    info.pop("wall_time")
-    return res.genes, info
+    return lambda g: ev.evaluate(g, threads)
 
 
-POISSON_TOL = kernels.DEFAULT_POISSON_TOL
-"""Relative residual to which :func:`smooth_tiles` solves the Poisson equation (issue 5: 1e-6)."""
+def _matching_patches(
+    b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, inter: np.ndarray, inter_src: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Offsets ``(U, v, 2)`` and distances ``(U, v)`` of the matching patches, and each intermediate tile's
+    smallest distance ``(U,)`` (for E)."""
+    n, nv = b.tile_size, plan.n_variants
+    exclude = n // 4 if nv > 1 else 0
+    if opts.strategy != "ssd" or opts.metric != "color":
+        return _choose_matches(b.exemplar, inter, inter_src, n, nv, exclude, opts, b.threads, b.report)
+    if opts.diversity is not None:  # issue 12: diverse matching patches (tilesynth.levers); E keeps the best
+        from .levers import diverse_matches
+
+        best = kernels.best_matches(b.exemplar, inter, k=1, threads=b.threads)[1][:, 0]
+        chosen, chosen_D = diverse_matches(b.exemplar, inter, nv, opts.diversity, b.threads)
+        return chosen, chosen_D, best
+    # the plain path: exact best (and second-best, far enough) SSD translations
+    offsets, ssd = kernels.best_matches(b.exemplar, inter, k=nv, exclude_radius=exclude, threads=b.threads)
+    if offsets.shape[1] < nv:
+        raise ParameterError(
+            f"tile_size = {n}: the exemplar has too few distinct translations for {nv} matching "
+            "patches per intermediate tile; use a smaller tile size or a larger exemplar"
+        )
+    return offsets, ssd, ssd[:, 0]
 
 
-def smooth_tiles(
-    intermediate: np.ndarray,
-    matching: np.ndarray,
-    masks: np.ndarray,
-    threads: int | None = None,
-    tol: float = POISSON_TOL,
-    clip: bool = True,
-) -> tuple[np.ndarray, dict[str, Any]]:
-    """Poisson-smooth composed ω-tiles (002 §3.3): the region inside each cutting curve is the guided
-    interpolation of the matching patch O, with the composed tile's pixels next to the region as the Dirichlet
-    boundary (:func:`tilesynth.kernels.poisson_smooth`, exact to ``tol``).
-
-    The region is the cut mask minus the one-pixel tile border. With the default ``keep_border`` the mask never
-    reaches the border, so this is the mask itself. With 002's literal border, O reaches the border near the side
-    midpoints; those border pixels are then kept as they are (O's values) and act as Dirichlet pixels too, so
-    smoothing never changes a border pixel and never adds a seam between tiles. (Taking the tile border as a free
-    Neumann boundary instead would move border pixels that the neighbouring tile does not share.)
-
-    The interpolation can overshoot [0, 1] near strong seams; the returned tiles are clipped to [0, 1] (they are
-    images), and the number of clipped values is reported. ``clip=False`` returns the solution as it is (float
-    maps of any range, :func:`tilesynth.synthesize_map`); ``clipped`` then counts the values outside [0, 1].
-
-    Parameters
-    ----------
-    intermediate, matching : ``(K, N, N, C)`` float32 intermediate tiles I and matching patches O.
-    masks : ``(K, N, N)`` bool cut masks (True = the pixel comes from O).
-    threads : worker threads (tiles and channels are solved in parallel; the result does not depend on it).
-    tol : relative residual of the solve.
-
-    Returns
-    -------
-    ``(tiles, info)``: the smoothed float32 tiles and ``{"tol", "iterations_max", "residual_max",
-    "unknowns", "clipped"}`` (``unknowns`` and ``clipped`` summed over the tiles).
-    """
-    cut = np.asarray(masks, dtype=bool)
-    m = cut.copy()
-    m[:, 0, :] = m[:, -1, :] = False
-    m[:, :, 0] = m[:, :, -1] = False
-    composed = np.where(cut[..., None], matching, intermediate).astype(np.float32)
-    out, pinfo = kernels.poisson_smooth(composed, matching, m, threads=threads, tol=tol, info=True)
-    clipped = int(np.count_nonzero((out < 0) | (out > 1)))
-    if clip:
-        np.clip(out, 0.0, 1.0, out=out)
-    info = {
-        "tol": float(tol),
-        "iterations_max": int(np.max(pinfo.iterations, initial=0)),
-        "residual_max": float(np.max(pinfo.residual, initial=0.0)),
-        "unknowns": int(np.sum(pinfo.unknowns)),
-        "clipped": clipped,
+def _omega_params(b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, sel: dict, smooth_info: Any) -> dict:
+    n = b.tile_size
+    return {
+        "set": b.definition.name,
+        "tile_size": n,
+        "eps": float(opts.eps),
+        "gradients": opts.gradients,
+        "keep_border": opts.keep_border,
+        "lambda": LAMBDA,
+        "second_match_exclude_radius": n // 4 if plan.n_variants > 1 else None,
+        "match": opts.strategy,
+        "match_k": None if opts.match_k is None else ("all" if opts.match_k < 0 else opts.match_k),
+        "metric": opts.metric,
+        "mu": MU if opts.metric != "color" else None,
+        "seed": b.seed,
+        "selection": sel,
+        **({"smooth": smooth_info} if smooth_info is not None else {}),
+        **({"cut_region": opts.cut_region, "cut_bias": opts.cut_bias} if opts.cut_region != "circle" else {}),
+        **({"diversity": opts.diversity} if opts.diversity is not None else {}),
     }
-    return out, info
 
 
+# Length: 116 lines, of which 46 are the docstring of its 22 options; the body (70) is the stage sequence.
 def build_omega(
     exemplar: np.ndarray,
+    *,
     tileset: str = "16a",
     tile_size: int | None = None,
     genes: np.ndarray | None = None,
-    seed: int | None = None,
+    seed: SeedLike = None,
     threads: int | None = None,
     eps: float = kernels.DEFAULT_EPS,
     gradients: str = "patch",
@@ -496,189 +418,58 @@ def build_omega(
     With ``select``, the convergence history (best and mean E of every generation) is stored in
     ``params["selection"]["history"]``.
     """
-    t0 = time.perf_counter()
-    ex = as_image(exemplar, "exemplar")
-    if np.may_share_memory(ex, exemplar):
-        ex = ex.copy()  # the tile set keeps the exemplar: never alias the caller's array
-    check_exemplar_size(ex.shape)
-    if not isinstance(tileset, str):
-        raise ParameterError(f"tileset = {tileset!r}: expected a tile-set name such as '16a' or 'n2'")
-    defn = get_tileset(tileset)
+    b = common_options(
+        exemplar, tileset=tileset, resolve_set=corner_set, tile_size=tile_size, seed=seed, threads=threads,
+        progress=progress, exemplar_info=exemplar_info,
+    )  # fmt: skip
     from .complete import complete_defaults  # issue 12: complete sets default to the measured levers
 
-    complete = complete_defaults(defn, ex.shape, match, metric)
-    n = default_tile_size(ex.shape) if tile_size is None else check_tile_size(tile_size, ex.shape)
+    complete = complete_defaults(b.definition, b.exemplar.shape, match, metric)
     if complete is not None:
-        n = complete["tile_size"] if tile_size is None else n
+        if tile_size is None:
+            b = dataclasses.replace(b, tile_size=complete["tile_size"])
         cut_region = complete["cut_region"] if cut_region is None else cut_region
         diversity = complete["diversity"] if diversity is None else diversity
-    cut_region = "circle" if cut_region is None else cut_region
-    diversity = None if diversity == 0 else diversity
-    seed = seed_int(seed)
-    threads = threads_arg(threads)
-    eps = finite_float(eps, "eps", positive=True)
-    if progress is not None and not callable(progress):
-        raise ParameterError(f"progress = {progress!r}: must be a callable (stage, done, total) or None")
-    if exemplar_info is not None and not isinstance(exemplar_info, dict):
-        raise ParameterError(f"exemplar_info = {exemplar_info!r}: must be a dict or None")
-    rng = np.random.default_rng(seed)
-    colours = list(defn.colours)
-    if gradients not in ("patch", "tile"):
-        raise ParameterError(f"gradients = {gradients!r}: must be 'patch' or 'tile'")
-    strategy, match_k = check_strategy(match, match_k)
-    metric = check_metric(metric)
-    if not isinstance(smooth, (bool, np.bool_)):
-        raise ParameterError(f"smooth = {smooth!r}: must be True or False")
-    if cut_region not in ("circle", "free"):
-        raise ParameterError(f"cut_region = {cut_region!r}: must be 'circle' or 'free'")
-    if cut_bias is not None and (cut_region != "free" or finite_float(cut_bias, "cut_bias") < 0):
-        raise ParameterError(f"cut_bias = {cut_bias!r}: a number >= 0, only with cut_region='free'")
-    if diversity is not None and (isinstance(diversity, (bool, np.bool_)) or not isinstance(diversity, (int, np.integer))
-                                  or diversity < 1):
-        raise ParameterError(f"diversity = {diversity!r}: a positive int (uses per exemplar region), 0 or None")
-    if diversity is not None and (strategy != "ssd" or metric != "color"):
-        raise ParameterError("diversity: only with match='ssd' and metric='color'")
-    report = progress or (lambda stage, done, total: None)
-    index = {c: i for i, c in enumerate(colours)}
-    tile_patches = np.array([[index[c] for c in t] for t in defn.tiles], dtype=np.int64)
-    optimise = (select is not None and select != "random") or polish or normalise or bool(select_params)
-    if optimise and metric == "eq2":
+    opts = omega_options(
+        eps=eps, gradients=gradients, keep_border=keep_border, match=match, match_k=match_k, metric=metric,
+        smooth=smooth, normalise=normalise, cut_region="circle" if cut_region is None else cut_region,
+        cut_bias=cut_bias, diversity=diversity,
+    )  # fmt: skip
+    plan = CornerPlan.of(b.definition)
+    if opts.metric == "eq2" and wants_selection(select, polish, select_params, extra=normalise):
         raise ParameterError(
             "metric = 'eq2' with select: eq. 2 has no FFT or quadrant structure (a direct sum over every "
             "translation, ~50 M operations per 80x80 tile), too slow for a population search; select with "
             "metric 'color' or 'eq3', or use eq2 only for the matching patches of given or random genes"
         )
-    if genes is not None and (select is not None or optimise):
-        raise ParameterError("genes and select: give one (select chooses the genes)")
-    if genes is None and not optimise:
-        # One random gene vector (the original ω construction), drawn exactly as random_genes does.
-        genes_arr = random_genes(ex.shape, len(colours), n, rng)
-        sel = {"method": "random"} if selection is None else dict(selection)
-    elif genes is None:
-        genes_arr, sel = _select(
-            augmented(ex) if metric == "eq3" else ex, n, tile_patches, len(colours), rng, select or "random",
-            polish, generations, population, normalise, dict(select_params or {}), threads, report,
-        )
-    else:
-        genes_arr = check_genes(genes, len(colours), ex.shape, n)
-        sel = {"method": "given"} if selection is None else dict(selection)
+    genes_arr, sel = choose_genes(
+        genes, n=plan.n_colours, size=b.tile_size, shape=b.exemplar.shape, rng=b.rng,
+        evaluator=lambda: omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads), select=select,
+        polish=polish, generations=generations, population=population, select_params=select_params,
+        selection=selection, optimise=opts.normalise, record={"normalise": opts.normalise}, progress=b.progress,
+    )  # fmt: skip
     t_sel = time.perf_counter()
-    variants = np.asarray(defn.variants, dtype=np.int64)
-    # One intermediate tile per distinct corner tuple; variant v of a tuple takes its (v+1)-th best O.
-    uniq, first, inverse = np.unique(tile_patches, axis=0, return_index=True, return_inverse=True)
-    order = np.argsort(first)  # keep the order in which tuples first appear
-    rank = np.empty_like(order)
-    rank[order] = np.arange(order.size)
-    uniq = uniq[order]
-    inverse = rank[np.asarray(inverse).reshape(-1)]
-    n_variants = int(variants.max()) + 1
-
-    report("intermediate tiles", 0, 1)
-    inter, inter_src = intermediate_tiles(ex, genes_arr, uniq, n)
-    t1 = time.perf_counter()
-    t0_build = t_sel
-    report("intermediate tiles", 1, 1)
-
-    report("matching patches", 0, 1)
-    exclude = n // 4 if n_variants > 1 else 0
-    if strategy == "ssd" and metric == "color":
-        # the plain path: exact best (and second-best, far enough) SSD translations
-        offsets, ssd = kernels.best_matches(ex, inter, k=n_variants, exclude_radius=exclude, threads=threads)
-        if offsets.shape[1] < n_variants:
-            raise ParameterError(
-                f"tile_size = {n}: the exemplar has too few distinct translations for {n_variants} matching "
-                "patches per intermediate tile; use a smaller tile size or a larger exemplar"
-            )
-        best_D = ssd[:, 0]
-        chosen, chosen_D = offsets, ssd
-    else:
-        chosen, chosen_D, best_D = _choose_matches(
-            ex, inter, inter_src, n, n_variants, exclude, strategy, match_k, metric, gradients, keep_border, eps,
-            threads, report,
-        )
-    if diversity is not None:  # issue 12: diverse matching patches (tilesynth.levers)
-        from .levers import diverse_matches
-
-        chosen, chosen_D = diverse_matches(ex, inter, n_variants, diversity, threads)
-    t2 = time.perf_counter()
-    report("matching patches", 1, 1)
-
-    k = tile_patches.shape[0]
-    match_offsets = chosen[inverse, variants]
-    D = chosen_D[inverse, variants].astype(np.float64)
-    I_tiles = inter[inverse]
-    I_src = inter_src[inverse]
-    O_tiles = np.stack([ex[r : r + n, c : c + n] for r, c in match_offsets])
-    report("cutting curves", 0, k)
-    grad = patch_gradients(ex, I_src) if gradients == "patch" else None
-    if cut_region == "free":  # issue 12: the free cut region (tilesynth.levers)
-        from .levers import FREE_BIAS, free_cuts
-
-        cut_bias = FREE_BIAS if cut_bias is None else float(cut_bias)
-        masks, costs = free_cuts(I_tiles, O_tiles, eps, grad, bias=cut_bias)
-    else:
-        masks, costs = kernels.omega_cuts(
-            I_tiles, O_tiles, eps=eps, threads=threads, intermediate_grad=grad, keep_border=bool(keep_border)
-        )
-    t3 = time.perf_counter()
-    report("cutting curves", k, k)
-
-    yy, xx = np.mgrid[0:n, 0:n].astype(np.int32)
-    O_src = np.stack([np.stack([yy + r, xx + c], axis=-1) for r, c in match_offsets]).astype(np.int32)
-    if smooth:
-        report("poisson smoothing", 0, k)
-        tiles, smooth_info = smooth_tiles(I_tiles, O_tiles, masks, threads=threads)
-        report("poisson smoothing", k, k)
-    else:
-        tiles = np.where(masks[..., None], O_tiles, I_tiles).astype(np.float32)
-        smooth_info = None
-    t4 = time.perf_counter()
-    source = np.where(masks[..., None], O_src, I_src).astype(np.int32)
-
-    E = energy(best_D)
-    info = {"shape": list(ex.shape), "sha256": exemplar_digest(ex)}
-    info.update(exemplar_info or {})
-    from . import __version__
-
-    return TileSet(
-        scheme="omega",
-        layout=defn.to_dict(),
-        tiles=np.ascontiguousarray(tiles),
-        source=np.ascontiguousarray(source),
-        cut_masks=np.ascontiguousarray(masks),
-        genes=genes_arr,
-        tile_patches=tile_patches,
-        match_offsets=np.ascontiguousarray(match_offsets, dtype=np.int64),
-        D=np.ascontiguousarray(D),
-        cut_costs=np.ascontiguousarray(costs, dtype=np.float64),
-        exemplar=ex,
-        E=E,
-        params={
-            "set": defn.name,
-            "tile_size": n,
-            "eps": float(eps),
-            "gradients": gradients,
-            "keep_border": bool(keep_border),
-            "lambda": LAMBDA,
-            "second_match_exclude_radius": n // 4 if n_variants > 1 else None,
-            "match": strategy,
-            "match_k": None if match_k is None else ("all" if match_k < 0 else match_k),
-            "metric": metric,
-            "mu": MU if metric != "color" else None,
-            "seed": seed,
-            "selection": sel,
-            **({"smooth": smooth_info} if smooth_info is not None else {}),
-            **({"cut_region": cut_region, "cut_bias": cut_bias} if cut_region != "circle" else {}),
-            **({"diversity": int(diversity)} if diversity is not None else {}),
-        },
-        exemplar_info=info,
-        timing={
-            "selection_s": t_sel - t0,
-            "intermediate_s": t1 - t0_build,
-            "matching_s": t2 - t1,
-            "cutting_s": t3 - t2,
-            **({"smoothing_s": t4 - t3} if smooth else {}),
-            "total_s": time.perf_counter() - t0,
-        },
-        version=__version__,
-    )
+    b.report("intermediate tiles", 0, 1)
+    inter, inter_src = intermediate_tiles(b.exemplar, genes_arr, plan.unique, b.tile_size)
+    t_inter = time.perf_counter()
+    b.report("intermediate tiles", 1, 1)
+    b.report("matching patches", 0, 1)
+    chosen, chosen_D, best_D = _matching_patches(b, opts, plan, inter, inter_src)
+    t_match = time.perf_counter()
+    b.report("matching patches", 1, 1)
+    # each tile: its tuple's intermediate tile and the (variant+1)-th best matching patch of it
+    offsets = chosen[plan.inverse, plan.variants]
+    tiles, source, masks, costs, smooth_info, timing = cut_and_compose(
+        b, inter[plan.inverse], inter_src[plan.inverse], offsets, eps=opts.eps,
+        grad_from_patches=opts.grad_from_patches, keep_border=opts.keep_border, smooth=opts.smooth,
+        cut_region=opts.cut_region, cut_bias=opts.cut_bias,
+    )  # fmt: skip
+    return finish_tileset(
+        scheme="omega", definition=b.definition, exemplar=b.exemplar, tiles=tiles, source=source,
+        cut_masks=masks, genes=genes_arr, tile_patches=plan.tile_patches, match_offsets=offsets,
+        D=chosen_D[plan.inverse, plan.variants], cut_costs=costs, E=energy(best_D),
+        params=_omega_params(b, opts, plan, sel, smooth_info), exemplar_info=b.exemplar_info,
+        timing={"selection_s": t_sel - b.started, "intermediate_s": t_inter - t_sel, "matching_s": t_match - t_inter,
+                **timing},
+        started=b.started,
+    )  # fmt: skip

@@ -346,7 +346,7 @@ def _img(src: str, caption: str) -> str:
 
 def _page(tileset: Any, m: dict[str, Any], files: dict[str, str], tileset_name: str,
           notes: list[str], reference: float | None) -> str:
-    from . import __version__
+    from ._version import __version__
 
     t, s = m["tileset"], m["sample"]
     wang = tileset.layout.get("kind", "corner") == "wang"

@@ -1,7 +1,7 @@
 """Selection of the sample patches (the *genes*) of an ω-tile set.
 
 A gene vector is an int64 ``(n, 2)`` array of distinct top-left (row, col) positions of N x N patches inside an
-H x W exemplar (each in ``[0, H−N] x [0, W−N]``, see :func:`tilesynth.omega.random_genes`). Its quality is
+H x W exemplar (each in ``[0, H−N] x [0, W−N]``, see :func:`tilesynth.genes.random_genes`). Its quality is
 E = λ·ΣD_j + (1−λ)·Var(D_j) (smaller is better), computed by an ``evaluate(genes[P, n, 2]) -> (E[P], D[P, m])``
 callable, normally ``tilesynth.PopulationEvaluator(...).evaluate``. Every method here evaluates a whole
 population per call (never one call per individual).
@@ -30,14 +30,15 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from .errors import ParameterError, ShapeError
-from .omega import check_genes, random_genes
+from .genes import Region, _region, check_genes, random_genes
+from .genes import int_param as _int_param
 
 Evaluate = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 """``evaluate(genes[P, n, 2] int64) -> (E[P] float64, D[P, m] float64)``."""
@@ -142,58 +143,6 @@ class SelectionResult:
 # Small helpers
 
 
-@dataclass(frozen=True)
-class Region:
-    """The valid top-left positions of N x N patches: rows ``0 .. rows−1``, cols ``0 .. cols−1``.
-
-    ``rows = H − N + 1``, ``cols = W − N + 1``; the flat index of (r, c) is ``r·cols + c``.
-    """
-
-    rows: int
-    cols: int
-
-    @classmethod
-    def of(cls, shape: tuple[int, ...], tile_size: int) -> Region:
-        """The region of an exemplar of ``shape`` (H, W[, C]) for tile size N (validated)."""
-        return _region(shape, 1, tile_size)[3]
-
-    @property
-    def size(self) -> int:
-        return self.rows * self.cols
-
-    @property
-    def hi(self) -> np.ndarray:
-        """Upper limit u of a gene (the lower limit l is (0, 0))."""
-        return np.array([self.rows - 1, self.cols - 1], dtype=np.int64)
-
-    def flat(self, genes: np.ndarray) -> np.ndarray:
-        return genes[..., 0] * self.cols + genes[..., 1]
-
-    def unflat(self, idx: np.ndarray | Iterable[int]) -> np.ndarray:
-        i = np.asarray(idx, dtype=np.int64)
-        return np.stack([i // self.cols, i % self.cols], axis=-1)
-
-
-def _region(shape: Any, n: Any, tile_size: Any) -> tuple[tuple[int, int], int, int, Region]:
-    """Validate (shape, n, tile_size) and return them with the region of valid positions."""
-    try:
-        dims = tuple(int(s) for s in shape)
-    except TypeError as exc:
-        raise ParameterError(f"shape = {shape!r}: expected the exemplar shape (H, W[, C])") from exc
-    if len(dims) < 2 or dims[0] < 1 or dims[1] < 1:
-        raise ParameterError(f"shape = {shape!r}: expected the exemplar shape (H, W[, C]) with H, W >= 1")
-    n_ = _int_param("n", n, 1)
-    t = _int_param("tile_size", tile_size, 1)
-    if t > dims[0] or t > dims[1]:
-        raise ParameterError(f"tile_size = {t}: larger than the exemplar ({dims[1]}x{dims[0]} pixels)")
-    reg = Region(dims[0] - t + 1, dims[1] - t + 1)
-    if reg.size < n_:
-        raise ParameterError(
-            f"tile_size = {t}: the exemplar has only {reg.size} patch positions, {n_} needed"
-        )
-    return (dims[0], dims[1]), n_, t, reg
-
-
 MAX_POPULATION = 10_000
 """Largest population (GA, AIS) or count (best-of): every generation evaluates the whole population exactly
 (four SSD maps per new patch position), so 10^4 individuals already take minutes a generation on a 512-pixel
@@ -203,16 +152,6 @@ P x m float64 D values, and the evaluator's working set)."""
 MAX_GENERATIONS = 100_000
 """Largest number of generations: far beyond the papers' 50 (and the stop after 5 without improvement);
 bounds the run time and the stored convergence history."""
-
-
-def _int_param(name: str, value: Any, minimum: int, maximum: int | None = None) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise ParameterError(f"{name} = {value!r}: must be an integer")
-    v = int(value)
-    if v < minimum or (maximum is not None and v > maximum):
-        rng = f">= {minimum}" if maximum is None else f"in [{minimum}, {maximum}]"
-        raise ParameterError(f"{name} = {v}: must be {rng}")
-    return v
 
 
 def _float_param(
@@ -549,6 +488,7 @@ def segment_mutation(rng: np.random.Generator, genes: np.ndarray, region: Region
     return region.unflat(flat)
 
 
+# Length: 94 lines, of which 43 are the docstring (000's operators and stop rules); the body is 51.
 def run_ga(
     evaluate: Evaluate,
     shape: tuple[int, ...],
@@ -819,6 +759,40 @@ def bga_mutation(
     return out
 
 
+def _ais_params(
+    population: Any, s_min: Any, s_max: Any, alpha: Any, beta: Any, deaths: Any, generations: Any, stagnation: Any
+) -> dict[str, Any]:
+    """:func:`run_ais`'s parameters, validated (the record stored with the result)."""
+    size = _int_param("population", population, 2, MAX_POPULATION)
+    params: dict[str, Any] = {
+        "population": size,
+        "s_min": _float_param("s_min", s_min, 0.0, 1.0, lo_open=True, hi_open=True),
+        "s_max": _float_param("s_max", s_max, 0.0, 1.0, lo_open=True, hi_open=True),
+        "alpha": _float_param("alpha", alpha, 0.0, math.inf, lo_open=True, hi_open=True),
+        "beta": _float_param("beta", beta, 0.0, math.inf, lo_open=True, hi_open=True),
+        "deaths": size // 4 if deaths is None else _int_param("deaths", deaths, 0, size - 1),
+        "generations": _int_param("generations", generations, 1, MAX_GENERATIONS),
+        "stagnation": _int_param("stagnation", stagnation, 1),
+    }
+    if params["s_min"] > params["s_max"]:
+        raise ParameterError(f"s_min = {params['s_min']}: must not exceed s_max = {params['s_max']}")
+    return params
+
+
+def _replace_by_best_clone(
+    pop: np.ndarray, E: np.ndarray, cand: np.ndarray, cand_parent: np.ndarray, E_cand: np.ndarray
+) -> None:
+    """In place: each parent is replaced by its best mutated clone (first on ties) if that is strictly better."""
+    o = np.lexsort((E_cand, cand_parent))  # sort by (parent, E)
+    first = np.ones(o.size, dtype=bool)
+    first[1:] = cand_parent[o][1:] != cand_parent[o][:-1]
+    best = o[first]
+    win = best[E_cand[best] < E[cand_parent[best]]]
+    pop[cand_parent[win]] = cand[win]
+    E[cand_parent[win]] = E_cand[win]
+
+
+# Length: 106 lines, of which 34 are the docstring (003's seven steps); the body is one generation loop.
 def run_ais(
     evaluate: Evaluate,
     shape: tuple[int, ...],
@@ -872,19 +846,8 @@ def run_ais(
     """
     t0 = time.perf_counter()
     shp, n, t, region = _region(shape, n, tile_size)
-    size = _int_param("population", population, 2, MAX_POPULATION)
-    params: dict[str, Any] = {
-        "population": size,
-        "s_min": _float_param("s_min", s_min, 0.0, 1.0, lo_open=True, hi_open=True),
-        "s_max": _float_param("s_max", s_max, 0.0, 1.0, lo_open=True, hi_open=True),
-        "alpha": _float_param("alpha", alpha, 0.0, math.inf, lo_open=True, hi_open=True),
-        "beta": _float_param("beta", beta, 0.0, math.inf, lo_open=True, hi_open=True),
-        "deaths": size // 4 if deaths is None else _int_param("deaths", deaths, 0, size - 1),
-        "generations": _int_param("generations", generations, 1, MAX_GENERATIONS),
-        "stagnation": _int_param("stagnation", stagnation, 1),
-    }
-    if params["s_min"] > params["s_max"]:
-        raise ParameterError(f"s_min = {params['s_min']}: must not exceed s_max = {params['s_max']}")
+    params = _ais_params(population, s_min, s_max, alpha, beta, deaths, generations, stagnation)
+    size = params["population"]
     g = as_generator(rng)
     ev = _Evaluator(evaluate, n)
     run = _Run("ais", params["generations"], params["stagnation"], progress)
@@ -927,15 +890,7 @@ def run_ais(
                 f"evaluate returned E = {float(E_batch.min())!r} < 0: the AIS affinity 1/E needs E >= 0"
             )
         if cand.shape[0]:
-            # best clone of each parent (first on ties): sort by (parent, E)
-            o = np.lexsort((E_cand, cand_parent))
-            first = np.ones(o.size, dtype=bool)
-            first[1:] = cand_parent[o][1:] != cand_parent[o][:-1]
-            best = o[first]
-            better = E_cand[best] < E[cand_parent[best]]
-            win = best[better]
-            pop[cand_parent[win]] = cand[win]
-            E[cand_parent[win]] = E_cand[win]
+            _replace_by_best_clone(pop, E, cand, cand_parent, E_cand)
 
         if params["deaths"]:
             order = np.argsort(E, kind="stable")
@@ -950,6 +905,7 @@ def run_ais(
 # Polish
 
 
+# Length: 103 lines, of which 32 are the docstring; the body is one coordinate-descent loop.
 def polish_genes(
     evaluate: Evaluate,
     genes: np.ndarray,
@@ -1066,6 +1022,50 @@ _METHOD_PARAMS: dict[str, dict[str, Any]] = {
 }
 
 
+def _method_kwargs(
+    name: str, params: dict[str, Any], generations: int | None, population: int | None
+) -> dict[str, Any]:
+    """The runner's keywords of method ``name``: its parameters checked against the method's known ones, with
+    ``generations`` / ``population`` mapped onto it (``population`` is best-of's ``count``)."""
+    allowed = _METHOD_PARAMS[name]
+    for key in params:
+        if key not in allowed or key in ("generations", "population"):
+            known = sorted((set(allowed) - {"generations", "population"}) | set(POLISH_DEFAULTS))
+            raise ParameterError(
+                f"{key} = {params[key]!r}: not a parameter of method {name!r}"
+                + (f" (known: {', '.join(known)})" if known else "")
+            )
+    kwargs = dict(params)
+    if generations is not None:
+        if "generations" not in allowed:
+            raise ParameterError(f"generations = {generations!r}: method {name!r} has no generations")
+        kwargs["generations"] = generations
+    if population is not None:
+        if name == "best-of":
+            if "count" in kwargs:
+                raise ParameterError("population and count: give one (both set the best-of count)")
+            kwargs["count"] = population
+        elif "population" in allowed:
+            kwargs["population"] = population
+        else:
+            raise ParameterError(f"population = {population!r}: method {name!r} has no population")
+
+    return kwargs
+
+
+def _polish_settings(polish_opts: dict[str, Any]) -> tuple[int | None, int, int | None]:
+    """``(polish_sweeps, polish_batch, polish_min_distance)`` from the given polish options and the defaults."""
+    p_sweeps = polish_opts.get("polish_sweeps", POLISH_DEFAULTS["polish_sweeps"])
+    p_batch = _int_param("polish_batch", polish_opts.get("polish_batch", POLISH_DEFAULTS["polish_batch"]), 1)
+    if p_sweeps is not None:
+        p_sweeps = _int_param("polish_sweeps", p_sweeps, 1)
+    p_min = polish_opts.get("polish_min_distance", POLISH_DEFAULTS["polish_min_distance"])
+    if p_min is not None:
+        p_min = _int_param("polish_min_distance", p_min, 0)
+    return p_sweeps, p_batch, p_min
+
+
+# Length: 84 lines, of which 28 are the docstring; the body (56) dispatches to the methods.
 def select_genes(
     method: str,
     evaluate: Evaluate,
@@ -1118,49 +1118,15 @@ def select_genes(
     polish_opts = {k: params.pop(k) for k in list(params) if k in POLISH_DEFAULTS}
     if polish_opts and not polish:
         raise ParameterError(f"{next(iter(polish_opts))}: only used with polish=True")
-    allowed = _METHOD_PARAMS[name]
-    for key in params:
-        if key not in allowed or key in ("generations", "population"):
-            known = sorted((set(allowed) - {"generations", "population"}) | set(POLISH_DEFAULTS))
-            raise ParameterError(
-                f"{key} = {params[key]!r}: not a parameter of method {name!r}"
-                + (f" (known: {', '.join(known)})" if known else "")
-            )
-    kwargs = dict(params)
-    if generations is not None:
-        if "generations" not in allowed:
-            raise ParameterError(f"generations = {generations!r}: method {name!r} has no generations")
-        kwargs["generations"] = generations
-    if population is not None:
-        if name == "best-of":
-            if "count" in kwargs:
-                raise ParameterError("population and count: give one (both set the best-of count)")
-            kwargs["count"] = population
-        elif "population" in allowed:
-            kwargs["population"] = population
-        else:
-            raise ParameterError(f"population = {population!r}: method {name!r} has no population")
-
+    kwargs = _method_kwargs(name, params, generations, population)
     runner: Callable[..., SelectionResult] = {
         "random": run_random,
         "best-of": run_best_of,
         "ga": run_ga,
         "ais": run_ais,
     }[name]
-    p_sweeps: int | None = None
-    p_batch = 0
-    p_min: int | None = None
-    if polish:
-        # validate polish options before the (possibly long) run
-        p_sweeps = polish_opts.get("polish_sweeps", POLISH_DEFAULTS["polish_sweeps"])
-        p_batch = _int_param(
-            "polish_batch", polish_opts.get("polish_batch", POLISH_DEFAULTS["polish_batch"]), 1
-        )
-        if p_sweeps is not None:
-            p_sweeps = _int_param("polish_sweeps", p_sweeps, 1)
-        p_min = polish_opts.get("polish_min_distance", POLISH_DEFAULTS["polish_min_distance"])
-        if p_min is not None:
-            p_min = _int_param("polish_min_distance", p_min, 0)
+    # validate polish options before the (possibly long) run
+    p_sweeps, p_batch, p_min = _polish_settings(polish_opts) if polish else (None, 0, None)
     res = runner(evaluate, shape, n, tile_size, rng, progress=progress, **kwargs)
     res.params = {**res.params, "polish": polish}
     if polish:
@@ -1186,6 +1152,86 @@ def select_genes(
     return res
 
 
+# --------------------------------------------------------------------------------------------------------------
+# The builders' one path to a gene vector
+
+
+def wants_selection(select: Any, polish: bool, select_params: Any, *, extra: bool = False) -> bool:
+    """Whether the options ask for an optimised gene vector (anything but one random draw)."""
+    return (select is not None and select != "random") or bool(polish) or bool(extra) or bool(select_params)
+
+
+def check_select(select: Any) -> None:
+    """Refuse a ``select`` that is neither None nor a method name (a string)."""
+    if select is not None and not isinstance(select, str):
+        raise ParameterError(f"select = {select!r}: must be one of {', '.join(METHODS)} or None")
+
+
+def choose_genes(
+    genes: Any,
+    *,
+    n: int,
+    size: int,
+    shape: tuple[int, ...],
+    rng: np.random.Generator,
+    evaluator: Callable[[], Evaluate] | None,
+    select: str | None = None,
+    polish: bool = False,
+    generations: int | None = None,
+    population: int | None = None,
+    select_params: dict[str, Any] | None = None,
+    selection: dict[str, Any] | None = None,
+    ga_defaults: dict[str, Any] | None = None,
+    optimise: bool = False,
+    record: dict[str, Any] | None = None,
+    progress: Progress | None = None,
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """Given, random or selected genes (``n`` top-left corners of ``size`` squares) and how they were chosen.
+
+    * ``genes`` given: checked (:func:`check_genes`), recorded as ``selection`` (default ``{"method": "given"}``);
+      giving ``select`` too is an error.
+    * no selection asked for (``select`` None or "random", no ``polish``, no ``select_params``, ``optimise``
+      false): one :func:`random_genes` draw from ``rng``, recorded as ``{"method": "random"}``.
+    * otherwise :func:`select_genes` on ``evaluator()`` (called only then, so its cost is only
+      paid when selecting). ``ga_defaults`` (a scheme's GA settings, e.g. 001's) fill the GA parameters the
+      caller did not give. The record is the selection result without its genes and wall time, ``E`` / ``D``
+      renamed ``objective_E`` / ``objective_D``, plus ``record``.
+
+    ``optimise`` lets a scheme count one of its own options as a selection request (ω's ``normalise``).
+    """
+    check_select(select)
+    optimise = wants_selection(select, polish, select_params, extra=optimise)
+    if genes is not None and (select is not None or optimise):
+        raise ParameterError("genes and select: give one (select chooses the genes)")
+    if genes is not None:
+        return check_genes(genes, n, shape, size), ({"method": "given"} if selection is None else dict(selection))
+    if not optimise:
+        return random_genes(shape, n, size, rng), ({"method": "random"} if selection is None else dict(selection))
+    method = (select or "random").strip().lower().replace("_", "-")
+    params = dict(select_params or {})
+    if method == "ga" and ga_defaults:
+        for key, value in ga_defaults.items():
+            if key == "generations" and generations is None:
+                generations = value
+            elif key == "population" and population is None:
+                population = value
+            elif key not in ("generations", "population"):
+                params.setdefault(key, value)
+    if evaluator is None:
+        raise ParameterError(f"select = {select!r}: this scheme has no objective to select genes by")
+    res = select_genes(
+        method, evaluator(), shape, n, size, rng, polish=polish, generations=generations,
+        population=population, progress=progress, **params,
+    )  # fmt: skip
+    info = res.to_dict()
+    info.pop("genes")
+    info.update(record or {})
+    info["objective_E"] = info.pop("E")
+    info["objective_D"] = info.pop("D")
+    info.pop("wall_time")  # wall time goes in the tile set's timing (selection_s), not in its content
+    return res.genes, info
+
+
 __all__ = [
     "AIS_DEFAULTS",
     "BEST_OF_DEFAULTS",
@@ -1195,6 +1241,7 @@ __all__ = [
     "Region",
     "SelectionResult",
     "as_generator",
+    "choose_genes",
     "bga_delta",
     "bga_fold",
     "bga_mutation",

@@ -14,15 +14,26 @@ a bigger map gives the matching piece).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from . import kernels
 from ._validate import MAX_BYTES_ENV, fmt_bytes, memory_limit, positive_int, seed_int, threads_arg, to_uint
 from .errors import ParameterError, ShapeError
-from .tilefile import TileSet
+from .stages.smoothing import smooth_tiles
 from .tiling import scanline_index_map, validate_index_map
+
+if TYPE_CHECKING:  # synthesis reads tile sets, the file format does not concern it (and TileSet.synthesize
+    from .tilefile import TileSet  # calls here: a runtime import would be a cycle)
+
+#: The fields synthesis reads: anything with them is a tile set here (a :class:`~tilesynth.tilefile.TileSet`).
+_TILESET_FIELDS = ("tiles", "source", "cut_masks", "match_offsets", "layout", "params", "exemplar")
+
+
+def _require_tileset(tileset: Any) -> None:
+    if not all(hasattr(tileset, f) for f in _TILESET_FIELDS):
+        raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet (tilesynth.load(path))")
 
 
 def synthesis_bytes(tileset: TileSet, width: int, height: int, dtype: Any = np.float32, out: bool = True) -> int:
@@ -59,6 +70,7 @@ def check_size(tileset: TileSet, width: int, height: int, dtype: Any = np.float3
     return est
 
 
+# Length: 80 lines, of which 20 are the docstring; the code is 60.
 def synthesize(
     tileset: TileSet,
     width: int,
@@ -98,8 +110,7 @@ def synthesize(
     image : ``(height, width, C)`` of ``dtype``.
     index_map : int32 ``(rows, cols)``, the tile of every cell.
     """
-    if not isinstance(tileset, TileSet):
-        raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet (tilesynth.load(path))")
+    _require_tileset(tileset)
     w = positive_int(width, "width")
     h = positive_int(height, "height")
     threads = threads_arg(threads)
@@ -167,8 +178,7 @@ def source_map(
 
     Refused up front, like :func:`synthesize`, when the ``height x width x 8`` bytes exceed the memory limit.
     """
-    if not isinstance(tileset, TileSet):
-        raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet (tilesynth.load(path))")
+    _require_tileset(tileset)
     w = positive_int(width, "width")
     h = positive_int(height, "height")
     need, limit = h * w * 8, memory_limit(max_bytes)
@@ -183,8 +193,9 @@ def source_map(
 
 
 def is_smoothed(tileset: TileSet) -> bool:
-    """Whether the tile set's colour tiles were Poisson-smoothed (an ω set built with ``smooth=True``)."""
-    return tileset.scheme == "omega" and isinstance(tileset.params.get("smooth"), dict)
+    """Whether the tile set's colour tiles were Poisson-smoothed (built with ``smooth=True``: the solver's record
+    is in ``params["smooth"]``, whatever the scheme)."""
+    return isinstance(tileset.params.get("smooth"), dict)
 
 
 def synthesize_map(
@@ -229,8 +240,7 @@ def synthesize_map(
     -------
     ``(height, width, C)`` array of ``aligned``'s dtype.
     """
-    if not isinstance(tileset, TileSet):
-        raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet (tilesynth.load(path))")
+    _require_tileset(tileset)
     a = np.asarray(aligned)
     if a.ndim == 2:
         a = a[:, :, None]
@@ -281,8 +291,6 @@ def check_smoothable(a: np.ndarray, where: str = "map") -> None:
 
 def _smooth_map_atlas(tileset: TileSet, a: np.ndarray, atlas: np.ndarray, threads: int | None) -> np.ndarray:
     """The map's tiles Poisson-smoothed inside the same regions as the colour tiles (see :func:`synthesize_map`)."""
-    from .omega import smooth_tiles
-
     check_smoothable(a)
     scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(a.dtype)
     n = tileset.tile_size

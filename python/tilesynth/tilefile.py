@@ -367,10 +367,15 @@ class TileSet:
             raise TileSetFormatError(f"array source points outside the {w}x{h} exemplar")
         for name in ("genes", "match_offsets"):
             g = getattr(self, name)
-            if name == "match_offsets" and self.scheme == "wang":
-                # Cohen's Wang tiles have no matching patch: the array holds (-1, -1) for every tile
+            if name == "match_offsets" and (g == -1).any():
+                # a scheme without a matching patch (Cohen's Wang tiles) stores (-1, -1) for every tile; the
+                # format asks no scheme which: all -1, or all valid positions
                 if not (g == -1).all():
-                    raise TileSetFormatError("array match_offsets of a Wang tile set must be all -1")
+                    raise TileSetFormatError(
+                        "array match_offsets must be all -1 (a scheme without matching patches) or patch positions"
+                    )
+                if isinstance(self.params.get("smooth"), dict):  # smoothing follows the matching patches
+                    raise TileSetFormatError("array match_offsets of a smoothed tile set must hold patch positions")
                 continue
             if (g < 0).any() or (g[:, 0] > h - n).any() or (g[:, 1] > w - n).any():
                 raise TileSetFormatError(f"array {name} has patch positions outside the {w}x{h} exemplar")

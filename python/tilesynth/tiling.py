@@ -177,6 +177,7 @@ def _as_generator(seed: SeedLike) -> np.random.Generator:
     return np.random.default_rng(seed)
 
 
+# Length: 89 lines, of which 38 are the docstring (the tiling rule and its guarantees); the code is 51.
 def scanline_index_map(
     tileset: TileSetLike,
     rows: int,

@@ -105,25 +105,19 @@ sample it came from, ``cut_masks`` the cuts and ``cut_stats`` the facts of each 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from . import kernels
-from ._validate import as_image, positive_int, seed_int
+from . import _core, kernels
+from ._validate import as_image, positive_int
 from .errors import ParameterError
-from .omega import (
-    LAMBDA,
-    check_exemplar_size,
-    check_genes,
-    check_tile_size,
-    default_tile_size,
-    energy,
-    patch_gradients,
-    random_genes,
-)
-from .tilefile import TileSet, exemplar_digest
+from .genes import LAMBDA, energy
+from .options import BuildOptions, Progress, SeedLike, common_options
+from .select import GA_DEFAULTS, Evaluate, choose_genes
+from .stages.compose import finish_tileset, offset_source, patch_gradients, patches_at
+from .tilefile import TileSet
 from .wangsets import WangTileSet, get_wang_tileset
 
 __all__ = [
@@ -145,10 +139,8 @@ __all__ = [
     "wang_energy",
 ]
 
-Progress = Callable[[str, int, int], None]
-
-DEFAULT_OMEGA = 0.8
-"""ω of D_boundary and E (001 gives none; 000 uses 0.8 for the same weighting)."""
+DEFAULT_OMEGA: float = _core.DEFAULT_OMEGA
+"""ω of D_boundary and E (001 gives none; 000 uses 0.8 for the same weighting); defined in the core."""
 
 GA_001: dict[str, Any] = {
     "population": 50,
@@ -160,8 +152,9 @@ GA_001: dict[str, Any] = {
 }
 """001's GA: pop_size 50, α 0.05, P_c 0.3, P_m 0.2, 200 generations, stop after 8 without improvement."""
 
-NORTH, EAST, SOUTH, WEST = 0, 1, 2, 3
-"""Label values of the four samples (``labels``, columns of ``tile_patches``); 4 is the supplementary patch."""
+NORTH, EAST, SOUTH, WEST = _core.WANG_SIDES
+"""Label values of the four samples (``labels``, columns of ``tile_patches``), the core's side indices
+(``rust/wang.rs``); 4 is the supplementary patch."""
 SUPPLEMENTARY = 4
 
 #: (dy, dx) of each role's sample relative to the tile, in units of h (see the mapping above).
@@ -255,86 +248,74 @@ def _resolve_set(tileset: str | WangTileSet) -> WangTileSet:
         raise ParameterError(f"tileset = {tileset!r}: {exc}") from None
 
 
-def _exemplar_info(ex: np.ndarray, extra: dict[str, Any] | None) -> dict[str, Any]:
-    info = {"shape": list(ex.shape), "sha256": exemplar_digest(ex)}
-    info.update(extra or {})
-    return info
+@dataclass(frozen=True)
+class WangOptions:
+    """The Wang scheme's own options of one build, validated once (:func:`wang_options`)."""
+
+    samples: str
+    cut: str
+    corners: str
+    overlap: int
+    omega: float
+    eps: float
+    sample_size: int
+
+    def kernel_args(self) -> dict[str, Any]:
+        return {"corners": self.corners, "samples": self.samples, "omega": self.omega, "eps": self.eps}
 
 
-def _run_selection(
-    evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
-    shape: tuple[int, ...],
-    n: int,
-    size: int,
-    rng: np.random.Generator,
-    method: str,
-    polish: bool,
-    generations: int | None,
-    population: int | None,
-    params: dict[str, Any],
-    report: Progress,
-) -> tuple[np.ndarray, dict[str, Any]]:
-    from .select import select_genes
+def wang_options(b: BuildOptions, *, overlap: Any, corners: Any, samples: Any, cut: Any, omega: Any, eps: Any) -> WangOptions:
+    """Validate the Wang options (names as in :func:`build_wang`) against the build's tile size and exemplar."""
+    n, ex = b.tile_size, b.exemplar
+    if samples not in ("diamond", "square"):
+        raise ParameterError(f"samples = {samples!r}: must be 'diamond' or 'square'")
+    if cut not in ("dp", "graph"):
+        raise ParameterError(f"cut = {cut!r}: must be 'dp' or 'graph'")
+    if samples == "square":
+        if overlap is not None:
+            raise ParameterError(f"overlap = {overlap!r}: square samples overlap on whole quadrants, give none")
+        if corners not in (None, "pinned"):
+            raise ParameterError(f"corners = {corners!r}: square samples end at the tile corner, use 'pinned'")
+        corners, ov = "pinned", n
+    else:
+        corners = "free" if corners is None else corners
+        if corners not in ("free", "pinned"):
+            raise ParameterError(f"corners = {corners!r}: must be 'free' or 'pinned'")
+        ov = default_overlap(n) if overlap is None else positive_int(overlap, "overlap", minimum=2)
+        if ov % 2:
+            raise ParameterError(f"overlap = {ov}: must be even (the band is w = overlap/2 on each side)")
+    if isinstance(omega, bool) or not isinstance(omega, (int, float)) or not 0.0 <= float(omega) <= 1.0:
+        raise ParameterError(f"omega = {omega!r}: must be a number in [0, 1]")
+    p = sample_size(n, ov, corners, samples)
+    if p > min(ex.shape[0], ex.shape[1]):
+        raise ParameterError(
+            f"tile_size = {n}: the sample squares ({p}x{p} = N + overlap) are larger than the exemplar "
+            f"({ex.shape[1]}x{ex.shape[0]}); use a smaller tile size or overlap"
+        )
+    return WangOptions(samples, cut, corners, ov, float(omega), eps, p)
 
-    res = select_genes(
-        method, evaluate, shape, n, size, rng, polish=polish, generations=generations, population=population,
-        progress=report, **params,
+
+def wang_evaluator(b: BuildOptions, o: WangOptions, tile_patches: np.ndarray) -> Evaluate:
+    """001's E of gene populations (:class:`~tilesynth.kernels.WangEvaluator`), always with DP cuts."""
+    ev = kernels.WangEvaluator(
+        b.exemplar, tile_patches, b.definition.n_samples, b.tile_size, o.overlap, cut="dp", **o.kernel_args()
     )
-    info = res.to_dict()
-    info.pop("genes")
-    info["objective_E"] = info.pop("E")
-    info["objective_D"] = info.pop("D")
-    info.pop("wall_time")  # goes in the timing, not the content
-    return res.genes, info
+    return lambda g: ev.evaluate(g, b.threads)
 
 
-def _genes(
-    genes: Any,
-    select: str | None,
-    polish: bool,
-    select_params: dict[str, Any] | None,
-    selection: dict[str, Any] | None,
-    n: int,
-    size: int,
-    shape: tuple[int, ...],
-    rng: np.random.Generator,
-    evaluator: Callable[[], Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]],
-    generations: int | None,
-    population: int | None,
-    defaults: dict[str, Any],
-    report: Progress,
-) -> tuple[np.ndarray, dict[str, Any]]:
-    """Given, random or selected genes (top-left corners of ``size`` squares) and the selection record."""
-    if select is not None and not isinstance(select, str):
-        from .select import METHODS
-
-        raise ParameterError(f"select = {select!r}: must be one of {', '.join(METHODS)} or None")
-    optimise = (select is not None and select != "random") or polish or bool(select_params)
-    if genes is not None and (select is not None or optimise):
-        raise ParameterError("genes and select: give one (select chooses the genes)")
-    if genes is not None:
-        return check_genes(genes, n, shape, size), ({"method": "given"} if selection is None else dict(selection))
-    if not optimise:
-        return random_genes(shape, n, size, rng), ({"method": "random"} if selection is None else dict(selection))
-    method = (select or "random").strip().lower().replace("_", "-")
-    params = dict(select_params or {})
-    if method == "ga":
-        for key, value in defaults.items():
-            if key == "generations" and generations is None:
-                generations = value
-            elif key == "population" and population is None:
-                population = value
-            elif key not in ("generations", "population"):
-                params.setdefault(key, value)
-    return _run_selection(evaluator(), shape, n, size, rng, method, polish, generations, population, params, report)
+def _sum4(values: np.ndarray) -> np.ndarray:
+    """Per tile, the sum of its four cuts' values in the evaluator's order (bit-identical to it)."""
+    return np.array([((s[0] + s[1]) + s[2]) + s[3] for s in values.tolist()], dtype=np.float64)
 
 
 # --------------------------------------------------------------------------------------------------------------
 # Cohen / Burke
 
 
+# Length: 91 lines, of which 33 are the docstring of its options; the body (58) is the stage sequence.
 def build_wang(
     exemplar: np.ndarray,
+    *,
     tileset: str | WangTileSet = "wang8",
     tile_size: int | None = None,
     overlap: int | None = None,
@@ -342,7 +323,7 @@ def build_wang(
     samples: str = "diamond",
     cut: str = "dp",
     genes: np.ndarray | None = None,
-    seed: int | None = None,
+    seed: SeedLike = None,
     threads: int | None = None,
     omega: float = DEFAULT_OMEGA,
     eps: float = kernels.DEFAULT_EPS,
@@ -388,104 +369,41 @@ def build_wang(
     -------
     TileSet with ``scheme="wang"`` (see :mod:`tilesynth.tilefile` for the meaning of each array).
     """
-    t0 = time.perf_counter()
-    ex = as_image(exemplar, "exemplar")
-    defn = _resolve_set(tileset)
-    n = default_tile_size(ex.shape) if tile_size is None else check_tile_size(tile_size, ex.shape)
-    if samples not in ("diamond", "square"):
-        raise ParameterError(f"samples = {samples!r}: must be 'diamond' or 'square'")
-    if cut not in ("dp", "graph"):
-        raise ParameterError(f"cut = {cut!r}: must be 'dp' or 'graph'")
-    if samples == "square":
-        if overlap is not None:
-            raise ParameterError(f"overlap = {overlap!r}: square samples overlap on whole quadrants, give none")
-        if corners not in (None, "pinned"):
-            raise ParameterError(f"corners = {corners!r}: square samples end at the tile corner, use 'pinned'")
-        corners, ov = "pinned", n
-    else:
-        corners = "free" if corners is None else corners
-        if corners not in ("free", "pinned"):
-            raise ParameterError(f"corners = {corners!r}: must be 'free' or 'pinned'")
-        ov = default_overlap(n) if overlap is None else positive_int(overlap, "overlap", minimum=2)
-        if ov % 2:
-            raise ParameterError(f"overlap = {ov}: must be even (the band is w = overlap/2 on each side)")
-    if isinstance(omega, bool) or not isinstance(omega, (int, float)) or not 0.0 <= float(omega) <= 1.0:
-        raise ParameterError(f"omega = {omega!r}: must be a number in [0, 1]")
-    omega = float(omega)
-    p = sample_size(n, ov, corners, samples)
-    if p > min(ex.shape[0], ex.shape[1]):
-        raise ParameterError(
-            f"tile_size = {n}: the sample squares ({p}x{p} = N + overlap) are larger than the exemplar "
-            f"({ex.shape[1]}x{ex.shape[0]}); use a smaller tile size or overlap"
-        )
-    seed = seed_int(seed)
-    rng = np.random.default_rng(seed)
-    report = progress or (lambda stage, done, total: None)
+    b = common_options(
+        exemplar, tileset=tileset, resolve_set=_resolve_set, tile_size=tile_size, seed=seed, threads=threads,
+        progress=progress, exemplar_info=exemplar_info,
+    )  # fmt: skip
+    o = wang_options(b, overlap=overlap, corners=corners, samples=samples, cut=cut, omega=omega, eps=eps)
+    defn, n = b.definition, b.tile_size
     tile_patches = defn.sample_indices()
-    n_samples = defn.n_samples
-
-    def evaluator() -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
-        ev = kernels.WangEvaluator(
-            ex, tile_patches, n_samples, n, ov, corners=corners, samples=samples, cut="dp", omega=omega, eps=eps
-        )
-        return lambda g: ev.evaluate(g, threads)
-
-    genes_arr, sel = _genes(
-        genes, select, polish, select_params, selection, n_samples, p, ex.shape, rng, evaluator, generations,
-        population, GA_001, report,
-    )
+    genes_arr, sel = choose_genes(
+        genes, n=defn.n_samples, size=o.sample_size, shape=b.exemplar.shape, rng=b.rng,
+        evaluator=lambda: wang_evaluator(b, o, tile_patches), select=select, polish=polish,
+        generations=generations, population=population, select_params=select_params, selection=selection,
+        ga_defaults=GA_001, progress=b.progress,
+    )  # fmt: skip
     t_sel = time.perf_counter()
-    report("cuts", 0, 1)
+    b.report("cuts", 0, 1)
     labels, stats = kernels.wang_tiles(
-        ex, genes_arr, tile_patches, n, ov, corners=corners, samples=samples, cut=cut, omega=omega, eps=eps,
-        threads=threads,
+        b.exemplar, genes_arr, tile_patches, n, o.overlap, cut=o.cut, threads=b.threads, **o.kernel_args()
     )
-    report("cuts", 1, 1)
+    b.report("cuts", 1, 1)
     t_cut = time.perf_counter()
-    margin = (p - n) // 2
-    source = sample_source(genes_arr, tile_patches, labels, n, margin)
-    tiles = ex[source[..., 0], source[..., 1]]
-    cut_masks = (labels == EAST) | (labels == WEST)
-    D = np.array([((s[0] + s[1]) + s[2]) + s[3] for s in stats[:, :, 4].tolist()], dtype=np.float64)
-    costs = np.array([((s[0] + s[1]) + s[2]) + s[3] for s in stats[:, :, 5].tolist()], dtype=np.float64)
-    from . import __version__
-
-    return TileSet(
-        scheme="wang",
-        layout=defn.to_dict(),
-        tiles=np.ascontiguousarray(tiles, dtype=np.float32),
-        source=np.ascontiguousarray(source),
-        cut_masks=np.ascontiguousarray(cut_masks),
-        genes=np.ascontiguousarray(genes_arr, dtype=np.int64),
-        tile_patches=tile_patches,
-        match_offsets=np.full((len(defn), 2), -1, np.int64),
-        D=D,
-        cut_costs=costs,
-        exemplar=ex,
-        E=wang_energy(D, omega),
-        params={
-            "set": defn.name,
-            "tile_size": n,
-            "samples": samples,
-            "overlap": ov,
-            "sample_size": p,
-            "corners": corners,
-            "cut": cut,
-            "omega": omega,
-            "eps": float(eps),
-            "seed": seed,
-            "selection": sel,
-        },
-        exemplar_info=_exemplar_info(ex, exemplar_info),
-        timing={
-            "selection_s": t_sel - t0,
-            "cutting_s": t_cut - t_sel,
-            "total_s": time.perf_counter() - t0,
-        },
-        version=__version__,
-        labels=np.ascontiguousarray(labels, dtype=np.uint8),
-        cut_stats=np.ascontiguousarray(stats, dtype=np.float64),
-    )
+    source = sample_source(genes_arr, tile_patches, labels, n, (o.sample_size - n) // 2)
+    D = _sum4(stats[:, :, 4])
+    params = {
+        "set": defn.name, "tile_size": n, "samples": o.samples, "overlap": o.overlap, "sample_size": o.sample_size,
+        "corners": o.corners, "cut": o.cut, "omega": o.omega, "eps": float(o.eps), "seed": b.seed,
+        "selection": sel,
+    }  # fmt: skip
+    return finish_tileset(
+        scheme="wang", definition=defn, exemplar=b.exemplar, tiles=b.exemplar[source[..., 0], source[..., 1]],
+        source=source, cut_masks=(labels == EAST) | (labels == WEST), genes=genes_arr, tile_patches=tile_patches,
+        match_offsets=np.full((len(defn), 2), -1, np.int64), D=D, cut_costs=_sum4(stats[:, :, 5]),
+        E=wang_energy(D, o.omega), params=params, exemplar_info=b.exemplar_info,
+        timing={"selection_s": t_sel - b.started, "cutting_s": t_cut - t_sel}, started=b.started,
+        labels=labels, cut_stats=stats,
+    )  # fmt: skip
 
 
 # --------------------------------------------------------------------------------------------------------------
@@ -531,14 +449,97 @@ class SwangEvaluator:
 SUPPLEMENTARY_METHODS = ("ssd", "cut")
 
 
+@dataclass(frozen=True)
+class SwangOptions:
+    """The s-Wang scheme's own options of one build, validated once (:func:`swang_options`)."""
+
+    method: str
+    given: np.ndarray | None
+    candidates: int
+    gradients: str
+    eps: float
+
+
+def swang_options(b: BuildOptions, *, supplementary: Any, candidates: Any, gradients: Any, eps: Any) -> SwangOptions:
+    """Validate the s-Wang options (names as in :func:`build_swang`)."""
+    ex, n, k = b.exemplar, b.tile_size, len(b.definition)
+    if gradients not in ("patch", "tile"):
+        raise ParameterError(f"gradients = {gradients!r}: must be 'patch' or 'tile'")
+    given: np.ndarray | None = None
+    if isinstance(supplementary, str):
+        if supplementary not in SUPPLEMENTARY_METHODS:
+            raise ParameterError(f"supplementary = {supplementary!r}: must be 'ssd', 'cut' or a (K, 2) array")
+    else:
+        given = np.asarray(supplementary)
+        if given.shape != (k, 2) or not np.issubdtype(given.dtype, np.integer):
+            raise ParameterError(
+                f"supplementary has shape {given.shape} and dtype {given.dtype}, expected integer ({k}, 2)"
+            )
+        hi = np.array([ex.shape[0] - n, ex.shape[1] - n])
+        bad = np.nonzero((given < 0).any(1) | (given > hi).any(1))[0]
+        if bad.size:
+            raise ParameterError(
+                f"supplementary[{int(bad[0])}] = {tuple(int(v) for v in given[bad[0]])}: the patch must lie "
+                f"inside the exemplar (row in [0, {hi[0]}], col in [0, {hi[1]}])"
+            )
+        given = given.astype(np.int64)
+    method = supplementary if isinstance(supplementary, str) else "given"
+    return SwangOptions(method, given, positive_int(candidates, "candidates"), gradients, eps)
+
+
+def _supplementary_candidates(b: BuildOptions, o: SwangOptions, I_tiles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Candidate supplementary patches ``(K, c, 2)`` of every initial tile and their SSD ``(K, c)``."""
+    ex, n = b.exemplar, b.tile_size
+    if o.given is not None:
+        ssd = np.array(
+            [[float(((I_tiles[t].astype(np.float64) - ex[r : r + n, c : c + n]) ** 2).sum())] for t, (r, c) in
+             enumerate(o.given)]
+        )  # fmt: skip
+        return o.given[:, None, :], ssd
+    want = 1 if o.method == "ssd" else o.candidates
+    index = kernels.SsdIndex(ex, b.threads)
+    offsets, ssd = index.best_matches(I_tiles, k=want, exclude_radius=n // 4 if want > 1 else 0, threads=b.threads)
+    if offsets.shape[1] < want:
+        raise ParameterError(
+            f"candidates = {o.candidates}: the exemplar has only {offsets.shape[1]} translations N/4 apart"
+        )
+    return offsets, ssd
+
+
+def _closed_cuts(
+    b: BuildOptions, o: SwangOptions, I_tiles: np.ndarray, I_src: np.ndarray, offsets: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The closed cut of every tile against each candidate; per tile the cheapest (ties: the better SSD).
+    Returns ``(choice (K,), masks (K, N, N), costs (K,))``."""
+    ex, n, k = b.exemplar, b.tile_size, I_tiles.shape[0]
+    grad = patch_gradients(ex, I_src) if o.gradients == "patch" else None
+    n_cand = offsets.shape[1]
+    if n_cand == 1:
+        masks, costs = kernels.swang_cuts(
+            I_tiles, patches_at(ex, offsets[:, 0], n), eps=o.eps, threads=b.threads, initial_grad=grad
+        )
+        return np.zeros(k, np.int64), masks, costs
+    reps = np.repeat(np.arange(k), n_cand)
+    cols = np.tile(np.arange(n_cand), k)
+    all_masks, all_costs = kernels.swang_cuts(
+        np.ascontiguousarray(I_tiles[reps]), patches_at(ex, offsets[reps, cols], n), eps=o.eps, threads=b.threads,
+        initial_grad=None if grad is None else np.ascontiguousarray(grad[reps]),
+    )  # fmt: skip
+    all_costs = all_costs.reshape(k, n_cand)
+    choice = np.argmin(all_costs, axis=1)  # ties: the better SSD
+    return choice, all_masks.reshape(k, n_cand, n, n)[np.arange(k), choice], all_costs[np.arange(k), choice]
+
+
+# Length: 86 lines, of which 25 are the docstring; the body (61) is the stage sequence.
 def build_swang(
     exemplar: np.ndarray,
+    *,
     tileset: str | WangTileSet = "wang8",
     tile_size: int | None = None,
     genes: np.ndarray | None = None,
     supplementary: str | np.ndarray = "ssd",
     candidates: int = 8,
-    seed: int | None = None,
+    seed: SeedLike = None,
     threads: int | None = None,
     eps: float = kernels.DEFAULT_EPS,
     gradients: str = "patch",
@@ -576,137 +577,43 @@ def build_swang(
     -------
     TileSet with ``scheme="swang"``.
     """
-    t0 = time.perf_counter()
-    ex = as_image(exemplar, "exemplar")
-    check_exemplar_size(ex.shape)  # the default tile size (4 at least) must fit
-    defn = _resolve_set(tileset)
-    n = default_tile_size(ex.shape) if tile_size is None else check_tile_size(tile_size, ex.shape)
-    if gradients not in ("patch", "tile"):
-        raise ParameterError(f"gradients = {gradients!r}: must be 'patch' or 'tile'")
-    k = len(defn)
-    given_supp: np.ndarray | None = None
-    method = supplementary if isinstance(supplementary, str) else "given"
-    if isinstance(supplementary, str):
-        if supplementary not in SUPPLEMENTARY_METHODS:
-            raise ParameterError(f"supplementary = {supplementary!r}: must be 'ssd', 'cut' or a (K, 2) array")
-    else:
-        given_supp = np.asarray(supplementary)
-        if given_supp.shape != (k, 2) or not np.issubdtype(given_supp.dtype, np.integer):
-            raise ParameterError(
-                f"supplementary has shape {given_supp.shape} and dtype {given_supp.dtype}, expected integer ({k}, 2)"
-            )
-        hi = np.array([ex.shape[0] - n, ex.shape[1] - n])
-        bad = np.nonzero((given_supp < 0).any(1) | (given_supp > hi).any(1))[0]
-        if bad.size:
-            raise ParameterError(
-                f"supplementary[{int(bad[0])}] = {tuple(int(v) for v in given_supp[bad[0]])}: the patch must lie "
-                f"inside the exemplar (row in [0, {hi[0]}], col in [0, {hi[1]}])"
-            )
-        given_supp = given_supp.astype(np.int64)
-    candidates = positive_int(candidates, "candidates")
-    seed = seed_int(seed)
-    rng = np.random.default_rng(seed)
-    report = progress or (lambda stage, done, total: None)
-    tile_patches = defn.sample_indices()
-
-    def evaluator() -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
-        ev = SwangEvaluator(ex, n, tile_patches)
-        return lambda g: ev.evaluate(g, threads)
-
-    from .select import GA_DEFAULTS
-
-    genes_arr, sel = _genes(
-        genes, select, polish, select_params, selection, defn.n_samples, n, ex.shape, rng, evaluator, generations,
-        population, GA_DEFAULTS, report,
-    )
+    b = common_options(
+        exemplar, tileset=tileset, resolve_set=_resolve_set, tile_size=tile_size, seed=seed, threads=threads,
+        progress=progress, exemplar_info=exemplar_info,
+    )  # fmt: skip
+    o = swang_options(b, supplementary=supplementary, candidates=candidates, gradients=gradients, eps=eps)
+    ex, defn, n = b.exemplar, b.definition, b.tile_size
+    k, tile_patches = len(defn), defn.sample_indices()
+    genes_arr, sel = choose_genes(
+        genes, n=defn.n_samples, size=n, shape=ex.shape, rng=b.rng,
+        evaluator=lambda: (lambda g, ev=SwangEvaluator(ex, n, tile_patches): ev.evaluate(g, b.threads)),
+        select=select, polish=polish, generations=generations, population=population,
+        select_params=select_params, selection=selection, ga_defaults=GA_DEFAULTS, progress=b.progress,
+    )  # fmt: skip
     t_sel = time.perf_counter()
-    report("initial tiles", 0, 1)
+    b.report("initial tiles", 0, 1)
     I_tiles, I_src, I_lab = _initial_tiles(ex, genes_arr, tile_patches, n)
-    report("initial tiles", 1, 1)
-    report("supplementary patches", 0, 1)
-    index = kernels.SsdIndex(ex, threads)
-    if given_supp is None:
-        want = 1 if method == "ssd" else candidates
-        offsets, ssd = index.best_matches(I_tiles, k=want, exclude_radius=n // 4 if want > 1 else 0, threads=threads)
-        if offsets.shape[1] < want:
-            raise ParameterError(
-                f"candidates = {candidates}: the exemplar has only {offsets.shape[1]} translations N/4 apart"
-            )
-    else:
-        offsets = given_supp[:, None, :]
-        ssd = np.array(
-            [[float(((I_tiles[t].astype(np.float64) - ex[r : r + n, c : c + n]) ** 2).sum())] for t, (r, c) in
-             enumerate(given_supp)]
-        )
+    b.report("initial tiles", 1, 1)
+    b.report("supplementary patches", 0, 1)
+    offsets, ssd = _supplementary_candidates(b, o, I_tiles)
     t_match = time.perf_counter()
-    report("supplementary patches", 1, 1)
-    report("cuts", 0, 1)
-    grad = patch_gradients(ex, I_src) if gradients == "patch" else None
-    n_cand = offsets.shape[1]
-
-    def patches(col: int) -> np.ndarray:
-        return np.stack([ex[r : r + n, c : c + n] for r, c in offsets[:, col]])
-
-    if n_cand == 1:
-        choice = np.zeros(k, np.int64)
-        masks, costs = kernels.swang_cuts(I_tiles, patches(0), eps=eps, threads=threads, initial_grad=grad)
-    else:
-        reps = np.repeat(np.arange(k), n_cand)
-        cols = np.tile(np.arange(n_cand), k)
-        cand = np.stack([ex[r : r + n, c : c + n] for r, c in offsets[reps, cols]])
-        all_masks, all_costs = kernels.swang_cuts(
-            np.ascontiguousarray(I_tiles[reps]), cand, eps=eps, threads=threads,
-            initial_grad=None if grad is None else np.ascontiguousarray(grad[reps]),
-        )
-        all_costs = all_costs.reshape(k, n_cand)
-        choice = np.argmin(all_costs, axis=1)  # ties: the better SSD
-        masks = all_masks.reshape(k, n_cand, n, n)[np.arange(k), choice]
-        costs = all_costs[np.arange(k), choice]
+    b.report("supplementary patches", 1, 1)
+    b.report("cuts", 0, 1)
+    choice, masks, costs = _closed_cuts(b, o, I_tiles, I_src, offsets)
     t_cut = time.perf_counter()
-    report("cuts", 1, 1)
+    b.report("cuts", 1, 1)
     match = offsets[np.arange(k), choice].astype(np.int64)
     D = ssd[np.arange(k), choice].astype(np.float64)
-    yy, xx = np.mgrid[0:n, 0:n]
-    O_src = np.stack([np.stack([yy + r, xx + c], axis=-1) for r, c in match]).astype(np.int32)
-    source = np.where(masks[..., None], O_src, I_src).astype(np.int32)
-    tiles = ex[source[..., 0], source[..., 1]]
-    labels = np.where(masks, SUPPLEMENTARY, I_lab).astype(np.uint8)
-    from . import __version__
-
-    return TileSet(
-        scheme="swang",
-        layout=defn.to_dict(),
-        tiles=np.ascontiguousarray(tiles, dtype=np.float32),
-        source=np.ascontiguousarray(source),
-        cut_masks=np.ascontiguousarray(masks),
-        genes=np.ascontiguousarray(genes_arr, dtype=np.int64),
-        tile_patches=tile_patches,
-        match_offsets=np.ascontiguousarray(match),
-        D=np.ascontiguousarray(D),
-        cut_costs=np.ascontiguousarray(costs, dtype=np.float64),
-        exemplar=ex,
-        E=energy(D),
-        params={
-            "set": defn.name,
-            "tile_size": n,
-            "sample_size": n,
-            "samples": "diamond",
-            "supplementary": method,
-            "candidates": candidates if method == "cut" else None,
-            "eps": float(eps),
-            "gradients": gradients,
-            "lambda": LAMBDA,
-            "match": "ssd",
-            "seed": seed,
-            "selection": sel,
-        },
-        exemplar_info=_exemplar_info(ex, exemplar_info),
-        timing={
-            "selection_s": t_sel - t0,
-            "matching_s": t_match - t_sel,
-            "cutting_s": t_cut - t_match,
-            "total_s": time.perf_counter() - t0,
-        },
-        version=__version__,
-        labels=np.ascontiguousarray(labels),
-    )
+    source = np.where(masks[..., None], offset_source(match, n), I_src).astype(np.int32)
+    params = {
+        "set": defn.name, "tile_size": n, "sample_size": n, "samples": "diamond", "supplementary": o.method,
+        "candidates": o.candidates if o.method == "cut" else None, "eps": float(o.eps), "gradients": o.gradients,
+        "lambda": LAMBDA, "match": "ssd", "seed": b.seed, "selection": sel,
+    }  # fmt: skip
+    return finish_tileset(
+        scheme="swang", definition=defn, exemplar=ex, tiles=ex[source[..., 0], source[..., 1]], source=source,
+        cut_masks=masks, genes=genes_arr, tile_patches=tile_patches, match_offsets=match, D=D, cut_costs=costs,
+        E=energy(D), params=params, exemplar_info=b.exemplar_info,
+        timing={"selection_s": t_sel - b.started, "matching_s": t_match - t_sel, "cutting_s": t_cut - t_match},
+        started=b.started, labels=np.where(masks, SUPPLEMENTARY, I_lab),
+    )  # fmt: skip

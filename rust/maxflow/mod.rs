@@ -597,6 +597,7 @@ impl Graph {
 /// # Panics
 /// If the graph has more than 20 nodes.
 #[doc(hidden)]
+#[cfg(any(test, feature = "oracles"))]
 pub fn brute_force_mincut(g: &Graph) -> f64 {
     let n = g.n_nodes();
     assert!(n <= 20, "brute force is for tiny graphs only (n = {n})");

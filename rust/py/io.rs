@@ -1,11 +1,12 @@
 //! Bindings of the image-file codecs: PNG (`crate::png`) and OpenEXR (`crate::openexr`). Every function
 //! releases the GIL while it decodes or encodes.
 
-use super::errors::{guard, layout_error};
+use super::convert::contiguous;
+use super::errors::{self, guard, layout_error};
 use super::run;
 use crate::{openexr, png};
-use ndarray::Array3;
-use numpy::{IntoPyArray, PyArray3, PyReadonlyArray3, PyUntypedArrayMethods};
+use ndarray::{Array2, Array3};
+use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
@@ -108,8 +109,31 @@ fn exr_encode<'py>(
     })
 }
 
+/// PNG scanline unfiltering: `data` (uint8, `rows * (row_bytes + 1)` bytes: a filter byte, then the row) ->
+/// the raw bytes, uint8 `(rows, row_bytes)`; `bpp` bytes per pixel (1 to 8).
+#[pyfunction]
+pub(super) fn png_unfilter<'py>(
+    py: Python<'py>,
+    data: PyReadonlyArray1<'py, u8>,
+    rows: usize,
+    row_bytes: usize,
+    bpp: usize,
+) -> PyResult<Bound<'py, PyArray2<u8>>> {
+    guard("png_unfilter", || {
+        contiguous("data", &data)?;
+        let d = data
+            .as_slice()
+            .map_err(|_| errors::layout_error("data", "array must be C-contiguous"))?;
+        let raw = run(py, Some(1), || png::unfilter(d, rows, row_bytes, bpp))?;
+        let arr = Array2::from_shape_vec((rows, row_bytes), raw)
+            .map_err(|e| errors::layout_error("data", &e.to_string()))?;
+        Ok(arr.into_pyarray(py))
+    })
+}
+
 /// Registers the functions of this file on the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(png_unfilter, m)?)?;
     m.add_function(wrap_pyfunction!(png_decode, m)?)?;
     m.add_function(wrap_pyfunction!(png_encode, m)?)?;
     m.add_function(wrap_pyfunction!(exr_decode, m)?)?;

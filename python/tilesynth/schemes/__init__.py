@@ -1,0 +1,66 @@
+"""The tile schemes, registered in one list (:data:`REGISTRY`); :func:`build` builds any of them.
+
+=========  ===========================================  ==================================================
+scheme     builder                                      tile sets (``tileset=``)
+=========  ===========================================  ==================================================
+"omega"    :func:`tilesynth.omega.build_omega`          corner sets: 4, 8, 16a, 16b, 32, B, n1, n2, nK
+"wang"     :func:`tilesynth.wang.build_wang`            edge sets: wang8, wang18, wang<2k²>
+"swang"    :func:`tilesynth.wang.build_swang`           edge sets: wang8 (004), wang18, ...
+"patch"    :func:`tilesynth.schemes.patch.build_patch`  corner sets (a random-crop baseline)
+=========  ===========================================  ==================================================
+
+Every builder returns a :class:`~tilesynth.tilefile.TileSet`; :func:`tilesynth.synthesize`, the file format
+and the command line serve all of them alike.
+
+**Adding a square-grid scheme** is a module here defining a :class:`~tilesynth.schemes.base.Scheme` (name,
+layout "corner" or "edge", default set, its options with their CLI flags, the builder, how ``info`` describes
+its sets) and one line in :data:`REGISTRY`; the command line's ``build`` flags, ``--scheme`` choices, the
+option checks and ``info`` follow from the registry. :mod:`tilesynth.schemes.patch` is the smallest example.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..tilefile import TileSet
+from . import omega, patch, swang, wang
+from .base import Option, Scheme
+
+__all__ = ["DEFAULT_SETS", "REGISTRY", "SCHEMES", "Option", "Scheme", "build", "get_scheme"]
+
+#: Every scheme, in the order the command line lists them. A new scheme is one line here.
+REGISTRY: tuple[Scheme, ...] = (omega.SCHEME, wang.SCHEME, swang.SCHEME, patch.SCHEME)
+
+#: The names of the schemes :func:`build` knows.
+SCHEMES: tuple[str, ...] = tuple(s.name for s in REGISTRY)
+
+#: The default tile set of each scheme.
+DEFAULT_SETS: dict[str, str] = {s.name: s.default_set for s in REGISTRY}
+
+
+def get_scheme(name: Any) -> Scheme:
+    """The registered scheme called ``name``.
+
+    Raises
+    ------
+    ParameterError
+        If no scheme has that name.
+    """
+    for s in REGISTRY:
+        if s.name == name:
+            return s
+    raise ParameterError(f"scheme = {name!r}: must be one of {', '.join(SCHEMES)}")
+
+
+def build(exemplar: np.ndarray, scheme: str = "omega", **kwargs: Any) -> TileSet:
+    """Build a tile set of ``scheme`` from ``exemplar``; ``kwargs`` go to the scheme's builder.
+
+    Raises
+    ------
+    ParameterError
+        If ``scheme`` is unknown (and whatever the builder raises for its parameters).
+    """
+    return get_scheme(scheme).build(exemplar, **kwargs)

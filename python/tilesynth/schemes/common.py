@@ -1,0 +1,22 @@
+"""Options that several schemes share (one definition each, referenced by every scheme that uses it)."""
+
+from __future__ import annotations
+
+from .base import Option
+
+GRADIENTS = Option(
+    "gradients",
+    "--gradients",
+    "gradients in the seam weight: of the sample patches (default) or of the assembled tile (the literal "
+    "formula; cuts tend to hug the seams of the assembled tile)",
+    choices=("patch", "tile"),
+)
+
+LITERAL_BORDER = Option(
+    "keep_border",
+    "--literal-border",
+    "002's literal cut: let the matching patch reach the tile border near the side midpoints (default: the "
+    "border ring keeps the intermediate tile, so neighbouring tiles stay continuous)",
+    store_true=True,
+    flag_value=lambda literal: not literal,
+)

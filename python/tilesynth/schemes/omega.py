@@ -1,0 +1,136 @@
+"""The ω scheme (Ng et al. 2005, 002): corner-coloured tiles cut from a matching patch (:func:`tilesynth.build_omega`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..omega import build_omega
+from .base import Option, Scheme, lambda_energy_line
+from .common import GRADIENTS, LITERAL_BORDER
+
+
+def smoothing_line(sm: dict) -> str:
+    """The ``info`` line of a smoothed set (values shown as stored; a tampered field prints as "?")."""
+
+    def num(key: str, spec: str = "") -> str:
+        v = sm.get(key)
+        return format(v, spec) if isinstance(v, (int, float)) and not isinstance(v, bool) else "?"
+
+    return (
+        f"smoothing     Poisson, {num('unknowns')} unknowns, at most {num('iterations_max')} iterations, "
+        f"residual <= {num('residual_max', '.1e')}, {num('clipped')} values clipped to [0, 1]"
+    )
+
+
+def _describe(ts: Any) -> list[str]:
+    p = ts.params
+    match = (
+        f"matching      {p.get('match', 'ssd')}"
+        + (f" (k = {p['match_k']})" if p.get("match_k") is not None else "")
+        + f", distance {p.get('metric', 'color')}"
+        + ("" if p.get("keep_border", False) else ", literal border (002's cut may reach the tile border)")
+    )
+    sm = p.get("smooth")
+    return [
+        match,
+        *([smoothing_line(sm)] if isinstance(sm, dict) else []),
+        lambda_energy_line(p, ts.E, "intermediate tiles"),
+    ]
+
+
+def _nonneg(text: str) -> int:
+    """argparse type: an integer >= 0."""
+    import argparse
+
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"{v} must be >= 0")
+    return v
+
+
+def _match_k(text: str | None) -> int | str | None:
+    if text is None or text.strip().lower() == "all":
+        return None if text is None else "all"
+    try:
+        return int(text)
+    except ValueError:
+        from ..errors import ParameterError
+
+        raise ParameterError(f"--match-k = {text!r}: expected a positive integer or 'all'") from None
+
+
+SCHEME = Scheme(
+    name="omega",
+    title="ω-tiles",
+    summary="ω-tiles (002; default)",
+    layout="corner",
+    default_set="c4",  # issue 12: measured with benches/repetition.py (complete set, hashed lookup)
+    builder=build_omega,
+    options=(
+        GRADIENTS,
+        LITERAL_BORDER,
+        Option(
+            "normalise",
+            "--normalise",
+            "optimise 003's normalised objective (SSD divided by the tile's pixel count)",
+            store_true=True,
+        ),
+        Option(
+            "match",
+            "--match",
+            "how each tile's matching patch is chosen: ssd (smallest SSD, default), "
+            "circle / midpoints (002's heuristics: smallest seam weights around the circle / near the side "
+            "midpoints), best-cut (run the real cut for the --match-k nearest candidates, keep the cheapest)",
+            choices=("ssd", "circle", "midpoints", "best-cut"),
+        ),
+        Option(
+            "match_k",
+            "--match-k",
+            "candidates of --match best-cut: a positive integer (default 16) or 'all'",
+            metavar="K|all",
+            flag_value=_match_k,
+        ),
+        Option(
+            "metric",
+            "--metric",
+            "distance for the matching search and the objective E: color (SSD, "
+            "default), eq3 (SSD + 10 x squared gradient difference, 000 eq. 3), eq2 (SSD weighted by 1/(10 "
+            "(|grad T| + |grad I|)), 000 eq. 2, exact but slow: direct sums, not with --select)",
+            choices=("color", "eq2", "eq3"),
+        ),
+        Option(
+            "smooth",
+            "--smooth",
+            "Poisson-smooth the region inside each cutting curve (002 section 3.3): the "
+            "matching patch's gradients, blended into the tile from the curve; exact to a 1e-6 residual, tile "
+            "borders kept",
+            store_true=True,
+        ),
+        Option(
+            "cut_region",
+            "--cut-region",
+            "where the cut may run: the inscribed circle (002; default for the papers' sets) or free but for a "
+            "border ring and corner discs, so most of each tile is its own matching patch (less repetition; "
+            "default for complete sets)",
+            choices=("circle", "free"),
+        ),
+        Option(
+            "cut_bias",
+            "--cut-bias",
+            "--cut-region free: area reward that moves the cut outwards (default 0.02)",
+            cli_type=float,
+        ),
+        Option(
+            "diversity",
+            "--diversity",
+            "assign matching patches so that each exemplar region is used at most M times (less repetition); "
+            "0: each tile's best match. Default 1 for complete sets (c4, c3x2, ...), 0 for the papers' sets",
+            cli_type=_nonneg,
+            metavar="M",
+        ),
+    ),
+    describe=_describe,
+)

@@ -1,0 +1,34 @@
+"""The strict Wang scheme (Zhang and Kim, 004): :func:`tilesynth.build_swang`."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..wang import build_swang
+from .base import Option, Scheme, lambda_energy_line
+from .common import GRADIENTS
+
+
+def _describe(ts: Any) -> list[str]:
+    return [lambda_energy_line(ts.params, ts.E, "initial tiles")]
+
+
+SCHEME = Scheme(
+    name="swang",
+    title="s-Wang tiles",
+    summary="strict Wang tiles (004)",
+    layout="edge",
+    default_set="wang8",
+    builder=build_swang,
+    options=(
+        GRADIENTS,
+        Option(
+            "supplementary",
+            "--supplementary",
+            "the supplementary patch with the smallest SSD to the initial "
+            "tile (default), or the one with the cheapest closed cut among the 8 best SSD candidates",
+            choices=("ssd", "cut"),
+        ),
+    ),
+    describe=_describe,
+)

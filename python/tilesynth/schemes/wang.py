@@ -1,0 +1,55 @@
+"""The Wang scheme (Cohen et al. 2003 with 001's match; Burke's square variant): :func:`tilesynth.build_wang`."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..wang import build_wang
+from .base import Option, Scheme, positive_int_text
+
+
+def _describe(ts: Any) -> list[str]:
+    p = ts.params
+    line = (
+        f"E             {ts.E:.6g}  (ω={p.get('omega')}: ω·ΣD_sum + (1−ω)·Var D_sum, 001; "
+        f"{p.get('samples')} samples, overlap {p.get('overlap')}, {p.get('corners')} corners, {p.get('cut')} cuts)"
+    )
+    return [line]
+
+
+SCHEME = Scheme(
+    name="wang",
+    title="Wang tiles",
+    summary="Cohen et al.'s Wang tiles with 001's match",
+    layout="edge",
+    default_set="wang8",
+    builder=build_wang,
+    options=(
+        Option(
+            "cut",
+            "--cut",
+            "minimum-error boundary cuts by dynamic programming (default) or graph cuts",
+            choices=("dp", "graph"),
+        ),
+        Option(
+            "overlap",
+            "--overlap",
+            "width of the overlap band of two diamonds, even (default N/4)",
+            cli_type=positive_int_text,
+        ),
+        Option(
+            "corners",
+            "--corners",
+            "free (Cohen: the cut may miss the corner; default for diamonds) or pinned "
+            "(the cut ends at the corner, edges match exactly)",
+            choices=("free", "pinned"),
+        ),
+        Option(
+            "samples",
+            "--samples",
+            "diamond samples (Cohen, default) or N x N square samples (Burke, 002 section 2)",
+            choices=("diamond", "square"),
+        ),
+    ),
+    describe=_describe,
+)

@@ -1,0 +1,159 @@
+"""Composing tiles with their provenance, and the one :class:`~tilesynth.tilefile.TileSet` ending of every builder.
+
+Every scheme ends the same way: the composed tiles, the exemplar (row, col) of every tile pixel, the cut masks
+and costs, the genes and the objective go into a :class:`~tilesynth.tilefile.TileSet` with the exemplar's
+digest and the build's timing. :func:`finish_tileset` is that ending, written once.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .. import kernels
+from ..tilefile import TileSet, exemplar_digest
+from .smoothing import smooth_tiles
+
+if TYPE_CHECKING:
+    from ..options import BuildOptions
+
+__all__ = [
+    "cut_and_compose",
+    "exemplar_record",
+    "finish_tileset",
+    "offset_source",
+    "patch_gradients",
+    "patches_at",
+]
+
+
+def patch_gradients(exemplar: np.ndarray, source: np.ndarray) -> np.ndarray:
+    """Gradient norms of the exemplar at the positions ``source`` (``(..., 2)`` row, col): ``(..., 2)`` float64.
+
+    Index 0 is ‖E(r, c+1) − E(r, c)‖, index 1 is ‖E(r+1, c) − E(r, c)‖ (L2 over channels, 0 past the exemplar edge).
+    These are the gradients "of the patch a pixel came from" that the Kwatra seam weights of the ω and s-Wang
+    cuts use (``gradients="patch"``).
+    """
+    e = exemplar.astype(np.float64)
+    h, w = e.shape[:2]
+    gx = np.zeros((h, w))
+    gy = np.zeros((h, w))
+    gx[:, :-1] = np.sqrt(((e[:, 1:] - e[:, :-1]) ** 2).sum(-1))
+    gy[:-1] = np.sqrt(((e[1:] - e[:-1]) ** 2).sum(-1))
+    r, c = source[..., 0], source[..., 1]
+    return np.ascontiguousarray(np.stack([gx[r, c], gy[r, c]], axis=-1))
+
+
+def patches_at(exemplar: np.ndarray, offsets: np.ndarray, n: int) -> np.ndarray:
+    """The ``n x n`` exemplar patches at the top-left ``offsets`` ``(K, 2)``: ``(K, n, n, C)``."""
+    return np.stack([exemplar[r : r + n, c : c + n] for r, c in offsets])
+
+
+def offset_source(offsets: np.ndarray, n: int) -> np.ndarray:
+    """Provenance ``(K, n, n, 2)`` int32 of the ``n x n`` patches at the top-left ``offsets`` ``(K, 2)``."""
+    yy, xx = np.mgrid[0:n, 0:n]
+    return np.stack([np.stack([yy + r, xx + c], axis=-1) for r, c in offsets]).astype(np.int32)
+
+
+def exemplar_record(ex: np.ndarray, extra: dict[str, Any] | None) -> dict[str, Any]:
+    """What the tile set records about its exemplar: shape, content digest, and the caller's facts (file, bits)."""
+    info: dict[str, Any] = {"shape": list(ex.shape), "sha256": exemplar_digest(ex)}
+    info.update(extra or {})
+    return info
+
+
+def finish_tileset(
+    *,
+    scheme: str,
+    definition: Any,
+    exemplar: np.ndarray,
+    tiles: np.ndarray,
+    source: np.ndarray,
+    cut_masks: np.ndarray,
+    genes: np.ndarray,
+    tile_patches: np.ndarray,
+    match_offsets: np.ndarray,
+    D: np.ndarray,
+    cut_costs: np.ndarray,
+    E: float,
+    params: dict[str, Any],
+    exemplar_info: dict[str, Any] | None,
+    timing: dict[str, float],
+    started: float,
+    labels: np.ndarray | None = None,
+    cut_stats: np.ndarray | None = None,
+) -> TileSet:
+    """The :class:`TileSet` of a finished build: every array contiguous in its file dtype, the exemplar record,
+    and ``timing`` completed with ``total_s`` (seconds since ``started``, a :func:`time.perf_counter` value)."""
+    from .._version import __version__
+
+    return TileSet(
+        scheme=scheme,
+        layout=definition.to_dict(),
+        tiles=np.ascontiguousarray(tiles, dtype=np.float32),
+        source=np.ascontiguousarray(source, dtype=np.int32),
+        cut_masks=np.ascontiguousarray(cut_masks, dtype=bool),
+        genes=np.ascontiguousarray(genes, dtype=np.int64),
+        tile_patches=np.ascontiguousarray(tile_patches, dtype=np.int64),
+        match_offsets=np.ascontiguousarray(match_offsets, dtype=np.int64),
+        D=np.ascontiguousarray(D, dtype=np.float64),
+        cut_costs=np.ascontiguousarray(cut_costs, dtype=np.float64),
+        exemplar=exemplar,
+        E=float(E),
+        params=params,
+        exemplar_info=exemplar_record(exemplar, exemplar_info),
+        timing={**timing, "total_s": time.perf_counter() - started},
+        version=__version__,
+        labels=None if labels is None else np.ascontiguousarray(labels, dtype=np.uint8),
+        cut_stats=None if cut_stats is None else np.ascontiguousarray(cut_stats, dtype=np.float64),
+    )
+
+
+def cut_and_compose(
+    b: BuildOptions,
+    I_tiles: np.ndarray,
+    I_src: np.ndarray,
+    offsets: np.ndarray,
+    *,
+    eps: float,
+    grad_from_patches: bool,
+    keep_border: bool,
+    smooth: bool,
+    cut_region: str = "circle",
+    cut_bias: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any] | None, dict[str, float]]:
+    """The ω cut of each intermediate tile against the patch at ``offsets`` (``(K, 2)``), then the composed (or
+    Poisson-smoothed) tiles and their provenance; the corner schemes' shared cut stage (ω, patch).
+
+    ``cut_region="free"`` cuts in the free region of :func:`tilesynth.levers.free_cuts` (area reward
+    ``cut_bias``) instead of the inscribed circle.
+
+    Returns ``(tiles, source, masks, costs, smooth_info, timing)``.
+    """
+    ex, n, k = b.exemplar, b.tile_size, I_tiles.shape[0]
+    t0 = time.perf_counter()
+    O_tiles = patches_at(ex, offsets, n)
+    b.report("cutting curves", 0, k)
+    grad = patch_gradients(ex, I_src) if grad_from_patches else None
+    if cut_region == "free":  # issue 12: the free cut region
+        from ..levers import FREE_BIAS, free_cuts
+
+        masks, costs = free_cuts(I_tiles, O_tiles, eps, grad, bias=FREE_BIAS if cut_bias is None else cut_bias)
+    else:
+        masks, costs = kernels.omega_cuts(
+            I_tiles, O_tiles, eps=eps, threads=b.threads, intermediate_grad=grad, keep_border=keep_border
+        )
+    t1 = time.perf_counter()
+    b.report("cutting curves", k, k)
+    smooth_info = None
+    if smooth:
+        b.report("poisson smoothing", 0, k)
+        tiles, smooth_info = smooth_tiles(I_tiles, O_tiles, masks, threads=b.threads)
+        b.report("poisson smoothing", k, k)
+    else:
+        tiles = np.where(masks[..., None], O_tiles, I_tiles).astype(np.float32)
+    source = np.where(masks[..., None], offset_source(offsets, n), I_src).astype(np.int32)
+    timing = {"cutting_s": t1 - t0, **({"smoothing_s": time.perf_counter() - t1} if smooth else {})}
+    return tiles, source, masks, costs, smooth_info, timing

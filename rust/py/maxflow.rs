@@ -1,0 +1,37 @@
+//! Max-flow / min-cut on a 4-connected grid.
+
+use super::errors::guard;
+use super::run;
+use crate::maxflow;
+use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2};
+use pyo3::prelude::*;
+
+/// Min-cut on a 4-connected grid: bool `(H, W)` labels (True = sink side) and the flow (= cut cost).
+#[pyfunction]
+#[pyo3(signature = (wx, wy, source_hard, sink_hard, source_cap=None, sink_cap=None))]
+pub(super) fn grid_mincut<'py>(
+    py: Python<'py>,
+    wx: PyReadonlyArray2<'py, f64>,
+    wy: PyReadonlyArray2<'py, f64>,
+    source_hard: PyReadonlyArray2<'py, bool>,
+    sink_hard: PyReadonlyArray2<'py, bool>,
+    source_cap: Option<PyReadonlyArray2<'py, f64>>,
+    sink_cap: Option<PyReadonlyArray2<'py, f64>>,
+) -> PyResult<(Bound<'py, PyArray2<bool>>, f64)> {
+    guard("grid_mincut", || {
+        let (wx, wy) = (wx.as_array(), wy.as_array());
+        let (src, snk) = (source_hard.as_array(), sink_hard.as_array());
+        let sc = source_cap.as_ref().map(|a| a.as_array());
+        let kc = sink_cap.as_ref().map(|a| a.as_array());
+        let cut = run(py, Some(1), || {
+            maxflow::grid_mincut(wx, wy, src, snk, sc, kc)
+        })?;
+        Ok((cut.sink_side.into_pyarray(py), cut.flow))
+    })
+}
+
+/// Adds this family's bindings to the module.
+pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(grid_mincut, m)?)?;
+    Ok(())
+}
