@@ -7,7 +7,8 @@ import itertools
 import numpy as np
 import pytest
 import tilesynth as ts
-from tilesynth.complete import complete_edge_set, lookup_scheme
+from tilesynth.lookup import lookup_scheme
+from tilesynth.wangsets import complete_edge_set
 from tilesynth.errors import ParameterError
 from tilesynth.metrics import seam_score
 from tilesynth.tilesets import get_tileset

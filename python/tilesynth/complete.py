@@ -24,6 +24,11 @@ corner ``index = (((TL·K + BL)·K + TR)·K + BR)·V + v``, edge ``index = (((N�
 lookup needs no table. :func:`lookup_scheme` recognises a complete set by its tiles (not by its name), so a
 loaded or custom-defined set in that order is hashed too.
 
+Where the code is (so that no module imports back into this one): the corner sets are built by
+:func:`tilesynth.tilesets.complete_corner_set` / ``complete_tileset``, the edge sets by
+:func:`tilesynth.wangsets.complete_edge_set` / ``complete_wang_tileset``, and a set is recognised by
+:func:`tilesynth.lookup.lookup_scheme`; this module holds the names, sizes and build defaults.
+
 Colours: ``R, G, B, Y, C, M`` then ``P6, P7, ...`` (corner); the Wang alphabets of :mod:`tilesynth.wangsets`.
 At most :data:`MAX_COMPLETE_TILES` tiles (``c8`` has 4096; larger sets would take minutes to build and
 gigabytes to hold at usual tile sizes).
@@ -31,22 +36,20 @@ gigabytes to hold at usual tile sizes).
 
 from __future__ import annotations
 
-import functools
-import itertools
 import re
 from typing import Any
 
-from .lookup import LookupScheme
+from .lookup import lookup_scheme
 
 __all__ = [
     "COMPLETE_COLOURS",
+    "CORNER_NAME",
+    "EDGE_NAME",
     "MAX_COMPLETE_TILES",
-    "complete_corner_set",
-    "complete_edge_set",
-    "complete_tileset",
-    "complete_wang_tileset",
-    "is_complete_wang_name",
-    "lookup_scheme",
+    "check_complete_size",
+    "complete_defaults",
+    "corner_colours",
+    "default_complete_tile_size",
 ]
 
 MAX_COMPLETE_TILES = 4096
@@ -55,8 +58,8 @@ MAX_COMPLETE_TILES = 4096
 COMPLETE_COLOURS: tuple[str, ...] = ("R", "G", "B", "Y", "C", "M")
 """The first corner colours of a complete set (then ``P6``, ``P7``, ...)."""
 
-_CORNER_NAME = re.compile(r"c([1-9][0-9]*)(?:x([1-9][0-9]*))?")
-_EDGE_NAME = re.compile(r"wc([1-9][0-9]*)(?:-([1-9][0-9]*))?")
+CORNER_NAME = re.compile(r"c([1-9][0-9]*)(?:x([1-9][0-9]*))?")
+EDGE_NAME = re.compile(r"wc([1-9][0-9]*)(?:-([1-9][0-9]*))?")
 
 
 def corner_colours(k: int) -> tuple[str, ...]:
@@ -64,115 +67,12 @@ def corner_colours(k: int) -> tuple[str, ...]:
     return tuple(COMPLETE_COLOURS[i] if i < len(COMPLETE_COLOURS) else f"P{i}" for i in range(k))
 
 
-def _check_size(name: str, tiles: int, what: str) -> None:
+def check_complete_size(name: str, tiles: int, what: str) -> None:
     if tiles > MAX_COMPLETE_TILES:
         raise ValueError(
             f"tile set {name!r}: {what} = {tiles} tiles, more than {MAX_COMPLETE_TILES} (MAX_COMPLETE_TILES); "
             "use fewer colours or variants"
         )
-
-
-@functools.cache
-def complete_corner_set(k: int, v: int = 1):
-    """The complete corner set over ``k`` colours with ``v`` variants per tuple, in the spec's index order."""
-    from .tilesets import CornerTileSet
-
-    if k < 2 or v < 1:
-        raise ValueError(
-            f"a complete corner set needs K >= 2 colours and V >= 1 variants, got K = {k}, V = {v}"
-        )
-    name = f"c{k}" if v == 1 else f"c{k}x{v}"
-    _check_size(name, k**4 * v, "K^4 * V")
-    cols = corner_colours(k)
-    tiles, variants = [], []
-    for t in itertools.product(range(k), repeat=4):  # TL, BL, TR, BR with BR fastest: the spec's order
-        for var in range(v):
-            tiles.append(tuple(cols[i] for i in t))
-            variants.append(var)
-    return CornerTileSet(name=name, colours=cols, tiles=tuple(tiles), variants=tuple(variants))
-
-
-@functools.cache
-def complete_edge_set(kh: int, kv: int):
-    """The complete Wang set over ``kh`` horizontal and ``kv`` vertical edge colours, in the spec's order."""
-    from .wangsets import HORIZONTAL_COLOURS, VERTICAL_COLOURS, WangTileSet
-
-    name = f"wc{kh}" if kh == kv else f"wc{kh}-{kv}"
-    limit = len(HORIZONTAL_COLOURS)
-    if not (2 <= kh <= limit and 2 <= kv <= limit):
-        raise ValueError(f"tile set {name!r}: a complete edge set needs 2 .. {limit} colours per direction")
-    _check_size(name, kh * kh * kv * kv, "Kh^2 * Kv^2")
-    h, vv = HORIZONTAL_COLOURS[:kh], VERTICAL_COLOURS[:kv]
-    tiles = [
-        (h[n], vv[e], h[s], vv[w]) for n in range(kh) for e in range(kv) for s in range(kh) for w in range(kv)
-    ]
-    return WangTileSet(name=name, horizontal=h, vertical=vv, tiles=tuple(tiles))
-
-
-def complete_tileset(name: Any):
-    """The complete corner set named ``name`` (``c<K>`` / ``c<K>x<V>``), or None if it is no such name."""
-    m = _CORNER_NAME.fullmatch(str(name))
-    if m is None:
-        return None
-    if len(m.group(1)) > 3 or len(m.group(2) or "") > 5:
-        raise ValueError(f"tile set {name!r}: more than {MAX_COMPLETE_TILES} tiles (MAX_COMPLETE_TILES)")
-    return complete_corner_set(int(m.group(1)), int(m.group(2) or 1))
-
-
-def is_complete_wang_name(name: Any) -> bool:
-    """True for ``wc<K>`` / ``wc<Kh>-<Kv>`` with a valid size."""
-    m = _EDGE_NAME.fullmatch(str(name))
-    if m is None or len(m.group(1)) > 2 or len(m.group(2) or "") > 2:
-        return False
-    try:
-        complete_wang_tileset(name)
-    except ValueError:
-        return False
-    return True
-
-
-def complete_wang_tileset(name: Any):
-    """The complete Wang set named ``name``, or None if it is no such name (ValueError if too large)."""
-    m = _EDGE_NAME.fullmatch(str(name))
-    if m is None:
-        return None
-    if len(m.group(1)) > 2 or len(m.group(2) or "") > 2:
-        raise ValueError(f"tile set {name!r}: at most 8 colours per direction")
-    kh = int(m.group(1))
-    kv = int(m.group(2)) if m.group(2) else kh
-    return complete_edge_set(kh, kv)
-
-
-def lookup_scheme(defn: Any) -> LookupScheme | None:
-    """The hashed-lookup scheme of a tile-set definition if it is complete and in the spec's index order
-    (whatever its name), else None (the scan-line tiler's sets)."""
-    from .tilesets import CornerTileSet
-    from .wangsets import WangTileSet
-
-    if isinstance(defn, CornerTileSet):
-        k = len(defn.colours)
-        n = len(defn)
-        if k < 1 or n % (k**4) != 0:
-            return None
-        v = n // k**4
-        index = {c: i for i, c in enumerate(defn.colours)}
-        scheme = LookupScheme("corner", (k,), v)
-        for j, (t, var) in enumerate(zip(defn.tiles, defn.variants)):
-            if var != j % v or scheme.index(tuple(index[c] for c in t), var) != j:  # type: ignore[arg-type]
-                return None
-        return scheme
-    if isinstance(defn, WangTileSet):
-        kh, kv = len(defn.horizontal), len(defn.vertical)
-        if len(defn) != kh * kh * kv * kv:
-            return None
-        hi = {c: i for i, c in enumerate(defn.horizontal)}
-        vi = {c: i for i, c in enumerate(defn.vertical)}
-        scheme = LookupScheme("edge", (kh, kv), 1)
-        for j, (n_, e, s, w) in enumerate(defn.tiles):
-            if scheme.index((hi[n_], vi[e], hi[s], vi[w])) != j:
-                return None
-        return scheme
-    return None
 
 
 def default_complete_tile_size(shape: tuple[int, ...]) -> int:

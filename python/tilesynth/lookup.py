@@ -280,13 +280,11 @@ def hashed_scheme(
 ) -> LookupScheme | None:
     """The scheme :func:`tilesynth.synthesize` hashes ``tileset`` with, or None for the scan-line tiler.
 
-    Complete sets (:func:`tilesynth.complete.lookup_scheme`) are hashed unless an explicit ``index_map`` is
+    Complete sets (:func:`lookup_scheme`) are hashed unless an explicit ``index_map`` is
     given. Any other set with ``origin != (0, 0)`` or ``wrap`` is a :class:`ParameterError`: the scan-line
     tiler of the papers' sets (4 .. 32, B, N1, N2) decides every cell from its left and upper neighbours, so it
     has no random access and cannot close a period.
     """
-    from .complete import lookup_scheme
-
     x0, y0 = _pair(origin, "origin")
     o = (_int(x0, "origin"), _int(y0, "origin"))
     if not isinstance(wrap, (bool, np.bool_)):
@@ -345,3 +343,32 @@ def synthesize_hashed(
         raise ParameterError(f"tile set has {tileset.n_tiles} tiles, its definition {scheme.n_tiles}")
     _core.tile_copy_window(atlas, imap, (oy, ox), out, threads_arg(threads))
     return imap
+
+
+def lookup_scheme(defn: Any) -> LookupScheme | None:
+    """The hashed-lookup scheme of a tile-set definition if it is complete and in the spec's index order
+    (whatever its name), else None (the scan-line tiler's sets)."""
+    if hasattr(defn, "colours") and hasattr(defn, "variants"):  # a corner set (duck-typed: no import)
+        k = len(defn.colours)
+        n = len(defn)
+        if k < 1 or n % (k**4) != 0:
+            return None
+        v = n // k**4
+        index = {c: i for i, c in enumerate(defn.colours)}
+        scheme = LookupScheme("corner", (k,), v)
+        for j, (t, var) in enumerate(zip(defn.tiles, defn.variants)):
+            if var != j % v or scheme.index(tuple(index[c] for c in t), var) != j:  # type: ignore[arg-type]
+                return None
+        return scheme
+    if hasattr(defn, "horizontal") and hasattr(defn, "vertical"):  # an edge set
+        kh, kv = len(defn.horizontal), len(defn.vertical)
+        if len(defn) != kh * kh * kv * kv:
+            return None
+        hi = {c: i for i, c in enumerate(defn.horizontal)}
+        vi = {c: i for i, c in enumerate(defn.vertical)}
+        scheme = LookupScheme("edge", (kh, kv), 1)
+        for j, (n_, e, s, w) in enumerate(defn.tiles):
+            if scheme.index((hi[n_], vi[e], hi[s], vi[w])) != j:
+                return None
+        return scheme
+    return None

@@ -37,6 +37,8 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from .complete import CORNER_NAME, MAX_COMPLETE_TILES, check_complete_size, corner_colours
+
 __all__ = [
     "TL",
     "BL",
@@ -988,8 +990,6 @@ def get_tileset(name: str) -> CornerTileSet:
         If ``name`` is not a known set; the message lists the valid names.
     """
     key = str(name)
-    from .complete import complete_tileset  # c<K>, c<K>x<V>: complete sets for the hashed lookup
-
     complete = complete_tileset(key)
     if complete is not None:
         return complete
@@ -1326,3 +1326,32 @@ def choices_summary(tileset: TileSetLike) -> dict[str, tuple[int, int]]:
         values = [counts.get(s, 0) for s in situations]
         summary[kind] = (min(values), max(values)) if values else (0, 0)
     return summary
+
+
+# ------------------------------------------------------------------ complete sets (issue 12, tilesynth.complete)
+@functools.cache
+def complete_corner_set(k: int, v: int = 1):
+    """The complete corner set over ``k`` colours with ``v`` variants per tuple, in the spec's index order."""
+    if k < 2 or v < 1:
+        raise ValueError(
+            f"a complete corner set needs K >= 2 colours and V >= 1 variants, got K = {k}, V = {v}"
+        )
+    name = f"c{k}" if v == 1 else f"c{k}x{v}"
+    check_complete_size(name, k**4 * v, "K^4 * V")
+    cols = corner_colours(k)
+    tiles, variants = [], []
+    for t in itertools.product(range(k), repeat=4):  # TL, BL, TR, BR with BR fastest: the spec's order
+        for var in range(v):
+            tiles.append(tuple(cols[i] for i in t))
+            variants.append(var)
+    return CornerTileSet(name=name, colours=cols, tiles=tuple(tiles), variants=tuple(variants))
+
+
+def complete_tileset(name: Any):
+    """The complete corner set named ``name`` (``c<K>`` / ``c<K>x<V>``), or None if it is no such name."""
+    m = CORNER_NAME.fullmatch(str(name))
+    if m is None:
+        return None
+    if len(m.group(1)) > 3 or len(m.group(2) or "") > 5:
+        raise ValueError(f"tile set {name!r}: more than {MAX_COMPLETE_TILES} tiles (MAX_COMPLETE_TILES)")
+    return complete_corner_set(int(m.group(1)), int(m.group(2) or 1))

@@ -47,6 +47,8 @@ from typing import Any
 
 import numpy as np
 
+from .complete import EDGE_NAME, check_complete_size
+
 __all__ = [
     "HORIZONTAL_COLOURS",
     "VERTICAL_COLOURS",
@@ -246,8 +248,6 @@ def complete_choice_set(k: int, name: str | None = None) -> WangTileSet:
 
 def is_wang_set_name(name: str) -> bool:
     """Whether ``name`` names a Wang set (``"wang<2k²>"``), without building it."""
-    from .complete import is_complete_wang_name  # wc<K>, wc<Kh>-<Kv>: complete edge sets
-
     if is_complete_wang_name(name):
         return True
     m = _NAME.fullmatch(str(name))
@@ -266,8 +266,6 @@ def get_wang_tileset(name: str) -> WangTileSet:
     ValueError
         If ``name`` is not such a name; the message lists the valid names.
     """
-    from .complete import complete_wang_tileset
-
     complete = complete_wang_tileset(name)
     if complete is not None:
         return complete
@@ -284,3 +282,43 @@ def _named_set(name: str) -> WangTileSet:
     """The cached set of a valid name (keyed by the string: any object may be passed as a name)."""
     size = int(name[4:])
     return complete_choice_set(int(round((size / 2) ** 0.5)), name=name)
+
+
+# ------------------------------------------------------------------ complete sets (issue 12, tilesynth.complete)
+@functools.cache
+def complete_edge_set(kh: int, kv: int):
+    """The complete Wang set over ``kh`` horizontal and ``kv`` vertical edge colours, in the spec's order."""
+    name = f"wc{kh}" if kh == kv else f"wc{kh}-{kv}"
+    limit = len(HORIZONTAL_COLOURS)
+    if not (2 <= kh <= limit and 2 <= kv <= limit):
+        raise ValueError(f"tile set {name!r}: a complete edge set needs 2 .. {limit} colours per direction")
+    check_complete_size(name, kh * kh * kv * kv, "Kh^2 * Kv^2")
+    h, vv = HORIZONTAL_COLOURS[:kh], VERTICAL_COLOURS[:kv]
+    tiles = [
+        (h[n], vv[e], h[s], vv[w]) for n in range(kh) for e in range(kv) for s in range(kh) for w in range(kv)
+    ]
+    return WangTileSet(name=name, horizontal=h, vertical=vv, tiles=tuple(tiles))
+
+
+def is_complete_wang_name(name: Any) -> bool:
+    """True for ``wc<K>`` / ``wc<Kh>-<Kv>`` with a valid size."""
+    m = EDGE_NAME.fullmatch(str(name))
+    if m is None or len(m.group(1)) > 2 or len(m.group(2) or "") > 2:
+        return False
+    try:
+        complete_wang_tileset(name)
+    except ValueError:
+        return False
+    return True
+
+
+def complete_wang_tileset(name: Any):
+    """The complete Wang set named ``name``, or None if it is no such name (ValueError if too large)."""
+    m = EDGE_NAME.fullmatch(str(name))
+    if m is None:
+        return None
+    if len(m.group(1)) > 2 or len(m.group(2) or "") > 2:
+        raise ValueError(f"tile set {name!r}: at most 8 colours per direction")
+    kh = int(m.group(1))
+    kv = int(m.group(2)) if m.group(2) else kh
+    return complete_edge_set(kh, kv)

@@ -42,10 +42,10 @@ import numpy as np
 from ..errors import ParameterError, ShapeError
 from . import atlas as _atlas
 from .periodic import default_index_size, toroidal_index_map
+from .sources import SHADER_FILES, shader_source
 
 EXPORT_FORMAT = "tilesynth-export"
 EXPORT_VERSION = 1
-SHADER_FILES = ("tilesynth.glsl", "tilesynth.wgsl", "tilesynth.hlsl", "tilesynth.gdshader")
 HASH_NAME = "pcg3d"  # tilesynth.lookup.HASH_NAME
 HASH_CONSTANTS = {
     "lcg_multiplier": 1664525,
@@ -56,13 +56,6 @@ HASH_CONSTANTS = {
 """The constants of the hash as the manifest records them (checked against :mod:`tilesynth.lookup` by the tests)."""
 
 __all__ = ["EXPORT_FORMAT", "export", "hash_layout", "manifest_schema", "shader_source", "validate_manifest"]
-
-
-def shader_source(name: str) -> str:
-    """Text of one of the packaged shaders (:data:`SHADER_FILES`)."""
-    if name not in SHADER_FILES:
-        raise ParameterError(f"shader = {name!r}: one of {', '.join(SHADER_FILES)}")
-    return resources.files(__package__).joinpath("shaders", name).read_text(encoding="utf-8")
 
 
 def manifest_schema() -> dict[str, Any]:

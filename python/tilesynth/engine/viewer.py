@@ -190,7 +190,7 @@ def default_cases(r: Reference, manifest: dict[str, Any]) -> list[dict[str, Any]
 def page(config: dict[str, Any]) -> str:
     """The viewer HTML for a config (levels, layout, lookup, selftest cases)."""
     tpl = resources.files(__package__).joinpath("viewer_template.html").read_text(encoding="utf-8")
-    from . import shader_source
+    from .sources import shader_source
 
     config = dict(config)
     imgs = "".join(
