@@ -72,7 +72,7 @@ def test_bad_wang_complete_names():
 
 @pytest.fixture(scope="module")
 def c2x2(lettuce):
-    return ts.build_omega(lettuce[:160, :160], "c2x2", tile_size=32, seed=4)
+    return ts.build_omega(lettuce[:160, :160], tileset="c2x2", tile_size=32, seed=4)
 
 
 @pytest.fixture(scope="module")
@@ -149,7 +149,7 @@ def test_seed_range_for_hashed(c2x2):
 
 
 def test_unhashable_sets_refuse_origin_and_wrap(lettuce):
-    s = ts.build_omega(lettuce[:128, :128], "16a", tile_size=32, seed=1)
+    s = ts.build_omega(lettuce[:128, :128], tileset="16a", tile_size=32, seed=1)
     with pytest.raises(ParameterError, match="not complete"):
         ts.synthesize(s, 64, 64, seed=1, origin=(1, 0))
     with pytest.raises(ParameterError, match="not complete"):
@@ -166,7 +166,7 @@ def test_explicit_map_with_origin_is_refused(c2x2):
 
 
 def test_wang_complete_set_builds_and_hashes(lettuce):
-    s = ts.build_wang(lettuce[:160, :160], "wc2", tile_size=32, seed=2)
+    s = ts.build_wang(lettuce[:160, :160], tileset="wc2", tile_size=32, seed=2)
     assert s.n_tiles == 16 and lookup_scheme(s.definition) is not None
     big, _ = ts.synthesize(s, 200, 200, seed=5, origin=(-100, -100))
     win, _ = ts.synthesize(s, 50, 60, seed=5, origin=(-17, 3))

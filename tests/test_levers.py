@@ -38,8 +38,8 @@ def test_free_terminals():
 @pytest.mark.parametrize("bias", [0.0, 0.02])
 def test_free_cut_keeps_the_border_and_covers_the_cross(lettuce, bias):
     genes = np.array([[10, 10], [100, 30], [30, 150], [150, 150]])
-    circle = ts.build_omega(lettuce, "c2", tile_size=64, genes=genes[:2], cut_region="circle")
-    free = ts.build_omega(lettuce, "c2", tile_size=64, genes=genes[:2], cut_region="free", cut_bias=bias)
+    circle = ts.build_omega(lettuce, tileset="c2", tile_size=64, genes=genes[:2], cut_region="circle")
+    free = ts.build_omega(lettuce, tileset="c2", tile_size=64, genes=genes[:2], cut_region="free", cut_bias=bias)
     src, sink = free_terminals(64)
     assert not free.cut_masks[:, src].any()
     assert free.cut_masks[:, sink].all()
@@ -53,8 +53,8 @@ def test_free_cut_keeps_the_border_and_covers_the_cross(lettuce, bias):
 
 def test_diversity_spreads_the_matching_patches(lettuce):
     n = 48
-    plain = ts.build_omega(lettuce, "c2", tile_size=n, seed=3, diversity=0)
-    div = ts.build_omega(lettuce, "c2", tile_size=n, seed=3, diversity=1)
+    plain = ts.build_omega(lettuce, tileset="c2", tile_size=n, seed=3, diversity=0)
+    div = ts.build_omega(lettuce, tileset="c2", tile_size=n, seed=3, diversity=1)
     np.testing.assert_array_equal(div.genes, plain.genes)
 
     def close_pairs(offsets):
@@ -68,32 +68,32 @@ def test_diversity_spreads_the_matching_patches(lettuce):
 
 
 def test_diversity_with_variants(lettuce):
-    s = ts.build_omega(lettuce, "c2x2", tile_size=48, seed=3, diversity=2)
+    s = ts.build_omega(lettuce, tileset="c2x2", tile_size=48, seed=3, diversity=2)
     off = s.match_offsets.reshape(16, 2, 2)
     assert (np.abs(off[:, 0] - off[:, 1]).max(axis=1) > 48 // 4).all()  # variants are not near-copies
 
 
 def test_complete_set_defaults(lettuce):
-    s = ts.build_omega(lettuce, "c2", seed=1)
+    s = ts.build_omega(lettuce, tileset="c2", seed=1)
     assert s.tile_size == 64 and s.params["cut_region"] == "free" and s.params["diversity"] == 1
-    off = ts.build_omega(lettuce, "c2", seed=1, cut_region="circle", diversity=0)
+    off = ts.build_omega(lettuce, tileset="c2", seed=1, cut_region="circle", diversity=0)
     assert "cut_region" not in off.params and "diversity" not in off.params
-    old = ts.build_omega(lettuce, "16a", tile_size=64, seed=1)
+    old = ts.build_omega(lettuce, tileset="16a", tile_size=64, seed=1)
     assert "cut_region" not in old.params and "diversity" not in old.params and old.tile_size == 64
-    assert ts.build_omega(lettuce, "16a", seed=1).tile_size == 128  # the papers' sets keep half the side
+    assert ts.build_omega(lettuce, tileset="16a", seed=1).tile_size == 128  # the papers' sets keep half the side
 
 
 def test_lever_parameter_errors(lettuce):
     with pytest.raises(ParameterError, match="cut_region"):
-        ts.build_omega(lettuce, "c2", tile_size=64, cut_region="square")
+        ts.build_omega(lettuce, tileset="c2", tile_size=64, cut_region="square")
     with pytest.raises(ParameterError, match="cut_bias"):
-        ts.build_omega(lettuce, "c2", tile_size=64, cut_region="circle", cut_bias=0.1)
+        ts.build_omega(lettuce, tileset="c2", tile_size=64, cut_region="circle", cut_bias=0.1)
     with pytest.raises(ParameterError, match="cut_bias"):
-        ts.build_omega(lettuce, "c2", tile_size=64, cut_region="free", cut_bias=-1.0)
+        ts.build_omega(lettuce, tileset="c2", tile_size=64, cut_region="free", cut_bias=-1.0)
     with pytest.raises(ParameterError, match="diversity"):
-        ts.build_omega(lettuce, "c2", tile_size=64, diversity=-1)
+        ts.build_omega(lettuce, tileset="c2", tile_size=64, diversity=-1)
     with pytest.raises(ParameterError, match="diversity"):
-        ts.build_omega(lettuce, "c2", tile_size=64, diversity=1, match="best-cut")
+        ts.build_omega(lettuce, tileset="c2", tile_size=64, diversity=1, match="best-cut")
 
 
 def test_cli_levers_and_hashed_synth(tmp_path, lettuce):

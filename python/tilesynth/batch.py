@@ -174,7 +174,6 @@ class BatchError(ParameterError):
 
 # ------------------------------------------------------------------------------------------------ the format
 _SCHEMES = ("omega", "wang", "swang")
-_DEFAULT_SETS = {"omega": "16a", "wang": "wang8", "swang": "wang8"}
 _ALL = _SCHEMES
 
 # option -> (kind, allowed values or None, schemes using it, the CLI default passed to the builder)
@@ -413,7 +412,9 @@ def _effective(
                 f"(only with {' or '.join(schemes)})"
             )
     opts = {k: given.get(k, d) for k, (_, _, schemes, d) in _BUILD_OPTIONS.items() if scheme in schemes}
-    opts["set"] = opts["set"] or _DEFAULT_SETS[scheme]
+    from .schemes import DEFAULT_SETS  # the same default set as `tilesynth build`
+
+    opts["set"] = opts["set"] or DEFAULT_SETS[scheme]
     _check_set(opts["set"], scheme, where)
     if opts["select"] in ("random", "best-of") and opts["generations"] is not None:
         raise BatchError(f'{where}: field \'generations\': only used with select = "ga" or "ais"')
