@@ -1,6 +1,7 @@
 //! The Python extension module `tilesynth._core`. Each function borrows its arrays, releases the GIL around the
 //! core kernel (`py.detach`) inside a local thread pool, and converts the result. Nothing here may panic.
 
+mod bench;
 mod convert;
 mod errors;
 
@@ -618,5 +619,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(edge_weight_sums, m)?)?;
     m.add_function(wrap_pyfunction!(weighted_ssd_map, m)?)?;
     m.add_function(wrap_pyfunction!(_raise_panic, m)?)?;
+    bench::register(m)?;
     Ok(())
 }
