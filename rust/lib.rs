@@ -25,6 +25,7 @@
 #![warn(clippy::all)]
 
 pub mod error;
+pub mod gradients;
 pub mod maxflow;
 pub mod omega;
 pub mod parallel;

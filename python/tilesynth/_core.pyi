@@ -143,3 +143,13 @@ def swang_cuts(
     threads: int | None = None,
     initial_grad: npt.NDArray[np.float64] | None = None,
 ) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]: ...
+
+def patch_gradients(exemplar: np.ndarray, source: np.ndarray) -> np.ndarray: ...
+def _best_matches_sorting(
+    index: SsdIndex,
+    templates: np.ndarray,
+    k: int = 1,
+    exclude_radius: int = 0,
+    mask: np.ndarray | None = None,
+    threads: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]: ...

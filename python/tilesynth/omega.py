@@ -188,14 +188,9 @@ def patch_gradients(exemplar: np.ndarray, source: np.ndarray) -> np.ndarray:
 
     Index 0 is ‖E(r, c+1) − E(r, c)‖, index 1 is ‖E(r+1, c) − E(r, c)‖ (L2 over channels, 0 past the exemplar edge).
     """
-    e = exemplar.astype(np.float64)
-    h, w = e.shape[:2]
-    gx = np.zeros((h, w))
-    gy = np.zeros((h, w))
-    gx[:, :-1] = np.sqrt(((e[:, 1:] - e[:, :-1]) ** 2).sum(-1))
-    gy[:-1] = np.sqrt(((e[1:] - e[:-1]) ** 2).sum(-1))
-    r, c = source[..., 0], source[..., 1]
-    return np.ascontiguousarray(np.stack([gx[r, c], gy[r, c]], axis=-1))
+    from .gradients import patch_gradients as _rust_patch_gradients  # in Rust, bit-identical (issue 15)
+
+    return _rust_patch_gradients(exemplar, source)
 
 
 def _distance_search(
@@ -582,7 +577,7 @@ def build_omega(
     report("cutting curves", k, k)
 
     yy, xx = np.mgrid[0:n, 0:n].astype(np.int32)
-    O_src = np.stack([np.stack([yy + r, xx + c], axis=-1) for r, c in match_offsets]).astype(np.int32)
+    O_src = (np.stack([yy, xx], axis=-1)[None] + match_offsets[:, None, None, :]).astype(np.int32)
     if smooth:
         report("poisson smoothing", 0, k)
         tiles, smooth_info = smooth_tiles(I_tiles, O_tiles, masks, threads=threads)

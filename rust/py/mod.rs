@@ -4,6 +4,7 @@
 mod bench;
 mod convert;
 mod errors;
+mod gradients;
 
 use crate::{maxflow, omega, parallel, png, poisson, population, ssd, synth, wang};
 use convert::contiguous;
@@ -620,5 +621,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(weighted_ssd_map, m)?)?;
     m.add_function(wrap_pyfunction!(_raise_panic, m)?)?;
     bench::register(m)?;
+    gradients::register(m)?;
     Ok(())
 }
