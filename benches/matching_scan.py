@@ -2,7 +2,7 @@
 """The matching stage: exact best matches by the linear candidate scan against the old full sort, side by side.
 
 For exemplars of 512² and 1024² (``bark-lichen.png`` of ../shared/textures, upscaled bicubically to 1024²) and
-256-px templates, ``--templates`` templates built like intermediate ω-tiles (four quadrants cut from four random
+256- and 128-px templates (``--tiles``), ``--templates`` templates built like intermediate ω-tiles (four quadrants cut from four random
 places of the exemplar, so not exact copies), the CPU time (``time.process_time``, all threads) of
 ``SsdIndex.best_matches(k=1)`` and of the hidden baseline ``_core._best_matches_sorting`` (the first
 implementation: every translation sorted by its FFT value), interleaved, ``--repeat`` times, medians. Also k = 16
@@ -58,6 +58,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--templates", type=int, default=8)
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--sizes", default="512,1024")
+    p.add_argument("--tiles", default="256,128", help="template sizes")
     a = p.parse_args(argv)
     print(f"# benches/matching_scan.py — tilesynth {ts.__version__}, {os.cpu_count()} cores, threads {a.threads}")
     print("# CPU s (process_time, medians); the machine may be shared with other jobs\n")
@@ -66,11 +67,10 @@ def main(argv: list[str] | None = None) -> int:
     rng = np.random.default_rng(1)
     for size in [int(s) for s in a.sizes.split(",")]:
         ex = exemplar(a.textures, size)
-        n = 256
-        tpl = np.ascontiguousarray(templates(ex, n, a.templates, rng))
         idx = ts.SsdIndex(ex, a.threads)
-        idx.best_matches(tpl[:1], k=1, threads=a.threads)  # build the f64 spectra before timing
-        for k, r in [(1, 0), (16, n // 4)]:
+        for n, k, r in [(n, k, r) for n in map(int, a.tiles.split(",")) for k, r in [(1, 0), (16, n // 4)]]:
+            tpl = np.ascontiguousarray(templates(ex, n, a.templates, rng))
+            idx.best_matches(tpl[:1], k=1, threads=a.threads)  # build the f64 spectra before timing
             t_new, t_old, same = [], [], True
             for _ in range(a.repeat):
                 t0 = time.process_time()
