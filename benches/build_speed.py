@@ -73,6 +73,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--cases", default="random1024")
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--generations", type=int, default=3)
+    p.add_argument("--new-only", default="", help="cases run with the new install only (e.g. ga1024: the old "
+                   "one needs an estimated 5-7 GB there)")
     a = p.parse_args(argv)
     tex = str(a.textures / "bark-lichen.png")
     print(f"# benches/build_speed.py — {os.cpu_count()} cores; old {a.old_python}, new {a.new_python}")
@@ -84,12 +86,18 @@ def main(argv: list[str] | None = None) -> int:
             size, tile, select = CASES[case]
             args = [tex, str(size), str(tile), select, str(a.generations), str(Path(tmp) / "out.tiles")]
             res: dict[str, list[tuple[float, float, float]]] = {"old": [], "new": []}
+            new_only = case in a.new_only.split(",")
             for _ in range(a.repeat):
-                res["old"].append(run(a.old_python, args))
+                if not new_only:
+                    res["old"].append(run(a.old_python, args))
                 res["new"].append(run(a.new_python, args))
-            med = {k: [statistics.median(x[i] for x in v) for i in range(3)] for k, v in res.items()}
-            (oc, ow, om), (nc, nw, nm) = med["old"], med["new"]
+            med = {k: [statistics.median(x[i] for x in v) for i in range(3)] for k, v in res.items() if v}
+            (nc, nw, nm) = med["new"]
             name = case + (f" ({a.generations} gen)" if select != "random" else "")
+            if new_only:
+                print(f"| {name} | – | {nc:.2f} | – | – | {nw:.2f} | – | not run | {nm:.0f} |", flush=True)
+                continue
+            (oc, ow, om) = med["old"]
             print(f"| {name} | {oc:.2f} | {nc:.2f} | {oc / nc:.2f}× | {ow:.2f} | {nw:.2f} | {ow / nw:.2f}× "
                   f"| {om:.0f} | {nm:.0f} |", flush=True)
     return 0

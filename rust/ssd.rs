@@ -805,6 +805,28 @@ impl SsdIndex {
     fn best_prepared(&self, t: &Tmpl, mask: Option<&[bool]>, k: usize, r: usize) -> Vec<Match> {
         let (mh, mw) = self.map_dim(t.h, t.w);
         let n = mh * mw;
+        // When the matches and their exclusion windows cover a large part of the map, the walk reaches
+        // most translations anyway: sorting them all at once is then cheaper than growing the prefix in
+        // many steps (same walk, same result).
+        let side = 2 * r as u128 + 1;
+        let covered = (k.min(n) as u128).saturating_mul(side.saturating_mul(side));
+        if k > 1 && covered >= (n / 4) as u128 {
+            return self.best_prepared_sorting(t, mask, k, r);
+        }
+        self.best_prepared_lazy(t, mask, k, r)
+    }
+
+    /// [`SsdIndex::best_prepared`] by the lazy order, whatever `k` and `r` (the tests compare it with the
+    /// sorting path in every regime).
+    fn best_prepared_lazy(
+        &self,
+        t: &Tmpl,
+        mask: Option<&[bool]>,
+        k: usize,
+        r: usize,
+    ) -> Vec<Match> {
+        let (mh, mw) = self.map_dim(t.h, t.w);
+        let n = mh * mw;
         let k = k.min(n);
         if k == 0 {
             return Vec::new();
@@ -1985,6 +2007,10 @@ mod tests {
                 let mv = m.map(|m| m.view());
                 let new = idx.best_matches(t.view(), mv, k, r).unwrap();
                 let old = idx.best_matches_sorting(t.view(), mv, k, r).unwrap();
+                assert_eq!(new, old);
+                let tp = idx.prepare_template("template", t.view()).unwrap();
+                let mp = prepare_mask(mv, t.dim().0, t.dim().1).unwrap();
+                let new = idx.best_prepared_lazy(&tp, mp.as_deref(), k, r);
                 assert_eq!(new.len(), old.len(), "k {k} r {r} image {:?}", img.dim());
                 for (a, b) in new.iter().zip(&old) {
                     assert_eq!((a.row, a.col), (b.row, b.col), "k {k} r {r}");
