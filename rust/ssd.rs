@@ -805,12 +805,12 @@ impl SsdIndex {
     fn best_prepared(&self, t: &Tmpl, mask: Option<&[bool]>, k: usize, r: usize) -> Vec<Match> {
         let (mh, mw) = self.map_dim(t.h, t.w);
         let n = mh * mw;
-        // When the matches and their exclusion windows cover a large part of the map, the walk reaches
+        // When the matches and their exclusion windows could cover the whole map, the walk reaches
         // most translations anyway: sorting them all at once is then cheaper than growing the prefix in
         // many steps (same walk, same result).
         let side = 2 * r as u128 + 1;
         let covered = (k.min(n) as u128).saturating_mul(side.saturating_mul(side));
-        if k > 1 && covered >= (n / 4) as u128 {
+        if k > 1 && covered >= n as u128 {
             return self.best_prepared_sorting(t, mask, k, r);
         }
         self.best_prepared_lazy(t, mask, k, r)
