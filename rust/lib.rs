@@ -27,6 +27,7 @@
 #![warn(clippy::all)]
 
 pub mod error;
+pub mod gradients;
 pub mod hash;
 pub mod maxflow;
 pub mod omega;

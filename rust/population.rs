@@ -26,6 +26,10 @@
 //! ([`SsdIndex::ssd_map_f64`], `f64`, with an absolute error bound) and is cached across calls, keyed by
 //! `(row, col, role)` of the gene: a genetic algorithm changes few genes per generation, so most maps are
 //! reused. The cache is bounded in bytes (least recently used maps are dropped first).
+//! The distinct tiles of one call are evaluated in batches whose partial maps fit a quarter of that limit
+//! (at least one tile), so the maps alive at any time stay within about 1.25 times the limit however
+//! large the population (holding every map of a first generation at once took 1.0-1.6 GB at 512² with
+//! 128-px tiles).
 //!
 //! Per tile the remaining work is the sum of four contiguous `f64` maps and their minimum, a tight loop
 //! compiled for AVX2 when the CPU has it (no FMA; the same operations in the same order as the portable
@@ -58,7 +62,7 @@ use crate::ssd::SsdIndex;
 use ndarray::Array3;
 use ndarray::{s, Array2, ArrayView2, ArrayView3};
 use rayon::prelude::*;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::sync::{Arc, Mutex};
 
 /// Default byte limit of the partial-map cache (256 MiB).
@@ -623,18 +627,59 @@ impl PopulationEvaluator {
             }
         }
 
-        // Partial maps: look up, compute the missing ones in parallel, store.
-        let mut keys: Vec<Key> = uniq
-            .iter()
-            .flat_map(|t| (0..4u8).map(move |q| (t[q as usize].0, t[q as usize].1, q)))
-            .collect();
-        keys.sort_unstable();
-        keys.dedup();
+        // The distinct tiles in batches whose partial maps fit a quarter of the cache limit (at least one
+        // tile), so that the maps held at any time stay near the limit whatever the population size (a
+        // first generation needs ~4 n P maps: > 1 GB at 512² with 128-px tiles when all were held at once).
+        let entry_bytes = self.entry_bytes();
+        let batch_maps = (self.cache_limit() / 4 / entry_bytes).max(4);
+        let mut mins = vec![0.0f64; uniq.len()];
+        let mut start = 0;
+        while start < uniq.len() {
+            let mut keys: Vec<Key> = Vec::new();
+            let mut in_batch: HashSet<Key> = HashSet::new();
+            let mut end = start;
+            while end < uniq.len() {
+                let new: Vec<Key> = (0..4u8)
+                    .map(|q| (uniq[end][q as usize].0, uniq[end][q as usize].1, q))
+                    .filter(|k| !in_batch.contains(k))
+                    .collect();
+                if keys.len() + new.len() > batch_maps && end > start {
+                    break;
+                }
+                for k in new {
+                    if in_batch.insert(k) {
+                        keys.push(k);
+                    }
+                }
+                end += 1;
+            }
+            self.evaluate_batch(&uniq[start..end], &keys, entry_bytes, &mut mins[start..end])?;
+            start = end;
+        }
+
+        let d = Array2::from_shape_fn((np, m), |(i, j)| prob.scale(mins[item_uniq[i * m + j]]));
+        Ok((prob.energies(&d), d))
+    }
+
+    /// The byte limit of the cache.
+    fn cache_limit(&self) -> usize {
+        self.cache.lock().unwrap_or_else(|e| e.into_inner()).limit
+    }
+
+    /// The exact minimum of every tile of `tiles` into `out`, given the distinct `keys` of their maps:
+    /// look up, compute the missing ones in parallel, store (evicting beyond the limit), then the tiles.
+    fn evaluate_batch(
+        &self,
+        tiles: &[Tuple],
+        keys: &[Key],
+        entry_bytes: usize,
+        out: &mut [f64],
+    ) -> Result<()> {
         let mut have: HashMap<Key, Arc<PartialMap>> = HashMap::with_capacity(keys.len());
         let mut missing = Vec::new();
         {
             let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
-            for &k in &keys {
+            for &k in keys {
                 match cache.touch(k) {
                     Some(map) => {
                         cache.hits += 1;
@@ -652,7 +697,6 @@ impl PopulationEvaluator {
             .map(|&k| self.partial_map(k).map(Arc::new))
             .collect::<Result<_>>()?;
         {
-            let entry_bytes = self.entry_bytes();
             let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
             for (&k, map) in missing.iter().zip(&computed) {
                 cache.insert(k, Arc::clone(map), entry_bytes);
@@ -660,22 +704,16 @@ impl PopulationEvaluator {
             }
             cache.evict(entry_bytes);
         }
-
-        // Exact minimum of every distinct tile.
-        let (th, tw) = prob.window();
-        let mins: Vec<f64> = uniq
-            .par_iter()
-            .map_init(
-                || (vec![0.0f64; th * tw], Vec::new()),
-                |(buf, cands), t| {
-                    let maps = [0usize, 1, 2, 3].map(|q| &*have[&(t[q].0, t[q].1, q as u8)]);
-                    self.tile_min(t, maps, buf, cands)
-                },
-            )
-            .collect();
-
-        let d = Array2::from_shape_fn((np, m), |(i, j)| prob.scale(mins[item_uniq[i * m + j]]));
-        Ok((prob.energies(&d), d))
+        drop(computed);
+        let (th, tw) = self.prob.window();
+        tiles.par_iter().zip(out.par_iter_mut()).for_each_init(
+            || (vec![0.0f64; th * tw], Vec::new()),
+            |(buf, cands), (t, o)| {
+                let maps = [0usize, 1, 2, 3].map(|q| &*have[&(t[q].0, t[q].1, q as u8)]);
+                *o = self.tile_min(t, maps, buf, cands);
+            },
+        );
+        Ok(())
     }
 
     /// Hits, misses and size of the partial-map cache.
@@ -1038,6 +1076,35 @@ mod tests {
         let g = prev.unwrap();
         let again = big.evaluate(g.view()).unwrap();
         assert_eq!(again, ev.evaluate(g.view()).unwrap());
+    }
+
+    #[test]
+    fn batched_evaluation_matches_unbatched() {
+        // Populations evaluated in batches of a few maps (cache limit 0 or a few entries) give exactly the
+        // values of one batch (a large limit), with repeated and shared positions.
+        let mut rng = Rng(21);
+        let img = Array3::from_shape_simple_fn((34, 31, 3), || rng.f32());
+        let n = 8;
+        let tp = Array2::from_shape_vec(
+            (5, 4),
+            vec![0, 1, 2, 3, 3, 2, 1, 0, 4, 4, 5, 5, 1, 5, 0, 4, 2, 2, 2, 2],
+        )
+        .unwrap();
+        let entry = (34 - n + 1) * (31 - n + 1) * 8 + ENTRY_OVERHEAD;
+        let mut genes = random_genes(&mut rng, 12, 6, 34 - n, 31 - n);
+        let first = genes.slice(s![0, .., ..]).to_owned();
+        genes.slice_mut(s![3, .., ..]).assign(&first);
+        let big =
+            PopulationEvaluator::new(img.view(), n, tp.view(), 6, 0.8, false, DEFAULT_CACHE_BYTES)
+                .unwrap()
+                .evaluate(genes.view())
+                .unwrap();
+        for limit in [0, entry, 5 * entry, 17 * entry + 3] {
+            let ev =
+                PopulationEvaluator::new(img.view(), n, tp.view(), 6, 0.8, false, limit).unwrap();
+            assert_eq!(ev.evaluate(genes.view()).unwrap(), big, "limit {limit}");
+            assert!(ev.cache_stats().bytes <= limit);
+        }
     }
 
     #[test]

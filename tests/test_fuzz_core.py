@@ -387,6 +387,22 @@ def exr_decode(d: st.DrawFn):
     return _core.exr_decode, (data, d(st.sampled_from([1 << 30, 1 << 30, 4]))), {}, ()
 
 
+@st.composite
+def patch_gradients(d: st.DrawFn):
+    img = d(image())
+    src = d(arrays(2, I64, (None, d(st.sampled_from([2, 2, 2, 1, 3])))))
+    tame = img.ndim == 3 and img.shape[0] and img.shape[1] and src.ndim == 2 and src.dtype == np.int64
+    if d(st.booleans()) and tame and src.shape[1] == 2:
+        src = np.abs(src) % np.array(img.shape[:2], np.int64)  # mostly in range: exercise the kernel itself
+    return _core.patch_gradients, (img, src), {}, ()
+
+
+@st.composite
+def best_matches_sorting(d: st.DrawFn):
+    fn, (t,), kw, mut = d(ssd_index_best_matches())
+    return _core._best_matches_sorting, (fn.__self__, t), kw, mut
+
+
 ENTRY_POINTS = {
     "SsdIndex": ssd_index_new,
     "SsdIndex.shape": ssd_index_shape,
@@ -418,6 +434,8 @@ ENTRY_POINTS = {
     "ts_hash": ts_hash_core,
     "hashed_index_map": hashed_index_map,
     "tile_copy_window": tile_copy_window,
+    "patch_gradients": patch_gradients,
+    "_best_matches_sorting": best_matches_sorting,
 }
 """Entry point name -> strategy of one call ``(callable, args, kwargs, indices of writable args)``."""
 

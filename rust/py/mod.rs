@@ -17,6 +17,7 @@ mod ssd;
 mod synth;
 mod testing;
 mod wang;
+mod gradients;
 
 use crate::parallel;
 use errors::{guard, to_pyerr};
@@ -80,5 +81,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     io::register(m)?;
     hash::register(m)?;
     testing::register(m)?;
+    gradients::register(m)?;
     Ok(())
 }

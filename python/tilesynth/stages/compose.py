@@ -36,14 +36,9 @@ def patch_gradients(exemplar: np.ndarray, source: np.ndarray) -> np.ndarray:
     These are the gradients "of the patch a pixel came from" that the Kwatra seam weights of the ω and s-Wang
     cuts use (``gradients="patch"``).
     """
-    e = exemplar.astype(np.float64)
-    h, w = e.shape[:2]
-    gx = np.zeros((h, w))
-    gy = np.zeros((h, w))
-    gx[:, :-1] = np.sqrt(((e[:, 1:] - e[:, :-1]) ** 2).sum(-1))
-    gy[:-1] = np.sqrt(((e[1:] - e[:-1]) ** 2).sum(-1))
-    r, c = source[..., 0], source[..., 1]
-    return np.ascontiguousarray(np.stack([gx[r, c], gy[r, c]], axis=-1))
+    from ..gradients import patch_gradients as _rust_patch_gradients  # in Rust, bit-identical (issue 15)
+
+    return _rust_patch_gradients(exemplar, source)
 
 
 def patches_at(exemplar: np.ndarray, offsets: np.ndarray, n: int) -> np.ndarray:
@@ -54,7 +49,7 @@ def patches_at(exemplar: np.ndarray, offsets: np.ndarray, n: int) -> np.ndarray:
 def offset_source(offsets: np.ndarray, n: int) -> np.ndarray:
     """Provenance ``(K, n, n, 2)`` int32 of the ``n x n`` patches at the top-left ``offsets`` ``(K, 2)``."""
     yy, xx = np.mgrid[0:n, 0:n]
-    return np.stack([np.stack([yy + r, xx + c], axis=-1) for r, c in offsets]).astype(np.int32)
+    return (np.stack([yy, xx], axis=-1)[None] + np.asarray(offsets)[:, None, None, :]).astype(np.int32)
 
 
 def exemplar_record(ex: np.ndarray, extra: dict[str, Any] | None) -> dict[str, Any]:
