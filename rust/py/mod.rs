@@ -7,6 +7,7 @@
 
 mod convert;
 mod errors;
+mod gradients;
 mod hash;
 mod io;
 mod maxflow;
@@ -17,7 +18,6 @@ mod ssd;
 mod synth;
 mod testing;
 mod wang;
-mod gradients;
 
 use crate::parallel;
 use errors::{guard, to_pyerr};
