@@ -615,6 +615,9 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``tilesynth`` command; returns the exit status."""
     try:
         args = build_parser().parse_args(argv)
+        from .paths import check_command
+
+        check_command(args)  # before any work: no output may be an input or another output (issue 16)
         if args.command == "build":
             _build(args.input, args.output, args.set, args.tile_size, args.seed, args.threads, args.quiet, args.sheet,
                    args.gradients, args.literal_border, args.select, args.polish, args.generations,
