@@ -37,10 +37,13 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _size(text: str) -> tuple[int, int]:
-    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
-    if not m or int(m.group(1)) < 1 or int(m.group(2)) < 1:
-        raise argparse.ArgumentTypeError(f"--size = {text!r}: expected WIDTHxHEIGHT with positive integers, e.g. 1024x1024")
-    return int(m.group(1)), int(m.group(2))
+    """WIDTHxHEIGHT, or one integer for a square (``--size 1024`` is 1024x1024)."""
+    m = re.fullmatch(r"\s*(\d+)\s*(?:[xX]\s*(\d+)\s*)?", text)
+    if not m or int(m.group(1)) < 1 or int(m.group(2) or m.group(1)) < 1:
+        raise argparse.ArgumentTypeError(
+            f"--size = {text!r}: expected WIDTHxHEIGHT or SIZE (a square) with positive integers, e.g. 1024x768 or 1024"
+        )
+    return int(m.group(1)), int(m.group(2) or m.group(1))
 
 
 def _nonneg(text: str) -> int:
@@ -156,7 +159,7 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("synth", help="synthesize a texture from a tile set")
     s.add_argument("tileset", help="tile-set file (.tiles)")
     s.add_argument("-o", "--output", required=True, help="output image (.png; 16-bit with --bits 16)")
-    s.add_argument("--size", type=_size, required=True, help="output size WIDTHxHEIGHT, e.g. 1024x1024")
+    s.add_argument("--size", type=_size, required=True, help="output size WIDTHxHEIGHT, or SIZE for a square, e.g. 1920x1080 or 1024")
     s.add_argument("--seed", type=_nonneg, default=None, help="tiling seed (default: a fresh one, printed)")
     s.add_argument("--map", default=None, help="use this tile index map (.npy, int, rows x cols) instead of the tiler")
     s.add_argument("--save-map", default=None, help="write the tile index map used to this .npy file")
@@ -613,6 +616,9 @@ def _demo(out_dir: str, set_name: str, size: tuple[int, int], seed: int, threads
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``tilesynth`` command; returns the exit status."""
+    from ._signals import EXIT_TERMINATED, Terminated, install_sigterm
+
+    install_sigterm()  # SIGTERM removes the .part files like Ctrl-C (issue 16)
     try:
         args = build_parser().parse_args(argv)
         from .paths import check_command
@@ -658,6 +664,9 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:  # unwritable output, full disk, ...
         print(f"tilesynth: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "), file=sys.stderr)
         return EXIT_USAGE
+    except Terminated:
+        print("tilesynth: terminated", file=sys.stderr)
+        return EXIT_TERMINATED
     except KeyboardInterrupt:
         print("tilesynth: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -38,6 +38,9 @@ def build(exemplar: np.ndarray, scheme: str = "omega", **kwargs: Any) -> TileSet
     ParameterError
         If ``scheme`` is unknown (and whatever the builder raises for its parameters).
     """
+    from ._budget import check_build_memory
+
+    check_build_memory(exemplar, scheme, kwargs)  # refused up front with the figure (issue 16)
     if scheme == "omega":
         from .omega import build_omega
 

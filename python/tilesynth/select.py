@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from ._chunks import ChunkSizer, call_in_chunks
 from .errors import ParameterError, ShapeError
 from .omega import check_genes, random_genes
 
@@ -274,7 +275,8 @@ def _random_population(
 
 
 class _Evaluator:
-    """Wraps the user's ``evaluate``: one call per batch, validation, cache of known vectors, best-ever record."""
+    """Wraps the user's ``evaluate``: calls per batch (in chunks of about 0.25 s each, see
+    :mod:`tilesynth._chunks`), validation, cache of known vectors, best-ever record."""
 
     def __init__(self, evaluate: Evaluate, n: int, cache: bool = True) -> None:
         if not callable(evaluate):
@@ -289,6 +291,7 @@ class _Evaluator:
         self.best_genes: np.ndarray | None = None
         self.best_E = math.inf
         self.best_D: np.ndarray | None = None
+        self.sizer = ChunkSizer()  # batches evaluated in chunks of ~0.25 s: Ctrl-C within ~1 s (issue 16)
 
     def _call(self, genes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         p = genes.shape[0]
@@ -317,7 +320,7 @@ class _Evaluator:
         if p == 0:
             return np.empty(0), np.empty((0, self.m or 0))
         if self.cache is None:
-            E, D = self._call(genes)
+            E, D = call_in_chunks(self._call, genes, self.sizer)
         else:
             keys = [g.tobytes() for g in genes]
             todo: dict[bytes, int] = {}
@@ -326,7 +329,7 @@ class _Evaluator:
                     todo[k] = i
             if todo:
                 idx = np.fromiter(todo.values(), np.int64, len(todo))
-                E_new, D_new = self._call(genes[idx])
+                E_new, D_new = call_in_chunks(self._call, genes[idx], self.sizer)
                 for j, k in enumerate(todo):
                     self.cache[k] = (float(E_new[j]), D_new[j].copy())
             E = np.array([self.cache[k][0] for k in keys], dtype=np.float64)
@@ -362,6 +365,13 @@ class _Run:
             self.stall += 1
         if self.progress is not None:
             self.progress(self.stage, len(self.best), self.total)
+            if self.stop_reason() == "stagnation" and self.generations < self.total:  # issue 16: say so
+                note = f"converged at generation {self.generations} of {self.total} (stagnation rule)"
+                finish = getattr(self.progress, "finish", None)
+                if finish is not None:
+                    finish(self.stage, note)
+                else:
+                    self.progress(self.stage, self.total, self.total)
 
     @property
     def generations(self) -> int:
