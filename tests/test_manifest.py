@@ -81,7 +81,7 @@ def _cases(src: Path):
     r5 = copy.deepcopy(m)
     r5["arrays"]["tiles"]["shape"] = [16, 24, 24, 3, 1]
     yield "tiles rank 5", r5, {"tiles.npy": _npy(tiles[..., None])}, "rank 5"
-    yield "tiles rank 3, manifest untouched", None, {"tiles.npy": _npy(tiles.reshape(16, 24, 72))}, "tiles.npy"
+    yield "tiles rank 3, manifest untouched", None, {"tiles.npy": _npy(tiles.reshape(16, 24, 72))}, "array tiles"
     e = copy.deepcopy(m)
     e["E"] = 10**400
     yield "huge integer E", e, {}, "field E"
@@ -90,7 +90,7 @@ def _cases(src: Path):
     yield "history entries strings", h, {}, "params.selection.history.best[0]"
     pl = copy.deepcopy(m)
     pl["params"] = [1, 2]
-    yield "params a list", pl, {}, "field params"
+    yield "params a list", pl, {}, "field 'params'"
     po = copy.deepcopy(m)
     po["params"]["selection"]["params"]["polish"] = "yes"
     yield "polish yes", po, {}, "params.selection.params.polish"

@@ -19,6 +19,17 @@ import numpy as np
 TARGET_SECONDS = 0.25
 
 
+def chunkable(fn: Callable) -> Callable:
+    """Mark a population evaluator as safe to call on chunks of a batch (tilesynth's own evaluators: each
+    individual independent). A user's ``evaluate`` passed to :func:`tilesynth.select.select_genes` is not
+    marked and keeps one call per batch."""
+    def chunked(genes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return fn(genes)
+
+    chunked._tilesynth_chunkable = True  # type: ignore[attr-defined]
+    return chunked
+
+
 class ChunkSizer:
     """Remembers the time per individual of the last calls and proposes the next chunk size."""
 
@@ -31,11 +42,13 @@ class ChunkSizer:
 
 
 def call_in_chunks(
-    fn: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], genes: np.ndarray, sizer: ChunkSizer
+    fn: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], genes: np.ndarray, sizer: ChunkSizer | None
 ) -> tuple[np.ndarray, np.ndarray]:
     """``fn(genes)`` as the concatenation of ``fn`` over consecutive chunks of rows (``fn`` returns ``(E[P],
-    D[P, m])`` as validated arrays)."""
+    D[P, m])`` as validated arrays); one call if ``sizer`` is None."""
     p = genes.shape[0]
+    if sizer is None:
+        return fn(genes)
     if p <= sizer.size:
         t0 = time.perf_counter()
         out = fn(genes)

@@ -303,7 +303,8 @@ EXEMPLAR = Obj(
     optional={"file": Optional(Str()), "bits": Int(8, 16), "sha256": Str()},
 )
 
-_TILE = AnyOf((Str(max_len=64), List(AnyOf((Str(max_len=64), Int()))), Obj()))
+_TILE = AnyOf((Str(), List(AnyOf((Str(), Num(), Bool(), Null()))), Obj(), Num(), Bool(), Null()))
+"""A tile of the layout: its form is the tile-set definition's business (checked by ``tileset_from_dict``)."""
 LAYOUT = Obj(
     required={"tiles": List(_TILE, min_len=1)},
     optional={
@@ -341,9 +342,19 @@ def validate_manifest(m: Any) -> None:
     """Check ``m`` (the parsed ``manifest.json``) against :data:`MANIFEST` and the scheme/layout pairing;
     raises :class:`TileSetFormatError` naming the first bad field."""
     if not isinstance(m, dict):
-        raise TileSetFormatError(f"manifest.json is a {type(m).__name__}, expected an object")
+        raise TileSetFormatError(f"not a tilesynth tile set (manifest.json is a {type(m).__name__}, not an object)")
     if not _is_v1(m):
         return  # not a tile set of this version: the loader's magic and version check says so
+    # the top-level kinds first, in the loader's established wording
+    kinds = {"scheme": str, "layout": dict, "params": dict, "exemplar": dict, "tilesynth_version": str,
+             "E": (int, float)}
+    for key, t in kinds.items():
+        if key not in m:
+            raise TileSetFormatError(f"manifest.json lacks {key!r}")
+        if not isinstance(m[key], t) or isinstance(m[key], bool):
+            raise TileSetFormatError(f"manifest.json field {key!r} = {m[key]!r:.60}: wrong type")
+    if isinstance(m["E"], float) and not math.isfinite(m["E"]):
+        raise TileSetFormatError(f"manifest.json field 'E' = {m['E']!r}: must be finite")
     for k, s in MANIFEST.required.items():
         if k not in m:
             raise TileSetFormatError(f"manifest.json lacks {k!r}")
@@ -355,7 +366,8 @@ def validate_manifest(m: Any) -> None:
     want = "corner" if m["scheme"] == "omega" else "wang"
     if kind != want:
         raise TileSetFormatError(
-            f"manifest.json field layout.kind = {kind!r}: scheme {m['scheme']!r} needs a {want!r} layout"
+            f"layout is not a tile-set definition for scheme {m['scheme']!r} (manifest.json field layout.kind = "
+            f"{kind!r}, expected {want!r})"
         )
 
 
@@ -393,22 +405,32 @@ def check_member_headers(
     """
     for name, (shape, dtype, hlen, size) in headers.items():
         want = np.dtype(dtypes[name])
+        if dtype.hasobject:
+            raise TileSetFormatError(
+                f"not a tilesynth tile set (member {name}.npy is a pickled object array; refused, allow_pickle=False)"
+            )
         if dtype != want:
-            raise TileSetFormatError(f"member {name}.npy: dtype {dtype}, expected {want}")
+            raise TileSetFormatError(f"array {name} must be {want}, got {dtype}")
         n_items = 1
         for d in shape:
             n_items *= d
         if n_items * want.itemsize != size - hlen:
             raise TileSetFormatError(
-                f"member {name}.npy: header declares shape {shape} ({n_items * want.itemsize} bytes) but the "
-                f"member holds {size - hlen} bytes of data"
+                f"not a tilesynth tile set (member {name}.npy: header declares shape {shape} "
+                f"({n_items * want.itemsize} bytes) but the member holds {size - hlen} bytes of data)"
             )
     ranks = {"tiles": 4, "source": 4, "cut_masks": 3, "genes": 2, "tile_patches": 2, "match_offsets": 2, "D": 1,
              "cut_costs": 1, "exemplar": 3, "labels": 3, "cut_stats": 3}
     for name, (shape, *_rest) in headers.items():
         if name in ranks and len(shape) != ranks[name]:
-            raise TileSetFormatError(f"member {name}.npy: shape {shape} has rank {len(shape)}, expected "
-                                     f"{ranks[name]}")
+            raise TileSetFormatError(f"array {name} has shape {shape} (rank {len(shape)}), expected rank {ranks[name]}")
+    if "tiles" in headers:  # the other members follow from the tiles (K, N, N, C), as TileSet._check says
+        k, n, _, _ = headers["tiles"][0]
+        expect = {"source": (k, n, n, 2), "cut_masks": (k, n, n), "tile_patches": (k, 4), "match_offsets": (k, 2),
+                  "D": (k,), "cut_costs": (k,), "labels": (k, n, n), "cut_stats": (k, 4, 6)}
+        for name, shape in expect.items():
+            if name in headers and headers[name][0] != shape:
+                raise TileSetFormatError(f"array {name} has shape {headers[name][0]}, expected {shape}")
     declared = manifest.get("arrays")
     if isinstance(declared, dict):
         for name, (shape, *_rest) in headers.items():

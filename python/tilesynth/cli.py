@@ -215,6 +215,7 @@ def _add_metrics_parsers(sub) -> None:  # noqa: ANN001
     m.add_argument("--stride", type=_pos, default=DEFAULT_STRIDE,
                    help=f"coherence patch stride (default {DEFAULT_STRIDE})")
     m.add_argument("--threads", type=_pos, default=None, help="worker threads")
+    m.add_argument("-q", "--quiet", action="store_true", help="no progress output (on stderr)")
 
     r = sub.add_parser("report", help="write a visual report (PNG figures and one offline HTML page) of a tile set")
     r.add_argument("tileset", help="tile-set file (.tiles)")
@@ -233,6 +234,7 @@ def _metrics(args: argparse.Namespace) -> None:
 
     from . import metrics
     from .io import load_image
+    from .progress import Progress
     from .tilefile import TileSet
 
     path = args.input
@@ -244,7 +246,8 @@ def _metrics(args: argparse.Namespace) -> None:
         ts = TileSet.load(path)
         w, h = args.size or metrics.DEFAULT_SAMPLE_SIZE
         seed = metrics.DEFAULT_SAMPLE_SEED if args.seed is None else args.seed
-        result = metrics.tileset_metrics(ts, w, h, seed, args.patch, args.stride, args.threads)
+        result = metrics.tileset_metrics(ts, w, h, seed, args.patch, args.stride, args.threads,
+                                         progress=Progress(args.quiet))
         result["input"]["path"] = path
     else:
         if args.size is not None or args.seed is not None:
@@ -256,7 +259,8 @@ def _metrics(args: argparse.Namespace) -> None:
                 exemplar = load_image(args.exemplar)[0]
             except ParameterError as exc:
                 raise ParameterError(f"--exemplar: {exc}") from None
-        result = metrics.image_metrics(image, args.tile_size, exemplar, None, args.patch, args.stride, args.threads)
+        result = metrics.image_metrics(image, args.tile_size, exemplar, None, args.patch, args.stride, args.threads,
+                                       progress=Progress(args.quiet))
         result["input"]["path"] = path
     if args.json:
         print(json.dumps(result, indent=1, sort_keys=True, allow_nan=False))
@@ -271,10 +275,8 @@ def _report(args: argparse.Namespace) -> None:
 
     prog = Progress(args.quiet)
     ts = TileSet.load(args.tileset)
-    prog("report", 0, 1)
     res = write_report(ts, args.output_dir, args.size[0], args.size[1], args.seed, not args.no_borders,
-                       args.threads, name=os.path.basename(args.tileset))
-    prog("report", 1, 1)
+                       args.threads, name=os.path.basename(args.tileset), progress=prog)
     prog.message(f"wrote {res['files']['page']} ({len(res['files'])} files)")
 
 

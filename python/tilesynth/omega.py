@@ -339,10 +339,12 @@ def _select(
     from .select import select_genes
 
     # E is over the intermediate tiles: one per distinct corner tuple (the 32-set's variants share theirs).
+    from ._chunks import chunkable
+
     uniq = np.unique(tile_patches, axis=0)
     ev = kernels.PopulationEvaluator(ex, n, uniq, n_colours, lam=LAMBDA, normalise=bool(normalise), features=True)
     res = select_genes(
-        method, lambda g: ev.evaluate(g, threads), ex.shape, n_colours, n, rng, polish=polish,
+        method, chunkable(lambda g: ev.evaluate(g, threads)), ex.shape, n_colours, n, rng, polish=polish,
         generations=generations, population=population, progress=report, **params,
     )
     info = res.to_dict()

@@ -437,10 +437,12 @@ def write_report(
     borders: bool = True,
     threads: int | None = None,
     name: str | None = None,
+    progress: Any = None,
 ) -> dict[str, Any]:
     """Write the report of ``tileset`` into ``out_dir`` (created if missing; files in it are replaced).
 
-    Returns ``{"files": {role: path}, "metrics": dict, "notes": [...]}``. Every argument is checked (and the sample
+    Returns ``{"files": {role: path}, "metrics": dict, "notes": [...]}``; ``progress`` (optional ``(stage,
+    done, total)`` callable) hears of every step. Every argument is checked (and the sample
     measured) before the directory is created: bad input raises ``ParameterError`` / ``TypeError`` and writes
     nothing. The files are written into a temporary directory next to ``out_dir`` (``.NAME.*.part``) that is
     renamed to ``out_dir`` at the end (or, if ``out_dir`` exists, whose files are moved into it, ``index.html``
@@ -453,7 +455,7 @@ def write_report(
     d = Path(out_dir)
     if d.exists() and not d.is_dir():
         raise ParameterError(f"out_dir = {str(d)!r}: exists and is not a directory")
-    m, objs = measure_tileset(tileset, width, height, seed, threads=threads)  # checks the rest before any write
+    m, objs = measure_tileset(tileset, width, height, seed, threads=threads, progress=progress)  # checks first
     try:
         d.parent.mkdir(parents=True, exist_ok=True)
     except (FileExistsError, NotADirectoryError) as exc:  # a file where a directory of the path should be
@@ -465,7 +467,11 @@ def write_report(
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes 0700; the report gets a plain mkdir's permissions
+        if progress is not None:
+            progress("report figures", 0, 1)
         result = _write_report_files(tileset, tmp, m, objs, borders, name)
+        if progress is not None:
+            progress("report figures", 1, 1)
         _move_into_place(tmp, d, list(result["files"].values()))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

@@ -275,8 +275,8 @@ def _random_population(
 
 
 class _Evaluator:
-    """Wraps the user's ``evaluate``: calls per batch (in chunks of about 0.25 s each, see
-    :mod:`tilesynth._chunks`), validation, cache of known vectors, best-ever record."""
+    """Wraps the user's ``evaluate``: one call per batch (tilesynth's own evaluators: chunks of about 0.25 s,
+    see :mod:`tilesynth._chunks`), validation, cache of known vectors, best-ever record."""
 
     def __init__(self, evaluate: Evaluate, n: int, cache: bool = True) -> None:
         if not callable(evaluate):
@@ -291,7 +291,8 @@ class _Evaluator:
         self.best_genes: np.ndarray | None = None
         self.best_E = math.inf
         self.best_D: np.ndarray | None = None
-        self.sizer = ChunkSizer()  # batches evaluated in chunks of ~0.25 s: Ctrl-C within ~1 s (issue 16)
+        # tilesynth's own evaluators: batches in chunks of ~0.25 s, so Ctrl-C acts within ~1 s (issue 16)
+        self.sizer = ChunkSizer() if getattr(evaluate, "_tilesynth_chunkable", False) else None
 
     def _call(self, genes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         p = genes.shape[0]
@@ -367,11 +368,9 @@ class _Run:
             self.progress(self.stage, len(self.best), self.total)
             if self.stop_reason() == "stagnation" and self.generations < self.total:  # issue 16: say so
                 note = f"converged at generation {self.generations} of {self.total} (stagnation rule)"
-                finish = getattr(self.progress, "finish", None)
+                finish = getattr(self.progress, "finish", None)  # a plain callable gets no extra call
                 if finish is not None:
                     finish(self.stage, note)
-                else:
-                    self.progress(self.stage, self.total, self.total)
 
     @property
     def generations(self) -> int:

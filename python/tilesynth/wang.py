@@ -274,10 +274,11 @@ def _run_selection(
     params: dict[str, Any],
     report: Progress,
 ) -> tuple[np.ndarray, dict[str, Any]]:
+    from ._chunks import chunkable
     from .select import select_genes
 
     res = select_genes(
-        method, evaluate, shape, n, size, rng, polish=polish, generations=generations, population=population,
+        method, chunkable(evaluate), shape, n, size, rng, polish=polish, generations=generations, population=population,
         progress=report, **params,
     )
     info = res.to_dict()
