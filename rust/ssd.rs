@@ -410,7 +410,7 @@ impl SsdIndex {
                 "image",
                 &[self.w, self.h, std::mem::size_of::<Complex<T>>()],
             )?;
-            probe_alloc("image", half.checked_add(full).unwrap_or(usize::MAX))?;
+            probe_alloc("image", half.saturating_add(full))?;
         }
         self.spec::<T>();
         if masked {
