@@ -16,7 +16,7 @@ from collections.abc import Callable
 import numpy as np
 
 #: Aimed duration of one evaluation call (the worst-case delay of Ctrl-C is about this).
-TARGET_SECONDS = 0.25
+TARGET_SECONDS = 0.1
 
 
 def chunkable(fn: Callable) -> Callable:

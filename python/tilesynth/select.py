@@ -275,7 +275,7 @@ def _random_population(
 
 
 class _Evaluator:
-    """Wraps the user's ``evaluate``: one call per batch (tilesynth's own evaluators: chunks of about 0.25 s,
+    """Wraps the user's ``evaluate``: one call per batch (tilesynth's own evaluators: chunks of about 0.1 s,
     see :mod:`tilesynth._chunks`), validation, cache of known vectors, best-ever record."""
 
     def __init__(self, evaluate: Evaluate, n: int, cache: bool = True) -> None:
@@ -291,7 +291,7 @@ class _Evaluator:
         self.best_genes: np.ndarray | None = None
         self.best_E = math.inf
         self.best_D: np.ndarray | None = None
-        # tilesynth's own evaluators: batches in chunks of ~0.25 s, so Ctrl-C acts within ~1 s (issue 16)
+        # tilesynth's own evaluators: batches in chunks of ~0.1 s, so Ctrl-C acts within ~1 s (issue 16)
         self.sizer = ChunkSizer() if getattr(evaluate, "_tilesynth_chunkable", False) else None
 
     def _call(self, genes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
