@@ -8,7 +8,6 @@ import re
 from pathlib import Path
 
 import pytest
-
 import tilesynth
 from tilesynth.cli import build_parser, main
 
@@ -17,7 +16,7 @@ README = Path(__file__).resolve().parent.parent / "README.md"
 
 @pytest.mark.skipif(not README.is_file(), reason="README.md is not next to the tests")
 def test_readme_python_snippet_runs_as_pasted(tmp_path, monkeypatch):
-    block = re.search(r"```python\n(.*?)```", README.read_text(encoding="utf-8"), re.S).group(1)
+    block = re.search(r"```python\n(.*?)```", README.read_text(encoding="utf-8"), re.DOTALL).group(1)
     monkeypatch.chdir(tmp_path)
     exec(compile(block, "README.md", "exec"), {})  # noqa: S102 - the documented snippet itself
     assert (tmp_path / "gravel.tiles").is_file() and (tmp_path / "gravel-1024.png").is_file()
@@ -51,13 +50,19 @@ def built(tmp_path_factory, small_exemplar):
 
 
 def test_metrics_and_report_report_every_step(built, tmp_path):
-    ex, d = built
+    ex, _ = built
     ts = tilesynth.build(tilesynth.load_image(ex)[0], tile_size=24, seed=1)
     stages: list[tuple[str, int, int]] = []
     tilesynth.tileset_metrics(ts, 96, 96, 1, progress=lambda *a: stages.append(a))
     names = [s for s, done, _ in stages if done == 1]
-    assert names == ["sample synthesis", "seam score", "coherence energy", "coverage", "repetition",
-                     "objective and cut seams"]
+    assert names == [
+        "sample synthesis",
+        "seam score",
+        "coherence energy",
+        "coverage",
+        "repetition",
+        "objective and cut seams",
+    ]
     stages.clear()
     tilesynth.write_report(ts, tmp_path / "rep", 96, 96, 1, progress=lambda *a: stages.append(a))
     assert [s for s, done, _ in stages if done == 1][-1] == "report figures"
@@ -68,7 +73,7 @@ def test_metrics_cli_prints_slow_steps(built, capsys, monkeypatch):
     """A step over a second is reported on stderr (non-terminal: one line when it ends)."""
     import time
 
-    import tilesynth.metrics as metrics
+    from tilesynth import metrics
 
     ex, d = built
     ts = d / "m.tiles"

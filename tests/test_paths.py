@@ -9,10 +9,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import tilesynth
 from hypothesis import given
 from hypothesis import strategies as st
-
-import tilesynth
 from tilesynth.cli import main
 from tilesynth.errors import ParameterError
 from tilesynth.paths import check_paths
@@ -135,14 +134,28 @@ def test_build_output_is_the_exemplar(exemplar_png, tmp_path, capsys):
     os.symlink(ex, tmp_path / "sym.png")
     _refused(["build", str(ex), "-o", str(tmp_path / "hard.png"), "-q"], capsys, ex)
     _refused(["build", str(tmp_path / "sym.png"), "-o", str(ex), "-q"], capsys, ex)
-    _refused(["build", str(ex), "-o", str(tmp_path / "y.tiles"), "--sheet", str(tmp_path / "y.tiles"), "-q"],
-             capsys)
+    _refused(
+        ["build", str(ex), "-o", str(tmp_path / "y.tiles"), "--sheet", str(tmp_path / "y.tiles"), "-q"],
+        capsys,
+    )
     assert not (tmp_path / "y.tiles").exists()
 
 
 def test_build_sheet_error_found_before_the_tile_set_is_written(exemplar_png, tmp_path, capsys):
-    assert main(["build", str(exemplar_png), "-o", str(tmp_path / "y.tiles"), "--sheet", str(tmp_path / "y.sheet"),
-                 "-q"]) == 2
+    assert (
+        main(
+            [
+                "build",
+                str(exemplar_png),
+                "-o",
+                str(tmp_path / "y.tiles"),
+                "--sheet",
+                str(tmp_path / "y.sheet"),
+                "-q",
+            ]
+        )
+        == 2
+    )
     assert "--sheet" in capsys.readouterr().err
     assert os.listdir(tmp_path) == []
 
@@ -156,13 +169,19 @@ def test_synth_outputs_and_inputs(built_file, exemplar_png, tmp_path, capsys):
     _refused([*base, "-o", str(out), "--save-map", str(out)], capsys)
     height = _copy(exemplar_png, tmp_path / "height.png")
     # --save-map equal to a --with output (o-height.png)
-    _refused([*base, "-o", str(out), "--with", str(height), "--save-map", str(tmp_path / "o-height.png")], capsys)
+    _refused(
+        [*base, "-o", str(out), "--with", str(height), "--save-map", str(tmp_path / "o-height.png")], capsys
+    )
     # -o equal to a --with input map
     _refused([*base, "-o", str(height), "--with", str(height)], capsys, height)
     # --map input equal to --save-map output
     mp = tmp_path / "m.npy"
     np.save(mp, np.zeros((2, 2), dtype=np.int64))
-    _refused(["synth", str(ts), "--size", "64x64", "-q", "-o", str(out), "--map", str(mp), "--save-map", str(mp)], capsys, mp)
+    _refused(
+        ["synth", str(ts), "--size", "64x64", "-q", "-o", str(out), "--map", str(mp), "--save-map", str(mp)],
+        capsys,
+        mp,
+    )
     assert sorted(os.listdir(tmp_path)) == ["height.png", "in.tiles", "m.npy"]
 
 
@@ -181,7 +200,7 @@ def test_sheet_and_report_and_demo(built_file, tmp_path, capsys):
 
 def test_report_failure_halfway_leaves_nothing(built_file, tmp_path, monkeypatch):
     """A failure after some figures were written leaves no report directory and no temporary one."""
-    import tilesynth.report as report
+    from tilesynth import report
 
     def broken(*a, **k):
         raise OSError(28, "No space left on device")

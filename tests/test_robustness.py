@@ -13,7 +13,6 @@ import time
 
 import numpy as np
 import pytest
-
 import tilesynth
 
 
@@ -116,14 +115,14 @@ def test_sigterm_inside_an_atomic_write_removes_the_part_file(tmp_path):
         from tilesynth.io import atomic_path
         install_sigterm()
         try:
-            with atomic_path({str(tmp_path / 'out.bin')!r}) as tmp:
+            with atomic_path({str(tmp_path / "out.bin")!r}) as tmp:
                 tmp.write_bytes(b"partial")
                 os.kill(os.getpid(), signal.SIGTERM)
                 time.sleep(30)
         finally:
             print(sorted(os.listdir({str(tmp_path)!r})))
     """)
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    r = subprocess.run([sys.executable, "-c", code], check=False, capture_output=True, text=True, timeout=60)
     assert "Terminated" in r.stderr and r.stdout.strip() == "[]", (r.stdout, r.stderr)
 
 
@@ -135,8 +134,23 @@ def test_sigterm_during_synth_leaves_no_part_file(tmp_path, small_exemplar):
     ts = tmp_path / "ex.tiles"
     assert main(["build", str(ex), "-o", str(ts), "--tile-size", "24", "--seed", "1", "-q"]) == 0
     out = tmp_path / "big.png"
-    p = subprocess.Popen([sys.executable, "-m", "tilesynth", "synth", str(ts), "-o", str(out), "--size", "9000",
-                          "--seed", "1", "-q"], stderr=subprocess.PIPE)
+    p = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "tilesynth",
+            "synth",
+            str(ts),
+            "-o",
+            str(out),
+            "--size",
+            "9000",
+            "--seed",
+            "1",
+            "-q",
+        ],
+        stderr=subprocess.PIPE,
+    )
     deadline = time.monotonic() + 120
     while not any(n.endswith(".part") for n in os.listdir(tmp_path)):
         assert p.poll() is None, "synth ended before its output was being written"
@@ -157,10 +171,30 @@ def test_ctrl_c_during_a_ga_build_takes_effect_within_a_second(tmp_path, lettuce
     CI machine is shared (2.5 s was seen with a wheel build running alongside)."""
     ex = tmp_path / "ex.png"
     tilesynth.save_image(ex, np.tile(lettuce, (2, 2, 1))[:512, :512])
-    p = subprocess.Popen([sys.executable, "-m", "tilesynth", "build", str(ex), "-o", str(tmp_path / "g.tiles"),
-                          "--select", "ga", "--population", "800", "--generations", "3", "--tile-size", "128",
-                          "--seed", "1"], stderr=subprocess.PIPE, text=True,
-                         env={**os.environ, "TILESYNTH_NUM_THREADS": "2"})
+    p = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "tilesynth",
+            "build",
+            str(ex),
+            "-o",
+            str(tmp_path / "g.tiles"),
+            "--select",
+            "ga",
+            "--population",
+            "800",
+            "--generations",
+            "3",
+            "--tile-size",
+            "128",
+            "--seed",
+            "1",
+        ],
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "TILESYNTH_NUM_THREADS": "2"},
+    )
     time.sleep(4.0)  # into the first generation's evaluation
     assert p.poll() is None
     t0 = time.monotonic()
@@ -178,8 +212,15 @@ def test_ga_progress_says_converged(small_exemplar):
     from tilesynth.progress import Progress
 
     buf = _io.StringIO()
-    ts = tilesynth.build(small_exemplar, tile_size=24, seed=1, select="ga", population=4, generations=50,
-                         progress=Progress(stream=buf))
+    ts = tilesynth.build(
+        small_exemplar,
+        tile_size=24,
+        seed=1,
+        select="ga",
+        population=4,
+        generations=50,
+        progress=Progress(stream=buf),
+    )
     sel = ts.params["selection"]
     assert sel["stop_reason"] == "stagnation" and sel["generations"] < 50
     assert f"converged at generation {sel['generations']} of 50" in buf.getvalue()

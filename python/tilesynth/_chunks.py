@@ -23,6 +23,7 @@ def chunkable(fn: Callable) -> Callable:
     """Mark a population evaluator as safe to call on chunks of a batch (tilesynth's own evaluators: each
     individual independent). A user's ``evaluate`` passed to :func:`tilesynth.select.select_genes` is not
     marked and keeps one call per batch."""
+
     def chunked(genes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return fn(genes)
 

@@ -80,7 +80,8 @@ class Num(Schema):
         return f"a finite number in [{self.lo:g}, {self.hi:g}]" + (" or NaN" if self.nan_ok else "")
 
     def check(self, value: Any, where: str) -> None:
-        if type(value) not in (int, float):
+        if type(value) not in (int, float) or (type(value) is int and abs(value) > INT_MAX):
+            # integers must fit an int64 even where a float is meant (numpy refuses larger Python ints)
             _fail(where, value, self.describe())
         try:
             f = float(value)
@@ -142,12 +143,14 @@ class AnyOf(Schema):
                 errors.append((o, exc))
         # an object or a list of the right kind but wrong content: the inner message names the inner field
         for o, exc in errors:
-            if (isinstance(o, (Obj, Map)) and isinstance(value, dict)) or (isinstance(o, List) and isinstance(value, list)):
+            if (isinstance(o, (Obj, Map)) and isinstance(value, dict)) or (
+                isinstance(o, List) and isinstance(value, list)
+            ):
                 raise exc
         _fail(where, value, self.describe())
 
 
-def Optional(s: Schema) -> Schema:  # noqa: N802 - reads like a type in the schema
+def Optional(s: Schema) -> Schema:
     return AnyOf((Null(), s))
 
 
@@ -342,12 +345,20 @@ def validate_manifest(m: Any) -> None:
     """Check ``m`` (the parsed ``manifest.json``) against :data:`MANIFEST` and the scheme/layout pairing;
     raises :class:`TileSetFormatError` naming the first bad field."""
     if not isinstance(m, dict):
-        raise TileSetFormatError(f"not a tilesynth tile set (manifest.json is a {type(m).__name__}, not an object)")
+        raise TileSetFormatError(
+            f"not a tilesynth tile set (manifest.json is a {type(m).__name__}, not an object)"
+        )
     if not _is_v1(m):
         return  # not a tile set of this version: the loader's magic and version check says so
     # the top-level kinds first, in the loader's established wording
-    kinds = {"scheme": str, "layout": dict, "params": dict, "exemplar": dict, "tilesynth_version": str,
-             "E": (int, float)}
+    kinds = {
+        "scheme": str,
+        "layout": dict,
+        "params": dict,
+        "exemplar": dict,
+        "tilesynth_version": str,
+        "E": (int, float),
+    }
     for key, t in kinds.items():
         if key not in m:
             raise TileSetFormatError(f"manifest.json lacks {key!r}")
@@ -372,7 +383,11 @@ def validate_manifest(m: Any) -> None:
 
 
 def _is_v1(m: Mapping[str, Any]) -> bool:
-    return m.get("format") == "tilesynth-tileset" and type(m.get("format_version")) is int and m["format_version"] == 1
+    return (
+        m.get("format") == "tilesynth-tileset"
+        and type(m.get("format_version")) is int
+        and m["format_version"] == 1
+    )
 
 
 # ------------------------------------------------------------------------------------------ member headers
@@ -419,15 +434,36 @@ def check_member_headers(
                 f"not a tilesynth tile set (member {name}.npy: header declares shape {shape} "
                 f"({n_items * want.itemsize} bytes) but the member holds {size - hlen} bytes of data)"
             )
-    ranks = {"tiles": 4, "source": 4, "cut_masks": 3, "genes": 2, "tile_patches": 2, "match_offsets": 2, "D": 1,
-             "cut_costs": 1, "exemplar": 3, "labels": 3, "cut_stats": 3}
+    ranks = {
+        "tiles": 4,
+        "source": 4,
+        "cut_masks": 3,
+        "genes": 2,
+        "tile_patches": 2,
+        "match_offsets": 2,
+        "D": 1,
+        "cut_costs": 1,
+        "exemplar": 3,
+        "labels": 3,
+        "cut_stats": 3,
+    }
     for name, (shape, *_rest) in headers.items():
         if name in ranks and len(shape) != ranks[name]:
-            raise TileSetFormatError(f"array {name} has shape {shape} (rank {len(shape)}), expected rank {ranks[name]}")
+            raise TileSetFormatError(
+                f"array {name} has shape {shape} (rank {len(shape)}), expected rank {ranks[name]}"
+            )
     if "tiles" in headers:  # the other members follow from the tiles (K, N, N, C), as TileSet._check says
         k, n, _, _ = headers["tiles"][0]
-        expect = {"source": (k, n, n, 2), "cut_masks": (k, n, n), "tile_patches": (k, 4), "match_offsets": (k, 2),
-                  "D": (k,), "cut_costs": (k,), "labels": (k, n, n), "cut_stats": (k, 4, 6)}
+        expect = {
+            "source": (k, n, n, 2),
+            "cut_masks": (k, n, n),
+            "tile_patches": (k, 4),
+            "match_offsets": (k, 2),
+            "D": (k,),
+            "cut_costs": (k,),
+            "labels": (k, n, n),
+            "cut_stats": (k, 4, 6),
+        }
         for name, shape in expect.items():
             if name in headers and headers[name][0] != shape:
                 raise TileSetFormatError(f"array {name} has shape {headers[name][0]}, expected {shape}")
@@ -456,8 +492,6 @@ def check_member_headers(
             f"member tiles.npy: {headers['tiles'][0][0]} tiles, but manifest.json field layout.tiles lists "
             f"{n_layout}"
         )
-
-
 
 
 def check_archive(zf: Any, manifest: Any, dtypes: Mapping[str, str]) -> None:

@@ -66,7 +66,9 @@ def file_identity(path: str | os.PathLike[str]) -> tuple:
 
 def check_paths(
     inputs: Iterable[tuple[str, str | os.PathLike[str] | None]],
-    outputs: Iterable[tuple[str, str | os.PathLike[str] | None] | tuple[str, str | os.PathLike[str] | None, str]],
+    outputs: Iterable[
+        tuple[str, str | os.PathLike[str] | None] | tuple[str, str | os.PathLike[str] | None, str]
+    ],
 ) -> None:
     """Raise :class:`ParameterError` if an output names the same file as an input or another output.
 
@@ -128,7 +130,11 @@ def _with_output(output: str, map_path: str) -> Path:
         try:
             with open(map_path, "rb") as fh:
                 version = np.lib.format.read_magic(fh)
-                read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+                read = (
+                    np.lib.format.read_array_header_1_0
+                    if version == (1, 0)
+                    else np.lib.format.read_array_header_2_0
+                )
                 _, _, dtype = read(fh)
             if np.dtype(dtype) == np.float32:
                 ext = ".npy"
@@ -195,4 +201,4 @@ def check_command(args: Any) -> None:
     check_paths(ins, outs)
 
 
-__all__ = ["check_paths", "check_output", "check_command", "command_paths", "file_identity"]
+__all__ = ["check_command", "check_output", "check_paths", "command_paths", "file_identity"]
