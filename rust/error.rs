@@ -77,3 +77,52 @@ pub fn fmt_shape(shape: &[usize]) -> String {
         format!("({})", parts.join(", "))
     }
 }
+
+/// The number of elements of an array of shape `dims`, or an error naming `name` if it overflows `usize`.
+pub fn checked_len(name: &'static str, dims: &[usize]) -> Result<usize> {
+    dims.iter()
+        .try_fold(1usize, |acc, &d| acc.checked_mul(d))
+        .ok_or_else(|| TilesynthError::param(name, fmt_shape(dims), "array size overflows"))
+}
+
+/// A vector of `n` copies of `value`, allocated fallibly: where the size comes from the input, an allocation
+/// the system refuses becomes an error naming `name` and the size instead of aborting the process.
+pub fn try_vec<T: Clone>(name: &'static str, n: usize, value: T) -> Result<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|_| {
+        TilesynthError::param(
+            name,
+            format!("{n} elements of {} bytes", std::mem::size_of::<T>()),
+            "cannot allocate that much memory (use a smaller input or tile size)",
+        )
+    })?;
+    v.resize(n, value);
+    Ok(v)
+}
+
+/// Checks that `bytes` could be allocated now (reserving and releasing them), so that a kernel about to make
+/// allocations of that total reports an error instead of aborting in the middle.
+pub fn probe_alloc(name: &'static str, bytes: usize) -> Result<()> {
+    let mut v: Vec<u8> = Vec::new();
+    v.try_reserve_exact(bytes).map_err(|_| {
+        TilesynthError::param(
+            name,
+            format!("{bytes} bytes"),
+            "cannot allocate that much memory (use a smaller input or tile size)",
+        )
+    })
+}
+
+#[cfg(test)]
+mod alloc_tests {
+    use super::*;
+
+    #[test]
+    fn refused_allocations_are_errors() {
+        assert!(try_vec::<f64>("x", usize::MAX / 8, 0.0).is_err());
+        assert!(probe_alloc("x", usize::MAX / 2).is_err());
+        assert!(checked_len("x", &[usize::MAX, 2]).is_err());
+        assert_eq!(try_vec("x", 3, 1u8).unwrap(), vec![1, 1, 1]);
+        assert_eq!(checked_len("x", &[2, 3, 4]).unwrap(), 24);
+    }
+}

@@ -57,6 +57,7 @@ pub fn install<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) ->
     let n = resolve_threads(threads)?;
     let pool = {
         let mut pools = POOLS.lock().unwrap_or_else(|e| e.into_inner());
+        forget_pools_of_parent(&mut pools);
         pools.tick += 1;
         let tick = pools.tick;
         match pools.map.get_mut(&n) {
@@ -97,20 +98,40 @@ pub fn install<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) ->
     Ok(pool.install(f))
 }
 
-/// The kept pools: thread count -> (pool, last use), and the use counter.
+/// The kept pools: thread count -> (pool, last use), the use counter, and the id of the process that
+/// created them.
 struct Pools {
     map: BTreeMap<usize, (Arc<rayon::ThreadPool>, u64)>,
     tick: u64,
+    pid: u32,
 }
 
 static POOLS: Mutex<Pools> = Mutex::new(Pools {
     map: BTreeMap::new(),
     tick: 0,
+    pid: 0,
 });
+
+/// Fork safety: a child created by `fork` (the default start method of Python's `multiprocessing` on Linux
+/// before 3.14, Celery's prefork pool, ...) inherits the cache but not the pools' worker threads, so a job
+/// sent to an inherited pool would wait forever. The cache is keyed by process id: in a new process the
+/// inherited pools are forgotten (leaked, not dropped: dropping would signal threads that do not exist in
+/// this process, through locks whose state was copied mid-use) and new ones are built on first use. The
+/// leak is the inherited pool structures only, once per fork.
+fn forget_pools_of_parent(pools: &mut Pools) {
+    let pid = std::process::id();
+    if pools.pid != pid {
+        let inherited = std::mem::take(&mut pools.map);
+        std::mem::forget(inherited);
+        pools.pid = pid;
+    }
+}
 
 /// Number of thread pools currently kept (for tests).
 pub fn pools_kept() -> usize {
-    POOLS.lock().unwrap_or_else(|e| e.into_inner()).map.len()
+    let mut pools = POOLS.lock().unwrap_or_else(|e| e.into_inner());
+    forget_pools_of_parent(&mut pools);
+    pools.map.len()
 }
 
 #[cfg(test)]

@@ -52,7 +52,7 @@
 //! fixed blocks of rows or columns; every transform and every sum is computed the same way whatever
 //! thread runs it, so outputs are bit-identical at any number of threads.
 
-use crate::error::{fmt_shape, Result, TilesynthError};
+use crate::error::{checked_len, fmt_shape, probe_alloc, try_vec, Result, TilesynthError};
 use ndarray::{Array2, Array3, ArrayView2, ArrayView3, ArrayView4, Axis};
 use rayon::prelude::*;
 use realfft::{ComplexToReal, RealFftPlanner};
@@ -252,7 +252,7 @@ impl SsdIndex {
             .map(|px| px.iter().map(|&v| (v as f64) * (v as f64)).sum())
             .collect();
         // Per plane: copy into a buffer, then 8-lane sums (a fixed order, vectorisable).
-        let mut buf = vec![0.0f64; h * w];
+        let mut buf = try_vec("image", checked_len("image", &[h, w])?, 0.0f64)?;
         let mut means = Vec::with_capacity(c + 1);
         let mut norms = Vec::with_capacity(c + 1);
         let mut s_total = 0.0;
@@ -273,7 +273,7 @@ impl SsdIndex {
             means.push(mean);
             norms.push((l1, l2.sqrt(), li));
         }
-        let mut integral = vec![0.0f64; (h + 1) * (w + 1)];
+        let mut integral = try_vec("image", checked_len("image", &[h + 1, w + 1])?, 0.0f64)?;
         for y in 0..h {
             let mut run = 0.0;
             let (prev, cur) = integral[y * (w + 1)..(y + 2) * (w + 1)].split_at_mut(w + 1);
@@ -394,11 +394,29 @@ impl SsdIndex {
 
     /// Builds every lazily computed part that a call of precision `T` (with or without a mask) needs, so
     /// that parallel loops over templates never initialise them concurrently.
-    fn ensure<T: Real>(&self, masked: bool) {
+    ///
+    /// Fallible: before the spectra exist, their size (one half spectrum per plane pair, plus the full
+    /// transform of the pair being built) is reserved and released, so an image whose spectra cannot be
+    /// allocated gives an error instead of aborting the process.
+    fn ensure<T: Real>(&self, masked: bool) -> Result<()> {
+        if T::spec_cell(self).get().is_none() || (masked && T::tail_cell(self).get().is_none()) {
+            let wc = self.w / 2 + 1;
+            let planes = self.c.div_ceil(2) + 1;
+            let half = checked_len(
+                "image",
+                &[wc, self.h, 2, planes, std::mem::size_of::<Complex<T>>()],
+            )?;
+            let full = checked_len(
+                "image",
+                &[self.w, self.h, std::mem::size_of::<Complex<T>>()],
+            )?;
+            probe_alloc("image", half.saturating_add(full))?;
+        }
         self.spec::<T>();
         if masked {
             self.tail::<T>();
         }
+        Ok(())
     }
 
     /// The full SSD map (`f32`, shape `(H - h + 1, W - w + 1)`), via FFT:
@@ -1136,11 +1154,13 @@ pub fn ssd_maps(
     let (ts, m) = prepare_many(index, templates, mask)?;
     let (_, h, w, _) = templates.dim();
     let (mh, mw) = index.map_dim(h, w);
-    let mut out = Array3::<f32>::zeros((ts.len(), mh, mw));
+    let n = checked_len("templates", &[ts.len(), mh, mw])?;
+    let mut out = Array3::from_shape_vec((ts.len(), mh, mw), try_vec("templates", n, 0.0f32)?)
+        .expect("length matches the shape");
     if ts.is_empty() {
         return Ok(out);
     }
-    index.ensure::<f32>(m.is_some());
+    index.ensure::<f32>(m.is_some())?;
     out.axis_iter_mut(Axis(0))
         .into_par_iter()
         .zip(ts.par_iter())
@@ -1163,7 +1183,7 @@ pub fn best_matches_many(
 ) -> Result<Vec<Vec<Match>>> {
     let (ts, m) = prepare_many(index, templates, mask)?;
     if !ts.is_empty() && k > 0 {
-        index.ensure::<f64>(m.is_some());
+        index.ensure::<f64>(m.is_some())?;
     }
     Ok(ts
         .par_iter()

@@ -83,7 +83,7 @@ def run_err(args, capsys):
         (["synth", "{tiles}", "-o", "{out}", "--size", "100by70"], "--size"),
         (["synth", "{tiles}", "-o", "{out}", "--size", "0x70"], "--size"),
         (["synth", "{tiles}", "-o", "{out}", "--size", "-5x70"], "--size"),
-        (["synth", "{tiles}", "-o", "{out}", "--size", "1024"], "--size"),
+        (["synth", "{tiles}", "-o", "{out}", "--size", "1024x"], "--size"),  # "1024" is a square (issue 16)
         (["synth", "{tiles}", "-o", "{out}", "--size", "1e3x10"], "--size"),
         (["synth", "{tiles}", "-o", "{out}", "--size", "10x10x3"], "--size"),
         (["synth", "{tiles}", "-o", "{out}", "--size", ""], "--size"),
@@ -104,7 +104,7 @@ def run_err(args, capsys):
 def test_bad_input_is_one_line_exit_2_no_output(args, words, tmp_path, exemplar_png, built_file, capsys):
     notimage = tmp_path / "notimage.png"
     notimage.write_text("this is not a PNG")
-    out = tmp_path / "out.file"
+    out = tmp_path / "out.png"  # a writable name: every output is checked before any other work (issue 16)
     subst = {
         "{missing}": str(tmp_path / "missing.png"),
         "{notimage}": str(notimage),

@@ -278,14 +278,17 @@ def get_tileset(d: st.DrawFn):
 
 @st.composite
 def scanline_index_map(d: st.DrawFn):
-    return ts.scanline_index_map, (small_set().definition, d(sizes(-1, 30)), d(sizes(-1, 30))), \
+    # the tile set as a definition, a set name (issue 16: a name raised AttributeError), a TileSet or junk
+    tset = d(st.sampled_from([small_set().definition, "16a", "wang8", "n1x2", "nope", "", None, 3, small_set()]))
+    return ts.scanline_index_map, (tset, d(sizes(-1, 30)), d(sizes(-1, 30))), \
         {"seed": d(st.none() | st.integers(0, 2**32) | st.sampled_from([-1, 0.5]))}, ()
 
 
 @st.composite
 def validate_index_map(d: st.DrawFn):
     tset = small_set()
-    return ts.validate_index_map, (tset.definition, d(arrays(2, I64, lo=-1, hi=tset.n_tiles + 1))), {}, ()
+    which = d(st.sampled_from([tset.definition, tset, "8"]))  # a definition, a TileSet or its name (issue 16)
+    return ts.validate_index_map, (which, d(arrays(2, I64, lo=-1, hi=tset.n_tiles + 1))), {}, ()
 
 
 def _png_bytes(d: st.DrawFn) -> bytes:

@@ -119,12 +119,18 @@ def test_cli_build_smooth(tmp_path, lettuce_path, capsys):
     assert "--smooth: not used with --scheme wang" in capsys.readouterr().err
 
 
-def test_info_survives_a_tampered_smooth_record(pair, tmp_path, capsys):
+def test_info_refuses_a_tampered_smooth_record(pair, tmp_path, capsys):
+    """A smoothing record of the wrong types is refused by the manifest schema (issue 16: every reader applies
+    the same rules), exit 2 naming the field; a record with fields missing still shows them as "?"."""
     import dataclasses
 
     _, smoothed = pair
     bad = dataclasses.replace(smoothed, params={**smoothed.params, "smooth": {"residual_max": "x", "unknowns": None}})
     p = tmp_path / "bad.tiles"
     bad.save(p)
+    assert main(["info", str(p)]) == 2
+    assert "params.smooth.unknowns" in capsys.readouterr().err
+    partial = dataclasses.replace(smoothed, params={**smoothed.params, "smooth": {"unknowns": 5}})
+    partial.save(p)
     assert main(["info", str(p)]) == 0
     assert "residual <= ?" in capsys.readouterr().out

@@ -53,6 +53,8 @@ from .tiling import scanline_index_map, validate_index_map
 from .wang import build_swang, build_wang
 from .wangsets import WANG_TILESET_NAMES, WangTileSet, get_wang_tileset
 
+from . import data  # noqa: E402 - tilesynth.data.example_path(): the bundled exemplar
+
 load = TileSet.load
 """Load a ``.tiles`` file (alias of :meth:`TileSet.load`)."""
 

@@ -220,10 +220,19 @@ def fmt_bytes(n: int) -> str:
     return f"{n} bytes"
 
 
+SEED_RANGE = 10**9
+"""Fresh seeds are drawn from ``range(SEED_RANGE)``."""
+
+
 def seed_int(seed: Any) -> int:
-    """Resolve a user seed: None draws a fresh one (recorded by callers so runs can be repeated)."""
+    """Resolve a user seed: None draws a fresh one (recorded by callers so runs can be repeated).
+
+    A fresh seed has at most 9 digits (uniform in [0, 10^9)): short enough to be read off the terminal and
+    retyped (``--seed 483920117``), and 10^9 values make two equal draws in a batch of a thousand builds
+    unlikely (about 0.05 %). It only seeds numpy's generator, which mixes it, so a small seed is not a weak one.
+    """
     if seed is None:
-        return int(np.random.SeedSequence().entropy % (2**63))
+        return int(np.random.SeedSequence().entropy % SEED_RANGE)
     if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ParameterError(f"seed = {seed!r}: must be a non-negative integer or None")
     return int(seed)

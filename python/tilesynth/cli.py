@@ -40,10 +40,13 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _size(text: str) -> tuple[int, int]:
-    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
-    if not m or int(m.group(1)) < 1 or int(m.group(2)) < 1:
-        raise argparse.ArgumentTypeError(f"--size = {text!r}: expected WIDTHxHEIGHT with positive integers, e.g. 1024x1024")
-    return int(m.group(1)), int(m.group(2))
+    """WIDTHxHEIGHT, or one integer for a square (``--size 1024`` is 1024x1024)."""
+    m = re.fullmatch(r"\s*(\d+)\s*(?:[xX]\s*(\d+)\s*)?", text)
+    if not m or int(m.group(1)) < 1 or int(m.group(2) or m.group(1)) < 1:
+        raise argparse.ArgumentTypeError(
+            f"--size = {text!r}: expected WIDTHxHEIGHT or SIZE (a square) with positive integers, e.g. 1024x768 or 1024"
+        )
+    return int(m.group(1)), int(m.group(2) or m.group(1))
 
 
 def _nonneg(text: str) -> int:
@@ -137,7 +140,7 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("synth", help="synthesize a texture from a tile set")
     s.add_argument("tileset", help="tile-set file (.tiles)")
     s.add_argument("-o", "--output", required=True, help="output image (.png, 16-bit with --bits 16; .exr: float colour)")
-    s.add_argument("--size", type=_size, required=True, help="output size WIDTHxHEIGHT, e.g. 1024x1024")
+    s.add_argument("--size", type=_size, required=True, help="output size WIDTHxHEIGHT, or SIZE for a square, e.g. 1920x1080 or 1024")
     s.add_argument("--seed", type=_nonneg, default=None, help="tiling seed (default: a fresh one, printed)")
     s.add_argument("--map", default=None, help="use this tile index map (.npy, int, rows x cols) instead of the tiler")
     s.add_argument("--save-map", default=None, help="write the tile index map used to this .npy file")
@@ -207,6 +210,7 @@ def _add_metrics_parsers(sub) -> None:  # noqa: ANN001
     m.add_argument("--stride", type=_pos, default=DEFAULT_STRIDE,
                    help=f"coherence patch stride (default {DEFAULT_STRIDE})")
     m.add_argument("--threads", type=_pos, default=None, help="worker threads")
+    m.add_argument("-q", "--quiet", action="store_true", help="no progress output (on stderr)")
 
     r = sub.add_parser("report", help="write a visual report (PNG figures and one offline HTML page) of a tile set")
     r.add_argument("tileset", help="tile-set file (.tiles)")
@@ -226,6 +230,7 @@ def _metrics(args: argparse.Namespace) -> None:
 
     from . import metrics
     from .io import load_image
+    from .progress import Progress
     from .tilefile import TileSet
 
     path = args.input
@@ -237,7 +242,8 @@ def _metrics(args: argparse.Namespace) -> None:
         ts = TileSet.load(path)
         w, h = args.size or metrics.DEFAULT_SAMPLE_SIZE
         seed = metrics.DEFAULT_SAMPLE_SEED if args.seed is None else args.seed
-        result = metrics.tileset_metrics(ts, w, h, seed, args.patch, args.stride, args.threads)
+        result = metrics.tileset_metrics(ts, w, h, seed, args.patch, args.stride, args.threads,
+                                         progress=Progress(args.quiet))
         result["input"]["path"] = path
     else:
         if args.size is not None or args.seed is not None:
@@ -249,7 +255,8 @@ def _metrics(args: argparse.Namespace) -> None:
                 exemplar = load_image(args.exemplar)[0]
             except ParameterError as exc:
                 raise ParameterError(f"--exemplar: {exc}") from None
-        result = metrics.image_metrics(image, args.tile_size, exemplar, None, args.patch, args.stride, args.threads)
+        result = metrics.image_metrics(image, args.tile_size, exemplar, None, args.patch, args.stride, args.threads,
+                                       progress=Progress(args.quiet))
         result["input"]["path"] = path
     if args.json:
         print(json.dumps(result, indent=1, sort_keys=True, allow_nan=False))
@@ -264,10 +271,8 @@ def _report(args: argparse.Namespace) -> None:
 
     prog = Progress(args.quiet)
     ts = TileSet.load(args.tileset)
-    prog("report", 0, 1)
     res = write_report(ts, args.output_dir, args.size[0], args.size[1], args.seed, not args.no_borders,
-                       args.threads, name=os.path.basename(args.tileset))
-    prog("report", 1, 1)
+                       args.threads, name=os.path.basename(args.tileset), progress=prog)
     prog.message(f"wrote {res['files']['page']} ({len(res['files'])} files)")
 
 
@@ -580,9 +585,15 @@ def _demo(out_dir: str, set_name: str, size: tuple[int, int], seed: int, threads
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``tilesynth`` command; returns the exit status."""
+    from ._signals import EXIT_TERMINATED, Terminated, install_sigterm
+
+    install_sigterm()  # SIGTERM removes the .part files like Ctrl-C (issue 16)
     try:
         args = build_parser().parse_args(argv)
         set_png_compression(getattr(args, "png_compression", None))
+        from .paths import check_command
+
+        check_command(args)  # before any work: no output may be an input or another output (issue 16)
         if args.command == "build":
             _build(args.input, args.output, scheme=args.scheme, set_name=args.set, tile_size=args.tile_size,
                    seed=args.seed, threads=args.threads, quiet=args.quiet, sheet=args.sheet, select=args.select,
@@ -630,6 +641,9 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:  # unwritable output, full disk, ...
         print(f"tilesynth: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "), file=sys.stderr)
         return EXIT_USAGE
+    except Terminated:
+        print("tilesynth: terminated", file=sys.stderr)
+        return EXIT_TERMINATED
     except KeyboardInterrupt:
         print("tilesynth: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -80,6 +80,7 @@ and why is listed in ``notes``. ``tilesynth metrics`` is the command line of the
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from dataclasses import asdict, dataclass, field
@@ -767,14 +768,16 @@ def image_metrics(
     patch: int = DEFAULT_PATCH,
     stride: int = DEFAULT_STRIDE,
     threads: int | None = None,
+    progress: Any = None,
 ) -> dict[str, Any]:
-    """Every metric that the given facts allow, as a JSON-able dict.
+    """Every metric that the given facts allow, as a JSON-able dict (``progress``: an optional
+    ``(stage, done, total)`` callable, e.g. :class:`tilesynth.progress.Progress`, called around every step).
 
     Keys ``input``, ``seam``, ``coherence``, ``coverage``, ``repetition`` (a dict each, or None when skipped)
     and ``notes`` (why something was skipped). The seam score needs ``tile_size``, the coherence energy the
     ``exemplar``, the coverage the provenance ``source`` and the exemplar (its shape).
     """
-    return _measure(image, tile_size, exemplar, source, patch, stride, threads)[0]
+    return _measure(image, tile_size, exemplar, source, patch, stride, threads, progress)[0]
 
 
 def _measure(
@@ -785,8 +788,10 @@ def _measure(
     patch: int,
     stride: int,
     threads: int | None,
+    progress: Any = None,
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """:func:`image_metrics` and the metric objects themselves (for pictures: per-patch values, counts, r)."""
+    step = _Steps(progress)
     img = as_image(image)
     notes: list[str] = []
     objs: dict[str, Any] = {}
@@ -795,22 +800,26 @@ def _measure(
         out["seam"] = None
         notes.append("seam score skipped: it needs the tile grid (give the tile size)")
     else:
-        objs["seam"] = seam_score(img, tile_size)
+        with step("seam score"):
+            objs["seam"] = seam_score(img, tile_size)
         out["seam"] = objs["seam"].to_dict()
     if exemplar is None:
         out["coherence"] = None
         notes.append("coherence energy skipped: it needs the exemplar")
     else:
-        objs["coherence"] = coherence_energy(img, exemplar, patch, stride, threads)
+        with step("coherence energy"):
+            objs["coherence"] = coherence_energy(img, exemplar, patch, stride, threads)
         out["coherence"] = objs["coherence"].to_dict()
     if source is None or exemplar is None:
         out["coverage"] = None
         notes.append("coverage skipped: it needs the provenance of every pixel (a tile set) and the exemplar")
     else:
-        objs["coverage"] = coverage(source, np.shape(exemplar))
+        with step("coverage"):
+            objs["coverage"] = coverage(source, np.shape(exemplar))
         out["coverage"] = objs["coverage"].to_dict()
     t = time.perf_counter()
-    objs["repetition"] = repetition(img)
+    with step("repetition"):
+        objs["repetition"] = repetition(img)
     out["repetition"] = objs["repetition"].to_dict()
     out["repetition"]["seconds"] = time.perf_counter() - t
     if min(img.shape[:2]) >= COPY_PATCH:  # the measures of issue 12
@@ -839,6 +848,7 @@ def tileset_metrics(
     stride: int = DEFAULT_STRIDE,
     threads: int | None = None,
     index_map: np.ndarray | None = None,
+    progress: Any = None,
 ) -> dict[str, Any]:
     """All metrics of a tile set: a ``width`` x ``height`` sample synthesized with ``seed`` (or ``index_map``)
     measured by :func:`image_metrics` with its tile size, exemplar and provenance, plus the ``objective``.
@@ -846,7 +856,7 @@ def tileset_metrics(
     The dict also holds ``sample`` (size, seed, tiles used) and ``tileset`` (what was measured); the sample
     image is not kept: :func:`tilesynth.synthesize` with the same size and seed gives it back.
     """
-    return measure_tileset(tileset, width, height, seed, patch, stride, threads, index_map)[0]
+    return measure_tileset(tileset, width, height, seed, patch, stride, threads, index_map, progress)[0]
 
 
 def measure_tileset(
@@ -858,20 +868,24 @@ def measure_tileset(
     stride: int = DEFAULT_STRIDE,
     threads: int | None = None,
     index_map: np.ndarray | None = None,
+    progress: Any = None,
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """:func:`tileset_metrics` and what it measured: ``{"image", "index_map", "source"}`` plus the metric
     objects (:class:`SeamScore`, :class:`Coherence`, :class:`Coverage`, :class:`Repetition`) by name."""
     from .synthesis import source_map, synthesize
 
-    img, imap = synthesize(tileset, width, height, seed=seed, index_map=index_map, threads=threads)
-    src = source_map(tileset, imap, width, height)
-    out, objs = _measure(img, tileset.tile_size, tileset.exemplar, src, patch, stride, threads)
+    step = _Steps(progress)
+    with step("sample synthesis"):
+        img, imap = synthesize(tileset, width, height, seed=seed, index_map=index_map, threads=threads)
+        src = source_map(tileset, imap, width, height)
+    out, objs = _measure(img, tileset.tile_size, tileset.exemplar, src, patch, stride, threads, progress)
     out["sample"] = {
         "width": int(width), "height": int(height), "seed": None if index_map is not None else int(seed),
         "tiles": [int(imap.shape[1]), int(imap.shape[0])], "distinct_tiles_used": int(np.unique(imap).size),
     }
-    out["objective"] = objective(tileset)
-    out["cut_seam"] = cut_seam_score(tileset)
+    with step("objective and cut seams"):
+        out["objective"] = objective(tileset)
+        out["cut_seam"] = cut_seam_score(tileset)
     out["tileset"] = {
         "scheme": tileset.scheme, "set": tileset.params.get("set"), "n_tiles": tileset.n_tiles,
         "tile_size": tileset.tile_size, "exemplar": tileset.exemplar_info.get("file"),
@@ -879,6 +893,22 @@ def measure_tileset(
     }
     objs.update({"image": img, "index_map": imap, "source": src})
     return out, objs
+
+
+class _Steps:
+    """``with step(name):`` reports ``(name, 0, 1)`` before and ``(name, 1, 1)`` after to ``progress`` (if any),
+    so every metric step that takes more than a second shows up (issue 16: ``metrics`` ran minutes silently)."""
+
+    def __init__(self, progress: Any) -> None:
+        self.progress = progress
+
+    @contextlib.contextmanager
+    def __call__(self, name: str):  # noqa: ANN204
+        if self.progress is not None:
+            self.progress(name, 0, 1)
+        yield
+        if self.progress is not None:
+            self.progress(name, 1, 1)
 
 
 def format_metrics(m: dict[str, Any]) -> str:

@@ -40,6 +40,19 @@ class Progress:
             self.stream.write(f"{stage}: done in {elapsed:.1f}s\n")
             self.stream.flush()
 
+    def finish(self, stage: str, note: str) -> None:
+        """End ``stage`` early with a reason (e.g. "converged at generation 9 of 50"): the bar is completed and
+        the note shown, instead of a bar left at 9/50."""
+        if self.quiet:
+            return
+        elapsed = time.perf_counter() - self._start if stage == self._stage else 0.0
+        if self.tty:
+            self.stream.write(f"\r{stage:<22} [{'#' * self.width}] {note} {elapsed:6.1f}s\n")
+        else:
+            self.stream.write(f"{stage}: {note}, {elapsed:.1f}s\n")
+        self.stream.flush()
+        self._stage = None
+
     def message(self, text: str) -> None:
         """Print an informational line (suppressed when quiet)."""
         if not self.quiet:

@@ -33,6 +33,8 @@ import html
 import json
 import math
 import os
+import shutil
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -447,16 +449,17 @@ def write_report(
     borders: bool = True,
     threads: int | None = None,
     name: str | None = None,
+    progress: Any = None,
 ) -> dict[str, Any]:
     """Write the report of ``tileset`` into ``out_dir`` (created if missing; files in it are replaced).
 
-    Returns ``{"files": {role: path}, "metrics": dict, "notes": [...]}``. Every argument is checked (and the sample
+    Returns ``{"files": {role: path}, "metrics": dict, "notes": [...]}``; ``progress`` (optional ``(stage,
+    done, total)`` callable) hears of every step. Every argument is checked (and the sample
     measured) before the directory is created: bad input raises ``ParameterError`` / ``TypeError`` and writes
-    nothing; each file is written atomically.
+    nothing. The files are written into a temporary directory next to ``out_dir`` (``.NAME.*.part``) that is
+    renamed to ``out_dir`` at the end (or, if ``out_dir`` exists, whose files are moved into it, ``index.html``
+    last), so an error or Ctrl-C halfway leaves no partial report.
     """
-    from .io import atomic_open, save_image
-    from .render import contact_sheet
-
     if not isinstance(out_dir, (str, os.PathLike)):
         raise TypeError(f"out_dir = {out_dir!r}: expected a path (str or os.PathLike)")
     if name is not None and not isinstance(name, str):
@@ -464,11 +467,48 @@ def write_report(
     d = Path(out_dir)
     if d.exists() and not d.is_dir():
         raise ParameterError(f"out_dir = {str(d)!r}: exists and is not a directory")
-    m, objs = measure_tileset(tileset, width, height, seed, threads=threads)  # checks the rest before any write
+    m, objs = measure_tileset(tileset, width, height, seed, threads=threads, progress=progress)  # checks first
     try:
-        d.mkdir(parents=True, exist_ok=True)
+        d.parent.mkdir(parents=True, exist_ok=True)
     except (FileExistsError, NotADirectoryError) as exc:  # a file where a directory of the path should be
         raise ParameterError(f"out_dir = {str(d)!r}: cannot create the directory ({exc.strerror})") from None
+    # Everything is written into a temporary directory next to out_dir and moved into place at the end, so a
+    # failure halfway (full disk, Ctrl-C) leaves no half report (issue 16).
+    tmp = Path(tempfile.mkdtemp(prefix=f".{d.name}.", suffix=".part", dir=d.parent))
+    try:
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes 0700; the report gets a plain mkdir's permissions
+        if progress is not None:
+            progress("report figures", 0, 1)
+        result = _write_report_files(tileset, tmp, m, objs, borders, name)
+        if progress is not None:
+            progress("report figures", 1, 1)
+        _move_into_place(tmp, d, list(result["files"].values()))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return {"files": {k: str(d / v) for k, v in result["files"].items()}, "metrics": m, "notes": result["notes"]}
+
+
+def _move_into_place(tmp: Path, d: Path, names: list[str]) -> None:
+    """Rename the finished report directory ``tmp`` to ``d``; if ``d`` exists, move the files in one by one
+    (each rename atomic, ``index.html`` last) and leave the directory's other files alone."""
+    if not d.exists():
+        try:
+            os.rename(tmp, d)
+            return
+        except OSError:  # created meanwhile: fall through to the file-by-file move
+            pass
+    d.mkdir(exist_ok=True)
+    for n in sorted(names, key=lambda n: n == "index.html"):
+        os.replace(tmp / n, d / n)
+
+
+def _write_report_files(tileset: Any, d: Path, m: dict, objs: dict, borders: bool, name: str | None) -> dict:
+    """Write every file of the report into the (new, empty) directory ``d``."""
+    from .io import atomic_open, save_image
+    from .render import contact_sheet
+
     img = objs["image"]
     n = tileset.tile_size
     files: dict[str, str] = {}
@@ -518,7 +558,7 @@ def write_report(
                                                                           img.shape)).encode("utf-8"))
     files["metrics"] = "metrics.json"
     files["page"] = "index.html"
-    return {"files": {k: str(d / v) for k, v in files.items()}, "metrics": m, "notes": notes}
+    return {"files": files, "notes": notes}
 
 
 __all__ = [

@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from ._chunks import ChunkSizer, call_in_chunks
 from .errors import ParameterError, ShapeError
 from .genes import Region, _region, check_genes, random_genes
 from .genes import int_param as _int_param
@@ -213,7 +214,8 @@ def _random_population(
 
 
 class _Evaluator:
-    """Wraps the user's ``evaluate``: one call per batch, validation, cache of known vectors, best-ever record."""
+    """Wraps the user's ``evaluate``: one call per batch (tilesynth's own evaluators: chunks of about 0.1 s,
+    see :mod:`tilesynth._chunks`), validation, cache of known vectors, best-ever record."""
 
     def __init__(self, evaluate: Evaluate, n: int, cache: bool = True) -> None:
         if not callable(evaluate):
@@ -228,6 +230,8 @@ class _Evaluator:
         self.best_genes: np.ndarray | None = None
         self.best_E = math.inf
         self.best_D: np.ndarray | None = None
+        # tilesynth's own evaluators: batches in chunks of ~0.1 s, so Ctrl-C acts within ~1 s (issue 16)
+        self.sizer = ChunkSizer() if getattr(evaluate, "_tilesynth_chunkable", False) else None
 
     def _call(self, genes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         p = genes.shape[0]
@@ -256,7 +260,7 @@ class _Evaluator:
         if p == 0:
             return np.empty(0), np.empty((0, self.m or 0))
         if self.cache is None:
-            E, D = self._call(genes)
+            E, D = call_in_chunks(self._call, genes, self.sizer)
         else:
             keys = [g.tobytes() for g in genes]
             todo: dict[bytes, int] = {}
@@ -265,7 +269,7 @@ class _Evaluator:
                     todo[k] = i
             if todo:
                 idx = np.fromiter(todo.values(), np.int64, len(todo))
-                E_new, D_new = self._call(genes[idx])
+                E_new, D_new = call_in_chunks(self._call, genes[idx], self.sizer)
                 for j, k in enumerate(todo):
                     self.cache[k] = (float(E_new[j]), D_new[j].copy())
             E = np.array([self.cache[k][0] for k in keys], dtype=np.float64)
@@ -301,6 +305,11 @@ class _Run:
             self.stall += 1
         if self.progress is not None:
             self.progress(self.stage, len(self.best), self.total)
+            if self.stop_reason() == "stagnation" and self.generations < self.total:  # issue 16: say so
+                note = f"converged at generation {self.generations} of {self.total} (stagnation rule)"
+                finish = getattr(self.progress, "finish", None)  # a plain callable gets no extra call
+                if finish is not None:
+                    finish(self.stage, note)
 
     @property
     def generations(self) -> int:
@@ -1219,8 +1228,10 @@ def choose_genes(
                 params.setdefault(key, value)
     if evaluator is None:
         raise ParameterError(f"select = {select!r}: this scheme has no objective to select genes by")
+    from ._chunks import chunkable  # the scheme's own evaluator: safe to evaluate in chunks (Ctrl-C, issue 16)
+
     res = select_genes(
-        method, evaluator(), shape, n, size, rng, polish=polish, generations=generations,
+        method, chunkable(evaluator()), shape, n, size, rng, polish=polish, generations=generations,
         population=population, progress=progress, **params,
     )  # fmt: skip
     info = res.to_dict()

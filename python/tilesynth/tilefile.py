@@ -264,6 +264,9 @@ class TileSet:
                         f"{MAX_UNPACKED_BYTES} (MAX_UNPACKED_BYTES)"
                     )
                 manifest = json.loads(zf.read("manifest.json"))
+                from ._manifest import check_archive
+
+                check_archive(zf, manifest, {**_ARRAYS, **_OPTIONAL})  # schema and .npy headers (issue 16)
                 _check_manifest(manifest)
                 timing = json.loads(zf.read("timing.json")) if "timing.json" in infos else {}
                 if not isinstance(timing, dict) or not all(

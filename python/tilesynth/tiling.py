@@ -222,6 +222,7 @@ def scanline_index_map(
     the number of candidates, which is exactly uniform.  (If ``M`` would exceed
     2**62 the tiler draws ``rng.integers(count)`` per cell instead.)
     """
+    tileset = _as_definition(tileset)
     rows = _check_size("rows", rows)
     cols = _check_size("cols", cols)
     _check_memory(rows, cols)
@@ -292,6 +293,7 @@ def validate_index_map(tileset: TileSetLike, index_map: Any) -> None:
         neighbouring tiles do not match (the first mismatch in scan order is
         described with both positions, tiles and keys).
     """
+    tileset = _as_definition(tileset)
     arr = np.asarray(index_map)
     if arr.ndim != 2:
         raise ValueError(f"index map must be 2-D, got shape {arr.shape}")
@@ -344,3 +346,18 @@ def validate_index_map(tileset: TileSetLike, index_map: Any) -> None:
         f"{tileset.bottom_key(old)!r} but tile {new} {label(new)} has top key "
         f"{tileset.top_key(new)!r}"
     )
+
+
+def _as_definition(tileset: Any) -> Any:
+    """A set name ("16a", "wang8", ...) as its definition, a built :class:`~tilesynth.TileSet` as its layout's
+    definition; anything else as given (issue 16: a name used to raise ``AttributeError``)."""
+    if isinstance(tileset, str):
+        from .tilesets import get_tileset
+        from .wangsets import get_wang_tileset, is_wang_set_name
+
+        return get_wang_tileset(tileset) if is_wang_set_name(tileset) else get_tileset(tileset)
+    if hasattr(tileset, "definition") and hasattr(tileset, "layout"):
+        return tileset.definition
+    if isinstance(tileset, (bytes, int, float, type(None))):
+        raise TypeError(f"tileset = {tileset!r}: expected a tile-set name, definition or TileSet")
+    return tileset

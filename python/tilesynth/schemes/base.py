@@ -176,7 +176,13 @@ class Scheme:
             raise ParameterError(f"--set = {name!r}: --scheme {self.name} needs {want}")
 
     def build(self, exemplar: np.ndarray, **kwargs: Any) -> TileSet:
-        """Build a tile set of this scheme (``kwargs`` go to :attr:`builder`)."""
+        """Build a tile set of this scheme (``kwargs`` go to :attr:`builder`); a build that would not fit in
+        memory is refused up front with the figure (:func:`tilesynth._budget.check_build_memory`)."""
+        from .._budget import check_build_memory
+
+        default = inspect.signature(self.builder).parameters.get("tileset")
+        default_set = default.default if default is not None and isinstance(default.default, str) else self.default_set
+        check_build_memory(exemplar, default_set, self.layout, kwargs)
         return self.builder(exemplar, **kwargs)
 
 
