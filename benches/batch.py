@@ -58,8 +58,9 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
-import tilesynth as ts
 from PIL import Image
+
+import tilesynth as ts
 from tilesynth import batch
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "textures"

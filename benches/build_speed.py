@@ -67,19 +67,26 @@ def run(python: str, args: list[str]) -> tuple[float, float, float]:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--textures", type=Path, default=Path(os.environ.get("TILESYNTH_TEXTURES", DEFAULT_TEXTURES)))
+    p.add_argument(
+        "--textures", type=Path, default=Path(os.environ.get("TILESYNTH_TEXTURES", DEFAULT_TEXTURES))
+    )
     p.add_argument("--old-python", required=True)
     p.add_argument("--new-python", default=sys.executable)
     p.add_argument("--cases", default="random1024")
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--generations", type=int, default=3)
-    p.add_argument("--new-only", default="", help="cases run with the new install only (e.g. ga1024: the old "
-                   "one needs an estimated 5-7 GB there)")
+    p.add_argument(
+        "--new-only",
+        default="",
+        help="cases run with the new install only (e.g. ga1024: the old one needs an estimated 5-7 GB there)",
+    )
     a = p.parse_args(argv)
     tex = str(a.textures / "bark-lichen.png")
     print(f"# benches/build_speed.py — {os.cpu_count()} cores; old {a.old_python}, new {a.new_python}")
     print("# medians of interleaved child processes; the machine may be shared with other jobs\n")
-    print("| case | old CPU s | new CPU s | CPU ratio | old wall s | new wall s | wall ratio | old peak MB | new peak MB |")
+    print(
+        "| case | old CPU s | new CPU s | CPU ratio | old wall s | new wall s | wall ratio | old peak MB | new peak MB |"
+    )
     print("|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for case in a.cases.split(","):
@@ -98,8 +105,11 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"| {name} | – | {nc:.2f} | – | – | {nw:.2f} | – | not run | {nm:.0f} |", flush=True)
                 continue
             (oc, ow, om) = med["old"]
-            print(f"| {name} | {oc:.2f} | {nc:.2f} | {oc / nc:.2f}× | {ow:.2f} | {nw:.2f} | {ow / nw:.2f}× "
-                  f"| {om:.0f} | {nm:.0f} |", flush=True)
+            print(
+                f"| {name} | {oc:.2f} | {nc:.2f} | {oc / nc:.2f}× | {ow:.2f} | {nw:.2f} | {ow / nw:.2f}× "
+                f"| {om:.0f} | {nm:.0f} |",
+                flush=True,
+            )
     return 0
 
 

@@ -523,8 +523,10 @@ def ssd_candidates(image: FloatImage, templates: FloatImage) -> list[SsdCandidat
 
             out.append(
                 SsdCandidate(
-                    Method(f"ours (c) SsdIndex.ssd, index built once, 1 template/call, threads={threads}",
-                           cycle(cached_one, tlist)),
+                    Method(
+                        f"ours (c) SsdIndex.ssd, index built once, 1 template/call, threads={threads}",
+                        cycle(cached_one, tlist),
+                    ),
                     lambda cached_one=cached_one: np.stack([cached_one(t) for t in tlist]),
                     "c",
                     threads,
@@ -636,9 +638,7 @@ def run_ssd(texture: FloatImage, plan: Plan, report: dict[str, Any], targets: li
                     "-" if speedup is None else f"{speedup:.2f}x",
                 ]
             )
-            section.append(
-                {"size": size, "method": name, **s.as_ms(), **chk, "speedup_vs_baseline": speedup}
-            )
+            section.append({"size": size, "method": name, **s.as_ms(), **chk, "speedup_vs_baseline": speedup})
         for cand in candidates:
             if cand.ours is None:
                 continue
@@ -667,8 +667,18 @@ def run_ssd(texture: FloatImage, plan: Plan, report: dict[str, Any], targets: li
 
     print_table(
         f"SSD, ms per template; speed-up = {baseline_name} time / method time",
-        ["exemplar / template", "method", "median ms", "min ms", "IQR ms", "n", "err vs cv2", "err vs f64",
-         "argmin ok", "speed-up"],
+        [
+            "exemplar / template",
+            "method",
+            "median ms",
+            "min ms",
+            "IQR ms",
+            "n",
+            "err vs cv2",
+            "err vs f64",
+            "argmin ok",
+            "speed-up",
+        ],
         rows,
     )
     print(
@@ -896,8 +906,16 @@ def run_cut(texture: FloatImage, plan: Plan, report: dict[str, Any], targets: li
             s = stats[m.name]
             ratio = s.median / base.median if base else None
             rows.append(
-                [n, m.name, fmt_ms(s.median), fmt_ms(s.min), fmt_iqr(s), s.n, info.get(m.name, "-"),
-                 "-" if ratio is None else f"{ratio:.3f}"]
+                [
+                    n,
+                    m.name,
+                    fmt_ms(s.median),
+                    fmt_ms(s.min),
+                    fmt_iqr(s),
+                    s.n,
+                    info.get(m.name, "-"),
+                    "-" if ratio is None else f"{ratio:.3f}",
+                ]
             )
             section.append(
                 {"N": n, "method": m.name, **s.as_ms(), "flow": info.get(m.name), "time_vs_total": ratio}
@@ -908,8 +926,16 @@ def run_cut(texture: FloatImage, plan: Plan, report: dict[str, Any], targets: li
         for stage, s in zip(PyMaxflowCut.STAGES, per_stage):
             share = s.median / base.median
             rows.append(
-                [n, f"  PyMaxflow stage: {stage}", fmt_ms(s.median), fmt_ms(s.min), fmt_iqr(s), s.n, "",
-                 f"{share:.3f}"]
+                [
+                    n,
+                    f"  PyMaxflow stage: {stage}",
+                    fmt_ms(s.median),
+                    fmt_ms(s.min),
+                    fmt_iqr(s),
+                    s.n,
+                    "",
+                    f"{share:.3f}",
+                ]
             )
             section.append(
                 {"N": n, "method": f"PyMaxflow stage: {stage}", **s.as_ms(), "time_vs_total": share}
@@ -1044,11 +1070,26 @@ def run_synth(texture: FloatImage, plan: Plan, report: dict[str, Any], targets: 
         s = stats[m.name]
         ratio = base.median / s.median
         rows.append(
-            [m.name, fmt_ms(s.median), fmt_ms(s.min), fmt_iqr(s), s.n, f"{nbytes / s.median / 1e9:.2f}",
-             f"{nbytes / s.min / 1e9:.2f}", f"{ratio:.3f}"]
+            [
+                m.name,
+                fmt_ms(s.median),
+                fmt_ms(s.min),
+                fmt_iqr(s),
+                s.n,
+                f"{nbytes / s.median / 1e9:.2f}",
+                f"{nbytes / s.min / 1e9:.2f}",
+                f"{ratio:.3f}",
+            ]
         )
-        section.append({"method": m.name, **s.as_ms(), "gbps_median": nbytes / s.median / 1e9,
-                        "gbps_best": nbytes / s.min / 1e9, "bandwidth_vs_copyto_2t": ratio})
+        section.append(
+            {
+                "method": m.name,
+                **s.as_ms(),
+                "gbps_median": nbytes / s.median / 1e9,
+                "gbps_best": nbytes / s.min / 1e9,
+                "bandwidth_vs_copyto_2t": ratio,
+            }
+        )
     print_table(
         f"synthesis {size}x{size}x3 uint8; GB/s = output bytes / time; ratio = GB/s / GB/s of {baseline}",
         ["method", "median ms", "min ms", "IQR ms", "n", "GB/s (median)", "GB/s (best)", "ratio"],
@@ -1073,7 +1114,7 @@ def run_synth(texture: FloatImage, plan: Plan, report: dict[str, Any], targets: 
             target.figures.append(f"context: threads=1 gets {one.median / s1.median:.3f}x 1-thread copyto")
         decide(target, ok, problems)
     targets.append(target)
-    del src, dst, out_take, out_ours
+    src = dst = out_take = out_ours = None  # free the buffers before the next bench
 
 
 # --------------------------------------------------------------------------------------------- main
@@ -1136,7 +1177,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def finish(targets: list[Target], report: dict[str, Any], started: float, quick: bool, json_path: str | None) -> None:
+def finish(
+    targets: list[Target], report: dict[str, Any], started: float, quick: bool, json_path: str | None
+) -> None:
     """The end of a side-by-side run: the summary of targets, the total time and, with ``json_path``, every
     figure as JSON (shared with the other side-by-side scripts, e.g. ``benches/poisson_compare.py``)."""
     elapsed = time.perf_counter() - started

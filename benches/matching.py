@@ -36,17 +36,26 @@ TEXTURES = ["gravel.png", "tomatoes.png", "caustics.png", "bricks-brown.png", "b
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--textures", type=Path, default=Path(os.environ.get("TILESYNTH_TEXTURES", DEFAULT_TEXTURES)))
+    p.add_argument(
+        "--textures", type=Path, default=Path(os.environ.get("TILESYNTH_TEXTURES", DEFAULT_TEXTURES))
+    )
     p.add_argument("--all", action="store_true", help="include best-cut over every translation")
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--seed", type=int, default=1)
     a = p.parse_args(argv)
-    rows_def = [("ssd", None, "color"), ("circle", None, "color"), ("midpoints", None, "color"),
-                ("best-cut", 16, "color"), ("best-cut", 64, "color")]
+    rows_def = [
+        ("ssd", None, "color"),
+        ("circle", None, "color"),
+        ("midpoints", None, "color"),
+        ("best-cut", 16, "color"),
+        ("best-cut", 64, "color"),
+    ]
     if a.all:
         rows_def.append(("best-cut", "all", "color"))
     rows_def += [("ssd", None, "eq3"), ("ssd", None, "eq2")]
-    print(f"# benches/matching.py — tilesynth {ts.__version__}, set 16a, seed {a.seed}, {os.cpu_count()} cores\n")
+    print(
+        f"# benches/matching.py — tilesynth {ts.__version__}, set 16a, seed {a.seed}, {os.cpu_count()} cores\n"
+    )
     header = "| texture | strategy | metric | mean cut cost | vs ssd | build s (median) | vs ssd |"
     print(header)
     print("|" + "---|" * 7)
@@ -71,8 +80,11 @@ def main(argv: list[str] | None = None) -> int:
                 base_cost, base_time = cost, t
             label = match if k is None else f"{match} k={k}"
             summary.setdefault((label, metric), []).append((cost / base_cost, t / base_time))
-            print(f"| {name} {ex.shape[1]}x{ex.shape[0]} N={built.tile_size} | {label} | {metric} | {cost:.2f} | "
-                  f"{cost / base_cost:.3f} | {t:.2f} | {t / base_time:.1f}x |", flush=True)
+            print(
+                f"| {name} {ex.shape[1]}x{ex.shape[0]} N={built.tile_size} | {label} | {metric} | {cost:.2f} | "
+                f"{cost / base_cost:.3f} | {t:.2f} | {t / base_time:.1f}x |",
+                flush=True,
+            )
     print("\n| strategy | metric | mean cut cost vs ssd (geometric mean over textures) | build time vs ssd |")
     print("|---|---|---|---|")
     for (label, metric), vals in summary.items():

@@ -53,14 +53,18 @@ def templates(ex: np.ndarray, n: int, count: int, rng: np.random.Generator) -> n
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--textures", type=Path, default=Path(os.environ.get("TILESYNTH_TEXTURES", DEFAULT_TEXTURES)))
+    p.add_argument(
+        "--textures", type=Path, default=Path(os.environ.get("TILESYNTH_TEXTURES", DEFAULT_TEXTURES))
+    )
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--templates", type=int, default=8)
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--sizes", default="512,1024")
     p.add_argument("--tiles", default="256,128", help="template sizes")
     a = p.parse_args(argv)
-    print(f"# benches/matching_scan.py — tilesynth {ts.__version__}, {os.cpu_count()} cores, threads {a.threads}")
+    print(
+        f"# benches/matching_scan.py — tilesynth {ts.__version__}, {os.cpu_count()} cores, threads {a.threads}"
+    )
     print("# CPU s (process_time, medians); the machine may be shared with other jobs\n")
     print("| exemplar | templates | k, exclude | sorting CPU s | scan CPU s | speed-up | identical |")
     print("|---|---|---|---|---|---|---|")
@@ -68,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     for size in [int(s) for s in a.sizes.split(",")]:
         ex = exemplar(a.textures, size)
         idx = ts.SsdIndex(ex, a.threads)
-        for n, k, r in [(n, k, r) for n in map(int, a.tiles.split(",")) for k, r in [(1, 0), (16, n // 4)]]:
+        for n, k, r in [(t, k, r) for t in map(int, a.tiles.split(",")) for k, r in [(1, 0), (16, t // 4)]]:
             tpl = np.ascontiguousarray(templates(ex, n, a.templates, rng))
             idx.best_matches(tpl[:1], k=1, threads=a.threads)  # build the f64 spectra before timing
             t_new, t_old, same = [], [], True
@@ -82,8 +86,10 @@ def main(argv: list[str] | None = None) -> int:
                 t_old.append(t2 - t1)
                 same &= bool(np.array_equal(on, oo) and np.array_equal(vn.view(np.int64), vo.view(np.int64)))
             mn, mo = statistics.median(t_new), statistics.median(t_old)
-            print(f"| {size}² | {a.templates} × {n}² | {k}, {r} | {mo:.3f} | {mn:.3f} | {mo / mn:.2f}× | {same} |",
-                  flush=True)
+            print(
+                f"| {size}² | {a.templates} × {n}² | {k}, {r} | {mo:.3f} | {mn:.3f} | {mo / mn:.2f}× | {same} |",
+                flush=True,
+            )
     return 0
 
 

@@ -89,7 +89,11 @@ TEXTURES = [
 # 003 Table 2 for these textures: random, semi-random, then (f, seconds) at each of AIS_CONFIGS.
 PAPER_003: dict[str, tuple[float, float, list[tuple[float, int]]]] = {
     "Beans": (0.179, 0.244, [(0.297, 18), (0.316, 34), (0.339, 56), (0.347, 58), (0.353, 68), (0.385, 144)]),
-    "Caustics": (0.137, 0.219, [(0.266, 15), (0.271, 41), (0.283, 47), (0.296, 71), (0.315, 70), (0.322, 137)]),
+    "Caustics": (
+        0.137,
+        0.219,
+        [(0.266, 15), (0.271, 41), (0.283, 47), (0.296, 71), (0.315, 70), (0.322, 137)],
+    ),
     "Stones": (0.247, 0.338, [(0.358, 11), (0.361, 32), (0.387, 44), (0.392, 46), (0.418, 58), (0.429, 127)]),
     "Bread": (0.164, 0.229, [(0.268, 8), (0.276, 29), (0.271, 46), (0.273, 44), (0.285, 75), (0.291, 131)]),
     "Grape": (0.237, 0.319, [(0.362, 17), (0.371, 42), (0.397, 64), (0.411, 86), (0.435, 116), (0.471, 289)]),
@@ -100,8 +104,15 @@ PAPER_003: dict[str, tuple[float, float, list[tuple[float, int]]]] = {
 }
 
 # 000 Table 1: GA seconds (pop 40, N_g 50, N_o 5; Pentium 4 3.2 GHz, ANN matching) for the textures we have.
-PAPER_000_GA: dict[str, float] = {"Beans": 25, "Caustics": 24, "Stones": 35, "Bread": 18, "Grape": 43, "Grass": 26,
-                                  "Eggs": 23}
+PAPER_000_GA: dict[str, float] = {
+    "Beans": 25,
+    "Caustics": 24,
+    "Stones": 35,
+    "Bread": 18,
+    "Grape": 43,
+    "Grass": 26,
+    "Eggs": 23,
+}
 
 
 def tile_size_for(tex: Texture, shape: tuple[int, ...]) -> int:
@@ -153,14 +164,21 @@ def textures_found(root: Path) -> list[tuple[Texture, np.ndarray, int]]:
 
 
 # ----------------------------------------------------------------------------------------------- Table 2
-def run_selection(ex: np.ndarray, n: int, method: str, seed: int, threads: int, normalise: bool,
-                  **kw: Any) -> dict[str, Any]:
+def run_selection(
+    ex: np.ndarray, n: int, method: str, seed: int, threads: int, normalise: bool, **kw: Any
+) -> dict[str, Any]:
     tp, n_col = tile_patches(SET)
     t0 = time.perf_counter()
     ev = ts.PopulationEvaluator(ex, n, tp, n_col, normalise=normalise)
     res = select_genes(method, lambda g: ev.evaluate(g, threads), ex.shape, n_col, n, seed, **kw)
-    return {"E": res.E, "f": 1.0 / res.E, "s": time.perf_counter() - t0, "generations": res.generations,
-            "evaluations": res.evaluations, "stop": res.stop_reason}
+    return {
+        "E": res.E,
+        "f": 1.0 / res.E,
+        "s": time.perf_counter() - t0,
+        "generations": res.generations,
+        "evaluations": res.evaluations,
+        "stop": res.stop_reason,
+    }
 
 
 def table2(found: list, seeds: list[int], threads: int, log: Callable[[str], None]) -> tuple[str, dict]:
@@ -184,7 +202,9 @@ def table2(found: list, seeds: list[int], threads: int, log: Callable[[str], Non
             secs["random"].append(dt)
             secs["best-of-100"].append(dt)
             for (p, g), c in zip(AIS_CONFIGS, cols[2:-1]):
-                r = run_selection(ex, n, "ais", s, threads, True, population=p, generations=g, stagnation=g + 1)
+                r = run_selection(
+                    ex, n, "ais", s, threads, True, population=p, generations=g, stagnation=g + 1
+                )
                 f[c].append(r["f"])
                 secs[c].append(r["s"])
                 gens[c].append(r["generations"])
@@ -197,27 +217,40 @@ def table2(found: list, seeds: list[int], threads: int, log: Callable[[str], Non
         p_rand, p_semi, p_ais = PAPER_003[tex.paper]
         paper = [p_rand, p_semi] + [v for v, _ in p_ais]
         ours = [mean[c] for c in cols[:-1]]
-        data[tex.file] = {"paper_name": tex.paper, "shape": list(ex.shape), "tile": n, "f": f, "seconds": secs,
-                          "variance": float(ex.astype(np.float64).var(axis=(0, 1)).sum()),
-                          "generations": gens, "mean_f": mean, "paper_f": paper,
-                          "paper_s": [t for _, t in p_ais]}
+        data[tex.file] = {
+            "paper_name": tex.paper,
+            "shape": list(ex.shape),
+            "tile": n,
+            "f": f,
+            "seconds": secs,
+            "variance": float(ex.astype(np.float64).var(axis=(0, 1)).sum()),
+            "generations": gens,
+            "mean_f": mean,
+            "paper_f": paper,
+            "paper_s": [t for _, t in p_ais],
+        }
         label = f"{tex.paper} ({tex.file}, {ex.shape[1]}x{ex.shape[0]}, N={n})"
         rows_f.append([label] + [f"{mean[c]:.3f}" for c in cols])
         rows_paper.append([tex.paper] + [f"{v:.3f}" for v in paper])
-        rows_mult.append([tex.paper] + [f"{o / ours[0]:.2f}x ({pv / paper[0]:.2f}x)"
-                                        for o, pv in zip(ours[1:], paper[1:])])
-        rows_t.append([tex.paper, fmt_s(tmed["random"])]
-                      + [f"{fmt_s(tmed[c])} ({t})" for c, (_, t) in zip(cols[2:-1], p_ais)]
-                      + [f"{fmt_s(tmed[cols[-1]])} ({statistics.median(gens[cols[-1]]):.0f} gen.)"])
+        rows_mult.append(
+            [tex.paper] + [f"{o / ours[0]:.2f}x ({pv / paper[0]:.2f}x)" for o, pv in zip(ours[1:], paper[1:])]
+        )
+        rows_t.append(
+            [tex.paper, fmt_s(tmed["random"])]
+            + [f"{fmt_s(tmed[c])} ({t})" for c, (_, t) in zip(cols[2:-1], p_ais)]
+            + [f"{fmt_s(tmed[cols[-1]])} ({statistics.median(gens[cols[-1]]):.0f} gen.)"]
+        )
         log(f"table 2: {tex.paper} done")
-    md = [f"### 003 Table 2 analogue: f = 1/E (normalised), {SET}, mean over seeds {seeds}\n",
-          md_table(["texture"] + cols, rows_f),
-          "\n003's Table 2, same columns (the last one has no counterpart in 003):\n",
-          md_table(["texture"] + cols[:-1], rows_paper),
-          "\nMultiples over random, ours (003's):\n",
-          md_table(["texture"] + cols[1:-1], rows_mult),
-          f"\nWall seconds, ours (003's), median over seeds; random = the 100 evaluations; {threads} threads:\n",
-          md_table(["texture", "random (100 eval.)"] + [f"{c}" for c in cols[2:-1]] + [cols[-1]], rows_t)]
+    md = [
+        f"### 003 Table 2 analogue: f = 1/E (normalised), {SET}, mean over seeds {seeds}\n",
+        md_table(["texture"] + cols, rows_f),
+        "\n003's Table 2, same columns (the last one has no counterpart in 003):\n",
+        md_table(["texture"] + cols[:-1], rows_paper),
+        "\nMultiples over random, ours (003's):\n",
+        md_table(["texture"] + cols[1:-1], rows_mult),
+        f"\nWall seconds, ours (003's), median over seeds; random = the 100 evaluations; {threads} threads:\n",
+        md_table(["texture", "random (100 eval.)"] + [f"{c}" for c in cols[2:-1]] + [cols[-1]], rows_t),
+    ]
     md.append("\n" + ordering_text(data, cols))
     return "\n".join(md), data
 
@@ -231,24 +264,31 @@ def ordering_text(data: dict[str, Any], cols: list[str]) -> str:
         paper = [v["paper_f"][c_idx] for v in data.values()]
         rank_o = [names[i] for i in np.argsort(ours)[::-1]]
         rank_p = [names[i] for i in np.argsort(paper)[::-1]]
-        lines.append(f"- {c}: textures by f, ours {' > '.join(rank_o)}; 003 {' > '.join(rank_p)} "
-                     f"(Spearman {spearman(ours, paper):+.2f})")
+        lines.append(
+            f"- {c}: textures by f, ours {' > '.join(rank_o)}; 003 {' > '.join(rank_p)} "
+            f"(Spearman {spearman(ours, paper):+.2f})"
+        )
     # what our texture ordering is: random f is nearly 1 / (the exemplar's variance), texture by texture
     var = [v["variance"] for v in data.values()]
     f_r = [v["mean_f"]["random"] for v in data.values()]
     p_r = [v["paper_f"][0] for v in data.values()]
     fv = [a * b for a, b in zip(f_r, var)]
-    lines += ["", f"- Exemplar variance V (per pixel, summed over RGB): our random f·V = {min(fv):.4f}-{max(fv):.4f} "
-              f"over the textures, so our texture order is that of 1/V (Spearman of our random f with 1/V "
-              f"{spearman(f_r, [1 / x for x in var]):+.2f}); 003's random f against 1/V: "
-              f"{spearman(p_r, [1 / x for x in var]):+.2f}."]
+    lines += [
+        "",
+        f"- Exemplar variance V (per pixel, summed over RGB): our random f·V = {min(fv):.4f}-{max(fv):.4f} "
+        f"over the textures, so our texture order is that of 1/V (Spearman of our random f with 1/V "
+        f"{spearman(f_r, [1 / x for x in var]):+.2f}); 003's random f against 1/V: "
+        f"{spearman(p_r, [1 / x for x in var]):+.2f}.",
+    ]
     lines.append("")
     for v in data.values():
         ours = [v["mean_f"][c] for c in cols[:-1]]
         inv_o = inversions(ours)
         inv_p = inversions(v["paper_f"])
         say = lambda inv: ", ".join(f"{cols[i - 1]} > {cols[i]}" for i in inv) or "none"  # noqa: E731
-        lines.append(f"- {v['paper_name']}: columns where f falls left to right: ours {say(inv_o)}; 003 {say(inv_p)}")
+        lines.append(
+            f"- {v['paper_name']}: columns where f falls left to right: ours {say(inv_o)}; 003 {say(inv_p)}"
+        )
     return "\n".join(lines)
 
 
@@ -263,21 +303,43 @@ def table1(found: list, seeds: list[int], threads: int, log: Callable[[str], Non
         med = statistics.median(t)
         paper = PAPER_000_GA[tex.paper]
         data[tex.file] = {"paper_name": tex.paper, "runs": runs, "median_s": med, "paper_s": paper, "tile": n}
-        rows.append([tex.paper, f"{ex.shape[1]}x{ex.shape[0]} ({tex.paper_size[0]}x{tex.paper_size[1]})",
-                     f"{n} ({tex.paper_tile})", f"{med:.2f}", f"{min(t):.2f}-{max(t):.2f}",
-                     f"{statistics.median(r['generations'] for r in runs):.0f}",
-                     f"{statistics.median(r['evaluations'] for r in runs):.0f}", f"{paper:.0f}",
-                     f"{paper / med:.0f}x"])
+        rows.append(
+            [
+                tex.paper,
+                f"{ex.shape[1]}x{ex.shape[0]} ({tex.paper_size[0]}x{tex.paper_size[1]})",
+                f"{n} ({tex.paper_tile})",
+                f"{med:.2f}",
+                f"{min(t):.2f}-{max(t):.2f}",
+                f"{statistics.median(r['generations'] for r in runs):.0f}",
+                f"{statistics.median(r['evaluations'] for r in runs):.0f}",
+                f"{paper:.0f}",
+                f"{paper / med:.0f}x",
+            ]
+        )
         log(f"table 1: {tex.paper} done")
     ours = [v["median_s"] for v in data.values()]
     paper = [v["paper_s"] for v in data.values()]
     names = [v["paper_name"] for v in data.values()]
     order_o = " < ".join(names[i] for i in np.argsort(ours, kind="stable"))
     order_p = " < ".join(names[i] for i in np.argsort(paper, kind="stable"))
-    md = [f"### 000 Table 1 analogue: GA wall time, {SET}, plain E, seeds {seeds}, {threads} threads\n",
-          md_table(["texture", "example (000)", "tile (000)", "GA s (median)", "range s", "generations",
-                    "evaluations", "000 GA s", "000 / ours"], rows),
-          f"\nTextures by GA time: ours {order_o}; 000 {order_p} (Spearman {spearman(ours, paper):+.2f})."]
+    md = [
+        f"### 000 Table 1 analogue: GA wall time, {SET}, plain E, seeds {seeds}, {threads} threads\n",
+        md_table(
+            [
+                "texture",
+                "example (000)",
+                "tile (000)",
+                "GA s (median)",
+                "range s",
+                "generations",
+                "evaluations",
+                "000 GA s",
+                "000 / ours",
+            ],
+            rows,
+        ),
+        f"\nTextures by GA time: ours {order_o}; 000 {order_p} (Spearman {spearman(ours, paper):+.2f}).",
+    ]
     return "\n".join(md), data
 
 
@@ -285,7 +347,9 @@ def table1(found: list, seeds: list[int], threads: int, log: Callable[[str], Non
 @dataclass(frozen=True)
 class Scheme:
     name: str
-    build: Callable[[np.ndarray, int, int, int], Any] | None  # (exemplar, tile size, seed, threads) -> TileSet
+    build: (
+        Callable[[np.ndarray, int, int, int], Any] | None
+    )  # (exemplar, tile size, seed, threads) -> TileSet
     pending: str = ""
 
 
@@ -296,25 +360,48 @@ def _wang_size(ex: np.ndarray, n: int) -> int:
 
 
 SCHEMES: list[Scheme] = [
-    Scheme("ω-16", lambda ex, n, seed, th: ts.build_omega(ex, tileset="16a", tile_size=n, seed=seed, threads=th)),
-    Scheme("ω-N2 random", lambda ex, n, seed, th: ts.build_omega(ex, tileset="n2", tile_size=n, seed=seed,
-                                                                 threads=th)),
-    Scheme("ω-N2 + AIS", lambda ex, n, seed, th: ts.build_omega(ex, tileset="n2", tile_size=n, seed=seed,
-                                                                threads=th, select="ais", normalise=True)),
-    Scheme("ω-16 + smooth", lambda ex, n, seed, th: ts.build_omega(ex, tileset="16a", tile_size=n, seed=seed,
-                                                                   threads=th, smooth=True)),
-    Scheme("Wang-18 + GA", lambda ex, n, seed, th: ts.build_wang(ex, tileset="wang18", tile_size=_wang_size(ex, n),
-                                                                 seed=seed, threads=th, select="ga")),
-    Scheme("s-Wang-8", lambda ex, n, seed, th: ts.build_swang(ex, tileset="wang8", tile_size=n, seed=seed,
-                                                              threads=th)),
-    Scheme("patch-16 (random crops)", lambda ex, n, seed, th: ts.build(ex, scheme="patch", tileset="16a",
-                                                                       tile_size=n, seed=seed, threads=th)),
+    Scheme(
+        "ω-16", lambda ex, n, seed, th: ts.build_omega(ex, tileset="16a", tile_size=n, seed=seed, threads=th)
+    ),
+    Scheme(
+        "ω-N2 random",
+        lambda ex, n, seed, th: ts.build_omega(ex, tileset="n2", tile_size=n, seed=seed, threads=th),
+    ),
+    Scheme(
+        "ω-N2 + AIS",
+        lambda ex, n, seed, th: ts.build_omega(
+            ex, tileset="n2", tile_size=n, seed=seed, threads=th, select="ais", normalise=True
+        ),
+    ),
+    Scheme(
+        "ω-16 + smooth",
+        lambda ex, n, seed, th: ts.build_omega(
+            ex, tileset="16a", tile_size=n, seed=seed, threads=th, smooth=True
+        ),
+    ),
+    Scheme(
+        "Wang-18 + GA",
+        lambda ex, n, seed, th: ts.build_wang(
+            ex, tileset="wang18", tile_size=_wang_size(ex, n), seed=seed, threads=th, select="ga"
+        ),
+    ),
+    Scheme(
+        "s-Wang-8",
+        lambda ex, n, seed, th: ts.build_swang(ex, tileset="wang8", tile_size=n, seed=seed, threads=th),
+    ),
+    Scheme(
+        "patch-16 (random crops)",
+        lambda ex, n, seed, th: ts.build(
+            ex, scheme="patch", tileset="16a", tile_size=n, seed=seed, threads=th
+        ),
+    ),
 ]
 """The schemes compared; a new one is one entry (``build`` returns a TileSet that ``tilesynth.synthesize`` lays)."""
 
 
-def schemes_table(found: list, seeds: list[int], size: tuple[int, int], threads: int,
-                  log: Callable[[str], None]) -> tuple[str, dict]:
+def schemes_table(
+    found: list, seeds: list[int], size: tuple[int, int], threads: int, log: Callable[[str], None]
+) -> tuple[str, dict]:
     rows, data = [], {}
     summary: dict[str, dict[str, list[float]]] = {}
     keys = ("seam", "rms", "energy", "coverage", "evenness", "repetition")
@@ -336,18 +423,35 @@ def schemes_table(found: list, seeds: list[int], size: tuple[int, int], threads:
                 per["energy"].append(m["coherence"]["energy"])
                 per["coverage"].append(m["coverage"]["fraction"])
                 per["evenness"].append(m["coverage"]["evenness"])
-                per["repetition"].append(m["repetition"]["peak"] if m["repetition"]["peak"] is not None else 0.0)
+                per["repetition"].append(
+                    m["repetition"]["peak"] if m["repetition"]["peak"] is not None else 0.0
+                )
                 offsets.append(m["repetition"]["offset"])
             mean = {k: float(np.mean(v)) for k, v in per.items()}
-            data[tex.file][sch.name] = {"per_seed": per, "mean": mean, "offsets": offsets, "build_s": build_s,
-                                        "n_tiles": tset.n_tiles, "E_normalised_f": metrics.objective(tset)[
-                                            "f_normalised"]}
+            data[tex.file][sch.name] = {
+                "per_seed": per,
+                "mean": mean,
+                "offsets": offsets,
+                "build_s": build_s,
+                "n_tiles": tset.n_tiles,
+                "E_normalised_f": metrics.objective(tset)["f_normalised"],
+            }
             for k, v in mean.items():
                 summary.setdefault(sch.name, {}).setdefault(k, []).append(v)
             off = ", ".join("-" if o is None else f"({o[0]},{o[1]})" for o in offsets)
-            rows.append([tex.paper, sch.name, str(tset.n_tiles), f"{mean['seam']:.3f}", f"{mean['rms']:.4f}",
-                         f"{mean['coverage']:.3f}", f"{mean['evenness']:.3f}", f"{mean['repetition']:.3f}",
-                         f"at {off}; build {build_s:.1f} s"])
+            rows.append(
+                [
+                    tex.paper,
+                    sch.name,
+                    str(tset.n_tiles),
+                    f"{mean['seam']:.3f}",
+                    f"{mean['rms']:.4f}",
+                    f"{mean['coverage']:.3f}",
+                    f"{mean['evenness']:.3f}",
+                    f"{mean['repetition']:.3f}",
+                    f"at {off}; build {build_s:.1f} s",
+                ]
+            )
         log(f"schemes: {tex.paper} done")
     srows = []
     for sch in SCHEMES:
@@ -355,29 +459,58 @@ def schemes_table(found: list, seeds: list[int], size: tuple[int, int], threads:
             srows.append([sch.name, "", "", "", "", "", sch.pending])
             continue
         s = summary[sch.name]
-        srows.append([sch.name, f"{np.mean(s['seam']):.3f}", f"{np.mean(s['rms']):.4f}",
-                      f"{np.mean(s['energy']):.4g}", f"{np.mean(s['coverage']):.3f}", f"{np.mean(s['evenness']):.3f}",
-                      f"{np.mean(s['repetition']):.3f}"])
-    md = [f"### Schemes: {size[0]}x{size[1]} samples, tiling seeds {seeds}, build seed 1, tile sizes as Table 2\n",
-          "seam = border seam score (1 = invisible borders); coherence = rms of the exact per-patch minimum SSD "
-          "(8x8, stride 4); coverage = share of exemplar pixels used; evenness = normalised entropy of the use; "
-          "repetition = strongest non-zero autocorrelation peak (and its offsets).\n",
-          md_table(["texture", "scheme", "tiles", "seam", "coherence rms", "coverage", "evenness", "repetition",
-                    "notes"], rows),
-          "\nMean over the textures:\n",
-          md_table(["scheme", "seam", "coherence rms", "coherence energy", "coverage", "evenness", "repetition"],
-                   srows)]
+        srows.append(
+            [
+                sch.name,
+                f"{np.mean(s['seam']):.3f}",
+                f"{np.mean(s['rms']):.4f}",
+                f"{np.mean(s['energy']):.4g}",
+                f"{np.mean(s['coverage']):.3f}",
+                f"{np.mean(s['evenness']):.3f}",
+                f"{np.mean(s['repetition']):.3f}",
+            ]
+        )
+    md = [
+        f"### Schemes: {size[0]}x{size[1]} samples, tiling seeds {seeds}, build seed 1, tile sizes as Table 2\n",
+        "seam = border seam score (1 = invisible borders); coherence = rms of the exact per-patch minimum SSD "
+        "(8x8, stride 4); coverage = share of exemplar pixels used; evenness = normalised entropy of the use; "
+        "repetition = strongest non-zero autocorrelation peak (and its offsets).\n",
+        md_table(
+            [
+                "texture",
+                "scheme",
+                "tiles",
+                "seam",
+                "coherence rms",
+                "coverage",
+                "evenness",
+                "repetition",
+                "notes",
+            ],
+            rows,
+        ),
+        "\nMean over the textures:\n",
+        md_table(
+            ["scheme", "seam", "coherence rms", "coherence energy", "coverage", "evenness", "repetition"],
+            srows,
+        ),
+    ]
     return "\n".join(md), data
 
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--textures", type=Path, default=Path(os.environ.get("TILESYNTH_TEXTURES", DEFAULT_TEXTURES)))
+    p.add_argument(
+        "--textures", type=Path, default=Path(os.environ.get("TILESYNTH_TEXTURES", DEFAULT_TEXTURES))
+    )
     p.add_argument("--only", choices=("table2", "table1", "schemes"), action="append")
     p.add_argument("--quick", action="store_true", help="1 seed and 256x256 samples")
     p.add_argument("--seeds", type=int, default=None, help="seeds per measurement (default 3; --quick 1)")
-    p.add_argument("--size", default=None, help="sample size WxH of the scheme comparison (default 512x512; "
-                   "--quick 256x256)")
+    p.add_argument(
+        "--size",
+        default=None,
+        help="sample size WxH of the scheme comparison (default 512x512; --quick 256x256)",
+    )
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--out", type=Path, default=None, help="also write the Markdown here")
     p.add_argument("--json", type=Path, default=None, help="write every number here")
@@ -395,15 +528,19 @@ def main(argv: list[str] | None = None) -> int:
     if not found:
         p.error(f"--textures {a.textures}: none of {', '.join(t.file for t in TEXTURES)} found")
     only = set(a.only or ("table2", "table1", "schemes"))
-    head = (f"## tilesynth paper tables — tilesynth {ts.__version__}, CPython {platform.python_version()}, "
-            f"numpy {np.__version__}, {os.cpu_count()} cores, {'quick' if a.quick else 'full'} mode\n")
+    head = (
+        f"## tilesynth paper tables — tilesynth {ts.__version__}, CPython {platform.python_version()}, "
+        f"numpy {np.__version__}, {os.cpu_count()} cores, {'quick' if a.quick else 'full'} mode\n"
+    )
     print(head, flush=True)
     parts, report = [head], {"seeds": seeds, "size": [w, h], "threads": a.threads, "quick": a.quick}
     # warm-up: page in the extension and the FFT plans, so the first timing is not an outlier
     run_selection(found[0][1], found[0][2], "best-of", 0, a.threads, True, count=10)
-    for name, fn in (("table2", lambda: table2(found, seeds, a.threads, log)),
-                     ("table1", lambda: table1(found, seeds, a.threads, log)),
-                     ("schemes", lambda: schemes_table(found, seeds, (w, h), a.threads, log))):
+    for name, fn in (
+        ("table2", lambda: table2(found, seeds, a.threads, log)),
+        ("table1", lambda: table1(found, seeds, a.threads, log)),
+        ("schemes", lambda: schemes_table(found, seeds, (w, h), a.threads, log)),
+    ):
         if name in only:
             md, data = fn()
             parts.append(md)

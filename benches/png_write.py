@@ -24,8 +24,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-import tilesynth as ts
 from PIL import Image
+
+import tilesynth as ts
 from tilesynth.io import PNG_COMPRESSIONS, encode_png
 
 HERE = Path(__file__).resolve().parent

@@ -41,7 +41,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -135,7 +135,9 @@ def omega_region(i_tile: npt.NDArray[np.float32], o_tile: npt.NDArray[np.float32
     return np.ascontiguousarray(masks[0])
 
 
-def run(texture: npt.NDArray[np.float32], sizes: Sequence[int], plan: cmp.Plan, report: dict[str, Any]) -> list[cmp.Target]:
+def run(
+    texture: npt.NDArray[np.float32], sizes: Sequence[int], plan: cmp.Plan, report: dict[str, Any]
+) -> list[cmp.Target]:
     """Checks, interleaved timing and the table; returns the targets."""
     print("\n## Poisson smoothing inside the region (3-ch float32), ms per tile")
     if sp is None:
@@ -182,7 +184,9 @@ def run(texture: npt.NDArray[np.float32], sizes: Sequence[int], plan: cmp.Plan, 
 
                 for name, fn in ((lu_name, cached), (per_tile_name, per_tile)):
                     err = float(np.abs(np.asarray(fn()) - ref).max())
-                    checks.append(f"N={n} {region_name}: {name} equals spsolve to {err:.1e} (required <= 1e-9)")
+                    checks.append(
+                        f"N={n} {region_name}: {name} equals spsolve to {err:.1e} (required <= 1e-9)"
+                    )
                     if err > 1e-9:
                         problems[key] = f"scipy {name} disagrees with spsolve"
                     methods.append(cmp.Method(name, fn))
@@ -213,7 +217,9 @@ def run(texture: npt.NDArray[np.float32], sizes: Sequence[int], plan: cmp.Plan, 
                     def ours(t: int = threads, i: Any = i_tile, o: Any = o_tile, r: Mask = region) -> object:
                         return ts.poisson_smooth(i, o, r, threads=t, tol=TOL)
 
-                    out, pinfo = ts.poisson_smooth(i_tile, o_tile, region, threads=threads, tol=TOL, info=True)
+                    out, pinfo = ts.poisson_smooth(
+                        i_tile, o_tile, region, threads=threads, tol=TOL, info=True
+                    )
                     desc = f"{pinfo.iterations} it, residual <= {float(np.max(pinfo.residual)):.1e}"
                     if ref is not None:
                         err = float(np.abs(out.astype(np.float64) - ref).max())
@@ -236,10 +242,31 @@ def run(texture: npt.NDArray[np.float32], sizes: Sequence[int], plan: cmp.Plan, 
             for m in methods:
                 s = stats[m.name]
                 ratio = s.median / base.median if base else None
-                rows.append([f"{n}x{n}", region_name, unknowns, m.name, cmp.fmt_ms(s.median), cmp.fmt_ms(s.min),
-                             cmp.fmt_iqr(s), s.n, "-" if ratio is None else f"{ratio:.3f}", info.get(m.name, "")])
-                section.append({"N": n, "region": region_name, "unknowns": unknowns, "method": m.name,
-                                **s.as_ms(), "time_vs_cached_lu": ratio, "info": info.get(m.name)})
+                rows.append(
+                    [
+                        f"{n}x{n}",
+                        region_name,
+                        unknowns,
+                        m.name,
+                        cmp.fmt_ms(s.median),
+                        cmp.fmt_ms(s.min),
+                        cmp.fmt_iqr(s),
+                        s.n,
+                        "-" if ratio is None else f"{ratio:.3f}",
+                        info.get(m.name, ""),
+                    ]
+                )
+                section.append(
+                    {
+                        "N": n,
+                        "region": region_name,
+                        "unknowns": unknowns,
+                        "method": m.name,
+                        **s.as_ms(),
+                        "time_vs_cached_lu": ratio,
+                        "info": info.get(m.name),
+                    }
+                )
             if base is not None and ours_name in stats:
                 ratios[key] = stats[ours_name].median / base.median
     cmp.print_table(
@@ -275,7 +302,9 @@ def run(texture: npt.NDArray[np.float32], sizes: Sequence[int], plan: cmp.Plan, 
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description="Time tilesynth.poisson_smooth side by side with scipy and OpenCV.")
+    p = argparse.ArgumentParser(
+        description="Time tilesynth.poisson_smooth side by side with scipy and OpenCV."
+    )
     p.add_argument("--quick", action="store_true", help="fewer rounds: a smoke run")
     p.add_argument("--sizes", default=",".join(map(str, SIZES)), help="tile sizes, comma-separated")
     p.add_argument("--json", metavar="PATH", help="also write every figure as JSON")

@@ -31,6 +31,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+
 import tilesynth as ts
 import tilesynth.metrics
 from tilesynth.io import load_image

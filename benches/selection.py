@@ -109,8 +109,16 @@ def load(path: Path) -> np.ndarray:
     return img
 
 
-def run_method(ex: np.ndarray, method: str, seed: int, threads: int | None, normalise: bool = False,
-               polish: bool = False, evaluate: Any = None, **kw: Any) -> dict[str, Any]:
+def run_method(
+    ex: np.ndarray,
+    method: str,
+    seed: int,
+    threads: int | None,
+    normalise: bool = False,
+    polish: bool = False,
+    evaluate: Any = None,
+    **kw: Any,
+) -> dict[str, Any]:
     tp, n_col = tile_patches(SET)
     t0 = time.perf_counter()
     if evaluate is None:
@@ -118,8 +126,15 @@ def run_method(ex: np.ndarray, method: str, seed: int, threads: int | None, norm
         evaluate = lambda g: ev.evaluate(g, threads)  # noqa: E731
     res = select_genes(method, evaluate, ex.shape, n_col, N_TILE, seed, polish=polish, **kw)
     wall = time.perf_counter() - t0
-    return {"E": res.E, "f": 1.0 / res.E, "wall_s": wall, "evaluations": res.evaluations,
-            "generations": res.generations, "stop": res.stop_reason, "genes": res.genes.tolist()}
+    return {
+        "E": res.E,
+        "f": 1.0 / res.E,
+        "wall_s": wall,
+        "evaluations": res.evaluations,
+        "generations": res.generations,
+        "stop": res.stop_reason,
+        "genes": res.genes.tolist(),
+    }
 
 
 def md_table(headers: list[str], rows: list[list[Any]]) -> str:
@@ -136,6 +151,7 @@ def section_speed(textures: Path, seeds: list[int], quick: bool, threads: int | 
     rows = []
     try:
         import cv2  # noqa: F401
+
         have_cv2 = True
     except ImportError:
         have_cv2 = False
@@ -151,8 +167,12 @@ def section_speed(textures: Path, seeds: list[int], quick: bool, threads: int | 
             loop = Cv2Loop(ex, N_TILE, tp)
             if quick:
                 # per-individual cost of the cv2 loop on random populations, times our evaluation count
-                pop = np.stack([ts.omega.random_genes(ex.shape, n_col, N_TILE, np.random.default_rng(i))
-                                for i in range(8)])
+                pop = np.stack(
+                    [
+                        ts.omega.random_genes(ex.shape, n_col, N_TILE, np.random.default_rng(i))
+                        for i in range(8)
+                    ]
+                )
                 t0 = time.perf_counter()
                 loop(pop)
                 per = (time.perf_counter() - t0) / len(pop)
@@ -170,17 +190,41 @@ def section_speed(textures: Path, seeds: list[int], quick: bool, threads: int | 
             cv2_s, ratio = float("nan"), float("nan")
             base_note = "cv2 not installed"
         out[method] = info
-        rows.append([
-            method.upper(), f"{med:.2f}", f"{min(walls):.2f}-{max(walls):.2f}",
-            f"{statistics.median(r['evaluations'] for r in runs):.0f}",
-            f"{statistics.median(r['generations'] for r in runs):.0f}",
-            f"<= {target:g}", "yes" if med <= target else "**no**",
-            f"{cv2_s:.1f} ({base_note})", f"{ratio:.0f}x", "yes" if ratio >= 20 else "**no**",
-        ])
-    print(f"\n## Speed: {SET}, {N_TILE}x{N_TILE} tiles, gravel 128x128, threads={threads or 'default'}, "
-          f"seeds {seeds}\n")
-    print(md_table(["method", "median s", "range s", "evaluations", "generations", "target", "met",
-                    "cv2 loop s", "ratio", ">= 20x"], rows))
+        rows.append(
+            [
+                method.upper(),
+                f"{med:.2f}",
+                f"{min(walls):.2f}-{max(walls):.2f}",
+                f"{statistics.median(r['evaluations'] for r in runs):.0f}",
+                f"{statistics.median(r['generations'] for r in runs):.0f}",
+                f"<= {target:g}",
+                "yes" if med <= target else "**no**",
+                f"{cv2_s:.1f} ({base_note})",
+                f"{ratio:.0f}x",
+                "yes" if ratio >= 20 else "**no**",
+            ]
+        )
+    print(
+        f"\n## Speed: {SET}, {N_TILE}x{N_TILE} tiles, gravel 128x128, threads={threads or 'default'}, "
+        f"seeds {seeds}\n"
+    )
+    print(
+        md_table(
+            [
+                "method",
+                "median s",
+                "range s",
+                "evaluations",
+                "generations",
+                "target",
+                "met",
+                "cv2 loop s",
+                "ratio",
+                ">= 20x",
+            ],
+            rows,
+        )
+    )
     return out
 
 
@@ -207,7 +251,11 @@ def section_quality(textures: Path, seeds: list[int], threads: int | None) -> di
             E, _ = ev.evaluate(pop, threads)
             times["random"].append((time.perf_counter() - t0) / 100)
             per_seed["random"].append(float(np.mean(1.0 / E)))
-            for key, method, polish in (("best-of", "best-of", False), ("ga", "ga", False), ("ais", "ais", False)):
+            for key, method, polish in (
+                ("best-of", "best-of", False),
+                ("ga", "ga", False),
+                ("ais", "ais", False),
+            ):
                 r = run_method(ex, method, s, threads, normalise=True, polish=polish)
                 per_seed[key].append(r["f"])
                 times[key].append(r["wall_s"])
@@ -215,39 +263,71 @@ def section_quality(textures: Path, seeds: list[int], threads: int | None) -> di
             ais_genes = np.array(r["genes"])
             ev2 = ts.PopulationEvaluator(ex, N_TILE, tp, n_col, normalise=True)
             t0 = time.perf_counter()
-            g, Ep, _, info = ts.select.polish_genes(lambda p: ev2.evaluate(p, threads), ais_genes, ex.shape, N_TILE)
+            g, Ep, _, info = ts.select.polish_genes(
+                lambda p: ev2.evaluate(p, threads), ais_genes, ex.shape, N_TILE
+            )
             per_seed["ais+polish"].append(1.0 / Ep)
             times["ais+polish"].append(times["ais"][-1] + time.perf_counter() - t0)
         mean = {k: float(np.mean(v)) for k, v in per_seed.items()}
-        out[name] = {"f": per_seed, "time_s": times, "mean_f": mean, "shape": list(ex.shape),
-                     "paper": {"random": p_rand, "ais_40_50": p_ais}}
+        out[name] = {
+            "f": per_seed,
+            "time_s": times,
+            "mean_f": mean,
+            "shape": list(ex.shape),
+            "paper": {"random": p_rand, "ais_40_50": p_ais},
+        }
         r0 = mean["random"]
-        rows.append([
-            f"{name} ({paper_name}) {ex.shape[1]}x{ex.shape[0]}",
-            f"{r0:.3f}", f"{p_rand:.3f}",
-            *(f"{mean[k]:.3f} ({mean[k] / r0:.2f}x)" for k in ("best-of", "ga", "ais", "ais+polish")),
-            f"{p_ais:.3f} ({p_ais / p_rand:.2f}x)",
-            f"{np.median(times['ga']):.1f} / {np.median(times['ais']):.1f} / {np.median(times['ais+polish']):.1f}",
-        ])
-    print(f"\n## Quality: f = 1/E with 003's normalisation, {SET}, {N_TILE}x{N_TILE} tiles, mean over seeds {seeds}\n")
-    print(md_table(["texture", "random", "003 random", "best-of-100", "GA", "AIS", "AIS + polish", "003 AIS (40,50)",
-                    "s GA / AIS / AIS+polish"], rows))
+        rows.append(
+            [
+                f"{name} ({paper_name}) {ex.shape[1]}x{ex.shape[0]}",
+                f"{r0:.3f}",
+                f"{p_rand:.3f}",
+                *(f"{mean[k]:.3f} ({mean[k] / r0:.2f}x)" for k in ("best-of", "ga", "ais", "ais+polish")),
+                f"{p_ais:.3f} ({p_ais / p_rand:.2f}x)",
+                f"{np.median(times['ga']):.1f} / {np.median(times['ais']):.1f} / {np.median(times['ais+polish']):.1f}",
+            ]
+        )
+    print(
+        f"\n## Quality: f = 1/E with 003's normalisation, {SET}, {N_TILE}x{N_TILE} tiles, mean over seeds {seeds}\n"
+    )
+    print(
+        md_table(
+            [
+                "texture",
+                "random",
+                "003 random",
+                "best-of-100",
+                "GA",
+                "AIS",
+                "AIS + polish",
+                "003 AIS (40,50)",
+                "s GA / AIS / AIS+polish",
+            ],
+            rows,
+        )
+    )
     return out
 
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--textures", type=Path, default=Path(os.environ.get("TILESYNTH_TEXTURES", DEFAULT_TEXTURES)))
+    p.add_argument(
+        "--textures", type=Path, default=Path(os.environ.get("TILESYNTH_TEXTURES", DEFAULT_TEXTURES))
+    )
     p.add_argument("--only", choices=("speed", "quality"))
     p.add_argument("--quick", action="store_true", help="one seed per measurement, projected cv2 baseline")
-    p.add_argument("--seeds", type=int, default=None, help="seeds per measurement (default 5 speed, 3 quality)")
+    p.add_argument(
+        "--seeds", type=int, default=None, help="seeds per measurement (default 5 speed, 3 quality)"
+    )
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--json", type=Path, default=None)
     a = p.parse_args(argv)
     if not a.textures.is_dir():
         p.error(f"--textures {a.textures}: not a directory (set TILESYNTH_TEXTURES)")
-    print(f"# tilesynth benches/selection.py — tilesynth {ts.__version__}, CPython {platform.python_version()}, "
-          f"{os.cpu_count()} cores, numpy {np.__version__}")
+    print(
+        f"# tilesynth benches/selection.py — tilesynth {ts.__version__}, CPython {platform.python_version()}, "
+        f"{os.cpu_count()} cores, numpy {np.__version__}"
+    )
     report: dict[str, Any] = {}
     if a.only in (None, "speed"):
         n = 1 if a.quick else (a.seeds or 5)

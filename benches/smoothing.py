@@ -33,10 +33,14 @@ SHARED = Path(__file__).resolve().parents[2] / "shared" / "textures"
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--textures", default=",".join(TEXTURES))
-    ap.add_argument("--dir", default=str(SHARED), help="directory of the textures (default ../shared/textures)")
+    ap.add_argument(
+        "--dir", default=str(SHARED), help="directory of the textures (default ../shared/textures)"
+    )
     ap.add_argument("--set", default="16a")
     ap.add_argument("--seed", type=int, default=4)
-    ap.add_argument("--figure", default=None, help="write a plain / smoothed synthesis of the second texture here")
+    ap.add_argument(
+        "--figure", default=None, help="write a plain / smoothed synthesis of the second texture here"
+    )
     args = ap.parse_args(argv)
     rows = []
     for name in args.textures.split(","):
@@ -45,19 +49,33 @@ def main(argv: list[str] | None = None) -> int:
         smooth = ts.build_omega(ex, tileset=args.set, seed=args.seed, smooth=True)
         info = smooth.params["smooth"]
         a, b = cut_seam_score(plain)["score"], cut_seam_score(smooth)["score"]
-        rows.append((name, smooth.tile_size, smooth.n_tiles, a, b, info["iterations_max"], info["residual_max"],
-                     info["clipped"] / max(1, info["unknowns"] * smooth.channels),
-                     smooth.timing["smoothing_s"] / smooth.n_tiles * 1e3,
-                     smooth.timing["smoothing_s"] / smooth.timing["total_s"]))
+        rows.append(
+            (
+                name,
+                smooth.tile_size,
+                smooth.n_tiles,
+                a,
+                b,
+                info["iterations_max"],
+                info["residual_max"],
+                info["clipped"] / max(1, info["unknowns"] * smooth.channels),
+                smooth.timing["smoothing_s"] / smooth.n_tiles * 1e3,
+                smooth.timing["smoothing_s"] / smooth.timing["total_s"],
+            )
+        )
         print(f"{name}: cut seam {a:.3f} -> {b:.3f}", file=sys.stderr)
         if args.figure and len(rows) == 2:
             _figure(plain, smooth, args.figure)
-    print(f"\n| texture | N | tiles | cut seam plain | cut seam smoothed | ratio | iterations (max) | residual (max) "
-          f"| clipped | ms per tile | share of build |")
+    print(
+        "\n| texture | N | tiles | cut seam plain | cut seam smoothed | ratio | iterations (max) | residual (max) "
+        "| clipped | ms per tile | share of build |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]:.3f} | {r[4]:.3f} | {r[4] / r[3]:.2f} | {r[5]} | {r[6]:.1e} "
-              f"| {100 * r[7]:.1f} % | {r[8]:.2f} | {100 * r[9]:.0f} % |")
+        print(
+            f"| {r[0]} | {r[1]} | {r[2]} | {r[3]:.3f} | {r[4]:.3f} | {r[4] / r[3]:.2f} | {r[5]} | {r[6]:.1e} "
+            f"| {100 * r[7]:.1f} % | {r[8]:.2f} | {100 * r[9]:.0f} % |"
+        )
     gm = float(np.exp(statistics.fmean(np.log([r[4] / r[3] for r in rows]))))
     print(f"\ngeometric mean ratio smoothed / plain: {gm:.2f}")
     return 0

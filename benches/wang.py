@@ -47,7 +47,13 @@ from tilesynth.wang import corner_mismatch
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_TEXTURES = HERE.parent.parent / "shared" / "textures"
-TEXTURES = ["bricks-brown.png", "basket-weave.png", "lettuce-leaves.png", "brodatz-d103-burlap.png", "cracked-mud.png"]
+TEXTURES = [
+    "bricks-brown.png",
+    "basket-weave.png",
+    "lettuce-leaves.png",
+    "brodatz-d103-burlap.png",
+    "cracked-mud.png",
+]
 CROP = 192
 
 
@@ -65,7 +71,10 @@ def energy_section(textures: Path, seeds: int, n_random: int, threads: int | Non
     for name in TEXTURES:
         ex = load(textures, name)
         for tset in ("wang8", "wang18"):
-            rnd = [ts.build_wang(ex, tileset=tset, seed=s, threads=threads).E for s in range(1000, 1000 + n_random)]
+            rnd = [
+                ts.build_wang(ex, tileset=tset, seed=s, threads=threads).E
+                for s in range(1000, 1000 + n_random)
+            ]
             ga, secs, gens, evals = [], [], [], []
             for s in range(seeds):
                 t0 = time.perf_counter()
@@ -74,15 +83,27 @@ def energy_section(textures: Path, seeds: int, n_random: int, threads: int | Non
                 ga.append(b.E)
                 gens.append(b.params["selection"]["generations"])
                 evals.append(b.params["selection"]["evaluations"])
-            rows.append({
-                "texture": name, "shape": list(ex.shape), "set": tset, "tile_size": b.tile_size,
-                "sample_size": b.params["sample_size"], "overlap": b.params["overlap"],
-                "E_random_mean": statistics.fmean(rnd), "E_random_best": min(rnd),
-                "E_ga_mean": statistics.fmean(ga), "E_ga_best": min(ga),
-                "ga_s_median": statistics.median(secs), "ga_generations": gens, "ga_evaluations": evals,
-            })
-            print(f"  {name} {tset}: random {rows[-1]['E_random_mean']:.4g}, GA {rows[-1]['E_ga_mean']:.4g}",
-                  file=sys.stderr)
+            rows.append(
+                {
+                    "texture": name,
+                    "shape": list(ex.shape),
+                    "set": tset,
+                    "tile_size": b.tile_size,
+                    "sample_size": b.params["sample_size"],
+                    "overlap": b.params["overlap"],
+                    "E_random_mean": statistics.fmean(rnd),
+                    "E_random_best": min(rnd),
+                    "E_ga_mean": statistics.fmean(ga),
+                    "E_ga_best": min(ga),
+                    "ga_s_median": statistics.median(secs),
+                    "ga_generations": gens,
+                    "ga_evaluations": evals,
+                }
+            )
+            print(
+                f"  {name} {tset}: random {rows[-1]['E_random_mean']:.4g}, GA {rows[-1]['E_ga_mean']:.4g}",
+                file=sys.stderr,
+            )
     return rows
 
 
@@ -105,12 +126,16 @@ def time_section(textures: Path, threads: int | None) -> list[dict[str, Any]]:
         row["wang18"] = timed(lambda: ts.build_wang(ex, tileset="wang18", seed=1, threads=threads))
         row["wang8_graph"] = timed(lambda: ts.build_wang(ex, seed=1, cut="graph", threads=threads))
         row["wang8_ga"] = timed(lambda: ts.build_wang(ex, seed=1, select="ga", threads=threads), 1)
-        row["wang18_ga"] = timed(lambda: ts.build_wang(ex, tileset="wang18", seed=1, select="ga", threads=threads), 1)
+        row["wang18_ga"] = timed(
+            lambda: ts.build_wang(ex, tileset="wang18", seed=1, select="ga", threads=threads), 1
+        )
         row["swang8"] = timed(lambda: ts.build_swang(ex, seed=1, threads=threads))
         row["swang8_cut"] = timed(lambda: ts.build_swang(ex, seed=1, supplementary="cut", threads=threads))
         rows.append(row)
-        print(f"  {name}: " + ", ".join(f"{k} {v:.2f}" for k, v in row.items() if isinstance(v, float)),
-              file=sys.stderr)
+        print(
+            f"  {name}: " + ", ".join(f"{k} {v:.2f}" for k, v in row.items() if isinstance(v, float)),
+            file=sys.stderr,
+        )
     return rows
 
 
@@ -142,14 +167,19 @@ def corner_section(textures: Path, seeds: int, threads: int | None) -> list[dict
                 disc.append(discontinuity(b))
             cm = np.concatenate(cms)
             row[label] = {
-                "mean_px_per_corner": float(cm.mean()), "max_px": int(cm.max()),
-                "corners_with_mismatch": float((cm > 0).mean()), "discontinuous_pairs": statistics.fmean(disc),
-                "tile_size": b.tile_size, "w": b.params["overlap"] // 2,
+                "mean_px_per_corner": float(cm.mean()),
+                "max_px": int(cm.max()),
+                "corners_with_mismatch": float((cm > 0).mean()),
+                "discontinuous_pairs": statistics.fmean(disc),
+                "tile_size": b.tile_size,
+                "w": b.params["overlap"] // 2,
             }
         row["swang_discontinuous_pairs"] = statistics.fmean(
-            discontinuity(ts.build_swang(ex, seed=s, threads=threads)) for s in range(seeds))
+            discontinuity(ts.build_swang(ex, seed=s, threads=threads)) for s in range(seeds)
+        )
         row["omega16_discontinuous_pairs"] = statistics.fmean(
-            discontinuity(ts.build_omega(ex, tileset="16a", seed=s, threads=threads)) for s in range(seeds))
+            discontinuity(ts.build_omega(ex, tileset="16a", seed=s, threads=threads)) for s in range(seeds)
+        )
         rows.append(row)
         print(f"  {name}: corner mismatch {row['free_dp']['mean_px_per_corner']:.2f} px", file=sys.stderr)
     return rows
@@ -193,13 +223,17 @@ def figure(textures: Path, path: Path, threads: int | None, sheets: bool, size: 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--textures", type=Path, default=Path(os.environ.get("TILESYNTH_TEXTURES", DEFAULT_TEXTURES)))
+    ap.add_argument(
+        "--textures", type=Path, default=Path(os.environ.get("TILESYNTH_TEXTURES", DEFAULT_TEXTURES))
+    )
     ap.add_argument("--only", choices=("energy", "time", "corners", "figure"), action="append")
     ap.add_argument("--seeds", type=int, default=3, help="GA seeds (energy), seeds of the corner statistics")
     ap.add_argument("--random", type=int, default=20, help="random gene vectors per texture and set")
     ap.add_argument("--threads", type=int, default=None)
     ap.add_argument("--figure", type=Path, default=HERE.parent / "docs" / "figures" / "wang-compare.png")
-    ap.add_argument("--tile-sheets", action="store_true", help="also write the contact sheets of the three sets")
+    ap.add_argument(
+        "--tile-sheets", action="store_true", help="also write the contact sheets of the three sets"
+    )
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args()
     only = set(args.only or ("energy", "time", "corners", "figure"))
@@ -208,14 +242,18 @@ def main() -> int:
     if "energy" in only:
         rows = out["energy"] = energy_section(args.textures, args.seeds, args.random, args.threads)
         print("\n### E, random vs GA (001)\n")
-        print("| texture | set | N / P / overlap | E random (mean of %d) | E random (best) | E GA (mean of %d) | "
-              "GA / random | GA time (s) | generations |" % (args.random, args.seeds))
+        print(
+            "| texture | set | N / P / overlap | E random (mean of %d) | E random (best) | E GA (mean of %d) | "
+            "GA / random | GA time (s) | generations |" % (args.random, args.seeds)
+        )
         print("|---|---|---|---|---|---|---|---|---|")
         for r in rows:
-            print(f"| {r['texture']} | {r['set']} | {r['tile_size']} / {r['sample_size']} / {r['overlap']} | "
-                  f"{r['E_random_mean']:.4g} | {r['E_random_best']:.4g} | {r['E_ga_mean']:.4g} | "
-                  f"{r['E_ga_mean'] / r['E_random_mean']:.2f} | {r['ga_s_median']:.2f} | "
-                  f"{', '.join(map(str, r['ga_generations']))} |")
+            print(
+                f"| {r['texture']} | {r['set']} | {r['tile_size']} / {r['sample_size']} / {r['overlap']} | "
+                f"{r['E_random_mean']:.4g} | {r['E_random_best']:.4g} | {r['E_ga_mean']:.4g} | "
+                f"{r['E_ga_mean'] / r['E_random_mean']:.2f} | {r['ga_s_median']:.2f} | "
+                f"{', '.join(map(str, r['ga_generations']))} |"
+            )
     if "time" in only:
         rows = out["time"] = time_section(args.textures, args.threads)
         keys = ["omega16", "wang8", "wang18", "wang8_graph", "wang8_ga", "wang18_ga", "swang8", "swang8_cut"]
@@ -227,16 +265,20 @@ def main() -> int:
     if "corners" in only:
         rows = out["corners"] = corner_section(args.textures, args.seeds, args.threads)
         print("\n### Corner mismatch (Wang-8, random samples)\n")
-        print("| texture | N, w | free DP: px/corner (max), corners hit | free graph: px/corner (max) | "
-              "discontinuous border pairs: free DP / free graph / pinned / s-Wang / omega-16 |")
+        print(
+            "| texture | N, w | free DP: px/corner (max), corners hit | free graph: px/corner (max) | "
+            "discontinuous border pairs: free DP / free graph / pinned / s-Wang / omega-16 |"
+        )
         print("|---|---|---|---|---|")
         for r in rows:
             f, g, p = r["free_dp"], r["free_graph"], r["pinned_dp"]
-            print(f"| {r['texture']} | {f['tile_size']}, {f['w']} | {f['mean_px_per_corner']:.2f} ({f['max_px']}), "
-                  f"{100 * f['corners_with_mismatch']:.0f}% | {g['mean_px_per_corner']:.2f} ({g['max_px']}) | "
-                  f"{100 * f['discontinuous_pairs']:.2f}% / {100 * g['discontinuous_pairs']:.2f}% / "
-                  f"{100 * p['discontinuous_pairs']:.2f}% / {100 * r['swang_discontinuous_pairs']:.2f}% / "
-                  f"{100 * r['omega16_discontinuous_pairs']:.2f}% |")
+            print(
+                f"| {r['texture']} | {f['tile_size']}, {f['w']} | {f['mean_px_per_corner']:.2f} ({f['max_px']}), "
+                f"{100 * f['corners_with_mismatch']:.0f}% | {g['mean_px_per_corner']:.2f} ({g['max_px']}) | "
+                f"{100 * f['discontinuous_pairs']:.2f}% / {100 * g['discontinuous_pairs']:.2f}% / "
+                f"{100 * p['discontinuous_pairs']:.2f}% / {100 * r['swang_discontinuous_pairs']:.2f}% / "
+                f"{100 * r['omega16_discontinuous_pairs']:.2f}% |"
+            )
     if "figure" in only:
         out["figure"] = figure(args.textures, args.figure, args.threads, args.tile_sheets)
         print(f"\nwrote {out['figure']['figure']}")

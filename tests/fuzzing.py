@@ -20,8 +20,21 @@ from hypothesis import strategies as st
 
 # Every dtype a careless caller might pass, including non-native byte order.
 ALL_DTYPES = [
-    "float32", "float64", "float16", "uint8", "uint16", "uint32", "int8", "int32", "int64", "bool",
-    "complex64", ">f4", ">f8", ">u2", ">i8",
+    "float32",
+    "float64",
+    "float16",
+    "uint8",
+    "uint16",
+    "uint32",
+    "int8",
+    "int32",
+    "int64",
+    "bool",
+    "complex64",
+    ">f4",
+    ">f8",
+    ">u2",
+    ">i8",
 ]
 LAYOUTS = ["C", "F", "strided", "reversed", "readonly"]
 VALUE_KINDS = ["unit", "unit", "unit", "special", "large", "negative", "tiny"]
@@ -32,7 +45,9 @@ MODE = {"tame": False}
 SPECIALS = np.array([np.nan, np.inf, -np.inf, -0.0, 1.0 + 2**-20, -1e-30, 3e38, -3e38, 5e-324])
 
 
-def fill(shape: tuple[int, ...], dtype: Any, kind: str, seed: int, lo: float = 0.0, hi: float = 1.0) -> np.ndarray:
+def fill(
+    shape: tuple[int, ...], dtype: Any, kind: str, seed: int, lo: float = 0.0, hi: float = 1.0
+) -> np.ndarray:
     """An array of ``shape`` and ``dtype`` with values of ``kind`` (see :data:`VALUE_KINDS`)."""
     with np.errstate(all="ignore"):
         return _fill(shape, dtype, kind, seed, lo, hi)
@@ -56,8 +71,12 @@ def _fill(shape: tuple[int, ...], dtype: Any, kind: str, seed: int, lo: float, h
     if dt.kind in "iu":
         info = np.iinfo(dt)
         if kind in ("large", "special"):
-            return rng.integers(info.min, info.max, size=shape, dtype=dt.newbyteorder("="), endpoint=True).astype(dt)
-        return np.clip(np.nan_to_num(np.rint(v * (info.max if hi <= 1.0 else 1.0))), info.min, info.max).astype(dt)
+            return rng.integers(
+                info.min, info.max, size=shape, dtype=dt.newbyteorder("="), endpoint=True
+            ).astype(dt)
+        return np.clip(
+            np.nan_to_num(np.rint(v * (info.max if hi <= 1.0 else 1.0))), info.min, info.max
+        ).astype(dt)
     return v.astype(dt)
 
 
@@ -129,7 +148,9 @@ def _bounded(shape: tuple[int, ...]) -> tuple[int, ...]:
 
 def threads() -> st.SearchStrategy[Any]:
     """Thread counts: None, 1 or 2 (tame); sometimes zero, negative, huge or not an integer (wild)."""
-    return _tame_or_wild(st.sampled_from([None, 1, 2]), st.sampled_from([0, -1, 2**31, 2**64, 1.5, "2", True]))
+    return _tame_or_wild(
+        st.sampled_from([None, 1, 2]), st.sampled_from([0, -1, 2**31, 2**64, 1.5, "2", True])
+    )
 
 
 def sizes(lo: int = -2, hi: int = 12) -> st.SearchStrategy[Any]:
@@ -195,7 +216,9 @@ def assert_unchanged(snaps: list[Snapshot]) -> None:
     """Fails if any snapshotted array changed its content, dtype, shape, strides or writeability."""
     for i, s in enumerate(snaps):
         a = s.value
-        assert (a.dtype.str, a.shape, a.strides, a.flags.writeable) == s.meta, f"argument array {i}: layout changed"
+        assert (a.dtype.str, a.shape, a.strides, a.flags.writeable) == s.meta, (
+            f"argument array {i}: layout changed"
+        )
         assert a.tobytes(order="A") == s.data, f"argument array {i} ({a.dtype} {a.shape}) was modified"
 
 

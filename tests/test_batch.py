@@ -16,8 +16,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import tilesynth as ts
 from PIL import Image
+
+import tilesynth as ts
 from tilesynth import batch
 from tilesynth.batch import BatchError, build_many, load_library
 from tilesynth.cli import main as cli_main

@@ -42,22 +42,28 @@ def test_build_with_selection(method, ex, tmp_path):
 
 
 def test_selection_reproducible_and_thread_independent(ex):
-    a = tilesynth.build_omega(ex, tileset="8", tile_size=32, seed=9, select="ais", generations=3, population=6,
-                              threads=1)
-    b = tilesynth.build_omega(ex, tileset="8", tile_size=32, seed=9, select="ais", generations=3, population=6,
-                              threads=2)
+    a = tilesynth.build_omega(
+        ex, tileset="8", tile_size=32, seed=9, select="ais", generations=3, population=6, threads=1
+    )
+    b = tilesynth.build_omega(
+        ex, tileset="8", tile_size=32, seed=9, select="ais", generations=3, population=6, threads=2
+    )
     assert a.content_digest() == b.content_digest()
     np.testing.assert_array_equal(a.genes, b.genes)
 
 
 def test_polish_never_worse_and_normalised_objective(ex):
-    base = tilesynth.build_omega(ex, tileset="8", tile_size=32, seed=2, select="ga", generations=3, population=6)
-    pol = tilesynth.build_omega(ex, tileset="8", tile_size=32, seed=2, select="ga", generations=3, population=6,
-                                polish=True)
+    base = tilesynth.build_omega(
+        ex, tileset="8", tile_size=32, seed=2, select="ga", generations=3, population=6
+    )
+    pol = tilesynth.build_omega(
+        ex, tileset="8", tile_size=32, seed=2, select="ga", generations=3, population=6, polish=True
+    )
     assert pol.E <= base.E * (1 + 1e-12)
     assert pol.params["selection"]["polish"]["E_before"] == pytest.approx(base.E, rel=1e-9)
-    nrm = tilesynth.build_omega(ex, tileset="8", tile_size=32, seed=2, select="best-of", population=5,
-                                normalise=True)
+    nrm = tilesynth.build_omega(
+        ex, tileset="8", tile_size=32, seed=2, select="best-of", population=5, normalise=True
+    )
     sel = nrm.params["selection"]
     assert sel["normalise"] is True
     # 003's normalisation divides every C_j by the N·N overlapping pixels: D_j / N² in the objective
@@ -67,8 +73,9 @@ def test_polish_never_worse_and_normalised_objective(ex):
 
 def test_select_and_genes_conflict(ex):
     with pytest.raises(tilesynth.ParameterError, match="genes"):
-        tilesynth.build_omega(ex, tileset="4", tile_size=32, genes=[[0, 0], [1, 1], [2, 2], [3, 3]][:2],
-                              select="ga")
+        tilesynth.build_omega(
+            ex, tileset="4", tile_size=32, genes=[[0, 0], [1, 1], [2, 2], [3, 3]][:2], select="ga"
+        )
     with pytest.raises(tilesynth.ParameterError, match="method"):
         tilesynth.build_omega(ex, tileset="4", tile_size=32, select="annealing")
 
@@ -77,8 +84,31 @@ def test_cli_select_and_info(ex, tmp_path, capsys):
     png = tmp_path / "ex.png"
     tilesynth.save_image(png, ex)
     out = tmp_path / "n2.tiles"
-    assert main(["build", str(png), "-o", str(out), "--set", "n2", "--tile-size", "24", "--select", "ais",
-                 "--generations", "3", "--population", "6", "--polish", "--seed", "1", "-q"]) == 0
+    assert (
+        main(
+            [
+                "build",
+                str(png),
+                "-o",
+                str(out),
+                "--set",
+                "n2",
+                "--tile-size",
+                "24",
+                "--select",
+                "ais",
+                "--generations",
+                "3",
+                "--population",
+                "6",
+                "--polish",
+                "--seed",
+                "1",
+                "-q",
+            ]
+        )
+        == 0
+    )
     ts = tilesynth.load(out)
     assert ts.n_tiles == 38 and ts.params["selection"]["method"] == "ais"
     capsys.readouterr()

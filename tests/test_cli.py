@@ -29,16 +29,48 @@ def exemplar_png(tmp_path_factory, small_exemplar):
 @pytest.fixture(scope="module")
 def built_file(tmp_path_factory, exemplar_png):
     out = tmp_path_factory.mktemp("tiles") / "ex.tiles"
-    assert main(["build", str(exemplar_png), "-o", str(out), "--set", "16a", "--tile-size", "24", "--seed", "3",
-                 "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "build",
+                str(exemplar_png),
+                "-o",
+                str(out),
+                "--set",
+                "16a",
+                "--tile-size",
+                "24",
+                "--seed",
+                "3",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     return out
 
 
 def test_build_synth_info(built_file, tmp_path, capsys):
     out = tmp_path / "t.png"
     mp = tmp_path / "map.npy"
-    assert main(["synth", str(built_file), "-o", str(out), "--size", "100x70", "--seed", "5", "--save-map", str(mp),
-                 "-q"]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                str(built_file),
+                "-o",
+                str(out),
+                "--size",
+                "100x70",
+                "--seed",
+                "5",
+                "--save-map",
+                str(mp),
+                "-q",
+            ]
+        )
+        == 0
+    )
     im = read_png(out)
     assert im.shape == (70, 100, 3) and im.dtype == np.uint8
     imap = np.load(mp)
@@ -50,8 +82,17 @@ def test_build_synth_info(built_file, tmp_path, capsys):
     capsys.readouterr()
     assert main(["info", str(built_file)]) == 0
     text = capsys.readouterr().out
-    for words in ("scheme        omega", "16a", "24x24", "seed          3", "E ", "build time", "genes (row, col)",
-                  "cut cost", "selection     random"):
+    for words in (
+        "scheme        omega",
+        "16a",
+        "24x24",
+        "seed          3",
+        "E ",
+        "build time",
+        "genes (row, col)",
+        "cut cost",
+        "selection     random",
+    ):
         assert words in text, words
     assert main(["info", str(built_file), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
@@ -138,15 +179,32 @@ def test_bad_map_is_rejected_with_position(built_file, tmp_path, capsys):
     mp = tmp_path / "bad.npy"
     np.save(mp, bad)
     out = tmp_path / "o.png"
-    code, err = run_err(["synth", str(built_file), "-o", str(out), "--size", "72x72", "--map", str(mp)], capsys)
+    code, err = run_err(
+        ["synth", str(built_file), "-o", str(out), "--size", "72x72", "--map", str(mp)], capsys
+    )
     assert code == 2 and "index_map" in err and not out.exists()
 
 
 def test_console_script_and_module_entry(built_file, tmp_path):
-    r = subprocess.run([sys.executable, "-m", "tilesynth", "info", str(built_file)], capture_output=True, text=True)
+    r = subprocess.run(
+        [sys.executable, "-m", "tilesynth", "info", str(built_file)], capture_output=True, text=True
+    )
     assert r.returncode == 0 and "omega" in r.stdout
-    r = subprocess.run([sys.executable, "-m", "tilesynth", "synth", str(built_file), "-o", str(tmp_path / "x.png"),
-                        "--size", "axb"], capture_output=True, text=True)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "tilesynth",
+            "synth",
+            str(built_file),
+            "-o",
+            str(tmp_path / "x.png"),
+            "--size",
+            "axb",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
 
 
@@ -164,11 +222,17 @@ def _bomb(tmp_path):
     import zlib
 
     def chunk(tag: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+        return (
+            struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+        )
 
     p = tmp_path / "bomb.png"
-    p.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 100000, 100000, 8, 2, 0, 0, 0))
-                  + chunk(b"IDAT", zlib.compress(b"")) + chunk(b"IEND", b""))
+    p.write_bytes(
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", struct.pack(">IIBBBBB", 100000, 100000, 8, 2, 0, 0, 0))
+        + chunk(b"IDAT", zlib.compress(b""))
+        + chunk(b"IEND", b"")
+    )
     return p
 
 
@@ -176,7 +240,9 @@ def _big_map(tmp_path):
     """A .npy whose header declares a 100000 x 100000 int64 map, with no data after it."""
     p = tmp_path / "big.npy"
     with open(p, "wb") as fh:
-        np.lib.format.write_array_header_1_0(fh, {"descr": "<i8", "fortran_order": False, "shape": (100000, 100000)})
+        np.lib.format.write_array_header_1_0(
+            fh, {"descr": "<i8", "fortran_order": False, "shape": (100000, 100000)}
+        )
     return p
 
 
@@ -191,7 +257,11 @@ def test_internal_error_is_exit_1_with_a_short_message(built_file, tmp_path, mon
     out = tmp_path / "o.png"
     code, err = run_err(["synth", str(built_file), "-o", str(out), "--size", "10x10"], capsys)
     assert code == 1
-    assert err.strip().splitlines()[-1].startswith("tilesynth: internal error in _raise_panic: boom in the kernel")
+    assert (
+        err.strip()
+        .splitlines()[-1]
+        .startswith("tilesynth: internal error in _raise_panic: boom in the kernel")
+    )
     assert "Traceback" not in err and not out.exists()
     monkeypatch.setattr(synthesis, "synthesize", lambda *a, **k: 1 / 0)  # any other unexpected exception
     code, err = run_err(["synth", str(built_file), "-o", str(out), "--size", "10x10"], capsys)
@@ -199,8 +269,9 @@ def test_internal_error_is_exit_1_with_a_short_message(built_file, tmp_path, mon
 
 
 @pytest.mark.parametrize("when", ["image", "tiles", "map"])
-def test_ctrl_c_or_error_while_writing_leaves_no_partial_file(built_file, exemplar_png, tmp_path, monkeypatch,
-                                                             capsys, when):
+def test_ctrl_c_or_error_while_writing_leaves_no_partial_file(
+    built_file, exemplar_png, tmp_path, monkeypatch, capsys, when
+):
     """Ctrl-C (KeyboardInterrupt) in the middle of writing an output: exit 130, the output is not created,
     a previous file of that name is left as it was, and no temporary file remains."""
     from PIL import Image as PILImage
@@ -242,7 +313,16 @@ def test_ctrl_c_or_error_while_writing_leaves_no_partial_file(built_file, exempl
         args = ["build", str(exemplar_png), "-o", str(out), "--set", "4", "--tile-size", "16", "--seed", "1"]
     else:
         monkeypatch.setattr(np, "save", lambda fh, *a, **k: interrupted(fh))
-        args = ["synth", str(built_file), "-o", str(tmp_path / "img.png"), "--size", "40x40", "--save-map", str(out)]
+        args = [
+            "synth",
+            str(built_file),
+            "-o",
+            str(tmp_path / "img.png"),
+            "--size",
+            "40x40",
+            "--save-map",
+            str(out),
+        ]
     code, err = run_err(args, capsys)
     assert code == 130 and "interrupted" in err
     assert out.read_bytes() == b"previous content"
@@ -261,11 +341,43 @@ def test_same_seed_same_bytes_across_runs_and_threads(exemplar_png, tmp_path):
         d = tmp_path / threads
         d.mkdir()
         env = {**os.environ, "TILESYNTH_NUM_THREADS": threads}
-        for args in (["build", str(exemplar_png), "-o", str(d / "t.tiles"), "--set", "16a", "--tile-size", "24",
-                      "--seed", "5", "--select", "ga", "--generations", "2", "--population", "6", "-q"],
-                     ["synth", str(d / "t.tiles"), "-o", str(d / "t.png"), "--size", "150x100", "--seed", "9",
-                      "--save-map", str(d / "m.npy"), "-q"]):
-            r = subprocess.run([sys.executable, "-m", "tilesynth", *args], capture_output=True, text=True, env=env)
+        for args in (
+            [
+                "build",
+                str(exemplar_png),
+                "-o",
+                str(d / "t.tiles"),
+                "--set",
+                "16a",
+                "--tile-size",
+                "24",
+                "--seed",
+                "5",
+                "--select",
+                "ga",
+                "--generations",
+                "2",
+                "--population",
+                "6",
+                "-q",
+            ],
+            [
+                "synth",
+                str(d / "t.tiles"),
+                "-o",
+                str(d / "t.png"),
+                "--size",
+                "150x100",
+                "--seed",
+                "9",
+                "--save-map",
+                str(d / "m.npy"),
+                "-q",
+            ],
+        ):
+            r = subprocess.run(
+                [sys.executable, "-m", "tilesynth", *args], capture_output=True, text=True, env=env
+            )
             assert r.returncode == 0, r.stderr
         files[threads] = d
     a, b = files["1"], files["2"]

@@ -6,13 +6,13 @@ import itertools
 
 import numpy as np
 import pytest
+
 import tilesynth as ts
-from tilesynth.lookup import lookup_scheme
-from tilesynth.wangsets import complete_edge_set
 from tilesynth.errors import ParameterError
+from tilesynth.lookup import lookup_scheme
 from tilesynth.metrics import seam_score
 from tilesynth.tilesets import get_tileset
-from tilesynth.wangsets import get_wang_tileset, is_wang_set_name
+from tilesynth.wangsets import complete_edge_set, get_wang_tileset, is_wang_set_name
 
 
 @pytest.mark.parametrize(

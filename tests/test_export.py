@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 import tilesynth as ts
 from tilesynth._validate import to_uint
 from tilesynth.engine import atlas as xatlas

@@ -12,12 +12,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from webgl import browser_or_skip, run_page
+
 import tilesynth as ts
 from tilesynth.engine import atlas as xatlas
 from tilesynth.engine import export
 from tilesynth.engine import viewer as xv
 from tilesynth.metrics import seam_score
-from webgl import browser_or_skip, run_page
 
 
 @pytest.fixture(scope="module")
@@ -188,8 +189,9 @@ DATA = Path(__file__).parent / "data"
 def test_shader_hash_matches_the_vectors_bit_for_bit(browser, tmp_path):
     import json
 
-    from tilesynth.engine import shader_source
     from webgl import hash_page
+
+    from tilesynth.engine import shader_source
 
     vectors = json.loads((DATA / "hash_vectors.json").read_text())
     page = tmp_path / "hash.html"
@@ -277,8 +279,9 @@ def test_wgsl_hash_and_tile_index_match_the_vectors_in_webgpu(browser, tmp_path)
     """The WGSL shader through Chromium's WebGPU (Dawn on SwiftShader's Vulkan), in a compute pass."""
     import json
 
-    from tilesynth.engine import shader_source
     from webgl import run_webgpu_page, wgsl_page
+
+    from tilesynth.engine import shader_source
 
     vectors = json.loads((DATA / "hash_vectors.json").read_text())
     page = tmp_path / "wgsl.html"

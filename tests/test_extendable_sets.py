@@ -116,9 +116,7 @@ def _full_preimage(base: Iterable[Tile], colours: Sequence[str], projection: dic
     """All tiles over ``colours`` whose corner-wise projection lies in ``base``."""
     base_set = set(base)
     return {
-        t
-        for t in itertools.product(colours, repeat=4)
-        if tuple(projection.get(c, c) for c in t) in base_set
+        t for t in itertools.product(colours, repeat=4) if tuple(projection.get(c, c) for c in t) in base_set
     }
 
 
@@ -161,9 +159,7 @@ def test_basic_set_is_complete_with_a_choice_at_the_leftmost_column() -> None:
     # Property 1 cannot hold for any candidate; B violates it once (<R,R,Y,G>).
     assert check_properties(b)["property1"] is False
     offenders = [
-        t
-        for t in _strings(b)
-        if t[TL] == t[BL] or t[TL] == t[TR] or t[BL] == t[BR] or t[TR] == t[BR]
+        t for t in _strings(b) if t[TL] == t[BL] or t[TL] == t[TR] or t[BL] == t[BR] or t[TR] == t[BR]
     ]
     assert offenders == ["RRYG"]
 

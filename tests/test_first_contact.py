@@ -8,6 +8,7 @@ import re
 from pathlib import Path
 
 import pytest
+
 import tilesynth
 from tilesynth.cli import build_parser, main
 

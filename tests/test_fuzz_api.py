@@ -39,13 +39,19 @@ def small_set() -> ts.TileSet:
     """One small tile set, built once (the synthesis and rendering fuzzers draw around it)."""
     if "set" not in _CACHE:
         r = np.random.default_rng(7)
-        _CACHE["set"] = ts.build_omega(r.random((24, 24, 3), dtype=np.float32), tileset="8", tile_size=8, seed=1,
-                                       exemplar_info={"file": "ex.png", "bits": 8})
+        _CACHE["set"] = ts.build_omega(
+            r.random((24, 24, 3), dtype=np.float32),
+            tileset="8",
+            tile_size=8,
+            seed=1,
+            exemplar_info={"file": "ex.png", "bits": 8},
+        )
     return _CACHE["set"]  # type: ignore[return-value]
 
 
 def exemplars() -> st.SearchStrategy[np.ndarray]:
     """Exemplars: valid small images most of the time, careless arrays otherwise."""
+
     @st.composite
     def draw(d: st.DrawFn) -> np.ndarray:
         if d(st.integers(0, 3)):
@@ -68,16 +74,27 @@ def as_image_call(d: st.DrawFn):
 def patch_ssd(d: st.DrawFn):
     img = d(exemplars())
     t = d(arrays(d(st.sampled_from([3, 4])), F32, None, max_side=8))
-    return ts.patch_ssd, (img, t), {"mask": d(st.none() | arrays(2, B, t.shape[-3:-1] if t.ndim >= 3 else None)),
-                                     "threads": d(threads())}, ()
+    return (
+        ts.patch_ssd,
+        (img, t),
+        {
+            "mask": d(st.none() | arrays(2, B, t.shape[-3:-1] if t.ndim >= 3 else None)),
+            "threads": d(threads()),
+        },
+        (),
+    )
 
 
 @st.composite
 def best_matches(d: st.DrawFn):
     img = d(exemplars())
     t = d(arrays(d(st.sampled_from([3, 4])), F32, None, max_side=8))
-    kw = {"k": d(sizes(-1, 20)), "exclude_radius": d(sizes(-1, 5)), "threads": d(threads()),
-          "mask": d(st.none() | arrays(2, B, t.shape[-3:-1] if t.ndim >= 3 else None))}
+    kw = {
+        "k": d(sizes(-1, 20)),
+        "exclude_radius": d(sizes(-1, 5)),
+        "threads": d(threads()),
+        "mask": d(st.none() | arrays(2, B, t.shape[-3:-1] if t.ndim >= 3 else None)),
+    }
     return ts.best_matches, (img, t), kw, ()
 
 
@@ -88,7 +105,9 @@ def ssd_index(d: st.DrawFn):
 
 @st.composite
 def ssd_index_methods(d: st.DrawFn):
-    idx = ts.SsdIndex(np.random.default_rng(d(st.integers(0, 9))).random((d(st.integers(1, 20)), 12, 3), dtype=np.float32))
+    idx = ts.SsdIndex(
+        np.random.default_rng(d(st.integers(0, 9))).random((d(st.integers(1, 20)), 12, 3), dtype=np.float32)
+    )
     t = d(arrays(d(st.sampled_from([2, 3, 4])), F32, None, max_side=10))
     if d(st.booleans()):
         return idx.ssd, (t,), {"mask": d(st.none() | arrays(2, B)), "threads": d(threads())}, ()
@@ -102,7 +121,10 @@ def grid_mincut(d: st.DrawFn):
     masks = [d(arrays(2, B, hw)) for _ in range(2)]
     if masks[0].dtype == masks[1].dtype == np.bool_ and masks[0].shape == masks[1].shape and d(st.booleans()):
         masks[1] = masks[1] & ~masks[0]
-    kw = {"source_cap": d(st.none() | arrays(2, F64, hw, hi=5.0)), "sink_cap": d(st.none() | arrays(2, F64, hw))}
+    kw = {
+        "source_cap": d(st.none() | arrays(2, F64, hw, hi=5.0)),
+        "sink_cap": d(st.none() | arrays(2, F64, hw)),
+    }
     return ts.grid_mincut, (*caps, *masks), kw, ()
 
 
@@ -110,8 +132,11 @@ def grid_mincut(d: st.DrawFn):
 def kwatra_weights(d: st.DrawFn):
     shp = (d(st.integers(0, 8)), d(st.integers(0, 8)), d(st.integers(0, 4)))
     a, b = d(arrays(3, F32, shp)), d(arrays(3, "uint8", shp))
-    kw = {"region": d(st.none() | arrays(2, B, shp[:2])), "eps": d(floats()),
-          "a_grad": d(st.none() | arrays(3, F64, (shp[0], shp[1], 2)))}
+    kw = {
+        "region": d(st.none() | arrays(2, B, shp[:2])),
+        "eps": d(floats()),
+        "a_grad": d(st.none() | arrays(3, F64, (shp[0], shp[1], 2))),
+    }
     return ts.kwatra_weights, (a, b), kw, ()
 
 
@@ -119,8 +144,12 @@ def kwatra_weights(d: st.DrawFn):
 def omega_cuts(d: st.DrawFn):
     n = d(st.integers(0, 14))
     shp = (d(st.integers(0, 3)), n, n, d(st.integers(1, 3)))
-    kw = {"eps": d(st.just(1e-6) | floats()), "threads": d(threads()), "keep_border": d(st.booleans()),
-          "intermediate_grad": d(st.none() | arrays(4, F64, shp[:3] + (2,)))}
+    kw = {
+        "eps": d(st.just(1e-6) | floats()),
+        "threads": d(threads()),
+        "keep_border": d(st.booleans()),
+        "intermediate_grad": d(st.none() | arrays(4, F64, shp[:3] + (2,))),
+    }
     return ts.omega_cuts, (d(arrays(4, F32, shp)), d(arrays(4, F32, shp))), kw, ()
 
 
@@ -131,10 +160,18 @@ def poisson_smooth(d: st.DrawFn):
     shp = ((d(st.integers(0, 3)),) if stack else ()) + (n, m)
     dt = d(st.sampled_from([F32, F64, "uint8", "uint16", "float16", "int32"]))
     dst, src = d(arrays(len(shp) + 1, dt, shp + (c,))), d(arrays(len(shp) + 1, dt, shp + (c,)))
-    region = d(arrays(d(st.sampled_from([len(shp), len(shp), 1, 4])), d(st.sampled_from([B, B, "int32", F64])),
-                      shp if d(st.booleans()) else (None,) * len(shp)))
-    kw = {"tol": d(st.just(1e-6) | floats() | st.sampled_from([1e-13, 1.0, "x", True])), "threads": d(threads()),
-          "info": d(st.booleans())}
+    region = d(
+        arrays(
+            d(st.sampled_from([len(shp), len(shp), 1, 4])),
+            d(st.sampled_from([B, B, "int32", F64])),
+            shp if d(st.booleans()) else (None,) * len(shp),
+        )
+    )
+    kw = {
+        "tol": d(st.just(1e-6) | floats() | st.sampled_from([1e-13, 1.0, "x", True])),
+        "threads": d(threads()),
+        "info": d(st.booleans()),
+    }
     return ts.poisson_smooth, (dst, src, region), kw, ()
 
 
@@ -154,8 +191,11 @@ def tile_copy(d: st.DrawFn):
 def population_evaluator(d: st.DrawFn):
     ex = d(exemplars())
     tp = d(arrays(2, I64, (None, 4), max_side=4, lo=0, hi=4))
-    kw = {"lam": d(st.floats(0, 1) | floats()), "normalise": d(st.booleans()),
-          "cache_bytes": d(st.sampled_from([0, 1 << 16]) | sizes(-1, 9))}
+    kw = {
+        "lam": d(st.floats(0, 1) | floats()),
+        "normalise": d(st.booleans()),
+        "cache_bytes": d(st.sampled_from([0, 1 << 16]) | sizes(-1, 9)),
+    }
     return ts.PopulationEvaluator, (ex, d(st.sampled_from([2, 4, 6]) | sizes()), tp, d(sizes(-1, 5))), kw, ()
 
 
@@ -163,7 +203,9 @@ def population_evaluator(d: st.DrawFn):
 def population_evaluate(d: st.DrawFn):
     r = np.random.default_rng(d(st.integers(0, 9)))
     ev = ts.PopulationEvaluator(r.random((16, 15, 2), dtype=np.float32), 4, r.integers(0, 3, (3, 4)), 3)
-    genes = d(arrays(3, d(st.sampled_from([I64, "int32", "uint64", F64])), (None, 3, 2), max_side=3, lo=-1, hi=13))
+    genes = d(
+        arrays(3, d(st.sampled_from([I64, "int32", "uint64", F64])), (None, 3, 2), max_side=3, lo=-1, hi=13)
+    )
     return ev.evaluate, (genes,), {"threads": d(threads())}, ()
 
 
@@ -182,8 +224,12 @@ def good_exemplar(d: st.DrawFn) -> np.ndarray:
 @st.composite
 def build_omega(d: st.DrawFn):
     # one argument (or none) drawn carelessly, the others valid, so that most calls build a set
-    broken = d(st.sampled_from(["none"] * 4 + ["exemplar", "tileset", "tile_size", "seed", "threads", "gradients",
-                                               "eps", "select", "genes"]))
+    broken = d(
+        st.sampled_from(
+            ["none"] * 4
+            + ["exemplar", "tileset", "tile_size", "seed", "threads", "gradients", "eps", "select", "genes"]
+        )
+    )
     ex = d(exemplars()) if broken == "exemplar" else good_exemplar(d)
     kw = {
         "tileset": d(st.sampled_from(["4", "8", "16a", "32", "B", "n1", "n2"])),
@@ -211,7 +257,10 @@ def build_omega(d: st.DrawFn):
         kw["select"] = method
         small = st.integers(2, 4) if broken != "select" else sizes(-1, 4)
         if method in ("ga", "ais"):
-            kw["generations"], kw["population"] = d(st.integers(1, 2) if broken != "select" else sizes(-1, 3)), d(small)
+            kw["generations"], kw["population"] = (
+                d(st.integers(1, 2) if broken != "select" else sizes(-1, 3)),
+                d(small),
+            )
         elif method == "best-of":
             kw["population"] = d(small)
         if broken == "select" and d(st.booleans()):
@@ -225,10 +274,14 @@ def build_omega(d: st.DrawFn):
 @st.composite
 def synthesize(d: st.DrawFn):
     tset = small_set()
-    broken = d(st.sampled_from(["none"] * 4 + ["size", "seed", "dtype", "threads", "max_bytes", "index_map", "out"]))
+    broken = d(
+        st.sampled_from(["none"] * 4 + ["size", "seed", "dtype", "threads", "max_bytes", "index_map", "out"])
+    )
     w, h = d(st.integers(1, 70)), d(st.integers(1, 70))
-    kw: dict = {"seed": d(st.none() | st.integers(0, 2**64)), "dtype": d(st.sampled_from([np.float32, np.uint8,
-                                                                                       np.uint16, "uint8"]))}
+    kw: dict = {
+        "seed": d(st.none() | st.integers(0, 2**64)),
+        "dtype": d(st.sampled_from([np.float32, np.uint8, np.uint16, "uint8"])),
+    }
     if broken == "size":
         w, h = d(sizes(-1, 70) | st.just(10**6)), d(sizes(-1, 70) | st.just(10**6))
     elif broken == "seed":
@@ -245,9 +298,12 @@ def synthesize(d: st.DrawFn):
         kw["out"] = d(arrays(3, d(st.sampled_from([F32, "uint8"])), (None, None, 3), max_side=20))
     if d(st.integers(0, 3)) == 0 and broken != "index_map":  # a valid map of the right size
         n = tset.tile_size
-        kw["index_map"] = ts.scanline_index_map(tset.definition, -(-max(h, 1) // n) if isinstance(h, int) and
-                                                0 < h < 10**5 else 1, -(-max(w, 1) // n) if isinstance(w, int)
-                                                and 0 < w < 10**5 else 1, 3)
+        kw["index_map"] = ts.scanline_index_map(
+            tset.definition,
+            -(-max(h, 1) // n) if isinstance(h, int) and 0 < h < 10**5 else 1,
+            -(-max(w, 1) // n) if isinstance(w, int) and 0 < w < 10**5 else 1,
+            3,
+        )
     return ts.synthesize, (tset, w, h), kw, ()
 
 
@@ -271,17 +327,25 @@ def energy(d: st.DrawFn):
 
 @st.composite
 def get_tileset(d: st.DrawFn):
-    name = d(st.sampled_from(["4", "8", "16a", "16b", "32", "B", "n1", "n3", "n16", "n17", "n0", "n01", "", "x"])
-             | st.text(max_size=6))
+    name = d(
+        st.sampled_from(["4", "8", "16a", "16b", "32", "B", "n1", "n3", "n16", "n17", "n0", "n01", "", "x"])
+        | st.text(max_size=6)
+    )
     return ts.get_tileset, (name,), {}, ()
 
 
 @st.composite
 def scanline_index_map(d: st.DrawFn):
     # the tile set as a definition, a set name (issue 16: a name raised AttributeError), a TileSet or junk
-    tset = d(st.sampled_from([small_set().definition, "16a", "wang8", "n1x2", "nope", "", None, 3, small_set()]))
-    return ts.scanline_index_map, (tset, d(sizes(-1, 30)), d(sizes(-1, 30))), \
-        {"seed": d(st.none() | st.integers(0, 2**32) | st.sampled_from([-1, 0.5]))}, ()
+    tset = d(
+        st.sampled_from([small_set().definition, "16a", "wang8", "n1x2", "nope", "", None, 3, small_set()])
+    )
+    return (
+        ts.scanline_index_map,
+        (tset, d(sizes(-1, 30)), d(sizes(-1, 30))),
+        {"seed": d(st.none() | st.integers(0, 2**32) | st.sampled_from([-1, 0.5]))},
+        (),
+    )
 
 
 @st.composite
@@ -294,8 +358,12 @@ def validate_index_map(d: st.DrawFn):
 def _png_bytes(d: st.DrawFn) -> bytes:
     """A real PNG (8- or 16-bit, several modes), to be cut short or corrupted."""
     h, w = d(st.integers(1, 12)), d(st.integers(1, 12))
-    arr = fuzzing.fill((h, w, d(st.sampled_from([1, 2, 3, 4]))), d(st.sampled_from(["uint8", "uint16"])), "unit",
-                       d(st.integers(0, 999)))
+    arr = fuzzing.fill(
+        (h, w, d(st.sampled_from([1, 2, 3, 4]))),
+        d(st.sampled_from(["uint8", "uint16"])),
+        "unit",
+        d(st.integers(0, 999)),
+    )
     buf = io.BytesIO()
     if arr.dtype == np.uint16:
         with tempfile.TemporaryDirectory() as tmp:
@@ -306,8 +374,10 @@ def _png_bytes(d: st.DrawFn) -> bytes:
             ts.save_image(os.path.join(tmp, "x.exr"), arr.astype(np.float32) / 255)
             return Path(tmp, "x.exr").read_bytes()
     sq = arr[..., 0] if arr.shape[2] == 1 else arr
-    Image.fromarray(sq).save(buf, format=d(st.sampled_from(["PNG", "JPEG", "GIF", "BMP", "TIFF"]))
-                             if arr.shape[2] in (1, 3) else "PNG")
+    Image.fromarray(sq).save(
+        buf,
+        format=d(st.sampled_from(["PNG", "JPEG", "GIF", "BMP", "TIFF"])) if arr.shape[2] in (1, 3) else "PNG",
+    )
     return buf.getvalue()
 
 
@@ -332,8 +402,14 @@ def load_image(d: st.DrawFn):
 
 @st.composite
 def save_image(d: st.DrawFn):
-    arr = d(arrays(d(st.sampled_from([2, 3])), d(st.sampled_from([F32, "uint8", "uint16", F64, "int32"])),
-                   (None, None, None), max_side=10))
+    arr = d(
+        arrays(
+            d(st.sampled_from([2, 3])),
+            d(st.sampled_from([F32, "uint8", "uint16", F64, "int32"])),
+            (None, None, None),
+            max_side=10,
+        )
+    )
     name = d(st.sampled_from(["x.png", "x.jpg", "x.tif", "x.bmp", "x.exr", "x.nope", "x", "nodir/x.png"]))
     return ts.save_image, (os.path.join(_tmpdir(), name), arr), {"bits": d(st.sampled_from([8, 16, 12]))}, ()
 
@@ -361,8 +437,20 @@ def tileset_load(d: st.DrawFn):
             for item in zin.infolist():
                 body = zin.read(item)
                 if item.filename == victim:
-                    body = d(st.sampled_from([b"", b"{}", b"[]", b"null", b'{"format": 1}', body[: len(body) // 2],
-                                              body.replace(b"0", b"9"), body.replace(b"true", b"false")]))
+                    body = d(
+                        st.sampled_from(
+                            [
+                                b"",
+                                b"{}",
+                                b"[]",
+                                b"null",
+                                b'{"format": 1}',
+                                body[: len(body) // 2],
+                                body.replace(b"0", b"9"),
+                                body.replace(b"true", b"false"),
+                            ]
+                        )
+                    )
                 zout.writestr(item, body)
         data = buf.getvalue()
     path = os.path.join(_tmpdir(), "in.tiles")
@@ -389,7 +477,9 @@ def small_sets() -> dict[str, ts.TileSet]:
         ex = np.random.default_rng(7).random((24, 24, 3), dtype=np.float32)
         _CACHE["sets"] = {
             "omega": small_set(),
-            "omega-ga": ts.build_omega(ex, tileset="8", tile_size=8, seed=2, select="ga", generations=2, population=3),
+            "omega-ga": ts.build_omega(
+                ex, tileset="8", tile_size=8, seed=2, select="ga", generations=2, population=3
+            ),
             "wang": ts.build_wang(ex, tile_size=8, seed=1),
             "swang": ts.build_swang(ex, tile_size=8, seed=1),
             "omega-smooth": ts.build_omega(ex, tileset="8", tile_size=8, seed=3, smooth=True),
@@ -400,7 +490,9 @@ def small_sets() -> dict[str, ts.TileSet]:
 def tilesets() -> st.SearchStrategy[Any]:
     """A small tile set of any scheme, sometimes something that is not a tile set."""
     kinds = ["omega", "omega-ga", "wang", "swang", "omega-smooth"]
-    return st.sampled_from(kinds * 4 + [None, "x.tiles", 3]).map(lambda k: small_sets()[k] if k in kinds else k)
+    return st.sampled_from(kinds * 4 + [None, "x.tiles", 3]).map(
+        lambda k: small_sets()[k] if k in kinds else k
+    )
 
 
 COLOURS = ["R", "G", "B", "Y", "C", "M", "", "RR"]
@@ -422,13 +514,34 @@ def wang_tileset(d: st.DrawFn):
     elif broken == "tiles":
         tiles = d(st.sampled_from([None, 3, "RYRY", (), [], tiles + tiles[:1]]))
     elif broken == "tile":
-        tiles = tiles + [d(st.sampled_from(["RYGC", "RY", 7, None, b"RYGC", ["R", "Y", "R"], ["R", "Y", "R", "Q"],
-                                            ["Y", "R", "Y", "R"], [], ["R", "Y", "R", "Y", "R"]]))]
+        tiles = tiles + [
+            d(
+                st.sampled_from(
+                    [
+                        "RYGC",
+                        "RY",
+                        7,
+                        None,
+                        b"RYGC",
+                        ["R", "Y", "R"],
+                        ["R", "Y", "R", "Q"],
+                        ["Y", "R", "Y", "R"],
+                        [],
+                        ["R", "Y", "R", "Y", "R"],
+                    ]
+                )
+            )
+        ]
     name = d(st.sampled_from(["w", "", None, 3]))
     if d(st.booleans()):
         return ts.WangTileSet, (name, h, v, tiles), {}, ()
-    desc: Any = {"kind": d(st.sampled_from(["wang", "wang", "wang", "corner", None])), "name": name, "horizontal": h,
-                 "vertical": v, "tiles": tiles}
+    desc: Any = {
+        "kind": d(st.sampled_from(["wang", "wang", "wang", "corner", None])),
+        "name": name,
+        "horizontal": h,
+        "vertical": v,
+        "tiles": tiles,
+    }
     if one_in(d, 4):
         for key in d(st.lists(st.sampled_from(sorted(desc)), min_size=1, max_size=2)):
             desc.pop(key, None)
@@ -439,9 +552,30 @@ def wang_tileset(d: st.DrawFn):
 
 @st.composite
 def get_wang_tileset(d: st.DrawFn):
-    name = d(st.sampled_from(["wang8", "wang18", "wang32", "wang128", "wang162", "wang2", "wang9", "wang0", "wang08",
-                              "wang", "Wang8", " wang8", "8", "", "wang" + "1" * 400, "wang" + "9" * 5000])
-             | st.text(max_size=8) | st.sampled_from([None, 8, 8.0, b"wang8", ["wang8"], {"wang8": 1}]))
+    name = d(
+        st.sampled_from(
+            [
+                "wang8",
+                "wang18",
+                "wang32",
+                "wang128",
+                "wang162",
+                "wang2",
+                "wang9",
+                "wang0",
+                "wang08",
+                "wang",
+                "Wang8",
+                " wang8",
+                "8",
+                "",
+                "wang" + "1" * 400,
+                "wang" + "9" * 5000,
+            ]
+        )
+        | st.text(max_size=8)
+        | st.sampled_from([None, 8, 8.0, b"wang8", ["wang8"], {"wang8": 1}])
+    )
     return ts.get_wang_tileset, (name,), {}, ()
 
 
@@ -472,8 +606,26 @@ def select_kwargs(d: st.DrawFn, broken: bool) -> dict:
 @st.composite
 def build_wang(d: st.DrawFn):
     # one argument (or none) drawn carelessly, the others valid, so that most calls build a set
-    broken = d(st.sampled_from(["none"] * 4 + ["exemplar", "tileset", "tile_size", "overlap", "corners", "samples",
-                                               "cut", "seed", "threads", "omega", "eps", "select", "genes"]))
+    broken = d(
+        st.sampled_from(
+            ["none"] * 4
+            + [
+                "exemplar",
+                "tileset",
+                "tile_size",
+                "overlap",
+                "corners",
+                "samples",
+                "cut",
+                "seed",
+                "threads",
+                "omega",
+                "eps",
+                "select",
+                "genes",
+            ]
+        )
+    )
     ex = d(exemplars()) if broken == "exemplar" else wang_exemplar(d)
     samples = d(st.sampled_from(["diamond", "diamond", "square"]))
     kw: dict = {
@@ -488,8 +640,11 @@ def build_wang(d: st.DrawFn):
         kw["overlap"] = d(st.sampled_from([None, 2]))
         kw["corners"] = d(st.sampled_from([None, "free", "pinned"]))
     if broken == "tileset":
-        kw["tileset"] = d(st.sampled_from(["wang9", "wang0", "", "8", "16a", 8, None, ["wang8"], "wang" + "1" * 400])
-                          | st.text(max_size=5) | st.just(ts.get_wang_tileset("wang8")))
+        kw["tileset"] = d(
+            st.sampled_from(["wang9", "wang0", "", "8", "16a", 8, None, ["wang8"], "wang" + "1" * 400])
+            | st.text(max_size=5)
+            | st.just(ts.get_wang_tileset("wang8"))
+        )
     elif broken == "tile_size":
         kw["tile_size"] = d(sizes(-2, 26))
     elif broken == "overlap":
@@ -519,8 +674,24 @@ def build_wang(d: st.DrawFn):
 
 @st.composite
 def build_swang(d: st.DrawFn):
-    broken = d(st.sampled_from(["none"] * 4 + ["exemplar", "tileset", "tile_size", "supplementary", "candidates",
-                                               "seed", "threads", "eps", "gradients", "select", "genes"]))
+    broken = d(
+        st.sampled_from(
+            ["none"] * 4
+            + [
+                "exemplar",
+                "tileset",
+                "tile_size",
+                "supplementary",
+                "candidates",
+                "seed",
+                "threads",
+                "eps",
+                "gradients",
+                "select",
+                "genes",
+            ]
+        )
+    )
     ex = d(exemplars()) if broken == "exemplar" else wang_exemplar(d)
     kw: dict = {
         "tileset": d(st.sampled_from(["wang8", "wang8", "wang18"])),
@@ -537,9 +708,11 @@ def build_swang(d: st.DrawFn):
         kw["tile_size"] = d(sizes(-2, 26))
     elif broken == "supplementary":
         k = 18 if kw["tileset"] == "wang18" else 8
-        kw["supplementary"] = d(st.sampled_from(["x", "", "SSD", None, 3])
-                                | arrays(2, I64, (d(st.sampled_from([k, k, k - 1])), 2), lo=-1, hi=16)
-                                | arrays(2, F64, (k, 2), hi=8))
+        kw["supplementary"] = d(
+            st.sampled_from(["x", "", "SSD", None, 3])
+            | arrays(2, I64, (d(st.sampled_from([k, k, k - 1])), 2), lo=-1, hi=16)
+            | arrays(2, F64, (k, 2), hi=8)
+        )
     elif broken == "candidates":
         kw["supplementary"] = "cut"
         kw["candidates"] = d(sizes(-1, 600))
@@ -607,19 +780,32 @@ def build(d: st.DrawFn):
 
 def wang_kernel_args(d: st.DrawFn) -> tuple[np.ndarray, dict]:
     """An exemplar and the geometry / cut parameters of the Wang kernels, one of them (or none) careless."""
-    broken = d(st.sampled_from(["none"] * 3 + ["exemplar", "tile_size", "overlap", "corners", "samples", "cut",
-                                               "omega", "eps"]))
+    broken = d(
+        st.sampled_from(
+            ["none"] * 3 + ["exemplar", "tile_size", "overlap", "corners", "samples", "cut", "omega", "eps"]
+        )
+    )
     ex = d(exemplars()) if broken == "exemplar" else wang_exemplar(d)
     samples = d(st.sampled_from(["diamond", "diamond", "square"]))
-    kw = {"tile_size": d(st.sampled_from([4, 4, 6, 8])), "overlap": d(st.sampled_from([2, 2, 4])),
-          "corners": d(st.sampled_from(["free", "pinned"])) if samples == "diamond" else "pinned",
-          "samples": samples, "cut": d(st.sampled_from(["dp", "graph"])), "omega": d(st.floats(0, 1)),
-          "eps": d(st.just(1e-6) | st.floats(1e-9, 1.0))}
+    kw = {
+        "tile_size": d(st.sampled_from([4, 4, 6, 8])),
+        "overlap": d(st.sampled_from([2, 2, 4])),
+        "corners": d(st.sampled_from(["free", "pinned"])) if samples == "diamond" else "pinned",
+        "samples": samples,
+        "cut": d(st.sampled_from(["dp", "graph"])),
+        "omega": d(st.floats(0, 1)),
+        "eps": d(st.just(1e-6) | st.floats(1e-9, 1.0)),
+    }
     if broken in ("tile_size", "overlap"):
         kw[broken] = d(st.sampled_from([0, 2, 3, 5, 30]) | sizes(-1, 12))
     elif broken in ("corners", "samples", "cut"):
-        kw[broken] = d(choices({"corners": ["free", "pinned"], "samples": ["square", "diamond"],
-                                "cut": ["graph", "dp"]}[broken]))
+        kw[broken] = d(
+            choices(
+                {"corners": ["free", "pinned"], "samples": ["square", "diamond"], "cut": ["graph", "dp"]}[
+                    broken
+                ]
+            )
+        )
     elif broken == "omega":
         kw["omega"] = d(floats() | st.sampled_from([1.5, -0.1, True, np.float32(0.5)]))
     elif broken == "eps":
@@ -635,8 +821,15 @@ def wang_tiles(d: st.DrawFn):
     side = min(ex.shape[:2]) if ex.ndim == 3 else 4
     reach = side - (n + ov if isinstance(n, int) and isinstance(ov, int) and 0 <= n + ov < 99 else 0)
     genes = d(arrays(2, I64, (None, 2), max_side=6, lo=d(st.sampled_from([0, 0, -1])), hi=max(reach, 1)))
-    tile_samples = d(arrays(2, I64, (d(st.integers(0, 8)), 4), lo=d(st.sampled_from([0, 0, -1])),
-                            hi=max(genes.shape[0] - 1, 1) if genes.ndim else 2))
+    tile_samples = d(
+        arrays(
+            2,
+            I64,
+            (d(st.integers(0, 8)), 4),
+            lo=d(st.sampled_from([0, 0, -1])),
+            hi=max(genes.shape[0] - 1, 1) if genes.ndim else 2,
+        )
+    )
     return ts.wang_tiles, (ex, genes, tile_samples, n, ov), {**kw, "threads": d(threads())}, ()
 
 
@@ -654,10 +847,25 @@ def wang_evaluator(d: st.DrawFn):
 def wang_evaluate(d: st.DrawFn):
     r = np.random.default_rng(d(st.integers(0, 9)))
     s = ts.get_wang_tileset("wang8")
-    ev = ts.WangEvaluator(r.random((16, 15, 2), dtype=np.float32), s.sample_indices(), s.n_samples, 8, 2,
-                          corners=d(st.sampled_from(["free", "pinned"])), cut=d(st.sampled_from(["dp", "graph"])))
-    genes = d(arrays(3, d(st.sampled_from([I64, "int32", "uint64", F64])), (None, s.n_samples, 2), max_side=3,
-                     lo=-1, hi=8))
+    ev = ts.WangEvaluator(
+        r.random((16, 15, 2), dtype=np.float32),
+        s.sample_indices(),
+        s.n_samples,
+        8,
+        2,
+        corners=d(st.sampled_from(["free", "pinned"])),
+        cut=d(st.sampled_from(["dp", "graph"])),
+    )
+    genes = d(
+        arrays(
+            3,
+            d(st.sampled_from([I64, "int32", "uint64", F64])),
+            (None, s.n_samples, 2),
+            max_side=3,
+            lo=-1,
+            hi=8,
+        )
+    )
     return ev.evaluate, (genes,), {"threads": d(threads())}, ()
 
 
@@ -665,8 +873,11 @@ def wang_evaluate(d: st.DrawFn):
 def swang_cuts(d: st.DrawFn):
     n = d(st.integers(0, 14))
     shp = (d(st.integers(0, 3)), n, n, d(st.integers(1, 3)))
-    kw = {"eps": d(st.just(1e-6) | floats()), "threads": d(threads()),
-          "initial_grad": d(st.none() | arrays(4, F64, shp[:3] + (2,)))}
+    kw = {
+        "eps": d(st.just(1e-6) | floats()),
+        "threads": d(threads()),
+        "initial_grad": d(st.none() | arrays(4, F64, shp[:3] + (2,))),
+    }
     return ts.swang_cuts, (d(arrays(4, F32, shp)), d(arrays(4, F32, shp))), kw, ()
 
 
@@ -677,8 +888,11 @@ def seam_score(d: st.DrawFn):
 
 
 def coherence_kwargs(d: st.DrawFn) -> dict:
-    return {"patch": d(st.sampled_from([2, 3, 4, 8]) | sizes(-1, 30)),
-            "stride": d(st.sampled_from([1, 2, 4]) | sizes(-1, 30)), "threads": d(threads())}
+    return {
+        "patch": d(st.sampled_from([2, 3, 4, 8]) | sizes(-1, 30)),
+        "stride": d(st.sampled_from([1, 2, 4]) | sizes(-1, 30)),
+        "threads": d(threads()),
+    }
 
 
 @st.composite
@@ -694,7 +908,9 @@ def coherence_energy(d: st.DrawFn):
         except (ValueError, TypeError):  # not an image: no index (the call refuses the exemplar anyway)
             kw["index"] = None
     elif how == "other":
-        kw["index"] = ts.SsdIndex(np.random.default_rng(1).random((12, 10, d(st.integers(1, 3))), dtype=np.float32))
+        kw["index"] = ts.SsdIndex(
+            np.random.default_rng(1).random((12, 10, d(st.integers(1, 3))), dtype=np.float32)
+        )
     elif how == "junk":
         kw["index"] = d(st.sampled_from([3, "index", ex]))
     return ts.coherence_energy, (img, ex), kw, ()
@@ -703,12 +919,23 @@ def coherence_energy(d: st.DrawFn):
 @st.composite
 def image_metrics(d: st.DrawFn):
     img = d(exemplars())
-    kw: dict = {"tile_size": d(st.none() | sizes(-2, 12)), "exemplar": d(st.none() | exemplars()),
-                **coherence_kwargs(d)}
+    kw: dict = {
+        "tile_size": d(st.none() | sizes(-2, 12)),
+        "exemplar": d(st.none() | exemplars()),
+        **coherence_kwargs(d),
+    }
     if d(st.booleans()):
         sh = img.shape[:2] if img.ndim >= 2 and d(st.booleans()) else (None, None)
-        kw["source"] = d(arrays(3, d(st.sampled_from(["int32", I64, "uint64", "int8", F64])), sh + (2,), lo=-1,
-                                hi=30, max_side=24))
+        kw["source"] = d(
+            arrays(
+                3,
+                d(st.sampled_from(["int32", I64, "uint64", "int8", F64])),
+                sh + (2,),
+                lo=-1,
+                hi=30,
+                max_side=24,
+            )
+        )
     return ts.image_metrics, (img,), kw, ()
 
 
@@ -724,8 +951,11 @@ def tileset_metrics(d: st.DrawFn):
     tset = d(tilesets())
     broken = d(st.sampled_from(["none"] * 3 + ["size", "seed", "patch", "threads", "index_map"]))
     w, h = sample_sizes(d, broken == "size")
-    kw: dict = {"seed": d(st.integers(0, 2**64)) if broken != "seed" else d(st.sampled_from([-1, 0.5, "1", None])),
-                "patch": d(st.sampled_from([4, 8])), "stride": d(st.sampled_from([4, 8]))}
+    kw: dict = {
+        "seed": d(st.integers(0, 2**64)) if broken != "seed" else d(st.sampled_from([-1, 0.5, "1", None])),
+        "patch": d(st.sampled_from([4, 8])),
+        "stride": d(st.sampled_from([4, 8])),
+    }
     if broken == "patch":
         kw.update(coherence_kwargs(d))
     elif broken == "threads":
@@ -752,12 +982,17 @@ def write_report(d: st.DrawFn):
     out_dir: Any = os.path.join(base, where)
     if broken == "out_dir" and one_in(d, 4):
         out_dir = d(st.sampled_from([None, 3, Path(base, "rep-path")]))
-    kw: dict = {"seed": d(st.integers(0, 2**64)) if broken != "seed" else d(st.sampled_from([-1, 0.5, "1", None])),
-                "borders": d(st.booleans())}
+    kw: dict = {
+        "seed": d(st.integers(0, 2**64)) if broken != "seed" else d(st.sampled_from([-1, 0.5, "1", None])),
+        "borders": d(st.booleans()),
+    }
     if broken == "threads":
         kw["threads"] = d(threads())
-    kw["name"] = d(st.sampled_from([None, "x.tiles", "<b>&", 5, b"x", ["x"]])) if broken == "name" \
+    kw["name"] = (
+        d(st.sampled_from([None, "x.tiles", "<b>&", 5, b"x", ["x"]]))
+        if broken == "name"
         else d(st.sampled_from([None, "x.tiles"]))
+    )
     return ts.write_report, (tset, out_dir, w, h), kw, ()
 
 
@@ -767,8 +1002,9 @@ def complete_set() -> ts.TileSet:
     """A small complete set (hashed lookup), built once."""
     if "complete" not in _CACHE:
         r = np.random.default_rng(8)
-        _CACHE["complete"] = ts.build_omega(r.random((24, 24, 3), dtype=np.float32), tileset="c2x2", tile_size=8,
-                                            seed=1)
+        _CACHE["complete"] = ts.build_omega(
+            r.random((24, 24, 3), dtype=np.float32), tileset="c2x2", tile_size=8, seed=1
+        )
     return _CACHE["complete"]  # type: ignore[return-value]
 
 
@@ -777,11 +1013,17 @@ def synthesize_hashed(d: st.DrawFn):
     tset = d(st.sampled_from([complete_set(), small_set()]))
     w, h = d(st.integers(1, 40) | sizes(-1, 40)), d(st.integers(1, 40) | sizes(-1, 40))
     big = st.integers(-(2**40), 2**40)
-    origin = d(st.tuples(big | st.integers(-100, 100), big | st.integers(-100, 100)) | st.just((0, 0))
-               | st.sampled_from([(1,), "0,0", (0.5, 0), None]))
-    kw = {"seed": d(st.none() | st.integers(-1, 2**33)), "origin": origin,
-          "wrap": d(st.booleans() | st.sampled_from([1, "yes", None])),
-          "dtype": d(st.sampled_from([np.float32, np.uint8, np.uint16]))}
+    origin = d(
+        st.tuples(big | st.integers(-100, 100), big | st.integers(-100, 100))
+        | st.just((0, 0))
+        | st.sampled_from([(1,), "0,0", (0.5, 0), None])
+    )
+    kw = {
+        "seed": d(st.none() | st.integers(-1, 2**33)),
+        "origin": origin,
+        "wrap": d(st.booleans() | st.sampled_from([1, "yes", None])),
+        "dtype": d(st.sampled_from([np.float32, np.uint8, np.uint16])),
+    }
     return ts.synthesize, (tset, w, h), kw, ()
 
 
@@ -789,12 +1031,20 @@ def synthesize_hashed(d: st.DrawFn):
 def lookup_scheme_call(d: st.DrawFn):
     kind = d(st.sampled_from(["corner", "edge", "hex", 3]))
     colours = d(st.lists(st.integers(-2, 300) | st.sampled_from([1.5, "2", True]), max_size=3))
-    return ts.LookupScheme, (kind, tuple(colours), d(st.integers(-1, 5) | st.sampled_from([2.5, None]))), {}, ()
+    return (
+        ts.LookupScheme,
+        (kind, tuple(colours), d(st.integers(-1, 5) | st.sampled_from([2.5, None]))),
+        {},
+        (),
+    )
 
 
 @st.composite
 def ts_hash_call(d: st.DrawFn):
-    x = d(st.integers(-(2**32), 2**32) | arrays(d(st.integers(1, 2)), d(st.sampled_from([I64, "int32", F64, "uint64"]))))
+    x = d(
+        st.integers(-(2**32), 2**32)
+        | arrays(d(st.integers(1, 2)), d(st.sampled_from([I64, "int32", F64, "uint64"])))
+    )
     y = d(st.integers(-(2**32), 2**32) | arrays(1, d(st.sampled_from([I64, "int32"]))))
     seed = d(st.integers(-1, 2**33) | st.sampled_from([None, 1.0, "1"]))
     return ts.ts_hash, (x, y, seed, d(st.integers(-1, 2**33))), {}, ()
@@ -802,12 +1052,19 @@ def ts_hash_call(d: st.DrawFn):
 
 @st.composite
 def hashed_index_map_call(d: st.DrawFn):
-    scheme = d(st.sampled_from([ts.LookupScheme("corner", (3,), 2), ts.LookupScheme("edge", (2, 3)), "corner"]))
+    scheme = d(
+        st.sampled_from([ts.LookupScheme("corner", (3,), 2), ts.LookupScheme("edge", (2, 3)), "corner"])
+    )
     size = d(st.tuples(sizes(-1, 12), sizes(-1, 12)) | st.sampled_from([(3,), None, "3x3"]))
     origin = d(st.tuples(st.integers(-(2**33), 2**33), st.integers(-(2**33), 2**33)) | st.just((0, 0)))
     wrap = d(st.none() | st.tuples(st.integers(-1, 5), st.integers(-1, 5)) | st.just(True))
     seed = d(st.integers(-1, 2**33))
-    return ts.hashed_index_map, (scheme, seed, size), {"origin": origin, "wrap": wrap, "threads": d(threads())}, ()
+    return (
+        ts.hashed_index_map,
+        (scheme, seed, size),
+        {"origin": origin, "wrap": wrap, "threads": d(threads())},
+        (),
+    )
 
 
 @st.composite
@@ -832,13 +1089,28 @@ def synthesize_map(d: st.DrawFn):
     if broken == "aligned":
         aligned = d(arrays(len(shape), d(st.sampled_from(fuzzing.ALL_DTYPES)), shape, max_side=24, wild=0.5))
     w, h = sample_sizes(d, broken == "size")
-    imap = ts.synthesize(small_set(), 40, 40, seed=1)[1] if not isinstance(tset, ts.TileSet) else \
-        ts.synthesize(tset, 40, 40, seed=d(st.integers(0, 9)))[1]
+    imap = (
+        ts.synthesize(small_set(), 40, 40, seed=1)[1]
+        if not isinstance(tset, ts.TileSet)
+        else ts.synthesize(tset, 40, 40, seed=d(st.integers(0, 9)))[1]
+    )
     if broken == "index_map":
         n_tiles = tset.n_tiles if isinstance(tset, ts.TileSet) else 8
-        imap = d(st.sampled_from([imap.astype(I64) + 2**32, imap + 0.5, imap - imap.max() - 1, imap[:1, :1],
-                                  imap.astype("uint64") + 2**63, imap.T.copy(), imap.astype(">i8"), None])
-                 | arrays(2, d(st.sampled_from(["int32", I64, F64, "uint8"])), lo=0, hi=n_tiles + 1, max_side=8))
+        imap = d(
+            st.sampled_from(
+                [
+                    imap.astype(I64) + 2**32,
+                    imap + 0.5,
+                    imap - imap.max() - 1,
+                    imap[:1, :1],
+                    imap.astype("uint64") + 2**63,
+                    imap.T.copy(),
+                    imap.astype(">i8"),
+                    None,
+                ]
+            )
+            | arrays(2, d(st.sampled_from(["int32", I64, F64, "uint8"])), lo=0, hi=n_tiles + 1, max_side=8)
+        )
     kw = {"threads": d(threads())} if broken == "threads" else {}
     if d(st.booleans()):
         kw["smooth"] = d(st.sampled_from([None, True, False, "yes", 1]))
@@ -854,14 +1126,24 @@ def _raster_bytes(d: st.DrawFn) -> tuple[bytes, str]:
         return _png_bytes(d), ".png"
     buf = io.BytesIO()
     if kind == "npy":
-        a = fuzzing.fill((h, w, d(st.integers(1, 4)))[: d(st.sampled_from([2, 3, 3, 1]))],
-                         d(st.sampled_from(["uint8", "uint16", F32, F32, F64, ">u2", I64, "bool"])), "unit", seed)
+        a = fuzzing.fill(
+            (h, w, d(st.integers(1, 4)))[: d(st.sampled_from([2, 3, 3, 1]))],
+            d(st.sampled_from(["uint8", "uint16", F32, F32, F64, ">u2", I64, "bool"])),
+            "unit",
+            seed,
+        )
         np.save(buf, a)
         return buf.getvalue(), ".npy"
     if kind == "npy-header":  # a header that declares more data than the file holds
         shape = d(st.sampled_from([(100000, 100000), (2**31, 2**31), (2**40, 2**40, 3), (5, 5), (0, 3), ()]))
-        np.lib.format.write_array_header_1_0(buf, {"descr": d(st.sampled_from(["|u1", "<u2", "<f4", "|O"])),
-                                                   "fortran_order": d(st.booleans()), "shape": shape})
+        np.lib.format.write_array_header_1_0(
+            buf,
+            {
+                "descr": d(st.sampled_from(["|u1", "<u2", "<f4", "|O"])),
+                "fortran_order": d(st.booleans()),
+                "shape": shape,
+            },
+        )
         return buf.getvalue() + d(st.binary(max_size=16)), ".npy"
     if kind in ("tif16", "tif-f"):
         a = fuzzing.fill((h, w), "uint16" if kind == "tif16" else F32, "unit", seed)
@@ -895,7 +1177,12 @@ def load_raster(d: st.DrawFn):
         fh.write(data)
     if one_in(d, 10):
         path = d(st.sampled_from([_tmpdir(), os.path.join(_tmpdir(), "missing.png"), None, 3, "nul\0.png"]))
-    return ts.load_raster, (path,), {"max_pixels": d(st.sampled_from([None, None, None, 30, 1000, -1, "9"]))}, ()
+    return (
+        ts.load_raster,
+        (path,),
+        {"max_pixels": d(st.sampled_from([None, None, None, 30, 1000, -1, "9"]))},
+        (),
+    )
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -922,7 +1209,9 @@ def export_call(d: st.DrawFn):
         "bits": d(st.sampled_from([8, 16, 8, 16, 12, None])),
         "lookup": d(st.sampled_from(["auto", "index_map", "hash", "x"])),
         "seed": d(st.integers(0, 2**32 - 1) | st.sampled_from([-1, 2**32, 0.5, "1"])),
-        "index_size": d(st.none() | st.tuples(sizes(-1, 6), sizes(-1, 6)) | st.sampled_from([(1.5, 2), "4x4", 3])),
+        "index_size": d(
+            st.none() | st.tuples(sizes(-1, 6), sizes(-1, 6)) | st.sampled_from([(1.5, 2), "4x4", 3])
+        ),
         "index_seed": d(st.integers(0, 9) | st.sampled_from([-1, 0.5])),
         "viewer": one_in(d, 6),
     }
@@ -992,7 +1281,11 @@ API = {
 }
 
 NOT_FUZZED = {
-    "ParameterError", "ShapeError", "TileSetFormatError", "TilesynthError", "InternalError",  # exception classes
+    "ParameterError",
+    "ShapeError",
+    "TileSetFormatError",
+    "TilesynthError",
+    "InternalError",  # exception classes
     "TileSet",  # the dataclass; its load and save are fuzzed
     "PoissonInfo",  # a frozen dataclass of results
     "load",  # alias of TileSet.load
@@ -1012,7 +1305,11 @@ def test_public_call_gives_clear_error_or_result_and_mutates_nothing(name, data)
     fuzzing.MODE["tame"] = data.draw(st.booleans(), label="tame")
     fn, args, kwargs, mutable = data.draw(API[name](), label="call")
     call_checked(fn, args, kwargs, API_ERRORS, mutable)
-    if name in ("save_image", "TileSet.save", "write_report"):  # atomic writes: never a partial file left behind
+    if name in (
+        "save_image",
+        "TileSet.save",
+        "write_report",
+    ):  # atomic writes: never a partial file left behind
         assert not [f for _, _, files in os.walk(_tmpdir()) for f in files if f.endswith(".part")]
 
 
@@ -1050,8 +1347,10 @@ def test_cli_on_a_tampered_manifest_exits_0_or_2():
     failures = []
     for j, path in enumerate(paths):
         # every field through synth (which uses the most of the manifest) and through one of the others
-        for value, command in ((BAD_VALUES[j % len(BAD_VALUES)], "synth"),
-                               (BAD_VALUES[(3 * j + 4) % len(BAD_VALUES)], CLI_COMMANDS[j % 3])):
+        for value, command in (
+            (BAD_VALUES[j % len(BAD_VALUES)], "synth"),
+            (BAD_VALUES[(3 * j + 4) % len(BAD_VALUES)], CLI_COMMANDS[j % 3]),
+        ):
             manifest = json.loads(original)
             o = manifest
             for key in path[:-1]:
@@ -1074,14 +1373,45 @@ def test_cli_on_a_tampered_manifest_exits_0_or_2():
 
 # ------------------------------------------------------------------------------------------- batch files (issue 17)
 _BATCH_LEAVES = st.one_of(
-    st.none(), st.booleans(), st.integers(-3, 70), st.floats(allow_nan=True), st.text(max_size=10),
-    st.sampled_from(["ex.png", "*.png", "zz*.png", "16a", "8", "wang8", "ga", "omega", "wang", "swang", "all",
-                     "32x32", "{stem}", "{stem.x}", "{0}", "../x", "a/b", "best-cut", "copy", "smooth", "p"]),
+    st.none(),
+    st.booleans(),
+    st.integers(-3, 70),
+    st.floats(allow_nan=True),
+    st.text(max_size=10),
+    st.sampled_from(
+        [
+            "ex.png",
+            "*.png",
+            "zz*.png",
+            "16a",
+            "8",
+            "wang8",
+            "ga",
+            "omega",
+            "wang",
+            "swang",
+            "all",
+            "32x32",
+            "{stem}",
+            "{stem.x}",
+            "{0}",
+            "../x",
+            "a/b",
+            "best-cut",
+            "copy",
+            "smooth",
+            "p",
+        ]
+    ),
 )
 _BATCH_VALUES = st.recursive(
     _BATCH_LEAVES,
-    lambda c: st.lists(c, max_size=3) | st.dictionaries(
-        st.sampled_from(["size", "seed", "bits", "maps", "borders", "n", "p", "ex.png"]), c, max_size=3),
+    lambda c: (
+        st.lists(c, max_size=3)
+        | st.dictionaries(
+            st.sampled_from(["size", "seed", "bits", "maps", "borders", "n", "p", "ex.png"]), c, max_size=3
+        )
+    ),
     max_leaves=6,
 )
 

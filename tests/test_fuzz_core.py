@@ -36,8 +36,13 @@ def image(max_side: int = 8, channels: int | None = None) -> st.SearchStrategy[n
 def side(lo: int, hi: int) -> st.SearchStrategy[int]:
     """Mostly small sides, sometimes past the kernels' 16-pixel blocks and the 100 x 100 pixels above which the
     SSD kernel runs in parallel."""
-    return st.one_of(st.integers(lo, hi), st.integers(lo, hi), st.integers(lo, hi), st.integers(17, 40),
-                     st.integers(100, 120))
+    return st.one_of(
+        st.integers(lo, hi),
+        st.integers(lo, hi),
+        st.integers(lo, hi),
+        st.integers(17, 40),
+        st.integers(100, 120),
+    )
 
 
 def valid_image(max_side: int = 9, min_side: int = 1) -> st.SearchStrategy[np.ndarray]:
@@ -93,16 +98,28 @@ def ssd_index_shape(d: st.DrawFn):
 @st.composite
 def population_new(d: st.DrawFn):
     # one argument (or none) is drawn carelessly, the others are valid, so most calls reach the kernel
-    broken = d(st.sampled_from(["none", "none", "exemplar", "tile_size", "tile_patches", "n_patches", "lam", "cache"]))
+    broken = d(
+        st.sampled_from(
+            ["none", "none", "exemplar", "tile_size", "tile_patches", "n_patches", "lam", "cache"]
+        )
+    )
     ex = d(arrays(3, F32, (None, None, None), max_side=12)) if broken == "exemplar" else d(valid_image(12, 2))
     side = min(ex.shape[:2]) if ex.ndim == 3 else 2
-    n = d(sizes(-2, 14)) if broken == "tile_size" else min(d(st.sampled_from([2, 4, 6])), max(2, side - side % 2))
+    n = (
+        d(sizes(-2, 14))
+        if broken == "tile_size"
+        else min(d(st.sampled_from([2, 4, 6])), max(2, side - side % 2))
+    )
     n_patches = d(sizes(-1, 6)) if broken == "n_patches" else d(st.integers(1, 5))
     top = n_patches if isinstance(n_patches, int) and 0 < n_patches < 100 else 4
     if broken == "tile_patches":
         tp = d(arrays(2, I64, (None, 4), max_side=5, lo=-1, hi=top + 1))
     else:
-        tp = np.random.default_rng(d(st.integers(0, 99))).integers(0, top, (d(st.integers(1, 4)), 4)).astype(np.int64)
+        tp = (
+            np.random.default_rng(d(st.integers(0, 99)))
+            .integers(0, top, (d(st.integers(1, 4)), 4))
+            .astype(np.int64)
+        )
     lam = d(floats()) if broken == "lam" else d(st.floats(0, 1))
     cache = d(sizes(-1, 10)) if broken == "cache" else d(st.sampled_from([0, 1, 4096, 1 << 20]))
     kw = {"lam": lam, "normalise": d(st.booleans()), "cache_bytes": cache}
@@ -117,7 +134,9 @@ def _evaluator(d: st.DrawFn):
     n_patches = d(st.integers(1, 5))
     m = d(st.integers(1, 4))
     tp = np.random.default_rng(d(st.integers(0, 99))).integers(0, n_patches, (m, 4)).astype(np.int64)
-    ev = _core.PopulationEvaluator(ex, n, tp, n_patches, 0.8, d(st.booleans()), d(st.sampled_from([0, 1 << 16])))
+    ev = _core.PopulationEvaluator(
+        ex, n, tp, n_patches, 0.8, d(st.booleans()), d(st.sampled_from([0, 1 << 16]))
+    )
     return ev, ex, n, n_patches
 
 
@@ -156,7 +175,10 @@ def grid_mincut(d: st.DrawFn):
     src, snk = d(arrays(2, B, hw)), d(arrays(2, B, hw))
     if d(st.booleans()) and src.shape == snk.shape and src.dtype == snk.dtype == np.bool_:
         snk = snk & ~src  # mostly disjoint hard masks, so the solver runs
-    kw = {"source_cap": d(maybe(arrays(2, F64, hw, lo=lo, hi=hi))), "sink_cap": d(maybe(arrays(2, F64, hw, lo=lo, hi=hi)))}
+    kw = {
+        "source_cap": d(maybe(arrays(2, F64, hw, lo=lo, hi=hi))),
+        "sink_cap": d(maybe(arrays(2, F64, hw, lo=lo, hi=hi))),
+    }
     return _core.grid_mincut, (wx, wy, src, snk), kw, ()
 
 
@@ -164,8 +186,11 @@ def grid_mincut(d: st.DrawFn):
 def kwatra_weights(d: st.DrawFn):
     shp = (d(side(0, 7)), d(side(0, 7)), d(st.integers(0, 4)))
     a, b = d(arrays(3, F32, shp)), d(arrays(3, F32, shp))
-    kw = {"region": d(maybe(arrays(2, B, shp[:2]))), "eps": d(floats()),
-          "a_grad": d(maybe(arrays(3, F64, (shp[0], shp[1], 2), hi=3.0)))}
+    kw = {
+        "region": d(maybe(arrays(2, B, shp[:2]))),
+        "eps": d(floats()),
+        "a_grad": d(maybe(arrays(3, F64, (shp[0], shp[1], 2), hi=3.0))),
+    }
     return _core.kwatra_weights, (a, b), kw, ()
 
 
@@ -174,8 +199,12 @@ def omega_cuts(d: st.DrawFn):
     n = d(st.one_of(st.integers(0, 12), st.integers(0, 12), st.integers(13, 48)))
     shp = (d(st.integers(0, 3)), n, n, d(st.integers(1, 3)))
     i, o = d(arrays(4, F32, shp)), d(arrays(4, F32, shp))
-    kw = {"eps": d(st.one_of(st.just(1e-6), floats())), "threads": d(threads()),
-          "intermediate_grad": d(maybe(arrays(4, F64, shp[:3] + (2,), hi=3.0))), "keep_border": d(st.booleans())}
+    kw = {
+        "eps": d(st.one_of(st.just(1e-6), floats())),
+        "threads": d(threads()),
+        "intermediate_grad": d(maybe(arrays(4, F64, shp[:3] + (2,), hi=3.0))),
+        "keep_border": d(st.booleans()),
+    }
     return _core.omega_cuts, (i, o), kw, ()
 
 
@@ -194,7 +223,9 @@ def tile_copy(d: st.DrawFn):
     if broken == "index_map":
         imap = d(arrays(2, I32, (None, None), lo=-1, hi=k + 1))
     else:
-        imap = np.random.default_rng(d(st.integers(0, 99))).integers(0, max(k, 1), (rows, cols)).astype(np.int32)
+        imap = (
+            np.random.default_rng(d(st.integers(0, 99))).integers(0, max(k, 1), (rows, cols)).astype(np.int32)
+        )
     out_dt = d(st.sampled_from(["uint8", "float64", ">f4", "int64", "uint16"])) if broken == "dtypes" else dt
     if broken == "out":
         out = d(arrays(3, out_dt, (None, None, c), max_side=12))
@@ -240,7 +271,9 @@ def png_unfilter(d: st.DrawFn):
     data = d(arrays(1, "uint8", (max(n, 0),), hi=255.0))
     if data.ndim == 1 and data.dtype == np.uint8 and data.size and d(st.booleans()):
         data = data.copy()
-        data[:: max(1, row_bytes + 1 if isinstance(row_bytes, int) and row_bytes >= 0 else 1)] %= 5  # valid filter bytes
+        data[:: max(1, row_bytes + 1 if isinstance(row_bytes, int) and row_bytes >= 0 else 1)] %= (
+            5  # valid filter bytes
+        )
     return _core.png_unfilter, (data, rows, row_bytes, bpp), {}, ()
 
 
@@ -260,8 +293,11 @@ def edge_weight_sums(d: st.DrawFn):
     t = d(arrays(3, F32, shp))
     img = d(st.one_of(arrays(3, F32, (None, None, shp[2]), max_side=12), image(12)))
     wx, wy = d(arrays(2, B, shp[:2])), d(arrays(2, B, shp[:2]))
-    kw = {"eps": d(st.one_of(st.just(1e-6), floats())), "threads": d(threads()),
-          "template_grad": d(maybe(arrays(3, F64, (shp[0], shp[1], 2), hi=3.0)))}
+    kw = {
+        "eps": d(st.one_of(st.just(1e-6), floats())),
+        "threads": d(threads()),
+        "template_grad": d(maybe(arrays(3, F64, (shp[0], shp[1], 2), hi=3.0))),
+    }
     return _core.edge_weight_sums, (t, img, wx, wy), kw, ()
 
 
@@ -276,10 +312,13 @@ def weighted_ssd_map(d: st.DrawFn):
 
 
 def _wang_options(d: st.DrawFn) -> dict:
-    return {"corners": d(st.sampled_from(["free", "pinned", "bogus"])),
-            "samples": d(st.sampled_from(["diamond", "square", ""])),
-            "cut": d(st.sampled_from(["dp", "graph", "x"])), "omega": d(st.one_of(st.just(0.8), floats())),
-            "eps": d(st.one_of(st.just(1e-6), floats()))}
+    return {
+        "corners": d(st.sampled_from(["free", "pinned", "bogus"])),
+        "samples": d(st.sampled_from(["diamond", "square", ""])),
+        "cut": d(st.sampled_from(["dp", "graph", "x"])),
+        "omega": d(st.one_of(st.just(0.8), floats())),
+        "eps": d(st.one_of(st.just(1e-6), floats())),
+    }
 
 
 @st.composite
@@ -323,8 +362,11 @@ def swang_cuts(d: st.DrawFn):
     n = d(st.one_of(st.integers(0, 12), st.integers(13, 40)))
     shp = (d(st.integers(0, 3)), n, n, d(st.integers(1, 3)))
     i, o = d(arrays(4, F32, shp)), d(arrays(4, F32, shp))
-    kw = {"eps": d(st.one_of(st.just(1e-6), floats())), "threads": d(threads()),
-          "initial_grad": d(maybe(arrays(4, F64, shp[:3] + (2,), hi=3.0)))}
+    kw = {
+        "eps": d(st.one_of(st.just(1e-6), floats())),
+        "threads": d(threads()),
+        "initial_grad": d(maybe(arrays(4, F64, shp[:3] + (2,), hi=3.0))),
+    }
     return _core.swang_cuts, (i, o), kw, ()
 
 
@@ -374,8 +416,14 @@ def png_decode(d: st.DrawFn):
 
 @st.composite
 def exr_encode(d: st.DrawFn):
-    arr = d(arrays(d(st.sampled_from([3, 3, 2])), d(st.sampled_from([F32, F32, F64, "uint8"])), (None, None, None),
-                   max_side=7))
+    arr = d(
+        arrays(
+            d(st.sampled_from([3, 3, 2])),
+            d(st.sampled_from([F32, F32, F64, "uint8"])),
+            (None, None, None),
+            max_side=7,
+        )
+    )
     return _core.exr_encode, (arr,), {"half": d(st.booleans())}, ()
 
 
@@ -470,7 +518,9 @@ def test_core_entry_point_never_panics_nor_mutates(name, data):
 def test_a_panic_becomes_internal_error():
     """Defence in depth: a panic anywhere under a binding comes out as a clear InternalError, not as
     ``pyo3_runtime.PanicException`` (a BaseException that ``except Exception`` would not catch)."""
-    with pytest.raises(tilesynth.InternalError, match=r"internal error in _raise_panic: boom .*report") as info:
+    with pytest.raises(
+        tilesynth.InternalError, match=r"internal error in _raise_panic: boom .*report"
+    ) as info:
         _core._raise_panic("boom")
     assert isinstance(info.value, RuntimeError) and isinstance(info.value, tilesynth.TilesynthError)
     # the extension is still usable afterwards

@@ -42,10 +42,24 @@ def test_golden(name, threads, small_exemplar):
 # (File digests updated once when the manifest gained the matching parameters match/match_k/metric/mu: genes,
 # tiles and outputs were unchanged; and once more when the deflate level went from 6 to 1, for the same reason.)
 GOLDEN_SELECT = {
-    "ga": ("ce075d01983b617a00f529d1", "2da0f742c7bd3408718bb1ea", "dfd7b2e9b55777d4b3faf262", "c0b84fb89c334dcfab4c10f5"),
-    "ais": ("4d433eded0014d0243710a0c", "8f0ecab240ee115148399422", "948ab7194b9fda8fd771fd27", "b897721b54184a38840c1104"),
-    "best-of": ("4d433eded0014d0243710a0c", "8f0ecab240ee115148399422", "948ab7194b9fda8fd771fd27",
-                "ac0542b09c18efbd87665dbd"),
+    "ga": (
+        "ce075d01983b617a00f529d1",
+        "2da0f742c7bd3408718bb1ea",
+        "dfd7b2e9b55777d4b3faf262",
+        "c0b84fb89c334dcfab4c10f5",
+    ),
+    "ais": (
+        "4d433eded0014d0243710a0c",
+        "8f0ecab240ee115148399422",
+        "948ab7194b9fda8fd771fd27",
+        "b897721b54184a38840c1104",
+    ),
+    "best-of": (
+        "4d433eded0014d0243710a0c",
+        "8f0ecab240ee115148399422",
+        "948ab7194b9fda8fd771fd27",
+        "ac0542b09c18efbd87665dbd",
+    ),
 }
 
 
@@ -53,12 +67,18 @@ GOLDEN_SELECT = {
 @pytest.mark.parametrize("threads", [1, 2])
 def test_golden_selection(method, threads, small_exemplar, tmp_path):
     kw = {"population": 12} if method == "best-of" else {"population": 12, "generations": 5}
-    ts = tilesynth.build_omega(small_exemplar, tileset="8", tile_size=24, seed=5, threads=threads, select=method,
-                               **kw)
+    ts = tilesynth.build_omega(
+        small_exemplar, tileset="8", tile_size=24, seed=5, threads=threads, select=method, **kw
+    )
     img, _ = tilesynth.synthesize(ts, 120, 90, seed=3, dtype=np.uint8, threads=threads)
     path = tmp_path / "set.tiles"
     ts.save(path, include_timing=False)
-    got = (digest(ts.genes), digest(ts.tiles), digest(img), hashlib.sha256(path.read_bytes()).hexdigest()[:24])
+    got = (
+        digest(ts.genes),
+        digest(ts.tiles),
+        digest(img),
+        hashlib.sha256(path.read_bytes()).hexdigest()[:24],
+    )
     if os.environ.get("TILESYNTH_PRINT_GOLDEN"):
         print(f'\n    "{method}": {got!r},')
     assert got == GOLDEN_SELECT[method]

@@ -50,8 +50,9 @@ def layouts(a: np.ndarray) -> dict[str, np.ndarray]:
     }
 
 
-@pytest.mark.parametrize("layout", ["fortran", "strided", "negative strides", "transposed view", "big-endian",
-                                    "read-only"])
+@pytest.mark.parametrize(
+    "layout", ["fortran", "strided", "negative strides", "transposed view", "big-endian", "read-only"]
+)
 def test_any_layout_gives_the_same_result(ex, layout):
     """Non-contiguous, negative-stride, Fortran-order, big-endian and read-only arrays are accepted, give the
     same tile set as the plain C-contiguous array, and are not modified."""
@@ -99,7 +100,9 @@ def test_nan_and_inf(value):
 @pytest.mark.parametrize("lo, hi", [(-0.25, 0.5), (0.0, 1.5), (0.0, 255.0)])
 def test_values_outside_unit_range(lo, hi):
     a = np.linspace(lo, hi, 27).reshape(3, 3, 3).astype(np.float32)
-    with pytest.raises(ts.ParameterError, match=rf"image has values in \[{lo:g}, {hi:g}\], expected floats in \[0, 1\]"):
+    with pytest.raises(
+        ts.ParameterError, match=rf"image has values in \[{lo:g}, {hi:g}\], expected floats in \[0, 1\]"
+    ):
         as_image(a)
     # float32 templates are checked too (they used to reach the kernel unchecked)
     with pytest.raises(ts.ParameterError, match="templates has values in"):
@@ -119,7 +122,10 @@ def test_rust_receives_only_validated_contiguous_arrays(ex, monkeypatch):
         seen.append(name)
         assert v.flags.c_contiguous, (name, i)
         assert v.dtype.isnative, (name, i, v.dtype)
-        assert v.dtype in (np.float32, np.float64, np.int64, np.int32, np.bool_, np.uint8, np.uint16), (name, v.dtype)
+        assert v.dtype in (np.float32, np.float64, np.int64, np.int32, np.bool_, np.uint8, np.uint16), (
+            name,
+            v.dtype,
+        )
         if v.dtype == np.float32 and not (name == "tile_copy" and i == 2):  # tile_copy's out is written
             assert np.isfinite(v).all() and v.min() >= 0 and v.max() <= 1, name
 
@@ -145,12 +151,23 @@ def test_rust_receives_only_validated_contiguous_arrays(ex, monkeypatch):
     careless = layouts(ex.astype(np.float64))
     for a in careless.values():
         tiles = ts.build_omega(a, tileset="8", tile_size=16, seed=1)
-    ts.build_omega(careless["fortran"], tileset="8", tile_size=16, seed=1, select="ga", generations=1, population=4)
+    ts.build_omega(
+        careless["fortran"], tileset="8", tile_size=16, seed=1, select="ga", generations=1, population=4
+    )
     ts.synthesize(tiles, 50, 40, seed=2, dtype=np.uint16)
     ts.source_map(tiles, np.asfortranarray(ts.synthesize(tiles, 50, 40, seed=2)[1]), 50, 40)
-    ts.patch_ssd(careless["big-endian"], careless["strided"][:5, :6], mask=np.asfortranarray(np.ones((5, 6), int)))
-    assert {"SsdIndex", "best_matches", "ssd_maps", "omega_cuts", "tile_copy", "PopulationEvaluator",
-            "evaluate"} <= set(seen)
+    ts.patch_ssd(
+        careless["big-endian"], careless["strided"][:5, :6], mask=np.asfortranarray(np.ones((5, 6), int))
+    )
+    assert {
+        "SsdIndex",
+        "best_matches",
+        "ssd_maps",
+        "omega_cuts",
+        "tile_copy",
+        "PopulationEvaluator",
+        "evaluate",
+    } <= set(seen)
 
 
 # --------------------------------------------------------------------------------------------- parameters
@@ -176,7 +193,9 @@ def test_exemplar_too_small_for_the_set(ex):
     """A set needs distinct sample patches (n2: 6 of them); a tile as big as the exemplar has one position."""
     with pytest.raises(ts.ParameterError, match="the exemplar has only 1 patch positions, 6 needed"):
         ts.build_omega(ex, tileset="n2", tile_size=48)
-    with pytest.raises(ts.ParameterError, match="tile_size = 46: the exemplar has only 9 patch positions, 20 needed"):
+    with pytest.raises(
+        ts.ParameterError, match="tile_size = 46: the exemplar has only 9 patch positions, 20 needed"
+    ):
         ts.build_omega(ex, tileset="n16", tile_size=46)
     for method in ("best-of", "ga", "ais"):
         with pytest.raises(ts.ParameterError, match="6 needed"):
@@ -194,7 +213,9 @@ def test_bad_population_and_generations(ex, param, value):
         ts.build_omega(ex, **kwargs)
 
 
-@pytest.mark.parametrize(("flag", "value"), [("--population", "0"), ("--generations", "-3"), ("--population", "x")])
+@pytest.mark.parametrize(
+    ("flag", "value"), [("--population", "0"), ("--generations", "-3"), ("--population", "x")]
+)
 def test_bad_population_and_generations_cli(tmp_path, ex, flag, value, capsys):
     src = tmp_path / "ex.png"
     ts.save_image(src, ex)
@@ -206,8 +227,11 @@ def test_bad_population_and_generations_cli(tmp_path, ex, flag, value, capsys):
 
 def test_huge_output_is_refused_up_front(ex):
     tiles = ts.build_omega(ex, tileset="8", tile_size=16, seed=1)
-    with pytest.raises(ts.ParameterError, match=r"width x height = 100000x100000: the output needs about "
-                                                r"114\.1 GiB \(100000x100000x3 float32"):
+    with pytest.raises(
+        ts.ParameterError,
+        match=r"width x height = 100000x100000: the output needs about "
+        r"114\.1 GiB \(100000x100000x3 float32",
+    ):
         ts.synthesize(tiles, 100_000, 100_000, max_bytes=2**36)
     # the default limit (half the physical memory) refuses what cannot fit on any machine
     with pytest.raises(ts.ParameterError, match="1000000x1000000: the output needs about"):
@@ -254,14 +278,19 @@ def test_other_bad_parameters(ex, kwargs, words):
 def test_kernel_parameters_are_named(ex):
     img = ex.astype(np.float32)
     t = img[:5, :5]
-    for kw, words in [({"k": -1}, "k = -1: must be >= 0"), ({"exclude_radius": 2**64}, "exclude_radius = "),
-                      ({"threads": 2**40}, "threads = 1099511627776: must be at most 1024")]:
+    for kw, words in [
+        ({"k": -1}, "k = -1: must be >= 0"),
+        ({"exclude_radius": 2**64}, "exclude_radius = "),
+        ({"threads": 2**40}, "threads = 1099511627776: must be at most 1024"),
+    ]:
         with pytest.raises(ts.ParameterError, match=words):
             ts.best_matches(img, t, **kw)
     with pytest.raises(ts.ParameterError, match="mask has dtype float64 with values other than 0 and 1"):
         ts.patch_ssd(img, t, mask=np.full((5, 5), 0.5))
     with pytest.raises(TypeError, match="wx has dtype complex128"):
-        ts.grid_mincut(np.ones((3, 3), complex), np.ones((3, 3)), np.zeros((3, 3), bool), np.zeros((3, 3), bool))
+        ts.grid_mincut(
+            np.ones((3, 3), complex), np.ones((3, 3)), np.zeros((3, 3), bool), np.zeros((3, 3), bool)
+        )
     with pytest.raises(ts.ParameterError, match=r"index_map has values in \[0, 4294967296\]"):
         ts.tile_copy(np.zeros((1, 2, 2, 3), np.uint8), np.array([[0, 2**32]]), np.zeros((2, 4, 3), np.uint8))
     a = np.zeros((1, 2, 2, 3), np.uint8)

@@ -25,11 +25,23 @@ def chunk(tag: bytes, data: bytes) -> bytes:
     return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
 
 
-def png_bytes(w: int, h: int, depth: int = 8, ctype: int = 2, raw: bytes = b"", interlace: int = 0,
-              extra: tuple[bytes, ...] = ()) -> bytes:
+def png_bytes(
+    w: int,
+    h: int,
+    depth: int = 8,
+    ctype: int = 2,
+    raw: bytes = b"",
+    interlace: int = 0,
+    extra: tuple[bytes, ...] = (),
+) -> bytes:
     ihdr = struct.pack(">IIBBBBB", w, h, depth, ctype, 0, 0, interlace)
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + b"".join(extra) + chunk(b"IDAT", zlib.compress(raw))
-            + chunk(b"IEND", b""))
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", ihdr)
+        + b"".join(extra)
+        + chunk(b"IDAT", zlib.compress(raw))
+        + chunk(b"IEND", b"")
+    )
 
 
 def png16(arr: np.ndarray, interlace: bool = False, extra: tuple[bytes, ...] = ()) -> bytes:
@@ -44,8 +56,18 @@ def png16(arr: np.ndarray, interlace: bool = False, extra: tuple[bytes, ...] = (
     if not interlace:
         raw = rows(be)
     else:
-        raw = b"".join(rows(be[y0::dy, x0::dx]) for x0, y0, dx, dy in
-                       [(0, 0, 8, 8), (4, 0, 8, 8), (0, 4, 4, 8), (2, 0, 4, 4), (0, 2, 2, 4), (1, 0, 2, 2), (0, 1, 1, 2)])
+        raw = b"".join(
+            rows(be[y0::dy, x0::dx])
+            for x0, y0, dx, dy in [
+                (0, 0, 8, 8),
+                (4, 0, 8, 8),
+                (0, 4, 4, 8),
+                (2, 0, 4, 4),
+                (0, 2, 2, 4),
+                (1, 0, 2, 2),
+                (0, 1, 1, 2),
+            ]
+        )
     return png_bytes(w, h, 16, ctype, raw, int(interlace), extra)
 
 
@@ -70,7 +92,9 @@ def test_directory(tmp_path):
         ts.load_image(tmp_path)
 
 
-@pytest.mark.skipif(hasattr(os, "geteuid") and os.geteuid() == 0, reason="root reads files without permission")
+@pytest.mark.skipif(
+    hasattr(os, "geteuid") and os.geteuid() == 0, reason="root reads files without permission"
+)
 def test_unreadable_file_permissions(tmp_path):
     p = tmp_path / "secret.png"
     Image.fromarray(rgb()).save(p)
@@ -104,7 +128,9 @@ def test_unreadable_file(tmp_path, monkeypatch):
         ts.load_image(p)
 
 
-@pytest.mark.parametrize("content", [b"this is not a PNG", b"", b"\x89PNG\r\n\x1a\n", b"GIF89a" + b"\x00" * 3])
+@pytest.mark.parametrize(
+    "content", [b"this is not a PNG", b"", b"\x89PNG\r\n\x1a\n", b"GIF89a" + b"\x00" * 3]
+)
 def test_not_an_image(tmp_path, content):
     with pytest.raises(ts.ParameterError, match="not a readable image"):
         ts.load_image(write(tmp_path, "x.png", content))
@@ -152,7 +178,9 @@ def test_decompression_bomb_png(tmp_path):
     """A 100-byte PNG declaring 100000 x 100000 pixels: refused on the header, nothing decoded."""
     p = write(tmp_path, "bomb.png", png_bytes(100_000, 100_000))
     assert p.stat().st_size < 200
-    with pytest.raises(ts.ParameterError, match=r"100000x100000 = 10000000000 pixels exceeds the limit of 67108864"):
+    with pytest.raises(
+        ts.ParameterError, match=r"100000x100000 = 10000000000 pixels exceeds the limit of 67108864"
+    ):
         ts.load_image(p)
     # above tilesynth's limit but below Pillow's: still refused, by tilesynth's limit
     with pytest.raises(ts.ParameterError, match="9000x9000 = 81000000 pixels exceeds the limit"):
@@ -164,7 +192,10 @@ def test_decompression_bomb_other_formats(tmp_path):
     buf = io.BytesIO()
     Image.fromarray(rgb(4, 4)).save(buf, format="BMP")
     data = bytearray(buf.getvalue())
-    for (w, h), words in [((20000, 20000), "refused, Image size"), ((9000, 9000), "9000x9000 = 81000000 pixels")]:
+    for (w, h), words in [
+        ((20000, 20000), "refused, Image size"),
+        ((9000, 9000), "9000x9000 = 81000000 pixels"),
+    ]:
         data[18:26] = struct.pack("<ii", w, h)
         with pytest.raises(ts.ParameterError, match=words):
             ts.load_image(write(tmp_path, f"bomb{w}.bmp", bytes(data)))
@@ -336,8 +367,19 @@ def test_exif_orientations_match_pillow(tmp_path, orientation):
         np.testing.assert_array_equal(_exif_orient(im, src), want)
     np.testing.assert_array_equal(to_uint(ts.load_image(p)[0], 8), want)
     a16 = src.astype(np.uint16) * 257
-    q = write(tmp_path, "o16.png", png16(a16, extra=(chunk(b"eXIf", exif(orientation)[6:] if
-                                                          exif(orientation).startswith(b"Exif") else exif(orientation)),)))
+    q = write(
+        tmp_path,
+        "o16.png",
+        png16(
+            a16,
+            extra=(
+                chunk(
+                    b"eXIf",
+                    exif(orientation)[6:] if exif(orientation).startswith(b"Exif") else exif(orientation),
+                ),
+            ),
+        ),
+    )
     img, bits = ts.load_image(q)
     assert bits == 16
     np.testing.assert_array_equal(to_uint(img, 16), want.astype(np.uint16) * 257)

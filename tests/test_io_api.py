@@ -82,9 +82,7 @@ def test_save_image_errors(tmp_path):
 
 
 def test_thread_environment_variable():
-    code = (
-        "import tilesynth._core as c; print(c.resolve_threads(None), c.resolve_threads(3))"
-    )
+    code = "import tilesynth._core as c; print(c.resolve_threads(None), c.resolve_threads(3))"
     env = {"TILESYNTH_NUM_THREADS": "1", "PATH": ""}
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert r.stdout.split() == ["1", "3"], r.stderr
@@ -119,7 +117,9 @@ def test_synthesis_options(small_exemplar):
 
 def test_tile_copy_rejects_mismatched_dtypes():
     with pytest.raises(TypeError, match="same dtype"):
-        tilesynth.tile_copy(np.zeros((1, 2, 2, 3), np.uint8), np.zeros((1, 1), np.int32), np.zeros((2, 2, 3), np.float32))
+        tilesynth.tile_copy(
+            np.zeros((1, 2, 2, 3), np.uint8), np.zeros((1, 1), np.int32), np.zeros((2, 2, 3), np.float32)
+        )
 
 
 def test_public_api():

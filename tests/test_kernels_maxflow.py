@@ -16,7 +16,9 @@ INF = float("inf")
 
 
 def cut_cost(labels, wx, wy, src_cap=None, snk_cap=None):
-    c = float((wx[:, :-1] * (labels[:, :-1] != labels[:, 1:])).sum() + (wy[:-1] * (labels[:-1] != labels[1:])).sum())
+    c = float(
+        (wx[:, :-1] * (labels[:, :-1] != labels[:, 1:])).sum() + (wy[:-1] * (labels[:-1] != labels[1:])).sum()
+    )
     if src_cap is not None:
         c += float(src_cap[labels].sum()) + float(snk_cap[~labels].sum())
     return c

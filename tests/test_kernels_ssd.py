@@ -87,7 +87,7 @@ def test_realistic_sizes_and_k_best(lettuce):
 
 def test_exact_copy_is_found_with_zero_cost(lettuce):
     image = lettuce[:150, :140]
-    template = image[37:37 + 64, 51:51 + 64]
+    template = image[37 : 37 + 64, 51 : 51 + 64]
     offsets, values = tilesynth.best_matches(image, template)
     assert tuple(offsets[0]) == (37, 51)
     assert values[0] == 0.0
@@ -113,10 +113,25 @@ def test_thread_count_does_not_change_bits(lettuce):
 @pytest.mark.parametrize(
     ("image", "template", "exc", "words"),
     [
-        (np.zeros((10, 10, 3), np.float32), np.zeros((11, 4, 3), np.float32), tilesynth.ShapeError, "template"),
-        (np.zeros((10, 10, 3), np.float32), np.zeros((4, 4, 1), np.float32), tilesynth.ShapeError, "template"),
+        (
+            np.zeros((10, 10, 3), np.float32),
+            np.zeros((11, 4, 3), np.float32),
+            tilesynth.ShapeError,
+            "template",
+        ),
+        (
+            np.zeros((10, 10, 3), np.float32),
+            np.zeros((4, 4, 1), np.float32),
+            tilesynth.ShapeError,
+            "template",
+        ),
         (np.zeros((0, 10, 3), np.float32), np.zeros((1, 1, 3), np.float32), tilesynth.ShapeError, "image"),
-        (np.full((10, 10, 3), 2.0, np.float32), np.zeros((4, 4, 3), np.float32), tilesynth.ParameterError, "image"),
+        (
+            np.full((10, 10, 3), 2.0, np.float32),
+            np.zeros((4, 4, 3), np.float32),
+            tilesynth.ParameterError,
+            "image",
+        ),
         (np.zeros((10, 10, 3), np.complex64), np.zeros((4, 4, 3), np.float32), TypeError, "dtype"),
     ],
 )
@@ -131,8 +146,9 @@ def test_errors_are_value_errors_and_nan_rejected():
     with pytest.raises(ValueError, match="template"):
         tilesynth.patch_ssd(np.zeros((10, 10, 3), np.float32), t)
     with pytest.raises(tilesynth.ShapeError, match="mask"):
-        tilesynth.patch_ssd(np.zeros((10, 10, 3), np.float32), np.zeros((4, 4, 3), np.float32),
-                            mask=np.ones((3, 4), bool))
+        tilesynth.patch_ssd(
+            np.zeros((10, 10, 3), np.float32), np.zeros((4, 4, 3), np.float32), mask=np.ones((3, 4), bool)
+        )
 
 
 def test_core_rejects_non_contiguous_arrays():

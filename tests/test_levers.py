@@ -6,6 +6,7 @@ from importlib import resources
 
 import numpy as np
 import pytest
+
 import tilesynth as ts
 from tilesynth.errors import ParameterError
 from tilesynth.io import load_image
@@ -39,7 +40,9 @@ def test_free_terminals():
 def test_free_cut_keeps_the_border_and_covers_the_cross(lettuce, bias):
     genes = np.array([[10, 10], [100, 30], [30, 150], [150, 150]])
     circle = ts.build_omega(lettuce, tileset="c2", tile_size=64, genes=genes[:2], cut_region="circle")
-    free = ts.build_omega(lettuce, tileset="c2", tile_size=64, genes=genes[:2], cut_region="free", cut_bias=bias)
+    free = ts.build_omega(
+        lettuce, tileset="c2", tile_size=64, genes=genes[:2], cut_region="free", cut_bias=bias
+    )
     src, sink = free_terminals(64)
     assert not free.cut_masks[:, src].any()
     assert free.cut_masks[:, sink].all()
@@ -80,7 +83,9 @@ def test_complete_set_defaults(lettuce):
     assert "cut_region" not in off.params and "diversity" not in off.params
     old = ts.build_omega(lettuce, tileset="16a", tile_size=64, seed=1)
     assert "cut_region" not in old.params and "diversity" not in old.params and old.tile_size == 64
-    assert ts.build_omega(lettuce, tileset="16a", seed=1).tile_size == 128  # the papers' sets keep half the side
+    assert (
+        ts.build_omega(lettuce, tileset="16a", seed=1).tile_size == 128
+    )  # the papers' sets keep half the side
 
 
 def test_lever_parameter_errors(lettuce):

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
 from tilesynth import _core
 from tilesynth.errors import ParameterError
 from tilesynth.lookup import (

@@ -14,9 +14,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import tilesynth
 from hypothesis import given
 from hypothesis import strategies as st
+
+import tilesynth
 from tilesynth.cli import main
 from tilesynth.errors import TileSetFormatError
 

@@ -42,7 +42,9 @@ def write_png_filtered(path, arr: np.ndarray, kinds=(0, 1, 2, 3, 4)) -> None:
     colour = {1: 0, 2: 4, 3: 2, 4: 6}[ch]
 
     def chunk(tag: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+        return (
+            struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+        )
 
     with open(path, "wb") as fh:
         fh.write(b"\x89PNG\r\n\x1a\n")
@@ -139,8 +141,28 @@ def test_cli_with_maps(tiles, tmp_path, rng, capsys):
     np.save(tmp_path / "height.npy", height)
     out = tmp_path / "out.png"
     mp = tmp_path / "m.npy"
-    assert main(["synth", str(tf), "-o", str(out), "--size", "90x60", "--seed", "2", "--save-map", str(mp),
-                 "--with", str(tmp_path / "normal.png"), "--with", str(tmp_path / "height.npy"), "-q"]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                str(tf),
+                "-o",
+                str(out),
+                "--size",
+                "90x60",
+                "--seed",
+                "2",
+                "--save-map",
+                str(mp),
+                "--with",
+                str(tmp_path / "normal.png"),
+                "--with",
+                str(tmp_path / "height.npy"),
+                "-q",
+            ]
+        )
+        == 0
+    )
     imap = np.load(mp)
     src = tilesynth.source_map(tiles, imap, 90, 60)
     n_out = load_raster(tmp_path / "out-normal.png")
@@ -156,8 +178,12 @@ def test_cli_with_misaligned_map_fails_before_writing(tiles, tmp_path, capsys):
     tiles.save(tf)
     np.save(tmp_path / "small.npy", np.zeros((50, 50), np.float32))
     out = tmp_path / "o.png"
-    assert main(["synth", str(tf), "-o", str(out), "--size", "40x40", "--with", str(tmp_path / "small.npy"),
-                 "-q"]) == 2
+    assert (
+        main(
+            ["synth", str(tf), "-o", str(out), "--size", "40x40", "--with", str(tmp_path / "small.npy"), "-q"]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert "pixel-aligned" in err and len(err.strip().splitlines()) == 1
     assert not out.exists() and not (tmp_path / "o-small.npy").exists()
@@ -196,7 +222,9 @@ def test_maps_follow_the_smoothing(smoothed, small_exemplar, rng):
     assert np.abs(out[inside] - raw[inside]).max() > 1e-3
     # float maps are solved as they are (any range, no clipping): a scaled map gives the scaled result
     big = (m * 1000).astype(np.float32)
-    np.testing.assert_allclose(tilesynth.synthesize_map(smoothed, big, imap, W, H), out * 1000, rtol=0, atol=0.05)
+    np.testing.assert_allclose(
+        tilesynth.synthesize_map(smoothed, big, imap, W, H), out * 1000, rtol=0, atol=0.05
+    )
 
 
 def test_map_smoothing_errors(smoothed, tiles):
@@ -210,8 +238,9 @@ def test_map_smoothing_errors(smoothed, tiles):
     with pytest.raises(tilesynth.ParameterError, match="NaN or infinite.*smooth=False"):
         tilesynth.synthesize_map(smoothed, m, imap, 48, 48)
     src = tilesynth.source_map(smoothed, imap, 48, 48)
-    np.testing.assert_array_equal(tilesynth.synthesize_map(smoothed, m, imap, 48, 48, smooth=False)[..., 0],
-                                  m[src[..., 0], src[..., 1]])  # NaN where the map has NaN: a pure copy
+    np.testing.assert_array_equal(
+        tilesynth.synthesize_map(smoothed, m, imap, 48, 48, smooth=False)[..., 0], m[src[..., 0], src[..., 1]]
+    )  # NaN where the map has NaN: a pure copy
 
 
 def test_cli_map_smooth(smoothed, tiles, tmp_path, capsys):
@@ -221,15 +250,42 @@ def test_cli_map_smooth(smoothed, tiles, tmp_path, capsys):
     height = np.linspace(0, 1, 96 * 96, dtype=np.float32).reshape(96, 96)
     np.save(tmp_path / "height.npy", height)
     out = tmp_path / "out.png"
-    args = ["synth", str(sf), "-o", str(out), "--size", "60x50", "--seed", "2", "--with", str(tmp_path / "height.npy")]
+    args = [
+        "synth",
+        str(sf),
+        "-o",
+        str(out),
+        "--size",
+        "60x50",
+        "--seed",
+        "2",
+        "--with",
+        str(tmp_path / "height.npy"),
+    ]
     assert main(args) == 0
     assert "Poisson-smoothed" in capsys.readouterr().err
     smooth = np.load(tmp_path / "out-height.npy")
     assert main(args + ["--map-smooth", "off", "-q"]) == 0
     raw = np.load(tmp_path / "out-height.npy")
     assert not np.array_equal(smooth, raw)
-    assert main(["synth", str(tf), "-o", str(out), "--size", "60x50", "--with", str(tmp_path / "height.npy"),
-                 "--map-smooth", "on", "-q"]) == 2
+    assert (
+        main(
+            [
+                "synth",
+                str(tf),
+                "-o",
+                str(out),
+                "--size",
+                "60x50",
+                "--with",
+                str(tmp_path / "height.npy"),
+                "--map-smooth",
+                "on",
+                "-q",
+            ]
+        )
+        == 2
+    )
     assert "was not built with --smooth" in capsys.readouterr().err
     assert main(["synth", str(sf), "-o", str(out), "--size", "60x50", "--map-smooth", "off", "-q"]) == 2
     assert "only used with --with" in capsys.readouterr().err
@@ -252,7 +308,9 @@ def test_synthesize_map_checks_its_arguments(tiles, small_exemplar):
         tilesynth.synthesize_map(tiles, ex8, imap.astype(np.int64) + 2**32, 60, 50)
     with pytest.raises(TypeError, match="index_map has dtype float64, expected integers"):
         tilesynth.synthesize_map(tiles, ex8, imap + 0.5, 60, 50)
-    with pytest.raises(tilesynth.ParameterError, match="width x height = 2147483648x2147483648: the map needs"):
+    with pytest.raises(
+        tilesynth.ParameterError, match="width x height = 2147483648x2147483648: the map needs"
+    ):
         tilesynth.synthesize_map(tiles, ex8, imap, 2**31, 2**31)
     with pytest.raises(tilesynth.ParameterError, match="more than the limit of 1000 bytes"):
         tilesynth.synthesize_map(tiles, ex8, imap, 60, 50, max_bytes=1000)
@@ -274,7 +332,10 @@ def _npy_header(shape, descr="|u1") -> bytes:
         (_npy_header((2**31, 2**31)), "not a readable .npy array"),  # was MemoryError (4 EiB)
         (_npy_header((100000, 100000)), "not a readable .npy array"),  # allocated 10 GB, then failed
         (_npy_header((2**40, 2**40, 3)), "not a readable .npy array"),  # numpy warned of an overflow
-        (b"\x93NUMPY\x01\x00\x10\x00{'descr': '|u1'\n", "not a readable .npy array"),  # was tokenize.TokenError
+        (
+            b"\x93NUMPY\x01\x00\x10\x00{'descr': '|u1'\n",
+            "not a readable .npy array",
+        ),  # was tokenize.TokenError
     ],
 )
 def test_load_raster_refuses_damaged_npy(tmp_path, data, words):
@@ -288,8 +349,22 @@ def test_cli_map_of_an_empty_npy_is_exit_2(tiles, tmp_path, capsys):
     tf = tmp_path / "t.tiles"
     tiles.save(tf)
     (tmp_path / "empty.npy").write_bytes(b"")
-    assert main(["synth", str(tf), "-o", str(tmp_path / "o.png"), "--size", "40x40", "--map",
-                 str(tmp_path / "empty.npy"), "-q"]) == 2  # was 1 (internal error: EOFError)
+    assert (
+        main(
+            [
+                "synth",
+                str(tf),
+                "-o",
+                str(tmp_path / "o.png"),
+                "--size",
+                "40x40",
+                "--map",
+                str(tmp_path / "empty.npy"),
+                "-q",
+            ]
+        )
+        == 2
+    )  # was 1 (internal error: EOFError)
     err = capsys.readouterr().err
     assert "--map" in err and "not a readable .npy array" in err and len(err.strip().splitlines()) == 1
 
@@ -306,7 +381,10 @@ def test_load_raster_pixel_limit(tmp_path, rng):
     # TIFFs declaring 10^4 x 10^4 pixels (over tilesynth's limit) and 2^31 x 2^31 (over Pillow's own)
     data = bytearray((tmp_path / "m.tif").read_bytes())
     ifd = struct.unpack_from("<I", data, 4)[0]
-    for side, words in ((10_000, "100000000 pixels exceeds the limit"), (2**31 - 1, "refused, .* decompression bomb")):
+    for side, words in (
+        (10_000, "100000000 pixels exceeds the limit"),
+        (2**31 - 1, "refused, .* decompression bomb"),
+    ):
         for i in range(struct.unpack_from("<H", data, ifd)[0]):
             tag = struct.unpack_from("<H", data, ifd + 2 + 12 * i)[0]
             if tag in (256, 257):  # ImageWidth, ImageLength: one LONG each

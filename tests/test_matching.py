@@ -75,8 +75,11 @@ def test_best_cut_all_is_the_exhaustive_cheapest_cut(ex):
     cands = candidates(small, n)
     for j in range(ts.n_tiles):
         O = np.stack([small[r : r + n, c : c + n] for r, c in cands])
-        _, costs = tilesynth.omega_cuts(np.repeat(inter[j][None], len(cands), 0), O,
-                                        intermediate_grad=np.repeat(grads[j][None], len(cands), 0))
+        _, costs = tilesynth.omega_cuts(
+            np.repeat(inter[j][None], len(cands), 0),
+            O,
+            intermediate_grad=np.repeat(grads[j][None], len(cands), 0),
+        )
         assert ts.cut_costs[j] == pytest.approx(costs.min(), rel=1e-12)
     plain = tilesynth.build_omega(small, tileset="4", tile_size=n, seed=1)
     assert (ts.cut_costs <= plain.cut_costs * (1 + 1e-12)).all()
@@ -154,10 +157,48 @@ def test_cli_match_and_metric(ex, tmp_path, capsys):
     png = tmp_path / "ex.png"
     tilesynth.save_image(png, ex)
     out = tmp_path / "m.tiles"
-    assert main(["build", str(png), "-o", str(out), "--tile-size", "16", "--set", "8", "--match", "best-cut",
-                 "--match-k", "5", "--metric", "eq3", "--seed", "1", "-q"]) == 0
+    assert (
+        main(
+            [
+                "build",
+                str(png),
+                "-o",
+                str(out),
+                "--tile-size",
+                "16",
+                "--set",
+                "8",
+                "--match",
+                "best-cut",
+                "--match-k",
+                "5",
+                "--metric",
+                "eq3",
+                "--seed",
+                "1",
+                "-q",
+            ]
+        )
+        == 0
+    )
     ts = tilesynth.load(out)
     assert ts.params["match"] == "best-cut" and ts.params["match_k"] == 5 and ts.params["metric"] == "eq3"
-    assert main(["build", str(png), "-o", str(tmp_path / "x.tiles"), "--tile-size", "16", "--match", "best-cut",
-                 "--match-k", "many", "-q"]) == 2
+    assert (
+        main(
+            [
+                "build",
+                str(png),
+                "-o",
+                str(tmp_path / "x.tiles"),
+                "--tile-size",
+                "16",
+                "--match",
+                "best-cut",
+                "--match-k",
+                "many",
+                "-q",
+            ]
+        )
+        == 2
+    )
     assert "--match-k" in capsys.readouterr().err

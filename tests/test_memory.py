@@ -40,8 +40,9 @@ print(json.dumps({"peak_mib": peak / 1024, "before_mib": base / 1024, "tiles": t
 
 
 def run_build(**kwargs) -> dict:
-    r = subprocess.run([sys.executable, "-c", SCRIPT, json.dumps(kwargs)], capture_output=True, text=True,
-                       timeout=600)
+    r = subprocess.run(
+        [sys.executable, "-c", SCRIPT, json.dumps(kwargs)], capture_output=True, text=True, timeout=600
+    )
     assert r.returncode == 0, r.stderr
     return json.loads(r.stdout.strip().splitlines()[-1])
 

@@ -162,7 +162,9 @@ def test_coherence_hash_collisions_cannot_fake_a_zero(rng, monkeypatch):
     ex = rng.random((12, 12, 2), dtype=np.float32)
     img = rng.random((13, 11, 2), dtype=np.float32)
     img[2:9, 1:8] = ex[4:11, 3:10]
-    monkeypatch.setattr(M, "_patch_keys", lambda bits, p, rows, cols, step, w: np.zeros((rows, cols), np.uint64))
+    monkeypatch.setattr(
+        M, "_patch_keys", lambda bits, p, rows, cols, step, w: np.zeros((rows, cols), np.uint64)
+    )
     got = check_against_oracle(img, ex, 3, 2)
     assert got.exact_copies > 0
 
@@ -197,7 +199,10 @@ def test_coherence_errors(rng):
         M.coherence_energy(img, other, index=ts.SsdIndex(img))
     with pytest.raises(ParameterError, match="index is 5, expected an SsdIndex of the exemplar"):
         M.coherence_energy(img, other, index=5)
-    assert M.coherence_energy(img, other, index=ts.SsdIndex(other)).energy == M.coherence_energy(img, other).energy
+    assert (
+        M.coherence_energy(img, other, index=ts.SsdIndex(other)).energy
+        == M.coherence_energy(img, other).energy
+    )
 
 
 # ------------------------------------------------------------------------------------------------- coverage
@@ -327,15 +332,31 @@ def test_objective_32_set_counts_intermediate_tiles_once(small_exemplar):
 # ----------------------------------------------------------------------------------------------- everything
 def test_tileset_metrics_and_format(omega16):
     m = M.tileset_metrics(omega16, 96, 72, seed=5, stride=8)
-    assert m["sample"] == {"width": 96, "height": 72, "seed": 5, "tiles": [4, 3],
-                           "distinct_tiles_used": m["sample"]["distinct_tiles_used"]}
+    assert m["sample"] == {
+        "width": 96,
+        "height": 72,
+        "seed": 5,
+        "tiles": [4, 3],
+        "distinct_tiles_used": m["sample"]["distinct_tiles_used"],
+    }
     img, imap = ts.synthesize(omega16, 96, 72, seed=5)
     assert m["seam"]["score"] == pytest.approx(M.seam_score(img, 24).score)
-    assert m["coherence"]["energy"] == pytest.approx(M.coherence_energy(img, omega16.exemplar, stride=8).energy)
+    assert m["coherence"]["energy"] == pytest.approx(
+        M.coherence_energy(img, omega16.exemplar, stride=8).energy
+    )
     assert m["objective"]["E"] == pytest.approx(omega16.E)
     assert m["notes"] == []
     text = M.format_metrics(m)
-    for word in ("seam score", "coherence", "coverage", "repetition", "objective", "D_j", "cut costs", "cut seam"):
+    for word in (
+        "seam score",
+        "coherence",
+        "coverage",
+        "repetition",
+        "objective",
+        "D_j",
+        "cut costs",
+        "cut seam",
+    ):
         assert word in text
 
 

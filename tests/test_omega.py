@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_kernels_ssd import ssd_oracle
 
 import tilesynth
 from tilesynth.omega import energy, intermediate_tiles
-
-from test_kernels_ssd import ssd_oracle
 
 
 @pytest.fixture(scope="module")
@@ -147,7 +146,9 @@ def test_genes_interface(small_exemplar):
         tilesynth.build_omega(small_exemplar, tile_size=32, genes=np.zeros((3, 2), int))
 
 
-@pytest.mark.parametrize(("size", "words"), [(31, "even"), (98, "larger than the exemplar"), (2, ">= 4"), (0, ">= 4")])
+@pytest.mark.parametrize(
+    ("size", "words"), [(31, "even"), (98, "larger than the exemplar"), (2, ">= 4"), (0, ">= 4")]
+)
 def test_bad_tile_size(small_exemplar, size, words):
     with pytest.raises(tilesynth.ParameterError, match=words):
         tilesynth.build_omega(small_exemplar, tile_size=size)

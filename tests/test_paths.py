@@ -9,9 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import tilesynth
 from hypothesis import given
 from hypothesis import strategies as st
+
+import tilesynth
 from tilesynth.cli import main
 from tilesynth.errors import ParameterError
 from tilesynth.paths import check_paths

@@ -13,10 +13,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import tilesynth as ts
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from PIL import Image
+
+import tilesynth as ts
 from tilesynth import _core
 from tilesynth.io import PNG_COMPRESSIONS, encode_png, load_raster, read_exr, read_png
 

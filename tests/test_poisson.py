@@ -5,11 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given
-from hypothesis import strategies as st
-
 import scipy.sparse as sp  # the oracle: a test dependency (pyproject [test]), never skipped
 import scipy.sparse.linalg as spla
+from hypothesis import given
+from hypothesis import strategies as st
 
 import tilesynth
 from tilesynth import PoissonInfo, poisson_smooth
@@ -218,7 +217,9 @@ def test_trivial_regions_and_special_channels():
     assert (out == 0).all() and (info.residual == 0).all()
     # uint8 inputs are scaled like images
     d8, s8 = (dst * 255).round().astype(np.uint8), (src * 255).round().astype(np.uint8)
-    np.testing.assert_allclose(poisson_smooth(d8, s8, region), poisson_smooth(d8 / 255.0, s8 / 255.0, region), atol=1e-6)
+    np.testing.assert_allclose(
+        poisson_smooth(d8, s8, region), poisson_smooth(d8 / 255.0, s8 / 255.0, region), atol=1e-6
+    )
 
 
 def test_region_touching_the_image_border_is_neumann():

@@ -17,8 +17,9 @@ from tilesynth.cli import main
 
 @pytest.fixture(scope="module")
 def ga_set(small_exemplar):
-    return ts.build_omega(small_exemplar, tileset="16a", tile_size=24, select="ga", generations=4, population=8,
-                          seed=2)
+    return ts.build_omega(
+        small_exemplar, tileset="16a", tile_size=24, select="ga", generations=4, population=8, seed=2
+    )
 
 
 @pytest.fixture(scope="module")
@@ -35,8 +36,16 @@ def test_report_files_page_and_metrics(ga_set, tmp_path):
     out = tmp_path / "rep"
     res = R.write_report(ga_set, out, width=120, height=96, seed=3, name="small.tiles")
     names = {p.name for p in out.iterdir()}
-    assert names == {"tiles.png", "sample.png", "sample-borders.png", "seams.png", "coherence.png",
-                     "convergence.png", "metrics.json", "index.html"}
+    assert names == {
+        "tiles.png",
+        "sample.png",
+        "sample-borders.png",
+        "seams.png",
+        "coherence.png",
+        "convergence.png",
+        "metrics.json",
+        "index.html",
+    }
     # the sample is the synthesis with that seed, and the metrics are those of tileset_metrics
     img, imap = ts.synthesize(ga_set, 120, 96, seed=3, dtype=np.uint8)
     np.testing.assert_array_equal(png(out / "sample.png"), img)
@@ -51,13 +60,28 @@ def test_report_files_page_and_metrics(ga_set, tmp_path):
     assert png(out / "convergence.png").shape == (400, 720, 3)
     page = (out / "index.html").read_text(encoding="utf-8")
     srcs = re.findall(r'src="([^"]+)"', page)
-    assert set(srcs) == {"tiles.png", "sample.png", "sample-borders.png", "seams.png", "coherence.png",
-                         "convergence.png"}
+    assert set(srcs) == {
+        "tiles.png",
+        "sample.png",
+        "sample-borders.png",
+        "seams.png",
+        "coherence.png",
+        "convergence.png",
+    }
     assert all((out / s).is_file() for s in srcs)
     # offline: no remote resource, no script
     assert "http://" not in page and "https://" not in page and "<script" not in page.lower()
-    for words in ("border seam score", "coherence energy", "coverage", "repetition peak", "f = 1/E",
-                  "reference: random placement", "small.tiles", "Per tile", "cut seam"):
+    for words in (
+        "border seam score",
+        "coherence energy",
+        "coverage",
+        "repetition peak",
+        "f = 1/E",
+        "reference: random placement",
+        "small.tiles",
+        "Per tile",
+        "cut seam",
+    ):
         assert words in page, words
     assert page.count("<tr><td class=num>") == ga_set.n_tiles  # one row per tile
     assert res["files"]["page"] == str(out / "index.html")
@@ -82,7 +106,9 @@ def test_report_of_wang_tiles(small_exemplar, tmp_path, scheme):
     assert page.count("<tr><td class=num>") == tset.n_tiles
     assert "<td>R Y R Y</td>" in page  # tile 0 of wang8: <N=R, E=Y, S=R, W=Y>
     tset.save(tmp_path / "w.tiles")
-    assert main(["report", str(tmp_path / "w.tiles"), "-o", str(tmp_path / "cli"), "--size", "40x40", "-q"]) == 0
+    assert (
+        main(["report", str(tmp_path / "w.tiles"), "-o", str(tmp_path / "cli"), "--size", "40x40", "-q"]) == 0
+    )
 
 
 def test_report_bad_output_and_name(random_set, tmp_path):
@@ -133,8 +159,10 @@ def test_seam_heatmap_colours_a_seam_with_the_top_colour():
 
 
 def test_colormap_and_chart():
-    np.testing.assert_array_equal(R.colormap(np.array([0.0, 1.0, -3.0, 7.0])),
-                                  [[68, 1, 84], [253, 231, 37], [68, 1, 84], [253, 231, 37]])
+    np.testing.assert_array_equal(
+        R.colormap(np.array([0.0, 1.0, -3.0, 7.0])),
+        [[68, 1, 84], [253, 231, 37], [68, 1, 84], [253, 231, 37]],
+    )
     im = np.asarray(R.convergence_chart([5.0, 4.0, 3.5], [9.0, 7.0, 6.0], "t"))
     assert im.shape == (400, 720, 3)
     blue = ((im == [30, 90, 200]).all(axis=2)).sum()
@@ -168,8 +196,20 @@ def test_cli_metrics_image(files, capsys):
     assert main(["metrics", str(files / "out.png"), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["seam"] is None and data["coherence"] is None and len(data["notes"]) == 3
-    assert main(["metrics", str(files / "out.png"), "--tile-size", "24", "--exemplar", str(files / "ex.png"),
-                 "--json"]) == 0
+    assert (
+        main(
+            [
+                "metrics",
+                str(files / "out.png"),
+                "--tile-size",
+                "24",
+                "--exemplar",
+                str(files / "ex.png"),
+                "--json",
+            ]
+        )
+        == 0
+    )
     data = json.loads(capsys.readouterr().out)
     img, _ = ts.synthesize(ts.load(files / "s.tiles"), 72, 48, seed=4)
     # the PNG round trip of an 8-bit exemplar is exact, so the image's numbers are those of the array
@@ -177,14 +217,17 @@ def test_cli_metrics_image(files, capsys):
     assert data["coherence"]["exact_copies"] > 0
 
 
-@pytest.mark.parametrize("argv,words", [
-    (["metrics", "nope.tiles"], "no such file"),
-    (["metrics", "{d}/s.tiles", "--tile-size", "8"], "--tile-size and --exemplar are for images"),
-    (["metrics", "{d}/out.png", "--seed", "3"], "--size and --seed are for tile sets"),
-    (["metrics", "{d}/out.png", "--exemplar", "{d}/missing.png"], "--exemplar"),
-    (["metrics", "{d}/out.png", "--tile-size", "100"], "tile_size = 100"),
-    (["report", "{d}/out.png", "-o", "{d}/r"], "not a tilesynth tile set"),
-])
+@pytest.mark.parametrize(
+    "argv,words",
+    [
+        (["metrics", "nope.tiles"], "no such file"),
+        (["metrics", "{d}/s.tiles", "--tile-size", "8"], "--tile-size and --exemplar are for images"),
+        (["metrics", "{d}/out.png", "--seed", "3"], "--size and --seed are for tile sets"),
+        (["metrics", "{d}/out.png", "--exemplar", "{d}/missing.png"], "--exemplar"),
+        (["metrics", "{d}/out.png", "--tile-size", "100"], "tile_size = 100"),
+        (["report", "{d}/out.png", "-o", "{d}/r"], "not a tilesynth tile set"),
+    ],
+)
 def test_cli_errors_are_one_line(files, capsys, argv, words):
     argv = [a.format(d=files) for a in argv]
     assert main(argv) == 2
@@ -194,7 +237,22 @@ def test_cli_errors_are_one_line(files, capsys, argv, words):
 
 def test_cli_report(files, tmp_path, capsys):
     out = tmp_path / "a" / "rep"
-    assert main(["report", str(files / "s.tiles"), "-o", str(out), "--size", "72x72", "--seed", "2",
-                 "--no-borders", "-q"]) == 0
+    assert (
+        main(
+            [
+                "report",
+                str(files / "s.tiles"),
+                "-o",
+                str(out),
+                "--size",
+                "72x72",
+                "--seed",
+                "2",
+                "--no-borders",
+                "-q",
+            ]
+        )
+        == 0
+    )
     assert (out / "index.html").is_file() and not (out / "sample-borders.png").exists()
     assert png(out / "sample.png").shape == (72, 72, 3)

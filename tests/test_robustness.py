@@ -13,6 +13,7 @@ import time
 
 import numpy as np
 import pytest
+
 import tilesynth
 
 

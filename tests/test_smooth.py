@@ -59,10 +59,14 @@ def test_region_is_the_scipy_solution(pair, small_exemplar):
 
 def test_literal_border_keeps_every_border_pixel(small_exemplar):
     plain = ts.build_omega(small_exemplar, tileset="16a", tile_size=32, seed=5, keep_border=False)
-    smoothed = ts.build_omega(small_exemplar, tileset="16a", tile_size=32, seed=5, keep_border=False, smooth=True)
+    smoothed = ts.build_omega(
+        small_exemplar, tileset="16a", tile_size=32, seed=5, keep_border=False, smooth=True
+    )
     ring = np.ones((32, 32), bool)
     ring[1:-1, 1:-1] = False
-    assert (plain.cut_masks[:, ring]).any(), "the literal cut should reach the border for this test to mean much"
+    assert (plain.cut_masks[:, ring]).any(), (
+        "the literal cut should reach the border for this test to mean much"
+    )
     np.testing.assert_array_equal(smoothed.tiles[:, ring], plain.tiles[:, ring])
 
 
@@ -107,8 +111,24 @@ def test_smooth_round_trips_and_rejects_non_bools(pair, tmp_path, small_exemplar
 
 def test_cli_build_smooth(tmp_path, lettuce_path, capsys):
     out = tmp_path / "s.tiles"
-    assert main(["build", str(lettuce_path), "--set", "8", "--tile-size", "64", "--seed", "2", "--smooth",
-                 "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "build",
+                str(lettuce_path),
+                "--set",
+                "8",
+                "--tile-size",
+                "64",
+                "--seed",
+                "2",
+                "--smooth",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     assert "Poisson-smoothed" in capsys.readouterr().err
     assert main(["info", str(out)]) == 0
     text = capsys.readouterr().out
@@ -125,7 +145,9 @@ def test_info_refuses_a_tampered_smooth_record(pair, tmp_path, capsys):
     import dataclasses
 
     _, smoothed = pair
-    bad = dataclasses.replace(smoothed, params={**smoothed.params, "smooth": {"residual_max": "x", "unknowns": None}})
+    bad = dataclasses.replace(
+        smoothed, params={**smoothed.params, "smooth": {"residual_max": "x", "unknowns": None}}
+    )
     p = tmp_path / "bad.tiles"
     bad.save(p)
     assert main(["info", str(p)]) == 2

@@ -11,7 +11,17 @@ import pytest
 import tilesynth
 from tilesynth.tilefile import FORMAT_VERSION, TileSet
 
-ARRAYS = ["tiles", "source", "cut_masks", "genes", "tile_patches", "match_offsets", "D", "cut_costs", "exemplar"]
+ARRAYS = [
+    "tiles",
+    "source",
+    "cut_masks",
+    "genes",
+    "tile_patches",
+    "match_offsets",
+    "D",
+    "cut_costs",
+    "exemplar",
+]
 
 
 @pytest.fixture(scope="module")
@@ -141,10 +151,19 @@ def manifest_change(**fields):
         (manifest_change(E="small"), "field 'E' = 'small': wrong type"),
         (manifest_change(E=float("nan")), "field 'E' = nan: must be finite"),
         (manifest_change(params=KeyError), "manifest.json lacks 'params'"),
-        (manifest_change(layout={"name": "x", "colours": ["R"], "tiles": [5] * 32}), "layout is not a tile-set"),
-        (manifest_change(layout={"kind": "wang", "tiles": [["R"] * 4] * 32}), "layout is not a tile-set definition"),
+        (
+            manifest_change(layout={"name": "x", "colours": ["R"], "tiles": [5] * 32}),
+            "layout is not a tile-set",
+        ),
+        (
+            manifest_change(layout={"kind": "wang", "tiles": [["R"] * 4] * 32}),
+            "layout is not a tile-set definition",
+        ),
         (manifest_change(layout={"tiles": [["R"] * 4] * 32}), "lacks name, colours"),
-        (lambda n, d: b'{"total_s": "slow"}' if n == "timing.json" else d, "timing.json must map stage names"),
+        (
+            lambda n, d: b'{"total_s": "slow"}' if n == "timing.json" else d,
+            "timing.json must map stage names",
+        ),
         (lambda n, d: None if n == "D.npy" else d, r"missing members \['D.npy'\]"),
         (lambda n, d: d[: len(d) // 2] if n == "tiles.npy" else d, "not a tilesynth tile set"),
     ],
@@ -159,7 +178,11 @@ def test_tampered_files_are_refused(good, tmp_path, change, words):
 @pytest.mark.parametrize(
     ("array", "edit", "words"),
     [
-        ("tiles", lambda a: np.where(a > 0.5, np.nan, a).astype(a.dtype), r"tiles has values outside \[0, 1\]"),
+        (
+            "tiles",
+            lambda a: np.where(a > 0.5, np.nan, a).astype(a.dtype),
+            r"tiles has values outside \[0, 1\]",
+        ),
         ("tiles", lambda a: a * 3, r"tiles has values outside \[0, 1\]"),
         ("source", lambda a: a + 10_000, "source points outside the"),
         ("tile_patches", lambda a: a + 100, r"tile_patches has indices outside \[0, 4\)"),
@@ -237,7 +260,9 @@ def test_zip_bomb_is_refused_by_declared_size(good, monkeypatch):
 
     assert tilefile.MAX_UNPACKED_BYTES == 8 << 30
     monkeypatch.setattr(tilefile, "MAX_UNPACKED_BYTES", 1000)
-    with pytest.raises(tilesynth.TileSetFormatError, match="members unpack to .* bytes, more than the limit of 1000"):
+    with pytest.raises(
+        tilesynth.TileSetFormatError, match="members unpack to .* bytes, more than the limit of 1000"
+    ):
         tilesynth.load(good)
 
 
@@ -247,7 +272,7 @@ def test_directory_is_refused(tmp_path):
 
 
 def test_saved_file_without_timing_is_byte_identical(small_exemplar, tmp_path):
-    """"Byte-identical tile set": two builds (1 and 2 threads) saved with include_timing=False are the same
+    """ "Byte-identical tile set": two builds (1 and 2 threads) saved with include_timing=False are the same
     file; with timing they differ only in timing.json, the last member."""
     a = tilesynth.build_omega(small_exemplar, tileset="16a", tile_size=20, seed=8, threads=1)
     b = tilesynth.build_omega(small_exemplar, tileset="16a", tile_size=20, seed=8, threads=2)

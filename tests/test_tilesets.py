@@ -22,12 +22,8 @@ from tilesynth.tilesets import (
 )
 
 # Figure 8 decoded in /work/shared/papers/INDEX.md, as ⟨TL, BL, TR, BR⟩ strings.
-INDEX_16A = (
-    "BRYG BYRG BYYR BRRB YGRB YRGB YRRG YGGY RBGY RGBY RGGB RBBR GYBR GBYR GBBY GYYG".split()
-)
-INDEX_16B = (
-    "BYRG BRYG BRRB BYYB GYRB GRYB GRRG GYYG RBBY RGBR RGGY RBGR YBGY YGBY YGGR YBBR".split()
-)
+INDEX_16A = "BRYG BYRG BYYR BRRB YGRB YRGB YRRG YGGY RBGY RGBY RGGB RBBR GYBR GBYR GBBY GYYG".split()
+INDEX_16B = "BYRG BRYG BRRB BYYB GYRB GRYB GRRG GYYG RBBY RGBR RGGY RBGR YBGY YGBY YGGR YBBR".split()
 
 TL, BL, TR, BR = 0, 1, 2, 3
 
@@ -41,9 +37,7 @@ def _strings(ts: CornerTileSet) -> list[str]:
 # --------------------------------------------------------------------------
 
 
-def _brute_force_situations(
-    tiles: list[tuple[str, ...]], rows: int, cols: int
-) -> dict[str, set[tuple]]:
+def _brute_force_situations(tiles: list[tuple[str, ...]], rows: int, cols: int) -> dict[str, set[tuple]]:
     """Every situation met by every run of the scan-line tiler on a rows x cols grid.
 
     Written from the corner rule only.  Runs are merged by their frontier (the last
@@ -264,9 +258,7 @@ def test_reachable_situations_match_brute_force(name: str) -> None:
 def _random_corner_sets(draw: st.DrawFn) -> list[tuple[str, ...]]:
     colours = "RGB"
     corner = st.sampled_from(colours)
-    return draw(
-        st.lists(st.tuples(corner, corner, corner, corner), min_size=1, max_size=7)
-    )
+    return draw(st.lists(st.tuples(corner, corner, corner, corner), min_size=1, max_size=7))
 
 
 def _brute_force_union(tiles: list[tuple[str, ...]], max_size: int) -> dict[str, set[tuple]]:
@@ -290,9 +282,7 @@ def test_exact_search_agrees_with_brute_force_on_random_sets(
     exact = {kind: set(sits) for kind, sits in reachable_situations(ts).items()}
     brute = _brute_force_union(list(ts.tiles), 4)
     assert brute == exact
-    brute_dead = {
-        (kind, s) for kind, sits in brute.items() for s in sits if not _has_candidate(tiles, s)
-    }
+    brute_dead = {(kind, s) for kind, sits in brute.items() for s in sits if not _has_candidate(tiles, s)}
     exact_dead = {(de.kind, (de.left_key, de.top_key)) for de in dead_ends(ts)}
     assert brute_dead == exact_dead
 
@@ -320,9 +310,7 @@ def test_exact_search_agrees_with_brute_force_on_perturbed_named_sets(
     exact = {kind: set(sits) for kind, sits in reachable_situations(ts).items()}
     brute = _brute_force_union(list(ts.tiles), 3)
     assert brute == exact
-    brute_dead = {
-        (kind, s) for kind, sits in brute.items() for s in sits if not _has_candidate(tiles, s)
-    }
+    brute_dead = {(kind, s) for kind, sits in brute.items() for s in sits if not _has_candidate(tiles, s)}
     assert brute_dead == {(de.kind, (de.left_key, de.top_key)) for de in dead_ends(ts)}
 
 

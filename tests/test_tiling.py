@@ -126,9 +126,7 @@ def test_32_set_uses_both_variants() -> None:
 
 def test_first_tile_is_uniform_over_the_set() -> None:
     ts = get_tileset("16a")
-    counts = np.bincount(
-        [scanline_index_map(ts, 1, 1, seed=s)[0, 0] for s in range(1600)], minlength=16
-    )
+    counts = np.bincount([scanline_index_map(ts, 1, 1, seed=s)[0, 0] for s in range(1600)], minlength=16)
     # Expected 100 each; a 6-sigma band (sigma ~ 9.7) never fails by chance.
     assert counts.min() > 40 and counts.max() < 160
 
@@ -201,9 +199,7 @@ def test_corrupted_map_is_rejected_naming_the_position(name: str, data: st.DataO
             options.append(k)
     assert options, "some tile must break a neighbour in a grid of two or more cells"
     corrupted[i, j] = data.draw(st.sampled_from(options), label="tile")
-    first_bad = min(
-        corner_mismatches(ts.tiles, corrupted), key=lambda p: (p[1], p[0][0] != p[1][0])
-    )
+    first_bad = min(corner_mismatches(ts.tiles, corrupted), key=lambda p: (p[1], p[0][0] != p[1][0]))
     with pytest.raises(ValueError) as info:
         validate_index_map(ts, corrupted)
     message = str(info.value)

@@ -7,9 +7,9 @@ import itertools
 
 import numpy as np
 import pytest
+from test_kernels_ssd import ssd_oracle
 
 import tilesynth
-from tilesynth import kernels
 from tilesynth.wang import (
     EAST,
     NORTH,
@@ -22,8 +22,6 @@ from tilesynth.wang import (
     wang_energy,
 )
 from tilesynth.wangsets import get_wang_tileset
-
-from test_kernels_ssd import ssd_oracle
 
 # --------------------------------------------------------------------------------------------------------------
 # A slow, obvious oracle of the Cohen construction, written from the geometry of tilesynth.wang's docstring.
@@ -144,8 +142,10 @@ def oracle_tiles(ex, genes, tile_patches, n, overlap, corners="free", samples="d
 
 
 def random_genes(rng, ex, n_samples, p):
-    return np.stack([rng.integers(0, ex.shape[0] - p + 1, n_samples), rng.integers(0, ex.shape[1] - p + 1, n_samples)],
-                    axis=1).astype(np.int64)
+    return np.stack(
+        [rng.integers(0, ex.shape[0] - p + 1, n_samples), rng.integers(0, ex.shape[1] - p + 1, n_samples)],
+        axis=1,
+    ).astype(np.int64)
 
 
 CONFIGS = [
@@ -200,8 +200,9 @@ def test_dp_path_is_the_minimum_over_every_staircase(small_exemplar, rng):
                 if ok and (corners == "free" or d == 0):
                     best = min(best, acc)
             assert d_path == pytest.approx(best, rel=1e-12, abs=1e-15)
-            _, stats = tilesynth.wang_tiles(ex, np.stack([ga, gb, ga, gb]), np.array([[0, 1, 2, 3]]), 8, 4,
-                                            corners=corners)
+            _, stats = tilesynth.wang_tiles(
+                ex, np.stack([ga, gb, ga, gb]), np.array([[0, 1, 2, 3]]), 8, 4, corners=corners
+            )
             assert stats[0, q, 2] == pytest.approx(best, rel=1e-10, abs=1e-15)
 
 
@@ -248,7 +249,10 @@ def graph_cut_oracle(ex, q, ga, gb, n, overlap, corners, eps=1e-6):
                 g.add_edge("s", (r, c), capacity=float("inf"))
             if cls[r, c] == 2:
                 g.add_edge((r, c), "t", capacity=float("inf"))
-            for rr, cc, wgt in ((r, c + 1, wx[r, c] if c + 1 < side else 0), (r + 1, c, wy[r, c] if r + 1 < side else 0)):
+            for rr, cc, wgt in (
+                (r, c + 1, wx[r, c] if c + 1 < side else 0),
+                (r + 1, c, wy[r, c] if r + 1 < side else 0),
+            ):
                 if rr < side and cc < side and cls[rr, cc] != 3 and wgt > 0:
                     g.add_edge((r, c), (rr, cc), capacity=float(wgt))
                     g.add_edge((rr, cc), (r, c), capacity=float(wgt))
@@ -449,7 +453,9 @@ def test_swang_is_continuous_across_every_shared_edge(name, small_exemplar):
     assert v_ok.sum() + h_ok.sum() >= (1 - 2 / n) * (v_ok.size + h_ok.size)
 
 
-@pytest.mark.parametrize("kw", [dict(corners="pinned"), dict(samples="square"), dict(corners="pinned", cut="graph")])
+@pytest.mark.parametrize(
+    "kw", [dict(corners="pinned"), dict(samples="square"), dict(corners="pinned", cut="graph")]
+)
 def test_pinned_wang_tiles_are_continuous_like_swang(kw, small_exemplar):
     ts = tilesynth.build_wang(small_exemplar, tileset="wang18", tile_size=16, seed=4, **kw)
     assert (corner_mismatch(ts.labels) == 0).all()
@@ -479,8 +485,12 @@ def test_cohen_tiles_match_along_edges_except_near_corners(cut, small_exemplar):
     assert v_ok[~near_h].all()
     # the edge pixels that show the wrong sample are exactly what corner_mismatch counts
     lab = ts.labels
-    wrong = ((lab[:, 0] != NORTH).sum() + (lab[:, -1] != SOUTH).sum() + (lab[:, 1:-1, 0] != WEST).sum()
-             + (lab[:, 1:-1, -1] != EAST).sum())
+    wrong = (
+        (lab[:, 0] != NORTH).sum()
+        + (lab[:, -1] != SOUTH).sum()
+        + (lab[:, 1:-1, 0] != WEST).sum()
+        + (lab[:, 1:-1, -1] != EAST).sum()
+    )
     assert cm.sum() == wrong
 
 
@@ -526,7 +536,14 @@ def test_round_trip(cohen, swang, tmp_path):
         assert row["edges"] == "".join(ts.definition.tiles[0])
         if ts.scheme == "wang":
             assert set(row["cuts"]) == {"NE", "ES", "SW", "WN"}
-            assert set(row["cuts"]["NE"]) == {"D_overlap", "n_overlap", "D_path", "n_path", "D_boundary", "cost"}
+            assert set(row["cuts"]["NE"]) == {
+                "D_overlap",
+                "n_overlap",
+                "D_path",
+                "n_path",
+                "D_boundary",
+                "cost",
+            }
         # a synthesis from the loaded file equals the one from memory
         a, _ = tilesynth.synthesize(ts, 90, 70, seed=1)
         b, _ = tilesynth.synthesize(back, 90, 70, seed=1)
@@ -626,7 +643,9 @@ def test_wang_kernels_check_threads_and_eps():
 
 
 def test_swang_given_and_cut_supplementary(small_exemplar, swang):
-    given = tilesynth.build_swang(small_exemplar, tile_size=32, genes=swang.genes, supplementary=swang.match_offsets)
+    given = tilesynth.build_swang(
+        small_exemplar, tile_size=32, genes=swang.genes, supplementary=swang.match_offsets
+    )
     np.testing.assert_array_equal(given.tiles, swang.tiles)
     np.testing.assert_allclose(given.D, swang.D, rtol=1e-9)
     assert given.params["supplementary"] == "given"
@@ -645,7 +664,11 @@ def test_ga_selection_lowers_E(small_exemplar):
     ga = tilesynth.build_wang(ex, tile_size=32, seed=1, select="ga", generations=15)
     sel = ga.params["selection"]
     assert sel["method"] == "ga" and sel["params"]["population"] == 50 and sel["params"]["stagnation"] == 8
-    assert sel["params"]["alpha"] == 0.05 and sel["params"]["p_crossover"] == 0.3 and sel["params"]["p_mutation"] == 0.2
+    assert (
+        sel["params"]["alpha"] == 0.05
+        and sel["params"]["p_crossover"] == 0.3
+        and sel["params"]["p_mutation"] == 0.2
+    )
     assert ga.E == pytest.approx(sel["objective_E"], rel=1e-12)
     assert ga.E < np.median(rnd)
     assert len(sel["history"]["best"]) <= 15
@@ -660,7 +683,9 @@ def test_ga_selection_lowers_E(small_exemplar):
 
 
 def test_graph_cut_build_keeps_the_dp_objective(small_exemplar):
-    ts = tilesynth.build_wang(small_exemplar, tile_size=32, seed=2, select="best-of", population=5, cut="graph")
+    ts = tilesynth.build_wang(
+        small_exemplar, tile_size=32, seed=2, select="best-of", population=5, cut="graph"
+    )
     dp = tilesynth.build_wang(small_exemplar, tile_size=32, genes=ts.genes)
     assert ts.params["selection"]["objective_E"] == pytest.approx(dp.E, rel=1e-12)
     assert ts.params["cut"] == "graph"

@@ -40,7 +40,18 @@ BUILDS = {
 def test_build_synth_info_sheet(name, exemplar_png, tmp_path, capsys):
     out = tmp_path / f"{name}.tiles"
     sheet = tmp_path / "sheet.png"
-    args = ["build", str(exemplar_png), "-o", str(out), "--tile-size", "24", "--seed", "3", "--sheet", str(sheet)]
+    args = [
+        "build",
+        str(exemplar_png),
+        "-o",
+        str(out),
+        "--tile-size",
+        "24",
+        "--seed",
+        "3",
+        "--sheet",
+        str(sheet),
+    ]
     assert main(args + BUILDS[name]) == 0
     err = capsys.readouterr().err
     assert ("s-Wang tiles" if "swang" in name else "Wang tiles") in err
@@ -50,7 +61,24 @@ def test_build_synth_info_sheet(name, exemplar_png, tmp_path, capsys):
     assert ts.n_tiles == (18 if "18" in name else 8)
     assert read_png(sheet).shape[1] > 2 * 24
     png, mp = tmp_path / "t.png", tmp_path / "map.npy"
-    assert main(["synth", str(out), "-o", str(png), "--size", "100x70", "--seed", "5", "--save-map", str(mp), "-q"]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                str(out),
+                "-o",
+                str(png),
+                "--size",
+                "100x70",
+                "--seed",
+                "5",
+                "--save-map",
+                str(mp),
+                "-q",
+            ]
+        )
+        == 0
+    )
     assert read_png(png).shape == (70, 100, 3)
     png2 = tmp_path / "t2.png"
     assert main(["synth", str(out), "-o", str(png2), "--size", "100x70", "--map", str(mp), "-q"]) == 0
@@ -59,7 +87,14 @@ def test_build_synth_info_sheet(name, exemplar_png, tmp_path, capsys):
     capsys.readouterr()
     assert main(["info", str(out)]) == 0
     text = capsys.readouterr().out
-    for words in (f"scheme        {scheme}", "N E S W", "24x24", "seed          3", "E ", "genes (row, col): R=("):
+    for words in (
+        f"scheme        {scheme}",
+        "N E S W",
+        "24x24",
+        "seed          3",
+        "E ",
+        "genes (row, col): R=(",
+    ):
         assert words in text, words
     if scheme == "wang":
         assert "D_boundary NE / ES / SW / WN" in text and "ω=0.8" in text
@@ -73,8 +108,30 @@ def test_build_synth_info_sheet(name, exemplar_png, tmp_path, capsys):
 
 def test_ga_from_the_cli(exemplar_png, tmp_path, capsys):
     out = tmp_path / "ga.tiles"
-    assert main(["build", str(exemplar_png), "-o", str(out), "--scheme", "wang", "--tile-size", "24", "--seed", "1",
-                 "--select", "ga", "--generations", "3", "--population", "8", "-q"]) == 0
+    assert (
+        main(
+            [
+                "build",
+                str(exemplar_png),
+                "-o",
+                str(out),
+                "--scheme",
+                "wang",
+                "--tile-size",
+                "24",
+                "--seed",
+                "1",
+                "--select",
+                "ga",
+                "--generations",
+                "3",
+                "--population",
+                "8",
+                "-q",
+            ]
+        )
+        == 0
+    )
     ts = tilesynth.load(out)
     sel = ts.params["selection"]
     assert sel["method"] == "ga" and sel["params"]["population"] == 8 and sel["params"]["stagnation"] == 8
@@ -127,8 +184,9 @@ GOLDEN = {
 
 GOLDEN_BUILDS = {
     "wang-dp": lambda ex, t: tilesynth.build_wang(ex, tile_size=32, seed=2026, threads=t),
-    "wang-graph": lambda ex, t: tilesynth.build_wang(ex, tileset="wang18", tile_size=32, seed=2026, cut="graph",
-                                                     threads=t),
+    "wang-graph": lambda ex, t: tilesynth.build_wang(
+        ex, tileset="wang18", tile_size=32, seed=2026, cut="graph", threads=t
+    ),
     "swang": lambda ex, t: tilesynth.build_swang(ex, tile_size=32, seed=2026, threads=t),
 }
 

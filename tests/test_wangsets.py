@@ -10,7 +10,13 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from tilesynth.tilesets import TileSetLike, choices_summary, dead_ends, reachable_situations, tileset_from_dict
+from tilesynth.tilesets import (
+    TileSetLike,
+    choices_summary,
+    dead_ends,
+    reachable_situations,
+    tileset_from_dict,
+)
 from tilesynth.tiling import scanline_index_map, validate_index_map
 from tilesynth.wangsets import (
     WANG_TILESET_NAMES,
@@ -131,7 +137,9 @@ def test_round_trip_and_dispatch():
     assert d["kind"] == "wang" and len(d["tiles"]) == 18
     back = tileset_from_dict(d)
     assert back == ts and isinstance(back, WangTileSet)
-    assert tileset_from_dict({"kind": "corner", "name": "x", "colours": ["R"], "tiles": [["R"] * 4]}).name == "x"
+    assert (
+        tileset_from_dict({"kind": "corner", "name": "x", "colours": ["R"], "tiles": [["R"] * 4]}).name == "x"
+    )
     with pytest.raises(ValueError, match="known kinds: 'corner', 'wang'"):
         tileset_from_dict({"kind": "hex"})
     assert ts.sample_indices().shape == (18, 4)
@@ -154,7 +162,10 @@ def test_round_trip_and_dispatch():
         (dict(horizontal=None, vertical=("Y",), tiles=()), "horizontal colours must be a sequence"),
         (dict(horizontal=("R",), vertical=5, tiles=()), "vertical colours must be a sequence"),
         (dict(horizontal=("R",), vertical=("Y",), tiles=None), "tiles must be a sequence"),
-        (dict(horizontal=("R",), vertical=("Y",), tiles=(("R", "Y", "R", "Y"), 7)), "tile 1 must be a sequence"),
+        (
+            dict(horizontal=("R",), vertical=("Y",), tiles=(("R", "Y", "R", "Y"), 7)),
+            "tile 1 must be a sequence",
+        ),
     ],
 )
 def test_bad_sets_are_rejected(kwargs, words):
@@ -182,4 +193,6 @@ def test_names():
 
 def test_from_dict_checks_the_alphabets():
     with pytest.raises(ValueError, match="horizontal colours must be a sequence"):
-        WangTileSet.from_dict({"kind": "wang", "name": "x", "horizontal": 3, "vertical": "Y", "tiles": ["RYRY"]})
+        WangTileSet.from_dict(
+            {"kind": "wang", "name": "x", "horizontal": 3, "vertical": "Y", "tiles": ["RYRY"]}
+        )

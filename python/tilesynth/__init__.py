@@ -21,6 +21,7 @@ Kernels (Rust, GIL released, thread-count independent): :func:`patch_ssd`, :func
 
 from __future__ import annotations
 
+from . import data  # noqa: F401 - tilesynth.data.example_path(): the bundled exemplar
 from ._version import __version__
 from .errors import InternalError, ParameterError, ShapeError, TileSetFormatError, TilesynthError
 from .io import load_image, load_raster, save_image
@@ -35,8 +36,8 @@ from .kernels import (
     kwatra_weights,
     omega_cuts,
     patch_ssd,
-    swang_cuts,
     poisson_smooth,
+    swang_cuts,
     tile_copy,
     wang_tiles,
 )
@@ -52,8 +53,6 @@ from .tilesets import TILESET_NAMES, get_tileset
 from .tiling import scanline_index_map, validate_index_map
 from .wang import build_swang, build_wang
 from .wangsets import WANG_TILESET_NAMES, WangTileSet, get_wang_tileset
-
-from . import data  # noqa: E402 - tilesynth.data.example_path(): the bundled exemplar
 
 load = TileSet.load
 """Load a ``.tiles`` file (alias of :meth:`TileSet.load`)."""

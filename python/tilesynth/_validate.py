@@ -54,9 +54,7 @@ def as_image(image: Any, name: str = "image") -> np.ndarray:
     if 0 in arr.shape:
         raise ShapeError(f"{name} has shape {arr.shape}, expected non-empty (H, W, C)")
     if arr.shape[2] > 4:
-        raise ShapeError(
-            f"{name} has {arr.shape[2]} channels, expected 1 to 4 (channels last: (H, W, C))"
-        )
+        raise ShapeError(f"{name} has {arr.shape[2]} channels, expected 1 to 4 (channels last: (H, W, C))")
     if arr.dtype.kind == "V" or arr.dtype.names:
         raise TypeError(f"{name} has dtype {arr.dtype}, expected uint8, uint16, bool or float in [0, 1]")
     if arr.dtype == np.bool_:
@@ -81,9 +79,7 @@ def as_image(image: Any, name: str = "image") -> np.ndarray:
             "explicitly: arr.astype(np.uint8) for data in [0, 255], arr / arr_max for any other range)"
         )
     else:
-        raise TypeError(
-            f"{name} has dtype {arr.dtype}, expected uint8, uint16, bool or float in [0, 1]"
-        )
+        raise TypeError(f"{name} has dtype {arr.dtype}, expected uint8, uint16, bool or float in [0, 1]")
     return np.ascontiguousarray(out)
 
 

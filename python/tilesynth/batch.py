@@ -1204,7 +1204,7 @@ def build_many(
     futures: dict[cf.Future, dict[str, Any]] = {}
     log_fh = open(log_path, "a", encoding="utf-8") if log_path is not None else None  # noqa: SIM115
     try:
-        for k, (_, spec, rec) in enumerate(plan):
+        for k, (_, _unused, rec) in enumerate(plan):
             if rec is not None:
                 results[k] = rec
                 _log(log_fh, rec, run_id)

@@ -98,18 +98,22 @@ def _method(text: str) -> str:
     return name
 
 
-SET_HELP = ("tile-set definition: 4, 8, 16a, 16b, 32 (002), B (the basic 8-set of the extendable rule), n1 (17 tiles), "
-            "n2 (38 tiles) or nK for any K >= 1; append x2, x3 or x4 (e.g. 16bx2, n2x2) for 2-4 omega-tiles per "
-            "intermediate tile, i.e. at least that many choices at every tiling step; complete sets c<K> and "
-            "c<K>x<V> (every corner tuple over K colours, hashed lookup: non-periodic, random access, --wrap; "
-            "default c4, measured in benches/repetition.py); with --scheme wang or swang the edge-coloured wang8 "
-            "(default, 2+2 colours), wang18 (3+3 colours) or the complete wc<K>, wc<Kh>-<Kv>")
+SET_HELP = (
+    "tile-set definition: 4, 8, 16a, 16b, 32 (002), B (the basic 8-set of the extendable rule), n1 (17 tiles), "
+    "n2 (38 tiles) or nK for any K >= 1; append x2, x3 or x4 (e.g. 16bx2, n2x2) for 2-4 omega-tiles per "
+    "intermediate tile, i.e. at least that many choices at every tiling step; complete sets c<K> and "
+    "c<K>x<V> (every corner tuple over K colours, hashed lookup: non-periodic, random access, --wrap; "
+    "default c4, measured in benches/repetition.py); with --scheme wang or swang the edge-coloured wang8 "
+    "(default, 2+2 colours), wang18 (3+3 colours) or the complete wc<K>, wc<Kh>-<Kv>"
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
     from ._version import __version__
 
-    p = _Parser(prog="tilesynth", description="Tile sets from one example texture, and seamless textures of any size.")
+    p = _Parser(
+        prog="tilesynth", description="Tile sets from one example texture, and seamless textures of any size."
+    )
     p.add_argument("--version", action="version", version=f"tilesynth {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
@@ -117,21 +121,46 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("build", help="build a tile set from an exemplar image")
     b.add_argument("input", help="exemplar image (PNG, JPEG, ...)")
     b.add_argument("-o", "--output", required=True, help="tile-set file to write (.tiles)")
-    b.add_argument("--scheme", default="omega", choices=SCHEMES,
-                   help="; ".join(f"{sc.name}: {sc.summary}" for sc in REGISTRY))
+    b.add_argument(
+        "--scheme",
+        default="omega",
+        choices=SCHEMES,
+        help="; ".join(f"{sc.name}: {sc.summary}" for sc in REGISTRY),
+    )
     b.add_argument("--set", default=None, type=_set_name, metavar="SET", help=SET_HELP)
-    b.add_argument("--tile-size", type=_pos, default=None, help="tile size N in pixels, even (default: half the "
-                   "exemplar's shorter side, at most 256)")
+    b.add_argument(
+        "--tile-size",
+        type=_pos,
+        default=None,
+        help="tile size N in pixels, even (default: half the exemplar's shorter side, at most 256)",
+    )
     b.add_argument("--seed", type=_nonneg, default=None, help="random seed (default: a fresh one, recorded)")
-    b.add_argument("--threads", type=_pos, default=None, help="worker threads (default: TILESYNTH_NUM_THREADS or all cores)")
-    b.add_argument("--select", type=_method, default="random", metavar="METHOD",
-                   help="how to choose the sample patches: random (default), best-of (best of 100 random sets), "
-                   "ga (000's genetic algorithm) or ais (003's immune system), all minimising E")
-    b.add_argument("--polish", action="store_true",
-                   help="after the selection, move one patch at a time to its best position until E stops falling")
+    b.add_argument(
+        "--threads",
+        type=_pos,
+        default=None,
+        help="worker threads (default: TILESYNTH_NUM_THREADS or all cores)",
+    )
+    b.add_argument(
+        "--select",
+        type=_method,
+        default="random",
+        metavar="METHOD",
+        help="how to choose the sample patches: random (default), best-of (best of 100 random sets), "
+        "ga (000's genetic algorithm) or ais (003's immune system), all minimising E",
+    )
+    b.add_argument(
+        "--polish",
+        action="store_true",
+        help="after the selection, move one patch at a time to its best position until E stops falling",
+    )
     b.add_argument("--generations", type=_pos, default=None, help="N_g of ga/ais (default 50)")
-    b.add_argument("--population", type=_pos, default=None,
-                   help="population of ga/ais (default 40), count of best-of (default 100)")
+    b.add_argument(
+        "--population",
+        type=_pos,
+        default=None,
+        help="population of ga/ais (default 40), count of best-of (default 100)",
+    )
     _add_scheme_options(b)
     b.add_argument("--sheet", default=None, help="also write a contact sheet of the tiles to this PNG")
     b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
@@ -139,42 +168,81 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("synth", help="synthesize a texture from a tile set")
     s.add_argument("tileset", help="tile-set file (.tiles)")
-    s.add_argument("-o", "--output", required=True, help="output image (.png, 16-bit with --bits 16; .exr: float colour)")
-    s.add_argument("--size", type=_size, required=True, help="output size WIDTHxHEIGHT, or SIZE for a square, e.g. 1920x1080 or 1024")
+    s.add_argument(
+        "-o", "--output", required=True, help="output image (.png, 16-bit with --bits 16; .exr: float colour)"
+    )
+    s.add_argument(
+        "--size",
+        type=_size,
+        required=True,
+        help="output size WIDTHxHEIGHT, or SIZE for a square, e.g. 1920x1080 or 1024",
+    )
     s.add_argument("--seed", type=_nonneg, default=None, help="tiling seed (default: a fresh one, printed)")
-    s.add_argument("--map", default=None, help="use this tile index map (.npy, int, rows x cols) instead of the tiler")
+    s.add_argument(
+        "--map", default=None, help="use this tile index map (.npy, int, rows x cols) instead of the tiler"
+    )
     s.add_argument("--save-map", default=None, help="write the tile index map used to this .npy file")
-    s.add_argument("--with", dest="with_maps", action="append", default=[], metavar="MAP",
-                   help="also synthesize this map, pixel-aligned with the exemplar (normal, height, roughness, "
-                   "...; PNG 8/16-bit, TIFF, or .npy uint8/uint16/float32), with the same cuts and layout; "
-                   "written next to the output as OUT-<map name>.png (.npy for float maps), same sample type; "
-                   "repeatable")
-    s.add_argument("--map-smooth", default="auto", choices=("auto", "on", "off"),
-                   help="Poisson-smooth the --with maps inside the cuts like the colour tiles: auto (default: if the "
-                   "tile set was built with --smooth), on, or off (pure copies: for labels, masks, IDs)")
-    s.add_argument("--bits", type=int, choices=(8, 16), default=None,
-                   help="bits per channel of the output (default: those of the exemplar)")
+    s.add_argument(
+        "--with",
+        dest="with_maps",
+        action="append",
+        default=[],
+        metavar="MAP",
+        help="also synthesize this map, pixel-aligned with the exemplar (normal, height, roughness, "
+        "...; PNG 8/16-bit, TIFF, or .npy uint8/uint16/float32), with the same cuts and layout; "
+        "written next to the output as OUT-<map name>.png (.npy for float maps), same sample type; "
+        "repeatable",
+    )
+    s.add_argument(
+        "--map-smooth",
+        default="auto",
+        choices=("auto", "on", "off"),
+        help="Poisson-smooth the --with maps inside the cuts like the colour tiles: auto (default: if the "
+        "tile set was built with --smooth), on, or off (pure copies: for labels, masks, IDs)",
+    )
+    s.add_argument(
+        "--bits",
+        type=int,
+        choices=(8, 16),
+        default=None,
+        help="bits per channel of the output (default: those of the exemplar)",
+    )
     s.add_argument("--threads", type=_pos, default=None, help="copy threads")
     add_png_compression_argument(s)
-    s.add_argument("--origin", type=_origin, default=(0, 0), metavar="X,Y",
-                   help="complete sets (c3x2, wc2, ...): top-left pixel of the window of the infinite texture to "
-                   "write (any integers; write negative ones as --origin=-512,2048; default 0,0)")
-    s.add_argument("--wrap", action="store_true",
-                   help="complete sets: make the output tile periodically (size a multiple of the tile size)")
+    s.add_argument(
+        "--origin",
+        type=_origin,
+        default=(0, 0),
+        metavar="X,Y",
+        help="complete sets (c3x2, wc2, ...): top-left pixel of the window of the infinite texture to "
+        "write (any integers; write negative ones as --origin=-512,2048; default 0,0)",
+    )
+    s.add_argument(
+        "--wrap",
+        action="store_true",
+        help="complete sets: make the output tile periodically (size a multiple of the tile size)",
+    )
     s.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
     i = sub.add_parser("info", help="describe a tile set")
     i.add_argument("tileset", help="tile-set file (.tiles)")
     i.add_argument("--json", action="store_true", help="machine-readable output")
 
-    sh = sub.add_parser("sheet", help="write a contact sheet (all tiles, corner colours, cutting curves) as PNG")
+    sh = sub.add_parser(
+        "sheet", help="write a contact sheet (all tiles, corner colours, cutting curves) as PNG"
+    )
     sh.add_argument("tileset", help="tile-set file (.tiles)")
     sh.add_argument("-o", "--output", required=True, help="PNG to write")
     sh.add_argument("--no-cuts", action="store_true", help="do not draw the cutting curves")
     add_png_compression_argument(sh)
 
     d = sub.add_parser("demo", help="build and synthesize on the bundled exemplar (lettuce leaves)")
-    d.add_argument("-o", "--output-dir", default="tilesynth-demo", help="directory for the results (default ./tilesynth-demo)")
+    d.add_argument(
+        "-o",
+        "--output-dir",
+        default="tilesynth-demo",
+        help="directory for the results (default ./tilesynth-demo)",
+    )
     d.add_argument("--set", default="c4", type=_set_name, metavar="SET", help=SET_HELP)
     d.add_argument("--size", type=_size, default=(1024, 1024), help="texture size (default 1024x1024)")
     d.add_argument("--seed", type=_nonneg, default=1, help="seed (default 1)")
@@ -196,30 +264,62 @@ def _add_metrics_parsers(sub) -> None:  # noqa: ANN001
     from .metrics import DEFAULT_PATCH, DEFAULT_SAMPLE_SEED, DEFAULT_SAMPLE_SIZE, DEFAULT_STRIDE
 
     size = "x".join(map(str, DEFAULT_SAMPLE_SIZE))
-    m = sub.add_parser("metrics", help="quality metrics of a tile set (on a synthesized sample) or of an image")
+    m = sub.add_parser(
+        "metrics", help="quality metrics of a tile set (on a synthesized sample) or of an image"
+    )
     m.add_argument("input", metavar="OUTPUT_OR_TILESET", help="a tile set (.tiles) or an image (an output)")
     m.add_argument("--json", action="store_true", help="machine-readable output")
-    m.add_argument("--size", type=_size, default=None,
-                   help=f"tile set: size of the sample to synthesize and measure (default {size})")
-    m.add_argument("--seed", type=_nonneg, default=None,
-                   help=f"tile set: tiling seed of the sample (default {DEFAULT_SAMPLE_SEED})")
-    m.add_argument("--tile-size", type=_pos, default=None,
-                   help="image: tile size of the grid the image was laid on (the seam score needs it)")
+    m.add_argument(
+        "--size",
+        type=_size,
+        default=None,
+        help=f"tile set: size of the sample to synthesize and measure (default {size})",
+    )
+    m.add_argument(
+        "--seed",
+        type=_nonneg,
+        default=None,
+        help=f"tile set: tiling seed of the sample (default {DEFAULT_SAMPLE_SEED})",
+    )
+    m.add_argument(
+        "--tile-size",
+        type=_pos,
+        default=None,
+        help="image: tile size of the grid the image was laid on (the seam score needs it)",
+    )
     m.add_argument("--exemplar", default=None, help="image: the exemplar (the coherence energy needs it)")
-    m.add_argument("--patch", type=_pos, default=DEFAULT_PATCH, help=f"coherence patch size (default {DEFAULT_PATCH})")
-    m.add_argument("--stride", type=_pos, default=DEFAULT_STRIDE,
-                   help=f"coherence patch stride (default {DEFAULT_STRIDE})")
+    m.add_argument(
+        "--patch", type=_pos, default=DEFAULT_PATCH, help=f"coherence patch size (default {DEFAULT_PATCH})"
+    )
+    m.add_argument(
+        "--stride",
+        type=_pos,
+        default=DEFAULT_STRIDE,
+        help=f"coherence patch stride (default {DEFAULT_STRIDE})",
+    )
     m.add_argument("--threads", type=_pos, default=None, help="worker threads")
     m.add_argument("-q", "--quiet", action="store_true", help="no progress output (on stderr)")
 
-    r = sub.add_parser("report", help="write a visual report (PNG figures and one offline HTML page) of a tile set")
+    r = sub.add_parser(
+        "report", help="write a visual report (PNG figures and one offline HTML page) of a tile set"
+    )
     r.add_argument("tileset", help="tile-set file (.tiles)")
     r.add_argument("-o", "--output-dir", required=True, help="directory for the report (created if missing)")
-    r.add_argument("--size", type=_size, default=DEFAULT_SAMPLE_SIZE,
-                   help=f"size of the synthesized sample (default {size})")
-    r.add_argument("--seed", type=_nonneg, default=DEFAULT_SAMPLE_SEED,
-                   help=f"tiling seed of the sample (default {DEFAULT_SAMPLE_SEED})")
-    r.add_argument("--no-borders", action="store_true", help="do not write the sample with the tile borders outlined")
+    r.add_argument(
+        "--size",
+        type=_size,
+        default=DEFAULT_SAMPLE_SIZE,
+        help=f"size of the synthesized sample (default {size})",
+    )
+    r.add_argument(
+        "--seed",
+        type=_nonneg,
+        default=DEFAULT_SAMPLE_SEED,
+        help=f"tiling seed of the sample (default {DEFAULT_SAMPLE_SEED})",
+    )
+    r.add_argument(
+        "--no-borders", action="store_true", help="do not write the sample with the tile borders outlined"
+    )
     r.add_argument("--threads", type=_pos, default=None, help="worker threads")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     add_png_compression_argument(r)
@@ -242,8 +342,9 @@ def _metrics(args: argparse.Namespace) -> None:
         ts = TileSet.load(path)
         w, h = args.size or metrics.DEFAULT_SAMPLE_SIZE
         seed = metrics.DEFAULT_SAMPLE_SEED if args.seed is None else args.seed
-        result = metrics.tileset_metrics(ts, w, h, seed, args.patch, args.stride, args.threads,
-                                         progress=Progress(args.quiet))
+        result = metrics.tileset_metrics(
+            ts, w, h, seed, args.patch, args.stride, args.threads, progress=Progress(args.quiet)
+        )
         result["input"]["path"] = path
     else:
         if args.size is not None or args.seed is not None:
@@ -255,8 +356,16 @@ def _metrics(args: argparse.Namespace) -> None:
                 exemplar = load_image(args.exemplar)[0]
             except ParameterError as exc:
                 raise ParameterError(f"--exemplar: {exc}") from None
-        result = metrics.image_metrics(image, args.tile_size, exemplar, None, args.patch, args.stride, args.threads,
-                                       progress=Progress(args.quiet))
+        result = metrics.image_metrics(
+            image,
+            args.tile_size,
+            exemplar,
+            None,
+            args.patch,
+            args.stride,
+            args.threads,
+            progress=Progress(args.quiet),
+        )
         result["input"]["path"] = path
     if args.json:
         print(json.dumps(result, indent=1, sort_keys=True, allow_nan=False))
@@ -271,8 +380,17 @@ def _report(args: argparse.Namespace) -> None:
 
     prog = Progress(args.quiet)
     ts = TileSet.load(args.tileset)
-    res = write_report(ts, args.output_dir, args.size[0], args.size[1], args.seed, not args.no_borders,
-                       args.threads, name=os.path.basename(args.tileset), progress=prog)
+    res = write_report(
+        ts,
+        args.output_dir,
+        args.size[0],
+        args.size[1],
+        args.seed,
+        not args.no_borders,
+        args.threads,
+        name=os.path.basename(args.tileset),
+        progress=prog,
+    )
     prog.message(f"wrote {res['files']['page']} ({len(res['files'])} files)")
 
 
@@ -284,7 +402,9 @@ def _add_scheme_options(parser: argparse.ArgumentParser) -> None:
     for sc in REGISTRY:
         for opt in sc.options:
             if opt.flag in seen and not opt.same_flag(seen[opt.flag][0]):
-                raise RuntimeError(f"{opt.flag}: schemes {seen[opt.flag][1].name} and {sc.name} disagree on it")
+                raise RuntimeError(
+                    f"{opt.flag}: schemes {seen[opt.flag][1].name} and {sc.name} disagree on it"
+                )
             seen.setdefault(opt.flag, (opt, sc))
             users.setdefault(opt.flag, []).append(sc.name)
     for flag, (opt, sc) in seen.items():
@@ -305,11 +425,23 @@ def _scheme_kwargs(args: argparse.Namespace, scheme: Scheme) -> dict:
     return {opt.name: opt.to_builder(getattr(args, opt.dest)) for opt in scheme.options}
 
 
-def _build(input_path: str, output: str, *, scheme: str = "omega", set_name: str | None = None,
-           tile_size: int | None = None, seed: int | None = None, threads: int | None = None, quiet: bool = False,
-           sheet: str | None = None, select: str = "random", polish: bool = False,
-           generations: int | None = None, population: int | None = None,
-           options: dict | None = None) -> "TileSet":  # noqa: F821
+def _build(
+    input_path: str,
+    output: str,
+    *,
+    scheme: str = "omega",
+    set_name: str | None = None,
+    tile_size: int | None = None,
+    seed: int | None = None,
+    threads: int | None = None,
+    quiet: bool = False,
+    sheet: str | None = None,
+    select: str = "random",
+    polish: bool = False,
+    generations: int | None = None,
+    population: int | None = None,
+    options: dict | None = None,
+) -> TileSet:  # noqa: F821
     """``tilesynth build``: ``options`` are the scheme's own builder keywords (:func:`_scheme_kwargs`)."""
     from .io import load_image
     from .progress import Progress
@@ -327,9 +459,18 @@ def _build(input_path: str, output: str, *, scheme: str = "omega", set_name: str
     if select == "random" and population is not None:
         raise ParameterError(f"--population = {population}: not used with --select random")
     ts = sc.build(
-        image, tileset=set_name, tile_size=tile_size, seed=seed, threads=threads, progress=prog,
-        exemplar_info={"file": os.path.basename(input_path), "bits": bits}, select=select, polish=polish,
-        generations=generations, population=population, **(options or {}),
+        image,
+        tileset=set_name,
+        tile_size=tile_size,
+        seed=seed,
+        threads=threads,
+        progress=prog,
+        exemplar_info={"file": os.path.basename(input_path), "bits": bits},
+        select=select,
+        polish=polish,
+        generations=generations,
+        population=population,
+        **(options or {}),
     )
     ts.save(output)
     sel = ts.params.get("selection", {})
@@ -365,10 +506,21 @@ def _map_output(output: str, map_path: str, dtype: np.dtype) -> Path:
     return out.with_name(f"{out.stem}-{Path(map_path).stem}{ext}")
 
 
-def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, map_path: str | None,
-           save_map: str | None, bits: int | None, threads: int | None, quiet: bool,
-           with_maps: list[str] | None = None, map_smooth: str = "auto", origin: tuple[int, int] = (0, 0),
-           wrap: bool = False) -> None:
+def _synth(
+    ts_path: str,
+    output: str,
+    size: tuple[int, int],
+    seed: int | None,
+    map_path: str | None,
+    save_map: str | None,
+    bits: int | None,
+    threads: int | None,
+    quiet: bool,
+    with_maps: list[str] | None = None,
+    map_smooth: str = "auto",
+    origin: tuple[int, int] = (0, 0),
+    wrap: bool = False,
+) -> None:
     from ._validate import seed_int
     from .io import atomic_open, save_image
     from .progress import Progress
@@ -402,7 +554,9 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
     smooth_maps = {"auto": None, "on": True, "off": False}[map_smooth]
     smooth_maps = is_smoothed(ts) if smooth_maps is None else smooth_maps
     if smooth_maps and not is_smoothed(ts):
-        raise ParameterError(f"--map-smooth on: {ts_path} was not built with --smooth; there is nothing to follow")
+        raise ParameterError(
+            f"--map-smooth on: {ts_path} was not built with --smooth; there is nothing to follow"
+        )
     if map_smooth != "auto" and not with_maps:
         raise ParameterError(f"--map-smooth {map_smooth}: only used with --with")
     maps = []  # load and check every map before writing anything
@@ -416,14 +570,25 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
             )
         target = _map_output(output, mp, arr.dtype)
         if target.resolve() in {Path(output).resolve(), *(t.resolve() for _, _, t in maps)}:
-            raise ParameterError(f"--with = {mp!r}: its output {str(target)!r} would overwrite another output")
+            raise ParameterError(
+                f"--with = {mp!r}: its output {str(target)!r} would overwrite another output"
+            )
         if smooth_maps:  # refused before anything is written
             check_smoothable(arr, f"--with = {mp!r}: the map")
         maps.append((mp, arr, target))
     t0 = time.perf_counter()
     prog("synthesis", 0, 1)
-    img, imap = synthesize(ts, size[0], size[1], seed=seed, index_map=index_map,
-                           dtype=out_dtype, threads=threads, origin=origin, wrap=wrap)
+    img, imap = synthesize(
+        ts,
+        size[0],
+        size[1],
+        seed=seed,
+        index_map=index_map,
+        dtype=out_dtype,
+        threads=threads,
+        origin=origin,
+        wrap=wrap,
+    )
     prog("synthesis", 1, 1)
     prog("writing image", 0, 1)
     save_image(output, img)
@@ -440,11 +605,15 @@ def _synth(ts_path: str, output: str, size: tuple[int, int], seed: int | None, m
         else:
             save_image(target, out_map)
         prog("maps", k + 1, len(maps))
-        prog.message(f"wrote {target}: {mp} ({arr.dtype}, {arr.shape[2]} channel(s)) through the same cuts"
-                     + (", Poisson-smoothed" if smooth_maps else ""))
+        prog.message(
+            f"wrote {target}: {mp} ({arr.dtype}, {arr.shape[2]} channel(s)) through the same cuts"
+            + (", Poisson-smoothed" if smooth_maps else "")
+        )
     how = f"seed {seed}" if seed is not None else f"map {map_path}"
-    prog.message(f"wrote {output}: {size[0]}x{size[1]}, {imap.shape[1]}x{imap.shape[0]} tiles, {how}, "
-                 f"{time.perf_counter() - t0:.2f} s")
+    prog.message(
+        f"wrote {output}: {size[0]}x{size[1]}, {imap.shape[1]}x{imap.shape[0]} tiles, {how}, "
+        f"{time.perf_counter() - t0:.2f} s"
+    )
 
 
 def _info(ts_path: str, as_json: bool) -> None:
@@ -476,9 +645,8 @@ def _info(ts_path: str, as_json: bool) -> None:
         f"build time    {ts.timing.get('total_s', float('nan')):.3f} s"
         + "".join(f", {k[:-2]} {v:.3f}" for k, v in ts.timing.items() if k != "total_s"),
         f"version       tilesynth {ts.version}, content sha256 {data['content_sha256'][:16]}",
-        "genes (row, col): " + ", ".join(
-            f"{c}=({r0},{c0})" for c, (r0, c0) in zip(_colours(ts.layout), ts.genes.tolist())
-        ),
+        "genes (row, col): "
+        + ", ".join(f"{c}=({r0},{c0})" for c, (r0, c0) in zip(_colours(ts.layout), ts.genes.tolist())),
         "",
     ]
     if layout_kind(ts.layout) == "edge":
@@ -512,18 +680,24 @@ def _wang_lines(ts) -> list[str]:  # noqa: ANN001
     """Per-tile table of an edge-coloured set: the four cuts' D_boundary when the set has Cohen's cut statistics
     (``cut_stats``), else each tile's supplementary patch."""
     if ts.cut_stats is not None:
-        out = [f"{'tile':>4}  {'N E S W':<7}  {'D_sum':>10}  {'cut cost':>10}  "
-               f"{'D_boundary NE / ES / SW / WN':>36}"]
+        out = [
+            f"{'tile':>4}  {'N E S W':<7}  {'D_sum':>10}  {'cut cost':>10}  "
+            f"{'D_boundary NE / ES / SW / WN':>36}"
+        ]
         for row in ts.per_tile():
             cuts = row.get("cuts", {})
             db = " / ".join(f"{cuts[q]['D_boundary']:.4f}" for q in ("NE", "ES", "SW", "WN")) if cuts else ""
-            out.append(f"{row['index']:>4}  {' '.join(row['edges']):<7}  {row['D']:>10.4f}  "
-                       f"{row['cut_cost']:>10.4f}  {db:>36}")
+            out.append(
+                f"{row['index']:>4}  {' '.join(row['edges']):<7}  {row['D']:>10.4f}  "
+                f"{row['cut_cost']:>10.4f}  {db:>36}"
+            )
         return out
     out = [f"{'tile':>4}  {'N E S W':<7}  {'supplementary':>15}  {'D_j':>12}  {'cut cost':>10}"]
     for row in ts.per_tile():
-        out.append(f"{row['index']:>4}  {' '.join(row['edges']):<7}  "
-                   f"{'(%d,%d)' % tuple(row['match_offset']):>15}  {row['D']:>12.4f}  {row['cut_cost']:>10.4f}")
+        out.append(
+            f"{row['index']:>4}  {' '.join(row['edges']):<7}  "
+            f"{'(%d,%d)' % tuple(row['match_offset']):>15}  {row['D']:>12.4f}  {row['cut_cost']:>10.4f}"
+        )
     return out
 
 
@@ -567,7 +741,9 @@ def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
     return lines
 
 
-def _demo(out_dir: str, set_name: str, size: tuple[int, int], seed: int, threads: int | None, quiet: bool) -> None:
+def _demo(
+    out_dir: str, set_name: str, size: tuple[int, int], seed: int, threads: int | None, quiet: bool
+) -> None:
     from .progress import Progress
 
     prog = Progress(quiet)
@@ -577,8 +753,15 @@ def _demo(out_dir: str, set_name: str, size: tuple[int, int], seed: int, threads
     with resources.as_file(src) as exemplar:
         prog.message(f"exemplar: bundled lettuce-leaves.png (DCor, BSD-3-Clause) {exemplar}")
         tiles = str(d / "lettuce.tiles")
-        _build(str(exemplar), tiles, set_name=set_name, seed=seed, threads=threads, quiet=quiet,
-               sheet=str(d / "tiles.png"))
+        _build(
+            str(exemplar),
+            tiles,
+            set_name=set_name,
+            seed=seed,
+            threads=threads,
+            quiet=quiet,
+            sheet=str(d / "tiles.png"),
+        )
     _synth(tiles, str(d / "texture.png"), size, seed, None, str(d / "texture-map.npy"), None, threads, quiet)
     prog.message(f"done: open {d / 'tiles.png'} and {d / 'texture.png'}")
 
@@ -595,13 +778,38 @@ def main(argv: list[str] | None = None) -> int:
 
         check_command(args)  # before any work: no output may be an input or another output (issue 16)
         if args.command == "build":
-            _build(args.input, args.output, scheme=args.scheme, set_name=args.set, tile_size=args.tile_size,
-                   seed=args.seed, threads=args.threads, quiet=args.quiet, sheet=args.sheet, select=args.select,
-                   polish=args.polish, generations=args.generations, population=args.population,
-                   options=_scheme_kwargs(args, get_scheme(args.scheme)))
+            _build(
+                args.input,
+                args.output,
+                scheme=args.scheme,
+                set_name=args.set,
+                tile_size=args.tile_size,
+                seed=args.seed,
+                threads=args.threads,
+                quiet=args.quiet,
+                sheet=args.sheet,
+                select=args.select,
+                polish=args.polish,
+                generations=args.generations,
+                population=args.population,
+                options=_scheme_kwargs(args, get_scheme(args.scheme)),
+            )
         elif args.command == "synth":
-            _synth(args.tileset, args.output, args.size, args.seed, args.map, args.save_map, args.bits,
-                   args.threads, args.quiet, args.with_maps, args.map_smooth, args.origin, args.wrap)
+            _synth(
+                args.tileset,
+                args.output,
+                args.size,
+                args.seed,
+                args.map,
+                args.save_map,
+                args.bits,
+                args.threads,
+                args.quiet,
+                args.with_maps,
+                args.map_smooth,
+                args.origin,
+                args.wrap,
+            )
         elif args.command == "info":
             _info(args.tileset, args.json)
         elif args.command == "sheet":

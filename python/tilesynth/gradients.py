@@ -34,7 +34,12 @@ def patch_gradients(exemplar: np.ndarray, source: np.ndarray) -> np.ndarray:
     edge). Positions must lie inside the exemplar (else :class:`tilesynth.ParameterError` naming ``source``).
     """
     source = np.asarray(source)
-    if exemplar.ndim != 3 or exemplar.dtype != np.float32 or not 1 <= exemplar.shape[2] < 8 or source.ndim < 1:
+    if (
+        exemplar.ndim != 3
+        or exemplar.dtype != np.float32
+        or not 1 <= exemplar.shape[2] < 8
+        or source.ndim < 1
+    ):
         return patch_gradients_numpy(exemplar, source)
     flat = np.ascontiguousarray(source.reshape(-1, source.shape[-1]), dtype=np.int64)
     g = _core.patch_gradients(np.ascontiguousarray(exemplar), flat)

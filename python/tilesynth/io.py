@@ -148,7 +148,9 @@ def read_png(path: str | os.PathLike[str], max_pixels: int | None = None) -> np.
     return _decode_png(data, where, pixel_limit(max_pixels))[0]
 
 
-def read_exr(path: str | os.PathLike[str], max_pixels: int | None = None) -> tuple[np.ndarray, list[str], bool]:
+def read_exr(
+    path: str | os.PathLike[str], max_pixels: int | None = None
+) -> tuple[np.ndarray, list[str], bool]:
     """Decode the first layer of an OpenEXR file: float32 ``(H, W, C)``, the channel names, and whether every
     channel is stored as half floats.
 
@@ -240,7 +242,9 @@ def load_raster(path: str | os.PathLike[str], max_pixels: int | None = None) -> 
                             im = im.convert("RGBA" if "A" in im.mode or "transparency" in im.info else "RGB")
                         arr = np.asarray(im)
             except Image.DecompressionBombError as exc:
-                raise ParameterError(f"{where}: refused, {exc} (tilesynth's limit is {limit} pixels)") from None
+                raise ParameterError(
+                    f"{where}: refused, {exc} (tilesynth's limit is {limit} pixels)"
+                ) from None
             except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
                 raise ParameterError(f"{where}: not a readable image ({exc})") from None
     if arr.ndim == 2:
@@ -331,7 +335,9 @@ def load_image(path: str | os.PathLike[str], max_pixels: int | None = None) -> t
                 f"{where}: refused, {exc} (tilesynth's limit is {limit} pixels; see max_pixels / {MAX_PIXELS_ENV})"
             ) from None
         except UnidentifiedImageError:
-            raise ParameterError(f"{where}: not a readable image (not an image format Pillow knows)") from None
+            raise ParameterError(
+                f"{where}: not a readable image (not an image format Pillow knows)"
+            ) from None
         except PermissionError as exc:
             raise ParameterError(f"{where}: cannot read ({exc.strerror or exc})") from None
         except Exception as exc:  # noqa: BLE001
@@ -562,7 +568,9 @@ def encode_png(image: np.ndarray, compression: str = "default", threads: int | N
     if arr.ndim == 2:
         arr = arr[:, :, None]
     if arr.ndim != 3 or 0 in arr.shape or arr.shape[2] > 4:
-        raise ShapeError(f"image has shape {arr.shape}, expected non-empty (H, W) or (H, W, C) with C in 1..4")
+        raise ShapeError(
+            f"image has shape {arr.shape}, expected non-empty (H, W) or (H, W, C) with C in 1..4"
+        )
     return _core.png_encode(np.ascontiguousarray(arr), _compression(compression), threads)
 
 

@@ -34,7 +34,9 @@ DEFAULT_POISSON_TOL: float = _core.DEFAULT_POISSON_TOL
 """Default relative residual ‖b − A f‖₂ / ‖b‖₂ at which :func:`poisson_smooth` stops."""
 
 
-def _templates(templates: np.ndarray, name: str = "templates", features: bool = False) -> tuple[np.ndarray, bool]:
+def _templates(
+    templates: np.ndarray, name: str = "templates", features: bool = False
+) -> tuple[np.ndarray, bool]:
     if not features:
         return as_image_stack(templates, name)
     t = np.asarray(templates)
@@ -68,7 +70,9 @@ def _mask(mask: object, name: str = "mask") -> np.ndarray | None:
         if m.dtype.kind not in "iuf":
             raise TypeError(f"{name} has dtype {m.dtype}, expected bool")
         if m.size and not np.isin(m, (0, 1)).all():
-            raise ParameterError(f"{name} has dtype {m.dtype} with values other than 0 and 1, expected a bool mask")
+            raise ParameterError(
+                f"{name} has dtype {m.dtype} with values other than 0 and 1, expected a bool mask"
+            )
     return np.ascontiguousarray(m, dtype=bool)
 
 
@@ -110,7 +114,9 @@ class SsdIndex:
         """``(H, W, C)`` of the indexed image."""
         return self._index.shape
 
-    def ssd(self, templates: np.ndarray, mask: np.ndarray | None = None, threads: int | None = None) -> np.ndarray:
+    def ssd(
+        self, templates: np.ndarray, mask: np.ndarray | None = None, threads: int | None = None
+    ) -> np.ndarray:
         """SSD map(s): float32 ``(H-h+1, W-w+1)`` for a ``(h, w, C)`` template, ``(K, ...)`` for a stack.
 
         ``mask``: optional ``(h, w)`` bool, True where a template pixel counts.
@@ -230,7 +236,10 @@ def kwatra_weights(
     ``a_grad`` (``(H, W, 2)``: ‖g_a‖ along x, along y) replaces the gradients of ``a`` (see :mod:`tilesynth.omega`).
     """
     return _core.kwatra_weights(
-        as_image(a, "a"), as_image(b, "b"), _mask(region, "region"), finite_float(eps, "eps", positive=True),
+        as_image(a, "a"),
+        as_image(b, "b"),
+        _mask(region, "region"),
+        finite_float(eps, "eps", positive=True),
         _grad(a_grad, "a_grad", 3, "(H, W, 2)"),
     )
 
@@ -277,8 +286,13 @@ def edge_weight_sums(
     """
     t = as_image(template, "template")
     return _core.edge_weight_sums(
-        t, as_image(image, "image"), _mask(wx_mask), _mask(wy_mask), float(eps),
-        _grad(template_grad, "template_grad", 3, "(N, M, 2)"), threads_arg(threads),
+        t,
+        as_image(image, "image"),
+        _mask(wx_mask),
+        _mask(wy_mask),
+        float(eps),
+        _grad(template_grad, "template_grad", 3, "(N, M, 2)"),
+        threads_arg(threads),
     )
 
 
@@ -295,12 +309,19 @@ def weighted_ssd_map(
     ``D(t) = Σ_p Σ_c (T(p,c) − I(p+t,c))² / (μ (g_T(p) + g_I(p+t)) + ε)``, with per-pixel gradient magnitudes
     ``image_grad`` ``(H, W)`` and ``template_grad`` ``(N, M)``. float64 ``(H − N + 1, W − M + 1)``."""
     return _core.weighted_ssd_map(
-        as_image(image, "image"), _grad(image_grad, "image_grad", 2, "(H, W)"), as_image(template, "template"),
-        _grad(template_grad, "template_grad", 2, "(N, M)"), float(mu), float(eps), threads_arg(threads),
+        as_image(image, "image"),
+        _grad(image_grad, "image_grad", 2, "(H, W)"),
+        as_image(template, "template"),
+        _grad(template_grad, "template_grad", 2, "(N, M)"),
+        float(mu),
+        float(eps),
+        threads_arg(threads),
     )
 
 
-def tile_copy(atlas: np.ndarray, index_map: np.ndarray, out: np.ndarray, threads: int | None = None) -> np.ndarray:
+def tile_copy(
+    atlas: np.ndarray, index_map: np.ndarray, out: np.ndarray, threads: int | None = None
+) -> np.ndarray:
     """Fill ``out`` ``(H, W, C)`` with tiles of ``atlas`` ``(K, th, tw, C)`` laid out by ``index_map``.
 
     ``atlas`` and ``out`` must share a dtype (uint8, uint16, float32, or int32 for provenance maps), ``out`` must
@@ -325,7 +346,10 @@ def tile_copy(atlas: np.ndarray, index_map: np.ndarray, out: np.ndarray, threads
     if np.may_share_memory(a, out):
         raise ParameterError("out: must not share memory with atlas")
     _core.tile_copy(
-        np.ascontiguousarray(a, dtype=a.dtype.newbyteorder("=")), _index_map(index_map), out, threads_arg(threads)
+        np.ascontiguousarray(a, dtype=a.dtype.newbyteorder("=")),
+        _index_map(index_map),
+        out,
+        threads_arg(threads),
     )
     return out
 
@@ -343,6 +367,8 @@ def _index_map(value: object) -> np.ndarray:
         if lo < -(2**31) or hi >= 2**31:
             raise ParameterError(f"index_map has values in [{lo}, {hi}], expected tile indices")
     return np.ascontiguousarray(m, dtype=np.int32)
+
+
 def _float_tiles(value: object, name: str) -> np.ndarray:
     """``value`` as C-contiguous float32: floats as they are (any finite values; the kernel checks), uint8 /
     uint16 scaled by their maximum, bool as 0 / 1."""
@@ -440,7 +466,9 @@ def poisson_smooth(
     d = _float_tiles(dst, "dst")
     s = _float_tiles(src, "src")
     if d.ndim != r.ndim + 1 or d.shape[:-1] != r.shape:
-        raise ShapeError(f"dst has shape {d.shape}, expected {r.shape} + (C,) (the shape of region, then channels)")
+        raise ShapeError(
+            f"dst has shape {d.shape}, expected {r.shape} + (C,) (the shape of region, then channels)"
+        )
     if s.shape != d.shape:
         raise ShapeError(f"src has shape {s.shape}, expected {d.shape} (the shape of dst)")
     if isinstance(tol, (bool, np.bool_)) or not isinstance(tol, (int, float, np.integer, np.floating)):
@@ -526,8 +554,16 @@ class PopulationEvaluator:
             self.exemplar, tile_size, self.tile_patches, n_patches, self.lam, self.normalise, cache_bytes
         )
         self.tile_size, self.n_patches, self.n_tiles = self._ev.dims
-        self._init_args = (self.exemplar, tile_size, self.tile_patches, n_patches, self.lam, self.normalise,
-                           cache_bytes, bool(features))
+        self._init_args = (
+            self.exemplar,
+            tile_size,
+            self.tile_patches,
+            n_patches,
+            self.lam,
+            self.normalise,
+            cache_bytes,
+            bool(features),
+        )
 
     def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from its inputs, cache empty (issue 17)
         return (type(self), self._init_args)
@@ -646,8 +682,18 @@ class WangEvaluator:
         eps = finite_float(eps, "eps", positive=True)
         self._ev = _core.WangEvaluator(self.exemplar, self.tile_samples, n_samples, *args, eps)
         self.sample_size, self.n_samples, self.n_tiles = self._ev.dims
-        self._init_args = (self.exemplar, self.tile_samples, n_samples, tile_size, overlap, corners, samples, cut,
-                           omega, eps)
+        self._init_args = (
+            self.exemplar,
+            self.tile_samples,
+            n_samples,
+            tile_size,
+            overlap,
+            corners,
+            samples,
+            cut,
+            omega,
+            eps,
+        )
 
     def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from its inputs (issue 17)
         return (type(self), self._init_args)

@@ -49,7 +49,6 @@ from typing import Any
 
 import numpy as np
 
-from . import kernels
 from .errors import ParameterError
 
 STRATEGIES: tuple[str, ...] = ("ssd", "circle", "midpoints", "best-cut")

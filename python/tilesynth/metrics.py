@@ -234,8 +234,20 @@ class Coherence:
     offsets: np.ndarray = field(repr=False)
 
     def to_dict(self) -> dict[str, Any]:
-        d = {k: getattr(self, k) for k in ("energy", "rms", "max", "patch", "stride", "n_patches",
-                                           "exact_copies", "searched", "seconds")}
+        d = {
+            k: getattr(self, k)
+            for k in (
+                "energy",
+                "rms",
+                "max",
+                "patch",
+                "stride",
+                "n_patches",
+                "exact_copies",
+                "searched",
+                "seconds",
+            )
+        }
         return _finite(d)
 
 
@@ -360,8 +372,9 @@ class Coverage:
     counts: np.ndarray = field(repr=False)
 
     def to_dict(self) -> dict[str, Any]:
-        return _finite({k: getattr(self, k) for k in ("fraction", "evenness", "cv", "used", "pixels",
-                                                       "output_pixels")})
+        return _finite(
+            {k: getattr(self, k) for k in ("fraction", "evenness", "cv", "used", "pixels", "output_pixels")}
+        )
 
 
 def coverage(source: np.ndarray, exemplar_shape: tuple[int, ...]) -> Coverage:
@@ -373,7 +386,12 @@ def coverage(source: np.ndarray, exemplar_shape: tuple[int, ...]) -> Coverage:
     r, c = src[..., 0].ravel(), src[..., 1].ravel()
     if r.size == 0:
         raise ShapeError("source is empty")
-    lo_r, hi_r, lo_c, hi_c = int(r.min()), int(r.max()), int(c.min()), int(c.max())  # before any cast can wrap
+    lo_r, hi_r, lo_c, hi_c = (
+        int(r.min()),
+        int(r.max()),
+        int(c.min()),
+        int(c.max()),
+    )  # before any cast can wrap
     if lo_r < 0 or lo_c < 0 or hi_r >= he or hi_c >= we:
         raise ParameterError(
             f"source: positions in rows [{lo_r}, {hi_r}], cols [{lo_c}, {hi_c}] outside the {we}x{he} exemplar"
@@ -411,8 +429,13 @@ class Repetition:
     correlation: np.ndarray = field(repr=False)
 
     def to_dict(self) -> dict[str, Any]:
-        return _finite({"peak": self.peak, "offset": None if self.offset is None else list(self.offset),
-                        "max_offset": list(self.max_offset)})
+        return _finite(
+            {
+                "peak": self.peak,
+                "offset": None if self.offset is None else list(self.offset),
+                "max_offset": list(self.max_offset),
+            }
+        )
 
 
 def _fft_size(n: int) -> int:
@@ -522,22 +545,31 @@ def objective(tileset: Any) -> dict[str, Any]:
     e = energy(d, lam)
     en = energy(d / n2, lam)
     costs = np.asarray(tileset.cut_costs, dtype=np.float64)
-    return _finite({
-        "E": e,
-        "f": _ratio(1.0, e),
-        "E_stored": float(tileset.E),
-        "E_normalised": en,
-        "f_normalised": _ratio(1.0, en),
-        "lambda": lam,
-        "intermediate_tiles": int(d.size),
-        "D": {
-            "min": float(d.min()), "max": float(d.max()), "mean": float(d.mean()), "std": float(d.std()),
-            "max_over_min": _ratio(float(d.max()), float(d.min())),
-        },
-        "cut_costs": {"min": float(costs.min()), "max": float(costs.max()), "mean": float(costs.mean()),
-                      "sum": float(costs.sum())},
-        "selection": tileset.params.get("selection", {}).get("method"),
-    })
+    return _finite(
+        {
+            "E": e,
+            "f": _ratio(1.0, e),
+            "E_stored": float(tileset.E),
+            "E_normalised": en,
+            "f_normalised": _ratio(1.0, en),
+            "lambda": lam,
+            "intermediate_tiles": int(d.size),
+            "D": {
+                "min": float(d.min()),
+                "max": float(d.max()),
+                "mean": float(d.mean()),
+                "std": float(d.std()),
+                "max_over_min": _ratio(float(d.max()), float(d.min())),
+            },
+            "cut_costs": {
+                "min": float(costs.min()),
+                "max": float(costs.max()),
+                "mean": float(costs.mean()),
+                "sum": float(costs.sum()),
+            },
+            "selection": tileset.params.get("selection", {}).get("method"),
+        }
+    )
 
 
 def cut_seam_score(tileset: Any) -> dict[str, Any] | None:
@@ -653,7 +685,9 @@ def detail_repetition(image: np.ndarray, sigma: float = DETAIL_SIGMA) -> DetailR
     variations do not count; a repeated pebble or streak gives a peak near 1."""
     img = as_image(image)
     if img.shape[0] < 4 or img.shape[1] < 4:
-        raise ShapeError(f"image is {img.shape[1]}x{img.shape[0]}: detail repetition needs at least 4x4 pixels")
+        raise ShapeError(
+            f"image is {img.shape[1]}x{img.shape[0]}: detail repetition needs at least 4x4 pixels"
+        )
     lags, vals = _autocorr_peaks(detail_layer(img, sigma), 1)
     if not lags:
         return DetailRepetition(peak=None, offset=None, sigma=float(sigma))
@@ -674,8 +708,9 @@ class PeriodicCopies:
         return _finite(asdict(self))
 
 
-def periodic_copies(image: np.ndarray, patch: int = COPY_PATCH, lags: int = COPY_LAGS,
-                    tolerance: float = COPY_TOLERANCE) -> PeriodicCopies:
+def periodic_copies(
+    image: np.ndarray, patch: int = COPY_PATCH, lags: int = COPY_LAGS, tolerance: float = COPY_TOLERANCE
+) -> PeriodicCopies:
     """Periodic-copy fraction: the share of the output's ``patch`` x ``patch`` grid patches (top-left at
     multiples of ``patch``; a last partial row/column is left out) whose mean squared difference (over pixels
     and channels, values in [0, 1]) to the patch at one of the ``lags`` strongest autocorrelation lags of the
@@ -703,7 +738,9 @@ def periodic_copies(image: np.ndarray, patch: int = COPY_PATCH, lags: int = COPY
             sq[y0:y1, x0:x1] = (diff * diff).mean(axis=2)
             best = np.minimum(best, sq.reshape(rows, p, cols, p).mean(axis=(1, 3)))
     frac = float((best <= tolerance).mean())
-    return PeriodicCopies(fraction=frac, n_patches=rows * cols, lags=found, patch=p, tolerance=float(tolerance))
+    return PeriodicCopies(
+        fraction=frac, n_patches=rows * cols, lags=found, patch=p, tolerance=float(tolerance)
+    )
 
 
 def _wasserstein1(a: np.ndarray, b: np.ndarray, n: int = 512) -> float:
@@ -736,8 +773,9 @@ class HistogramDistance:
         return _finite(asdict(self))
 
 
-def histogram_distance(image: np.ndarray, exemplar: np.ndarray,
-                       scales: tuple[int, ...] = HISTOGRAM_SCALES) -> HistogramDistance:
+def histogram_distance(
+    image: np.ndarray, exemplar: np.ndarray, scales: tuple[int, ...] = HISTOGRAM_SCALES
+) -> HistogramDistance:
     """Colour/gradient histogram distance: the mean of the 1-D Wasserstein-1 distances between ``image`` and
     ``exemplar`` of every colour channel (values in [0, 1]) and of the luminance gradient magnitude (forward
     differences) at each scale of ``scales`` (box downsampling by 1, 2, 4). 0 = the same distributions; it
@@ -880,15 +918,21 @@ def measure_tileset(
         src = source_map(tileset, imap, width, height)
     out, objs = _measure(img, tileset.tile_size, tileset.exemplar, src, patch, stride, threads, progress)
     out["sample"] = {
-        "width": int(width), "height": int(height), "seed": None if index_map is not None else int(seed),
-        "tiles": [int(imap.shape[1]), int(imap.shape[0])], "distinct_tiles_used": int(np.unique(imap).size),
+        "width": int(width),
+        "height": int(height),
+        "seed": None if index_map is not None else int(seed),
+        "tiles": [int(imap.shape[1]), int(imap.shape[0])],
+        "distinct_tiles_used": int(np.unique(imap).size),
     }
     with step("objective and cut seams"):
         out["objective"] = objective(tileset)
         out["cut_seam"] = cut_seam_score(tileset)
     out["tileset"] = {
-        "scheme": tileset.scheme, "set": tileset.params.get("set"), "n_tiles": tileset.n_tiles,
-        "tile_size": tileset.tile_size, "exemplar": tileset.exemplar_info.get("file"),
+        "scheme": tileset.scheme,
+        "set": tileset.params.get("set"),
+        "n_tiles": tileset.n_tiles,
+        "tile_size": tileset.tile_size,
+        "exemplar": tileset.exemplar_info.get("file"),
         "exemplar_shape": list(tileset.exemplar.shape),
     }
     objs.update({"image": img, "index_map": imap, "source": src})
@@ -922,56 +966,82 @@ def format_metrics(m: dict[str, Any]) -> str:
     if "tileset" in m:
         t, s = m["tileset"], m["sample"]
         how = f"seed {s['seed']}" if s["seed"] is not None else "given map"
-        lines.append(f"tile set      {t['scheme']} {t['set']}, {t['n_tiles']} tiles of {t['tile_size']}x"
-                     f"{t['tile_size']}, exemplar {t['exemplar'] or '?'}")
-        lines.append(f"sample        {s['width']}x{s['height']}, {how}, {s['tiles'][0]}x{s['tiles'][1]} tiles, "
-                     f"{s['distinct_tiles_used']} distinct")
+        lines.append(
+            f"tile set      {t['scheme']} {t['set']}, {t['n_tiles']} tiles of {t['tile_size']}x"
+            f"{t['tile_size']}, exemplar {t['exemplar'] or '?'}"
+        )
+        lines.append(
+            f"sample        {s['width']}x{s['height']}, {how}, {s['tiles'][0]}x{s['tiles'][1]} tiles, "
+            f"{s['distinct_tiles_used']} distinct"
+        )
     else:
         lines.append(f"image         {inp['width']}x{inp['height']}, {inp['channels']} channel(s)")
     sm = m.get("seam")
     if sm:
-        lines.append(f"seam score    {num(sm['score'], '.4f')}  (border / interior mean squared step; x "
-                     f"{num(sm['ratio_x'], '.4f')}, y {num(sm['ratio_y'], '.4f')}; tile {sm['tile_size']})")
+        lines.append(
+            f"seam score    {num(sm['score'], '.4f')}  (border / interior mean squared step; x "
+            f"{num(sm['ratio_x'], '.4f')}, y {num(sm['ratio_y'], '.4f')}; tile {sm['tile_size']})"
+        )
     co = m.get("coherence")
     if co:
-        lines.append(f"coherence     {num(co['energy'], '.5g')}  (mean min SSD of {co['patch']}x{co['patch']} "
-                     f"patches, stride {co['stride']}; rms {num(co['rms'], '.4f')}; {co['n_patches']} patches, "
-                     f"{co['exact_copies']} exact copies, {co['searched']} searched, {co['seconds']:.2f} s)")
+        lines.append(
+            f"coherence     {num(co['energy'], '.5g')}  (mean min SSD of {co['patch']}x{co['patch']} "
+            f"patches, stride {co['stride']}; rms {num(co['rms'], '.4f')}; {co['n_patches']} patches, "
+            f"{co['exact_copies']} exact copies, {co['searched']} searched, {co['seconds']:.2f} s)"
+        )
     cv = m.get("coverage")
     if cv:
-        lines.append(f"coverage      {num(cv['fraction'], '.4f')} of exemplar pixels used  (evenness "
-                     f"{num(cv['evenness'], '.4f')}, cv {num(cv['cv'], '.3f')})")
+        lines.append(
+            f"coverage      {num(cv['fraction'], '.4f')} of exemplar pixels used  (evenness "
+            f"{num(cv['evenness'], '.4f')}, cv {num(cv['cv'], '.3f')})"
+        )
     rp = m.get("repetition")
     if rp:
         where = "none" if rp["offset"] is None else f"at (dy, dx) = ({rp['offset'][0]}, {rp['offset'][1]})"
-        lines.append(f"repetition    {num(rp['peak'], '.4f')}  (strongest non-zero autocorrelation peak, {where})")
+        lines.append(
+            f"repetition    {num(rp['peak'], '.4f')}  (strongest non-zero autocorrelation peak, {where})"
+        )
     dr = m.get("detail_repetition")
     if dr:
         where = "none" if dr["offset"] is None else f"at (dy, dx) = ({dr['offset'][0]}, {dr['offset'][1]})"
-        lines.append(f"detail peak   {num(dr['peak'], '.4f')}  (autocorrelation peak of the detail layer, σ "
-                     f"{dr['sigma']:g}, {where})")
+        lines.append(
+            f"detail peak   {num(dr['peak'], '.4f')}  (autocorrelation peak of the detail layer, σ "
+            f"{dr['sigma']:g}, {where})"
+        )
     pc = m.get("periodic_copies")
     if pc:
-        lines.append(f"copies        {num(pc['fraction'], '.4f')} of {pc['n_patches']} {pc['patch']}x{pc['patch']} "
-                     f"patches copy the patch one dominant lag away (lags {pc['lags']})")
+        lines.append(
+            f"copies        {num(pc['fraction'], '.4f')} of {pc['n_patches']} {pc['patch']}x{pc['patch']} "
+            f"patches copy the patch one dominant lag away (lags {pc['lags']})"
+        )
     hd = m.get("histogram")
     if hd:
-        lines.append(f"histograms    {num(hd['distance'], '.4f')}  (mean 1-D Wasserstein of colour channels and of "
-                     f"gradient magnitude at scales {hd['scales']})")
+        lines.append(
+            f"histograms    {num(hd['distance'], '.4f')}  (mean 1-D Wasserstein of colour channels and of "
+            f"gradient magnitude at scales {hd['scales']})"
+        )
     ob = m.get("objective")
     if ob:
         d, c = ob["D"], ob["cut_costs"]
-        lines.append(f"objective     E {num(ob['E'], '.6g')}, f = 1/E {num(ob['f'], '.4g')}; normalised (003) E "
-                     f"{num(ob['E_normalised'], '.4g')}, f {num(ob['f_normalised'], '.4f')}  "
-                     f"({ob['intermediate_tiles']} intermediate tiles, selection {ob['selection']})")
-        lines.append(f"D_j           min {num(d['min'])}, max {num(d['max'])}, mean {num(d['mean'])}, std "
-                     f"{num(d['std'])}, max/min {num(d['max_over_min'], '.3g')}")
-        lines.append(f"cut costs     min {num(c['min'])}, max {num(c['max'])}, mean {num(c['mean'])}, "
-                     f"sum {num(c['sum'])}")
+        lines.append(
+            f"objective     E {num(ob['E'], '.6g')}, f = 1/E {num(ob['f'], '.4g')}; normalised (003) E "
+            f"{num(ob['E_normalised'], '.4g')}, f {num(ob['f_normalised'], '.4f')}  "
+            f"({ob['intermediate_tiles']} intermediate tiles, selection {ob['selection']})"
+        )
+        lines.append(
+            f"D_j           min {num(d['min'])}, max {num(d['max'])}, mean {num(d['mean'])}, std "
+            f"{num(d['std'])}, max/min {num(d['max_over_min'], '.3g')}"
+        )
+        lines.append(
+            f"cut costs     min {num(c['min'])}, max {num(c['max'])}, mean {num(c['mean'])}, "
+            f"sum {num(c['sum'])}"
+        )
     cs = m.get("cut_seam")
     if cs:
-        lines.append(f"cut seam      {num(cs['score'], '.4f')}  (mean squared step across the cutting curves / over "
-                     f"all pixel pairs of the tiles; {cs['cut_pairs']} pairs on the cuts)")
+        lines.append(
+            f"cut seam      {num(cs['score'], '.4f')}  (mean squared step across the cutting curves / over "
+            f"all pixel pairs of the tiles; {cs['cut_pairs']} pairs on the cuts)"
+        )
     for note in m.get("notes", []):
         lines.append(f"note          {note}")
     return "\n".join(lines)

@@ -71,7 +71,16 @@ from .genes import (  # noqa: F401 - re-exported: the public names of the genes 
     random_genes,
 )
 from .layouts import CornerPlan, corner_set, intermediate_tiles
-from .matching import EQ2_EPS, MU, augmented, check_metric, check_strategy, gradient_norm, pick_distinct, strategy_edges
+from .matching import (
+    EQ2_EPS,
+    MU,
+    augmented,
+    check_metric,
+    check_strategy,
+    gradient_norm,
+    pick_distinct,
+    strategy_edges,
+)
 from .options import BuildOptions, Progress, SeedLike, common_options
 from .select import choose_genes, wants_selection
 from .stages.compose import cut_and_compose, finish_tileset, patch_gradients
@@ -90,8 +99,15 @@ def _distance_search(
     if metric == "eq2":
         g = gradient_norm(ex)
         maps = [
-            kernels.weighted_ssd_map(ex, g, inter[u], np.ascontiguousarray(g[inter_src[u, ..., 0], inter_src[u, ..., 1]]),
-                                     MU, EQ2_EPS, threads=threads)
+            kernels.weighted_ssd_map(
+                ex,
+                g,
+                inter[u],
+                np.ascontiguousarray(g[inter_src[u, ..., 0], inter_src[u, ..., 1]]),
+                MU,
+                EQ2_EPS,
+                threads=threads,
+            )
             for u in range(inter.shape[0])
         ]
         return maps, lambda u, r, c: float(maps[u][r, c]), None
@@ -160,13 +176,21 @@ def _choose_matches(
                 order = dist_order
         elif strategy in ("circle", "midpoints"):
             score = kernels.edge_weight_sums(
-                inter[u], ex, wxm, wym, eps=eps, template_grad=None if grads is None else grads[u], threads=threads
+                inter[u],
+                ex,
+                wxm,
+                wym,
+                eps=eps,
+                template_grad=None if grads is None else grads[u],
+                threads=threads,
             )
             order = np.argsort(score, axis=None, kind="stable")
         else:  # best-cut: the real cut for the k nearest candidates (per variant, away from earlier picks)
             kk = total if match_k is None or match_k < 0 else min(match_k, total)
             g_u = None if grads is None else grads[u]
-            order = _best_cut_order(ex, inter[u], g_u, dist_order, cols, n, n_variants, exclude, kk, opts, threads)
+            order = _best_cut_order(
+                ex, inter[u], g_u, dist_order, cols, n, n_variants, exclude, kk, opts, threads
+            )
         picks = pick_distinct(order, cols, n_variants, exclude)
         if len(picks) < n_variants:
             raise ParameterError(
@@ -261,9 +285,13 @@ def omega_options(
         cut_bias = FREE_BIAS if cut_bias is None else float(cut_bias)
     diversity = None if diversity == 0 else diversity
     if diversity is not None and (
-        isinstance(diversity, (bool, np.bool_)) or not isinstance(diversity, (int, np.integer)) or diversity < 1
+        isinstance(diversity, (bool, np.bool_))
+        or not isinstance(diversity, (int, np.integer))
+        or diversity < 1
     ):
-        raise ParameterError(f"diversity = {diversity!r}: a positive int (uses per exemplar region), 0 or None")
+        raise ParameterError(
+            f"diversity = {diversity!r}: a positive int (uses per exemplar region), 0 or None"
+        )
     if diversity is not None and (strategy != "ssd" or metric != "color"):
         raise ParameterError("diversity: only with match='ssd' and metric='color'")
     return OmegaOptions(

@@ -36,7 +36,9 @@ def _rgb8(img: np.ndarray) -> np.ndarray:
     return u[:, :, :3]
 
 
-def contact_sheet(tileset: TileSet, columns: int | None = None, show_cuts: bool = True, gap: int = 6) -> np.ndarray:
+def contact_sheet(
+    tileset: TileSet, columns: int | None = None, show_cuts: bool = True, gap: int = 6
+) -> np.ndarray:
     """Render all tiles in a grid: uint8 RGB ``(H, W, 3)``.
 
     The cutting curve (the border of the region taken from the matching patch; for Wang tiles the four cuts

@@ -46,8 +46,19 @@ from .metrics import DEFAULT_SAMPLE_SEED, DEFAULT_SAMPLE_SIZE, measure_tileset, 
 
 # viridis at 0, 1/8, ..., 1 (piecewise linear in between): perceptually ordered, readable in grey
 _VIRIDIS = np.array(
-    [(68, 1, 84), (71, 44, 122), (59, 81, 139), (44, 113, 142), (33, 144, 141), (39, 173, 129),
-     (92, 200, 99), (170, 220, 50), (253, 231, 37)], dtype=np.float64)
+    [
+        (68, 1, 84),
+        (71, 44, 122),
+        (59, 81, 139),
+        (44, 113, 142),
+        (33, 144, 141),
+        (39, 173, 129),
+        (92, 200, 99),
+        (170, 220, 50),
+        (253, 231, 37),
+    ],
+    dtype=np.float64,
+)
 
 SEAM_RANGE = 3.0
 """Seam ratios are coloured on [0, SEAM_RANGE] (larger values get the top colour)."""
@@ -129,8 +140,9 @@ def _stack(top, bottom):  # noqa: ANN001, ANN202
 
 
 # -------------------------------------------------------------------------------------------------- figures
-def sample_with_borders(img: np.ndarray, tile_size: int, colour: tuple[int, int, int] = (255, 0, 255),
-                        alpha: float = 0.5) -> np.ndarray:
+def sample_with_borders(
+    img: np.ndarray, tile_size: int, colour: tuple[int, int, int] = (255, 0, 255), alpha: float = 0.5
+) -> np.ndarray:
     """uint8 RGB copy of ``img`` with the first pixel row / column of every tile blended with ``colour``."""
     out = _rgb8(img).astype(np.float64)
     h, w = out.shape[:2]
@@ -159,9 +171,14 @@ def seam_heatmap(img: np.ndarray, tile_size: int, half_width: int = 2):  # noqa:
         y = (k + 1) * n
         base[max(0, y - half_width) : y + half_width, :] = colormap(hz[k])[None, :, :]
     fig = Image.fromarray(np.rint(base).astype(np.uint8))
-    bar = _colour_bar(max(260, w), 0.0, SEAM_RANGE,
-                      f"squared step across the border / mean inside tiles (smoothed over {win} px); red: 1",
-                      [0.0, 1.0, 2.0, SEAM_RANGE], mark=1.0)
+    bar = _colour_bar(
+        max(260, w),
+        0.0,
+        SEAM_RANGE,
+        f"squared step across the border / mean inside tiles (smoothed over {win} px); red: 1",
+        [0.0, 1.0, 2.0, SEAM_RANGE],
+        mark=1.0,
+    )
     return _stack(fig, bar)
 
 
@@ -189,9 +206,13 @@ def coherence_heatmap(img: np.ndarray, values: np.ndarray, patch: int, stride: i
     base[hot] = colormap(paint[hot] / top)
     fig = Image.fromarray(np.rint(base).astype(np.uint8))
     ticks = [0.0, round(top / 2, 3), round(top, 3)]
-    bar = _colour_bar(max(260, w), 0.0, ticks[-1],
-                      f"rms difference of each {patch}x{patch} patch to its best exemplar patch (grey: exact copy)",
-                      ticks)
+    bar = _colour_bar(
+        max(260, w),
+        0.0,
+        ticks[-1],
+        f"rms difference of each {patch}x{patch} patch to its best exemplar patch (grey: exact copy)",
+        ticks,
+    )
     return _stack(fig, bar)
 
 
@@ -239,7 +260,9 @@ def convergence_chart(best: list[float], mean: list[float], title: str, width: i
             continue
         x = px(t)
         d.line([(x, y1), (x, y1 + 4)], fill=(0, 0, 0))
-        d.text((x - d.textlength(str(int(t)), font=small) / 2, y1 + 6), str(int(t)), fill=(0, 0, 0), font=small)
+        d.text(
+            (x - d.textlength(str(int(t)), font=small) / 2, y1 + 6), str(int(t)), fill=(0, 0, 0), font=small
+        )
     d.rectangle([x0, y0, x1, y1], outline=(0, 0, 0))
     for series, colour in ((mean, (230, 120, 20)), (best, (30, 90, 200))):
         pts = [(px(i + 1), py(v)) for i, v in enumerate(series) if math.isfinite(v)]
@@ -273,59 +296,109 @@ def metrics_rows(m: dict[str, Any]) -> list[tuple[str, str, str]]:
     sm, co, cv, rp, ob = (m.get(k) for k in ("seam", "coherence", "coverage", "repetition", "objective"))
     if sm:
         rows += [
-            ("border seam score S", _fmt(sm["score"], ".4f"),
-             "mean squared step across tile borders / inside tiles; about 1 = borders invisible"),
+            (
+                "border seam score S",
+                _fmt(sm["score"], ".4f"),
+                "mean squared step across tile borders / inside tiles; about 1 = borders invisible",
+            ),
             ("  across vertical borders (x)", _fmt(sm["ratio_x"], ".4f"), "B_x / I_x"),
             ("  across horizontal borders (y)", _fmt(sm["ratio_y"], ".4f"), "B_y / I_y"),
         ]
     if co:
         rows += [
-            ("coherence energy", _fmt(co["energy"], ".5g"),
-             f"mean over {co['n_patches']} output patches ({co['patch']}x{co['patch']}, stride {co['stride']}) "
-             "of the smallest SSD to any exemplar patch (Kwatra), exact"),
+            (
+                "coherence energy",
+                _fmt(co["energy"], ".5g"),
+                f"mean over {co['n_patches']} output patches ({co['patch']}x{co['patch']}, stride {co['stride']}) "
+                "of the smallest SSD to any exemplar patch (Kwatra), exact",
+            ),
             ("  as rms pixel difference", _fmt(co["rms"], ".4f"), "√(energy / (p²·C)), values in [0, 1]"),
-            ("  exact copies / searched", f"{co['exact_copies']} / {co['searched']}",
-             "patches copied bit for bit from the exemplar (e = 0) / matched exhaustively"),
+            (
+                "  exact copies / searched",
+                f"{co['exact_copies']} / {co['searched']}",
+                "patches copied bit for bit from the exemplar (e = 0) / matched exhaustively",
+            ),
         ]
     if cv:
         rows += [
             ("coverage", _fmt(cv["fraction"], ".4f"), "share of exemplar pixels that appear in the sample"),
-            ("  evenness", _fmt(cv["evenness"], ".4f"),
-             "entropy of the per-pixel usage / its maximum (1 = all pixels used equally)"),
+            (
+                "  evenness",
+                _fmt(cv["evenness"], ".4f"),
+                "entropy of the per-pixel usage / its maximum (1 = all pixels used equally)",
+            ),
             ("  usage cv", _fmt(cv["cv"], ".3f"), "std / mean of the per-pixel usage counts"),
         ]
     if rp:
         off = "none" if rp["offset"] is None else f"(dy, dx) = ({rp['offset'][0]}, {rp['offset'][1]})"
-        rows.append(("repetition peak", _fmt(rp["peak"], ".4f"),
-                     f"strongest non-zero peak of the normalised autocorrelation, at {off}"))
+        rows.append(
+            (
+                "repetition peak",
+                _fmt(rp["peak"], ".4f"),
+                f"strongest non-zero peak of the normalised autocorrelation, at {off}",
+            )
+        )
     dr, pc, hd = (m.get(k) for k in ("detail_repetition", "periodic_copies", "histogram"))
     if pc:
-        rows.append(("periodic-copy fraction", _fmt(pc["fraction"], ".4f"),
-                     f"share of {pc['patch']}x{pc['patch']} grid patches equal (mse <= (2/255)²) to the patch one "
-                     "dominant autocorrelation lag away; 0 = no visible repetition"))
+        rows.append(
+            (
+                "periodic-copy fraction",
+                _fmt(pc["fraction"], ".4f"),
+                f"share of {pc['patch']}x{pc['patch']} grid patches equal (mse <= (2/255)²) to the patch one "
+                "dominant autocorrelation lag away; 0 = no visible repetition",
+            )
+        )
     if dr:
-        rows.append(("detail autocorrelation peak", _fmt(dr["peak"], ".4f"),
-                     f"strongest off-origin peak of the autocorrelation of luminance minus a σ = {dr['sigma']:g} blur"))
+        rows.append(
+            (
+                "detail autocorrelation peak",
+                _fmt(dr["peak"], ".4f"),
+                f"strongest off-origin peak of the autocorrelation of luminance minus a σ = {dr['sigma']:g} blur",
+            )
+        )
     if hd:
-        rows.append(("histogram distance", _fmt(hd["distance"], ".4f"),
-                     "mean 1-D Wasserstein distance to the exemplar of colour channels and gradient magnitude "
-                     f"(scales {hd['scales']})"))
+        rows.append(
+            (
+                "histogram distance",
+                _fmt(hd["distance"], ".4f"),
+                "mean 1-D Wasserstein distance to the exemplar of colour channels and gradient magnitude "
+                f"(scales {hd['scales']})",
+            )
+        )
     if ob:
         rows += [
-            ("E", _fmt(ob["E"], ".6g"), f"λ·ΣD_j + (1−λ)·Var(D_j), λ = {ob['lambda']}, "
-             f"{ob['intermediate_tiles']} intermediate tiles"),
+            (
+                "E",
+                _fmt(ob["E"], ".6g"),
+                f"λ·ΣD_j + (1−λ)·Var(D_j), λ = {ob['lambda']}, {ob['intermediate_tiles']} intermediate tiles",
+            ),
             ("f = 1/E", _fmt(ob["f"], ".4g"), "affinity (003)"),
-            ("f normalised", _fmt(ob["f_normalised"], ".4f"), "1/E with D_j divided by the N·N tile pixels (003)"),
-            ("D_j min / mean / max", f"{_fmt(ob['D']['min'])} / {_fmt(ob['D']['mean'])} / {_fmt(ob['D']['max'])}",
-             f"std {_fmt(ob['D']['std'])}, max/min {_fmt(ob['D']['max_over_min'], '.3g')}"),
-            ("cut costs min / mean / max",
-             f"{_fmt(ob['cut_costs']['min'])} / {_fmt(ob['cut_costs']['mean'])} / {_fmt(ob['cut_costs']['max'])}",
-             f"sum {_fmt(ob['cut_costs']['sum'])} (min-cut cost of each tile's cutting curve)"),
+            (
+                "f normalised",
+                _fmt(ob["f_normalised"], ".4f"),
+                "1/E with D_j divided by the N·N tile pixels (003)",
+            ),
+            (
+                "D_j min / mean / max",
+                f"{_fmt(ob['D']['min'])} / {_fmt(ob['D']['mean'])} / {_fmt(ob['D']['max'])}",
+                f"std {_fmt(ob['D']['std'])}, max/min {_fmt(ob['D']['max_over_min'], '.3g')}",
+            ),
+            (
+                "cut costs min / mean / max",
+                f"{_fmt(ob['cut_costs']['min'])} / {_fmt(ob['cut_costs']['mean'])} / {_fmt(ob['cut_costs']['max'])}",
+                f"sum {_fmt(ob['cut_costs']['sum'])} (min-cut cost of each tile's cutting curve)",
+            ),
         ]
     cs = m.get("cut_seam")
     if cs:
-        rows.append(("cut seam", _fmt(cs["score"], ".4f"), "mean squared step across the cutting curves / over all "
-                     "pixel pairs of the tiles (1 = invisible; Poisson smoothing lowers it)"))
+        rows.append(
+            (
+                "cut seam",
+                _fmt(cs["score"], ".4f"),
+                "mean squared step across the cutting curves / over all "
+                "pixel pairs of the tiles (1 = invisible; Poisson smoothing lowers it)",
+            )
+        )
     return rows
 
 
@@ -342,12 +415,20 @@ img { image-rendering: pixelated; border: 1px solid #999; }
 
 
 def _img(src: str, caption: str) -> str:
-    return (f'<figure><img src="{html.escape(src)}" alt="{html.escape(src)}">'
-            f"<figcaption>{caption}</figcaption></figure>")
+    return (
+        f'<figure><img src="{html.escape(src)}" alt="{html.escape(src)}">'
+        f"<figcaption>{caption}</figcaption></figure>"
+    )
 
 
-def _page(tileset: Any, m: dict[str, Any], files: dict[str, str], tileset_name: str,
-          notes: list[str], reference: float | None) -> str:
+def _page(
+    tileset: Any,
+    m: dict[str, Any],
+    files: dict[str, str],
+    tileset_name: str,
+    notes: list[str],
+    reference: float | None,
+) -> str:
     from ._version import __version__
 
     t, s = m["tileset"], m["sample"]
@@ -356,7 +437,8 @@ def _page(tileset: Any, m: dict[str, Any], files: dict[str, str], tileset_name: 
     method = sel.get("method", "?") + (" + polish" if sel.get("params", {}).get("polish") else "")
     esc = html.escape
     parts = [
-        "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
         f"<title>tilesynth report: {esc(tileset_name)}</title><style>{_CSS}</style></head><body>",
         f"<h1>tilesynth report: {esc(tileset_name)}</h1>",
         f"<p>{esc(t['scheme'])} tile set <b>{esc(str(t['set']))}</b>: {t['n_tiles']} tiles of {t['tile_size']}x"
@@ -370,40 +452,74 @@ def _page(tileset: Any, m: dict[str, Any], files: dict[str, str], tileset_name: 
     ]
     rows = metrics_rows(m)
     if reference is not None and m.get("seam"):
-        rows.insert(3, ("  reference: random placement", _fmt(reference, ".4f"),
-                        "S of the same tiles on the same grid placed at random (seed 0), ignoring their "
-                        + ("edge" if wang else "corner") + " colours"))
+        rows.insert(
+            3,
+            (
+                "  reference: random placement",
+                _fmt(reference, ".4f"),
+                "S of the same tiles on the same grid placed at random (seed 0), ignoring their "
+                + ("edge" if wang else "corner")
+                + " colours",
+            ),
+        )
     for name, value, meaning in rows:
         cls = ' class="sub"' if name.startswith("  ") else ""
-        parts.append(f"<tr><td{cls}>{esc(name.strip())}</td><td class=num>{esc(value)}</td><td>{esc(meaning)}</td>"
-                     "</tr>")
+        parts.append(
+            f"<tr><td{cls}>{esc(name.strip())}</td><td class=num>{esc(value)}</td><td>{esc(meaning)}</td>"
+            "</tr>"
+        )
     parts.append("</table>")
     parts.append('<p>All numbers as JSON: <a href="metrics.json">metrics.json</a>.</p>')
     parts.append("<h2>Tiles</h2>")
     if wang:
-        parts.append(_img(files["tiles"], "All tiles: the cuts of each (white lines) separate the regions taken from "
-                          "its samples; the bars at the edge midpoints show the edge colours ⟨N, E, S, W⟩; above each "
-                          "tile its index."))
+        parts.append(
+            _img(
+                files["tiles"],
+                "All tiles: the cuts of each (white lines) separate the regions taken from "
+                "its samples; the bars at the edge midpoints show the edge colours ⟨N, E, S, W⟩; above each "
+                "tile its index.",
+            )
+        )
     else:
-        parts.append(_img(files["tiles"], "All tiles: the cutting curve of each (white line) encloses the region "
-                          "taken from its matching patch; the squares in the corners show the corner colours ⟨TL, BL, "
-                          "TR, BR⟩; above each tile its index and corner tuple."))
+        parts.append(
+            _img(
+                files["tiles"],
+                "All tiles: the cutting curve of each (white line) encloses the region "
+                "taken from its matching patch; the squares in the corners show the corner colours ⟨TL, BL, "
+                "TR, BR⟩; above each tile its index and corner tuple.",
+            )
+        )
     parts.append("<h2>Sample</h2>")
-    parts.append(_img(files["sample"], f"A {s['width']}x{s['height']} sample (tiling seed {s['seed']}), the one "
-                      "the metrics are computed on."))
+    parts.append(
+        _img(
+            files["sample"],
+            f"A {s['width']}x{s['height']} sample (tiling seed {s['seed']}), the one "
+            "the metrics are computed on.",
+        )
+    )
     if "borders" in files:
         parts.append(_img(files["borders"], "The same sample with the tile borders outlined (magenta)."))
     parts.append("<h2>Seams</h2>")
-    parts.append(_img(files["seams"], "Seam heat-map: every tile border coloured by its local seam ratio (the "
-                      "squared step across the border divided by the mean squared step inside tiles, smoothed "
-                      "along the border); 1 means the border looks like the texture's own pixel steps. The "
-                      "border pixels of ω-tiles are continuous exemplar content, so bright spots there are edges "
-                      "of the texture crossing the border line, not seams; a real seam lights up a whole border "
-                      f"(the same tiles placed at random, ignoring their {'edge' if wang else 'corner'} colours, score "
-                      f"{_fmt(reference, '.3g')})."))
-    parts.append(_img(files["coherence"], "Coherence heat-map: how far each output patch is from the closest "
-                      "exemplar patch (rms). Grey = an exact copy of the exemplar; colour marks the cutting curves "
-                      "and any other place where the output is new."))
+    parts.append(
+        _img(
+            files["seams"],
+            "Seam heat-map: every tile border coloured by its local seam ratio (the "
+            "squared step across the border divided by the mean squared step inside tiles, smoothed "
+            "along the border); 1 means the border looks like the texture's own pixel steps. The "
+            "border pixels of ω-tiles are continuous exemplar content, so bright spots there are edges "
+            "of the texture crossing the border line, not seams; a real seam lights up a whole border "
+            f"(the same tiles placed at random, ignoring their {'edge' if wang else 'corner'} colours, score "
+            f"{_fmt(reference, '.3g')}).",
+        )
+    )
+    parts.append(
+        _img(
+            files["coherence"],
+            "Coherence heat-map: how far each output patch is from the closest "
+            "exemplar patch (rms). Grey = an exact copy of the exemplar; colour marks the cutting curves "
+            "and any other place where the output is new.",
+        )
+    )
     parts.append("<h2>Selection convergence</h2>")
     if "convergence" in files:
         parts.append(_img(files["convergence"], "Best and mean E of the population in every generation."))
@@ -411,14 +527,17 @@ def _page(tileset: Any, m: dict[str, Any], files: dict[str, str], tileset_name: 
         parts.append(f'<p class="note">{esc(note)}</p>')
     # Wang tiles have edge colours and no variants (their rows have "edges", ω rows "corners" and "variant")
     colours, variant = ("N E S W", "") if wang else ("TL BL TR BR", "<th>variant</th>")
-    parts.append(f"<h2>Per tile</h2><table><tr><th>tile</th><th>{colours}</th>{variant}"
-                 "<th>match (row, col)</th><th>D_j</th><th>cut cost</th></tr>")
+    parts.append(
+        f"<h2>Per tile</h2><table><tr><th>tile</th><th>{colours}</th>{variant}"
+        "<th>match (row, col)</th><th>D_j</th><th>cut cost</th></tr>"
+    )
     for row in tileset.per_tile():
         parts.append(
             f"<tr><td class=num>{row['index']}</td><td>{esc(' '.join(row['edges' if wang else 'corners']))}</td>"
             + ("" if wang else f"<td class=num>{row['variant']}</td>")
             + f"<td class=num>({row['match_offset'][0]}, {row['match_offset'][1]})</td>"
-            f"<td class=num>{row['D']:.4f}</td><td class=num>{row['cut_cost']:.4f}</td></tr>")
+            f"<td class=num>{row['D']:.4f}</td><td class=num>{row['cut_cost']:.4f}</td></tr>"
+        )
     parts.append("</table>")
     if m.get("notes"):
         parts += [f'<p class="note">{esc(n)}</p>' for n in m["notes"]]
@@ -426,7 +545,9 @@ def _page(tileset: Any, m: dict[str, Any], files: dict[str, str], tileset_name: 
     return "\n".join(parts) + "\n"
 
 
-def random_placement_seam(tileset: Any, index_map: np.ndarray, shape: tuple[int, ...], seed: int = 0) -> float | None:
+def random_placement_seam(
+    tileset: Any, index_map: np.ndarray, shape: tuple[int, ...], seed: int = 0
+) -> float | None:
     """Seam score of the tiles laid on the grid of ``index_map`` at random, ignoring the matching rule: what a
     visible seam scores, for comparison (None when the image holds no border)."""
     from .kernels import tile_copy
@@ -467,7 +588,9 @@ def write_report(
     d = Path(out_dir)
     if d.exists() and not d.is_dir():
         raise ParameterError(f"out_dir = {str(d)!r}: exists and is not a directory")
-    m, objs = measure_tileset(tileset, width, height, seed, threads=threads, progress=progress)  # checks first
+    m, objs = measure_tileset(
+        tileset, width, height, seed, threads=threads, progress=progress
+    )  # checks first
     try:
         d.parent.mkdir(parents=True, exist_ok=True)
     except (FileExistsError, NotADirectoryError) as exc:  # a file where a directory of the path should be
@@ -487,7 +610,11 @@ def write_report(
         _move_into_place(tmp, d, list(result["files"].values()))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    return {"files": {k: str(d / v) for k, v in result["files"].items()}, "metrics": m, "notes": result["notes"]}
+    return {
+        "files": {k: str(d / v) for k, v in result["files"].items()},
+        "metrics": m,
+        "notes": result["notes"],
+    }
 
 
 def _move_into_place(tmp: Path, d: Path, names: list[str]) -> None:
@@ -528,34 +655,47 @@ def _write_report_files(tileset: Any, d: Path, m: dict, objs: dict, borders: boo
     save_image(d / files["seams"], np.asarray(seam_heatmap(img, n)))
     co = objs["coherence"]
     files["coherence"] = "coherence.png"
-    save_image(d / files["coherence"],
-               np.asarray(coherence_heatmap(img, co.values, co.patch, co.stride, img.shape[2])))
+    save_image(
+        d / files["coherence"],
+        np.asarray(coherence_heatmap(img, co.values, co.patch, co.stride, img.shape[2])),
+    )
     sel = tileset.params.get("selection", {})
     hist = sel.get("history") or {}
     best, mean = list(hist.get("best", [])), list(hist.get("mean", []))
     if best:
         params = sel.get("params", {})
-        title = (f"selection convergence: {sel.get('method')} (population {params.get('population', '?')}, "
-                 f"{len(best)} generations, stopped by {sel.get('stop_reason', '?')})")
+        title = (
+            f"selection convergence: {sel.get('method')} (population {params.get('population', '?')}, "
+            f"{len(best)} generations, stopped by {sel.get('stop_reason', '?')})"
+        )
         chart = convergence_chart(best, mean or best, title)
         files["convergence"] = "convergence.png"
         save_image(d / files["convergence"], np.asarray(chart))
         if sel.get("polish"):
             pol = sel["polish"]
-            notes.append(f"After the method, the polish moved E from {pol.get('E_before', float('nan')):.6g} to "
-                         f"{sel.get('objective_E', float('nan')):.6g} ({pol.get('moves', 0)} moves); the chart shows "
-                         "the method's generations only.")
+            notes.append(
+                f"After the method, the polish moved E from {pol.get('E_before', float('nan')):.6g} to "
+                f"{sel.get('objective_E', float('nan')):.6g} ({pol.get('moves', 0)} moves); the chart shows "
+                "the method's generations only."
+            )
         if sel.get("normalise"):
-            notes.append("The selection optimised 003's normalised E (D_j divided by N·N); the chart is in that unit.")
+            notes.append(
+                "The selection optimised 003's normalised E (D_j divided by N·N); the chart is in that unit."
+            )
     else:
-        notes.append(f"No convergence chart: the sample patches were chosen by '{sel.get('method', '?')}', which "
-                     "runs no generations (build with --select ga or ais to get one).")
+        notes.append(
+            f"No convergence chart: the sample patches were chosen by '{sel.get('method', '?')}', which "
+            "runs no generations (build with --select ga or ais to get one)."
+        )
     with atomic_open(d / "metrics.json") as fh:
         fh.write(json.dumps(m, indent=1, sort_keys=True, allow_nan=False).encode("utf-8"))
     label = name or str(tileset.exemplar_info.get("file") or "tile set")
     with atomic_open(d / "index.html") as fh:
-        fh.write(_page(tileset, m, files, label, notes, random_placement_seam(tileset, objs["index_map"],
-                                                                          img.shape)).encode("utf-8"))
+        fh.write(
+            _page(
+                tileset, m, files, label, notes, random_placement_seam(tileset, objs["index_map"], img.shape)
+            ).encode("utf-8")
+        )
     files["metrics"] = "metrics.json"
     files["page"] = "index.html"
     return {"files": files, "notes": notes}

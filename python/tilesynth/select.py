@@ -769,7 +769,14 @@ def bga_mutation(
 
 
 def _ais_params(
-    population: Any, s_min: Any, s_max: Any, alpha: Any, beta: Any, deaths: Any, generations: Any, stagnation: Any
+    population: Any,
+    s_min: Any,
+    s_max: Any,
+    alpha: Any,
+    beta: Any,
+    deaths: Any,
+    generations: Any,
+    stagnation: Any,
 ) -> dict[str, Any]:
     """:func:`run_ais`'s parameters, validated (the record stored with the result)."""
     size = _int_param("population", population, 2, MAX_POPULATION)
@@ -1213,9 +1220,13 @@ def choose_genes(
     if genes is not None and (select is not None or optimise):
         raise ParameterError("genes and select: give one (select chooses the genes)")
     if genes is not None:
-        return check_genes(genes, n, shape, size), ({"method": "given"} if selection is None else dict(selection))
+        return check_genes(genes, n, shape, size), (
+            {"method": "given"} if selection is None else dict(selection)
+        )
     if not optimise:
-        return random_genes(shape, n, size, rng), ({"method": "random"} if selection is None else dict(selection))
+        return random_genes(shape, n, size, rng), (
+            {"method": "random"} if selection is None else dict(selection)
+        )
     method = (select or "random").strip().lower().replace("_", "-")
     params = dict(select_params or {})
     if method == "ga" and ga_defaults:
@@ -1228,7 +1239,9 @@ def choose_genes(
                 params.setdefault(key, value)
     if evaluator is None:
         raise ParameterError(f"select = {select!r}: this scheme has no objective to select genes by")
-    from ._chunks import chunkable  # the scheme's own evaluator: safe to evaluate in chunks (Ctrl-C, issue 16)
+    from ._chunks import (
+        chunkable,  # the scheme's own evaluator: safe to evaluate in chunks (Ctrl-C, issue 16)
+    )
 
     res = select_genes(
         method, chunkable(evaluator()), shape, n, size, rng, polish=polish, generations=generations,

@@ -36,7 +36,9 @@ def _require_tileset(tileset: Any) -> None:
         raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet (tilesynth.load(path))")
 
 
-def synthesis_bytes(tileset: TileSet, width: int, height: int, dtype: Any = np.float32, out: bool = True) -> int:
+def synthesis_bytes(
+    tileset: TileSet, width: int, height: int, dtype: Any = np.float32, out: bool = True
+) -> int:
     """Estimated peak bytes of :func:`synthesize`: the output ``height x width x C`` of ``dtype`` (unless the
     caller gives ``out``), the index map with the tiler's working memory
     (:data:`tilesynth.tiling.TILER_BYTES_PER_CELL` a cell), and the atlas converted to ``dtype``."""
@@ -51,8 +53,15 @@ def synthesis_bytes(tileset: TileSet, width: int, height: int, dtype: Any = np.f
     return total
 
 
-def check_size(tileset: TileSet, width: int, height: int, dtype: Any = np.float32, out: bool = True,
-               max_bytes: int | None = None, copies: int = 1) -> int:
+def check_size(
+    tileset: TileSet,
+    width: int,
+    height: int,
+    dtype: Any = np.float32,
+    out: bool = True,
+    max_bytes: int | None = None,
+    copies: int = 1,
+) -> int:
     """Refuse (:class:`ParameterError`) a synthesis whose estimate times ``copies`` exceeds the memory limit.
 
     Returns the estimate. ``copies`` counts whole extra copies of the output the caller will make (the CLI's
@@ -134,7 +143,9 @@ def synthesize(
     else:
         imap = np.asarray(index_map)
         if imap.ndim != 2 or not np.issubdtype(imap.dtype, np.integer):
-            raise ShapeError(f"index_map has shape {imap.shape} and dtype {imap.dtype}, expected an integer 2-d map")
+            raise ShapeError(
+                f"index_map has shape {imap.shape} and dtype {imap.dtype}, expected an integer 2-d map"
+            )
         if imap.shape[0] < rows or imap.shape[1] < cols:
             raise ShapeError(
                 f"index_map has shape {imap.shape}, expected at least ({rows}, {cols}) to cover {w}x{h} "
@@ -156,7 +167,10 @@ def synthesize(
     if out is None:
         out = np.empty(shape, dt)
     elif (
-        not isinstance(out, np.ndarray) or out.shape != shape or out.dtype != dt or not out.flags.c_contiguous
+        not isinstance(out, np.ndarray)
+        or out.shape != shape
+        or out.dtype != dt
+        or not out.flags.c_contiguous
         or not out.flags.writeable
     ):
         raise ShapeError(

@@ -213,7 +213,8 @@ class TileSet:
             "exemplar": self.exemplar_info,
             "per_tile": self.per_tile(),
             "arrays": {
-                name: {"dtype": dt, "shape": list(getattr(self, name).shape)} for name, dt in self._arrays().items()
+                name: {"dtype": dt, "shape": list(getattr(self, name).shape)}
+                for name, dt in self._arrays().items()
             },
         }
 
@@ -256,7 +257,9 @@ class TileSet:
                 infos = {i.filename: i for i in zf.infolist()}
                 missing = [m for m in ["manifest.json", *(f"{a}.npy" for a in _ARRAYS)] if m not in infos]
                 if missing:
-                    raise TileSetFormatError(f"tileset = {p!r}: not a tilesynth tile set (missing members {missing})")
+                    raise TileSetFormatError(
+                        f"tileset = {p!r}: not a tilesynth tile set (missing members {missing})"
+                    )
                 unpacked = sum(i.file_size for i in infos.values())
                 if unpacked > MAX_UNPACKED_BYTES:
                     raise TileSetFormatError(
@@ -284,8 +287,17 @@ class TileSet:
                 raise
             raise TileSetFormatError(f"tileset = {p!r}: {exc}") from None
         except (
-            zipfile.BadZipFile, zipfile.LargeZipFile, json.JSONDecodeError, UnicodeDecodeError, ValueError,
-            OSError, KeyError, EOFError, zlib.error, NotImplementedError, RuntimeError,
+            zipfile.BadZipFile,
+            zipfile.LargeZipFile,
+            json.JSONDecodeError,
+            UnicodeDecodeError,
+            ValueError,
+            OSError,
+            KeyError,
+            EOFError,
+            zlib.error,
+            NotImplementedError,
+            RuntimeError,
         ) as exc:
             # RuntimeError: an encrypted member; NotImplementedError: an unknown compression method
             raise TileSetFormatError(
@@ -331,9 +343,13 @@ class TileSet:
             raise TileSetFormatError(f"tiles must be square, got shape {self.tiles.shape}")
         for name, shape in expect.items():
             if getattr(self, name).shape != shape:
-                raise TileSetFormatError(f"array {name} has shape {getattr(self, name).shape}, expected {shape}")
+                raise TileSetFormatError(
+                    f"array {name} has shape {getattr(self, name).shape}, expected {shape}"
+                )
         if len(self.layout.get("tiles", [])) != k:
-            raise TileSetFormatError(f"layout lists {len(self.layout.get('tiles', []))} tiles, the arrays {k}")
+            raise TileSetFormatError(
+                f"layout lists {len(self.layout.get('tiles', []))} tiles, the arrays {k}"
+            )
         if self.exemplar.ndim != 3 or self.exemplar.shape[2] != c:
             raise TileSetFormatError(f"exemplar has shape {self.exemplar.shape}, expected (H, W, {c})")
         if values and list(self.exemplar_info.get("shape", [])) != list(self.exemplar.shape):
@@ -354,7 +370,9 @@ class TileSet:
 
             defn = tileset_from_dict(self.layout)
         except Exception as exc:  # noqa: BLE001 - tampered content may fail in any way; it is a format error
-            raise TileSetFormatError(f"layout is not a tile-set definition ({type(exc).__name__}: {exc})") from None
+            raise TileSetFormatError(
+                f"layout is not a tile-set definition ({type(exc).__name__}: {exc})"
+            ) from None
         if len(defn.tiles) != k:
             raise TileSetFormatError(f"layout lists {len(defn.tiles)} tiles, the arrays {k}")
         h, w = self.exemplar.shape[:2]
@@ -378,7 +396,9 @@ class TileSet:
                         "array match_offsets must be all -1 (a scheme without matching patches) or patch positions"
                     )
                 if isinstance(self.params.get("smooth"), dict):  # smoothing follows the matching patches
-                    raise TileSetFormatError("array match_offsets of a smoothed tile set must hold patch positions")
+                    raise TileSetFormatError(
+                        "array match_offsets of a smoothed tile set must hold patch positions"
+                    )
                 continue
             if (g < 0).any() or (g[:, 0] > h - n).any() or (g[:, 1] > w - n).any():
                 raise TileSetFormatError(f"array {name} has patch positions outside the {w}x{h} exemplar")
@@ -396,15 +416,25 @@ class TileSet:
 def _check_manifest(m: Any) -> None:
     """The manifest's magic, version and field types (raises TileSetFormatError without the path)."""
     if not isinstance(m, dict):
-        raise TileSetFormatError(f"not a tilesynth tile set (manifest.json is a {type(m).__name__}, not an object)")
+        raise TileSetFormatError(
+            f"not a tilesynth tile set (manifest.json is a {type(m).__name__}, not an object)"
+        )
     if m.get("format") != FORMAT:
-        raise TileSetFormatError(f"not a tilesynth tile set (format {m.get('format')!r}, expected {FORMAT!r})")
+        raise TileSetFormatError(
+            f"not a tilesynth tile set (format {m.get('format')!r}, expected {FORMAT!r})"
+        )
     if m.get("format_version") != FORMAT_VERSION:
         raise TileSetFormatError(
             f"format version {m.get('format_version')!r}, this tilesynth reads version {FORMAT_VERSION}"
         )
-    types = {"scheme": str, "layout": dict, "params": dict, "exemplar": dict, "tilesynth_version": str,
-             "E": (int, float)}
+    types = {
+        "scheme": str,
+        "layout": dict,
+        "params": dict,
+        "exemplar": dict,
+        "tilesynth_version": str,
+        "E": (int, float),
+    }
     for key, t in types.items():
         if key not in m:
             raise TileSetFormatError(f"manifest.json lacks {key!r}")

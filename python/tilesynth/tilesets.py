@@ -182,22 +182,16 @@ class CornerTileSet:
         for k, tile in enumerate(self.tiles):
             corners = tuple(tile)
             if len(corners) != 4:
-                raise ValueError(
-                    f"tile {k} must have four corners <TL, BL, TR, BR>, got {tile!r}"
-                )
+                raise ValueError(f"tile {k} must have four corners <TL, BL, TR, BR>, got {tile!r}")
             for c in corners:
                 if c not in colours:
-                    raise ValueError(
-                        f"tile {k} {tile!r} uses colour {c!r}, not one of {colours!r}"
-                    )
+                    raise ValueError(f"tile {k} {tile!r} uses colour {c!r}, not one of {colours!r}")
             tiles.append((corners[0], corners[1], corners[2], corners[3]))
         if not tiles:
             raise ValueError("a tile set needs at least one tile")
         variants = tuple(int(v) for v in self.variants) if self.variants else (0,) * len(tiles)
         if len(variants) != len(tiles):
-            raise ValueError(
-                f"variants has {len(variants)} entries but there are {len(tiles)} tiles"
-            )
+            raise ValueError(f"variants has {len(variants)} entries but there are {len(tiles)} tiles")
         if any(v < 0 for v in variants):
             raise ValueError("variants must be non-negative")
         object.__setattr__(self, "name", str(self.name))
@@ -257,9 +251,9 @@ class CornerTileSet:
             TL, BL, TR, BR.
         """
         lookup = {c: i for i, c in enumerate(self.colours)}
-        return np.array(
-            [[lookup[c] for c in tile] for tile in self.tiles], dtype=np.int32
-        ).reshape(len(self.tiles), 4)
+        return np.array([[lookup[c] for c in tile] for tile in self.tiles], dtype=np.int32).reshape(
+            len(self.tiles), 4
+        )
 
     def distinct_tuples(self) -> tuple[CornerTuple, ...]:
         """The distinct corner tuples, in order of first appearance (the intermediate
@@ -383,16 +377,10 @@ def tileset_from_dict(data: Mapping[str, Any]) -> TileSetLike:
 # ---------------------------------------------------------------------------
 
 #: Figure 8(a) of the paper, decoded in ``/work/shared/papers/INDEX.md``.
-_SET_16A = (
-    "BRYG BYRG BYYR BRRB YGRB YRGB YRRG YGGY "
-    "RBGY RGBY RGGB RBBR GYBR GBYR GBBY GYYG"
-).split()
+_SET_16A = ("BRYG BYRG BYYR BRRB YGRB YRGB YRRG YGGY RBGY RGBY RGGB RBBR GYBR GBYR GBBY GYYG").split()
 
 #: Figure 8(b) of the paper, decoded in ``/work/shared/papers/INDEX.md``.
-_SET_16B = (
-    "BYRG BRYG BRRB BYYB GYRB GRYB GRRG GYYG "
-    "RBBY RGBR RGGY RBGR YBGY YGBY YGGR YBBR"
-).split()
+_SET_16B = ("BYRG BRYG BRRB BYYB GYRB GRYB GRRG GYYG RBBY RGBR RGGY RBGR YBGY YGBY YGGR YBBR").split()
 
 #: The 4-set: the four tiles of the 2x2-periodic corner lattice [[B, Y], [R, G]].
 _SET_4 = "BRYG YGBR RBGY GYRB".split()
@@ -634,9 +622,7 @@ def extend_tileset(
     reference = str(reference)
     new_colour = str(new_colour)
     if reference not in tileset.colours:
-        raise ValueError(
-            f"reference colour {reference!r} is not one of {tileset.colours!r}"
-        )
+        raise ValueError(f"reference colour {reference!r} is not one of {tileset.colours!r}")
     if new_colour in tileset.colours:
         raise ValueError(f"new colour {new_colour!r} is already one of {tileset.colours!r}")
     full: list[tuple[CornerTuple, int]] = []
@@ -658,7 +644,7 @@ def extend_tileset(
     )
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def extendable_tileset(k: int) -> CornerTileSet:
     """The set ``Nk`` of the extendable rule (``N0`` is the basic set 𝔹).
 
@@ -742,10 +728,7 @@ def _set_basic() -> CornerTileSet:
 def _property1_violations(tile: CornerTuple) -> int:
     """Number of side-sharing corner pairs of ``tile`` with equal colours."""
     return int(
-        (tile[TL] == tile[BL])
-        + (tile[TL] == tile[TR])
-        + (tile[BL] == tile[BR])
-        + (tile[TR] == tile[BR])
+        (tile[TL] == tile[BL]) + (tile[TL] == tile[TR]) + (tile[BL] == tile[BR]) + (tile[TR] == tile[BR])
     )
 
 
@@ -840,9 +823,7 @@ def _complete_supersets(
                 found.add(current)
             continue
         if missing:
-            options = min(
-                ([t for t in meeting.get(r, ()) if t not in current] for r in missing), key=len
-            )
+            options = min(([t for t in meeting.get(r, ()) if t not in current] for r in missing), key=len)
         else:
             options = [t for t in pool if t not in current]
         stack.extend(current | {t} for t in options)
@@ -916,9 +897,7 @@ def candidate_basic_sets() -> tuple[BasicSetCandidate, ...]:
         if len(n1) != _N1_SIZE or len(n2) != _N2_SIZE:
             continue
         extras = range(len(n1) - 2, len(n1))
-        necessary = all(
-            dead_ends(n1.subset(k for k in range(len(n1)) if k != e)) for e in extras
-        )
+        necessary = all(dead_ends(n1.subset(k for k in range(len(n1)) if k != e)) for e in extras)
         out.append(
             BasicSetCandidate(
                 tiles=tiles,
@@ -961,7 +940,7 @@ def choose_basic_set(candidates: Iterable[BasicSetCandidate]) -> BasicSetCandida
     )
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def get_tileset(name: str) -> CornerTileSet:
     """Return a named ω-tile set.
 
@@ -1020,7 +999,7 @@ def get_tileset(name: str) -> CornerTileSet:
 _VARIANTS_PATTERN = re.compile(r"(.*)x([234])")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def with_variants(base: CornerTileSet, k: int) -> CornerTileSet:
     """``base`` with every tile repeated ``k`` times as variants 0 .. k−1 (tiles ``v·m + j``, m = len(base)).
 
@@ -1065,12 +1044,7 @@ def forbidden_pairs(tileset: CornerTileSet) -> list[tuple[str, str]]:
         The pairs ``(a, b)``, ``a != b``, sorted by the order of ``tileset.colours``.
     """
     present = _left_columns(tileset)
-    return [
-        (a, b)
-        for a in tileset.colours
-        for b in tileset.colours
-        if a != b and (a, b) not in present
-    ]
+    return [(a, b) for a in tileset.colours for b in tileset.colours if a != b and (a, b) not in present]
 
 
 def check_properties(tileset: CornerTileSet) -> dict[str, bool]:
@@ -1094,10 +1068,7 @@ def check_properties(tileset: CornerTileSet) -> dict[str, bool]:
         Keys ``"property1"`` .. ``"property4"``.
     """
     tiles = tileset.tiles
-    p1 = all(
-        t[TL] != t[BL] and t[TL] != t[TR] and t[BL] != t[BR] and t[TR] != t[BR]
-        for t in tiles
-    )
+    p1 = all(t[TL] != t[BL] and t[TL] != t[TR] and t[BL] != t[BR] and t[TR] != t[BR] for t in tiles)
 
     counterparts: dict[str, list[str]] = defaultdict(list)
     for a, b in forbidden_pairs(tileset):

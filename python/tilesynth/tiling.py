@@ -170,9 +170,7 @@ def _check_memory(rows: int, cols: int) -> None:
 def _as_generator(seed: SeedLike) -> np.random.Generator:
     if isinstance(seed, np.random.Generator):
         return seed
-    if seed is not None and (
-        isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer))
-    ):
+    if seed is not None and (isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer))):
         raise TypeError(f"seed must be None, an int or a numpy Generator, got {seed!r}")
     return np.random.default_rng(seed)
 
@@ -234,9 +232,7 @@ def scanline_index_map(
     n_v = plan.n_vertical
 
     if plan.modulus is not None:
-        draws: list[int] | None = rng.integers(
-            0, plan.modulus, size=rows * cols, dtype=np.int64
-        ).tolist()
+        draws: list[int] | None = rng.integers(0, plan.modulus, size=rows * cols, dtype=np.int64).tolist()
     else:
         draws = None
 

@@ -264,7 +264,9 @@ class WangOptions:
         return {"corners": self.corners, "samples": self.samples, "omega": self.omega, "eps": self.eps}
 
 
-def wang_options(b: BuildOptions, *, overlap: Any, corners: Any, samples: Any, cut: Any, omega: Any, eps: Any) -> WangOptions:
+def wang_options(
+    b: BuildOptions, *, overlap: Any, corners: Any, samples: Any, cut: Any, omega: Any, eps: Any
+) -> WangOptions:
     """Validate the Wang options (names as in :func:`build_wang`) against the build's tile size and exemplar."""
     n, ex = b.tile_size, b.exemplar
     if samples not in ("diamond", "square"):
@@ -273,9 +275,13 @@ def wang_options(b: BuildOptions, *, overlap: Any, corners: Any, samples: Any, c
         raise ParameterError(f"cut = {cut!r}: must be 'dp' or 'graph'")
     if samples == "square":
         if overlap is not None:
-            raise ParameterError(f"overlap = {overlap!r}: square samples overlap on whole quadrants, give none")
+            raise ParameterError(
+                f"overlap = {overlap!r}: square samples overlap on whole quadrants, give none"
+            )
         if corners not in (None, "pinned"):
-            raise ParameterError(f"corners = {corners!r}: square samples end at the tile corner, use 'pinned'")
+            raise ParameterError(
+                f"corners = {corners!r}: square samples end at the tile corner, use 'pinned'"
+            )
         corners, ov = "pinned", n
     else:
         corners = "free" if corners is None else corners
@@ -426,7 +432,9 @@ class SwangEvaluator:
     tiles, cached exemplar spectrum), so one call per generation.
     """
 
-    def __init__(self, exemplar: np.ndarray, tile_size: int, tile_patches: np.ndarray, lam: float = LAMBDA) -> None:
+    def __init__(
+        self, exemplar: np.ndarray, tile_size: int, tile_patches: np.ndarray, lam: float = LAMBDA
+    ) -> None:
         self.exemplar = as_image(exemplar, "exemplar")
         self.tile_size = int(tile_size)
         self.tile_patches = np.asarray(tile_patches, dtype=np.int64)
@@ -460,7 +468,9 @@ class SwangOptions:
     eps: float
 
 
-def swang_options(b: BuildOptions, *, supplementary: Any, candidates: Any, gradients: Any, eps: Any) -> SwangOptions:
+def swang_options(
+    b: BuildOptions, *, supplementary: Any, candidates: Any, gradients: Any, eps: Any
+) -> SwangOptions:
     """Validate the s-Wang options (names as in :func:`build_swang`)."""
     ex, n, k = b.exemplar, b.tile_size, len(b.definition)
     if gradients not in ("patch", "tile"):
@@ -487,7 +497,9 @@ def swang_options(b: BuildOptions, *, supplementary: Any, candidates: Any, gradi
     return SwangOptions(method, given, positive_int(candidates, "candidates"), gradients, eps)
 
 
-def _supplementary_candidates(b: BuildOptions, o: SwangOptions, I_tiles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _supplementary_candidates(
+    b: BuildOptions, o: SwangOptions, I_tiles: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Candidate supplementary patches ``(K, c, 2)`` of every initial tile and their SSD ``(K, c)``."""
     ex, n = b.exemplar, b.tile_size
     if o.given is not None:
@@ -498,7 +510,9 @@ def _supplementary_candidates(b: BuildOptions, o: SwangOptions, I_tiles: np.ndar
         return o.given[:, None, :], ssd
     want = 1 if o.method == "ssd" else o.candidates
     index = kernels.SsdIndex(ex, b.threads)
-    offsets, ssd = index.best_matches(I_tiles, k=want, exclude_radius=n // 4 if want > 1 else 0, threads=b.threads)
+    offsets, ssd = index.best_matches(
+        I_tiles, k=want, exclude_radius=n // 4 if want > 1 else 0, threads=b.threads
+    )
     if offsets.shape[1] < want:
         raise ParameterError(
             f"candidates = {o.candidates}: the exemplar has only {offsets.shape[1]} translations N/4 apart"
@@ -586,7 +600,7 @@ def build_swang(
     k, tile_patches = len(defn), defn.sample_indices()
     genes_arr, sel = choose_genes(
         genes, n=defn.n_samples, size=n, shape=ex.shape, rng=b.rng,
-        evaluator=lambda: (lambda g, ev=SwangEvaluator(ex, n, tile_patches): ev.evaluate(g, b.threads)),
+        evaluator=lambda: (lambda g, ev=SwangEvaluator(ex, n, tile_patches): ev.evaluate(g, b.threads)),  # noqa: B008 - one evaluator, built when selection starts
         select=select, polish=polish, generations=generations, population=population,
         select_params=select_params, selection=selection, ga_defaults=GA_DEFAULTS, progress=b.progress,
     )  # fmt: skip

@@ -184,9 +184,9 @@ class WangTileSet:
         """
         hi = {c: i for i, c in enumerate(self.horizontal)}
         vi = {c: len(self.horizontal) + i for i, c in enumerate(self.vertical)}
-        return np.array(
-            [[hi[n], vi[e], hi[s], vi[w]] for n, e, s, w in self.tiles], dtype=np.int64
-        ).reshape(len(self.tiles), 4)
+        return np.array([[hi[n], vi[e], hi[s], vi[w]] for n, e, s, w in self.tiles], dtype=np.int64).reshape(
+            len(self.tiles), 4
+        )
 
     # ----------------------------------------------------------- serialisation
     def to_dict(self) -> dict[str, Any]:
@@ -277,7 +277,7 @@ def get_wang_tileset(name: str) -> WangTileSet:
     return _named_set(str(name))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _named_set(name: str) -> WangTileSet:
     """The cached set of a valid name (keyed by the string: any object may be passed as a name)."""
     size = int(name[4:])

@@ -181,7 +181,9 @@ class Scheme:
         from .._budget import check_build_memory
 
         default = inspect.signature(self.builder).parameters.get("tileset")
-        default_set = default.default if default is not None and isinstance(default.default, str) else self.default_set
+        default_set = (
+            default.default if default is not None and isinstance(default.default, str) else self.default_set
+        )
         check_build_memory(exemplar, default_set, self.layout, kwargs)
         return self.builder(exemplar, **kwargs)
 

@@ -135,7 +135,9 @@ def cut_and_compose(
     if cut_region == "free":  # issue 12: the free cut region
         from ..levers import FREE_BIAS, free_cuts
 
-        masks, costs = free_cuts(I_tiles, O_tiles, eps, grad, bias=FREE_BIAS if cut_bias is None else cut_bias)
+        masks, costs = free_cuts(
+            I_tiles, O_tiles, eps, grad, bias=FREE_BIAS if cut_bias is None else cut_bias
+        )
     else:
         masks, costs = kernels.omega_cuts(
             I_tiles, O_tiles, eps=eps, threads=b.threads, intermediate_grad=grad, keep_border=keep_border
