@@ -1203,7 +1203,7 @@ pub fn best_matches_many_sorting(
 ) -> Result<Vec<Vec<Match>>> {
     let (ts, m) = prepare_many(index, templates, mask)?;
     if !ts.is_empty() && k > 0 {
-        index.ensure::<f64>(m.is_some());
+        index.ensure::<f64>(m.is_some())?;
     }
     Ok(ts
         .par_iter()
