@@ -242,3 +242,11 @@ def test_fuzzed_manifests_exit_2_naming_the_field_never_1(fuzz_sets, data):
     if _strict(path) and old is not None and _kind(value) not in (_kind(old), "null"):
         assert status == 2, (path, value)
         assert _dotted(path) in msg, (path, value, msg)
+
+
+def test_manifest_schemes_are_the_registered_ones():
+    """The manifest schema's scheme names are the registry's (a new scheme adds its name to both)."""
+    from tilesynth._manifest import SCHEMES
+    from tilesynth.schemes import SCHEMES as REGISTERED
+
+    assert SCHEMES == REGISTERED

@@ -220,7 +220,7 @@ class Map(Schema):
 
 
 # ----------------------------------------------------------------------------------------------- the schema
-SCHEMES = ("omega", "wang", "swang")
+SCHEMES = ("omega", "wang", "swang", "patch")  # == tilesynth.schemes.SCHEMES (tests/test_manifest.py)
 _NUM = Num()
 _COUNT = Int(0, INT_MAX)
 _POS = Int(1, INT_MAX)

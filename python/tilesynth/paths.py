@@ -113,7 +113,7 @@ def check_output(label: str, path: str | os.PathLike[str], kind: str = "file") -
         raise ParameterError(f"{label} = {str(p)!r}: directory {str(parent)!r} does not exist")
     if p.is_dir():
         raise ParameterError(f"{label} = {str(p)!r}: is a directory, expected a file name")
-    if kind == "image":
+    if kind == "image" and p.suffix.lower() != ".exr":  # .exr: written by tilesynth's own OpenEXR codec
         from .io import _format_for
 
         try:
