@@ -220,7 +220,11 @@ class Map(Schema):
 
 
 # ----------------------------------------------------------------------------------------------- the schema
-SCHEMES = ("omega", "wang", "swang", "patch")  # == tilesynth.schemes.SCHEMES (tests/test_manifest.py)
+SCHEME_LAYOUTS = {"omega": "corner", "wang": "wang", "swang": "wang", "patch": "corner"}
+"""The layout kind (in the file's spelling) of each registered scheme: the registry's names and layouts
+(:data:`tilesynth.schemes.REGISTRY`), written out here because the registry imports the builders, which import
+this module (tests/test_manifest.py keeps the two equal)."""
+SCHEMES = tuple(SCHEME_LAYOUTS)
 _NUM = Num()
 _COUNT = Int(0, INT_MAX)
 _POS = Int(1, INT_MAX)
@@ -298,6 +302,10 @@ PARAMS = Obj(
         "supplementary": Str(("ssd", "cut")),
         "sample_size": Optional(_POS),
         "threads": Optional(_POS),
+        # the levers of the complete sets (issue 12, tilesynth.levers)
+        "cut_region": Str(("circle", "free")),
+        "cut_bias": Num(0.0),
+        "diversity": _POS,
     },
 )
 
@@ -374,7 +382,7 @@ def validate_manifest(m: Any) -> None:
         if k in m:
             s.check(m[k], k)
     kind = m["layout"].get("kind", "corner")
-    want = "corner" if m["scheme"] == "omega" else "wang"
+    want = SCHEME_LAYOUTS[m["scheme"]]
     if kind != want:
         raise TileSetFormatError(
             f"layout is not a tile-set definition for scheme {m['scheme']!r} (manifest.json field layout.kind = "
