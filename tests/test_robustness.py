@@ -80,14 +80,20 @@ def test_build_memory_is_refused_up_front_with_the_figure(tmp_path, monkeypatch,
     tilesynth.save_image(ex, small_exemplar)
     need = build_bytes(96, 96, 3, 24, 16)
     monkeypatch.setenv("TILESYNTH_MAX_BYTES", str(need - 1))
-    assert main(["build", str(ex), "-o", str(tmp_path / "x.tiles"), "--set", "16a", "--tile-size", "24", "-q"]) == 2
+    assert (
+        main(["build", str(ex), "-o", str(tmp_path / "x.tiles"), "--set", "16a", "--tile-size", "24", "-q"])
+        == 2
+    )
     err = capsys.readouterr().err
     assert "needs about" in err and "TILESYNTH_MAX_BYTES" in err and "96x96x3" in err, err
     assert not (tmp_path / "x.tiles").exists()
     with pytest.raises(tilesynth.ParameterError, match="needs about"):
         tilesynth.build(small_exemplar, tile_size=24, seed=1)
     monkeypatch.setenv("TILESYNTH_MAX_BYTES", str(need))
-    assert main(["build", str(ex), "-o", str(tmp_path / "x.tiles"), "--set", "16a", "--tile-size", "24", "-q"]) == 0
+    assert (
+        main(["build", str(ex), "-o", str(tmp_path / "x.tiles"), "--set", "16a", "--tile-size", "24", "-q"])
+        == 0
+    )
 
 
 def test_build_estimate_is_above_a_measured_peak(small_exemplar):
