@@ -62,12 +62,16 @@ an error. Output options: ``sheet``, ``previews`` (a list of ``{size = "WxH" or 
 maps = true}``, each one the ``tilesynth synth`` command with ``--with`` for every map of the job), ``report``
 (``true`` or ``{size, seed, borders}``, as ``tilesynth report``) and ``map_kinds``: ``auto`` smooths a map where
 the colour tiles were smoothed, ``smooth`` requires it (the preset must set ``smooth = true``), ``copy`` never
-blends (labels, masks, IDs). ``export`` (engine formats) is refused with a clear error: this installation has no
-``tilesynth.export``.
+blends (labels, masks, IDs). ``export`` (default ``false``; ``true`` or a table ``{bits = 8|16, padding = 8,
+lookup = "auto"|"hash"|"index_map", seed = 0, index_seed = 0, normal_y = "+y"|"-y", map_smooth =
+"auto"|"on"|"off", viewer = false, maps = true}``) writes the engine export of the tile set, as ``tilesynth
+export NAME.tiles -o NAME-export/`` with ``--with`` for every map of the job (``maps = false``: the colour only);
+the options mean what the options of :func:`tilesynth.engine.export` of the same name mean (defaults the same).
 
 Outputs of job ``NAME`` (relative to ``output_dir``): ``NAME.tiles``, ``NAME-sheet.png``, ``NAME-preview.png``
 (``NAME-preview2.png``, ... for more previews) and ``NAME-preview-<map>.png`` (``.npy`` for float maps),
-``NAME-report/``, and the stamp ``NAME.batch.json``.
+``NAME-report/``, ``NAME-export/`` (the engine export: atlases, index, ``manifest.json``, shaders, the viewer),
+and the stamp ``NAME.batch.json``.
 
 Up to date, atomic, resumable
 =============================
@@ -206,6 +210,8 @@ _TOP_KEYS = ("version", "output_dir", "log", "presets", "jobs")
 _PREVIEW_KEYS = ("size", "seed", "bits", "maps")
 _REPORT_KEYS = ("size", "seed", "borders")
 _MAP_KINDS = ("auto", "smooth", "copy")
+# the options of tilesynth.engine.export a batch job may set, and `maps` (pass the job's maps or not)
+_EXPORT_KEYS = ("bits", "padding", "lookup", "seed", "index_seed", "normal_y", "map_smooth", "viewer", "maps")
 _NAME_RE = re.compile(r"^[A-Za-z0-9_.+\-/]+$")
 
 
@@ -229,6 +235,7 @@ class Job:
     outputs: dict[str, Path]
     stamp: Path
     where: str  # "job 3 ('textures/*.png' -> gravel)" for messages
+    export: dict[str, Any] | None = None  # the engine export options, None for no export
 
     def params(self) -> dict[str, Any]:
         """The effective parameters that define the outputs (hashed into the key; no paths, no threads)."""
@@ -240,6 +247,7 @@ class Job:
             "sheet": self.sheet,
             "previews": list(self.previews),
             "report": self.report,
+            "export": self.export,
             "outputs": {k: os.path.relpath(v, out_dir) for k, v in sorted(self.outputs.items())},
         }
 
@@ -454,12 +462,6 @@ def _expand_job(
     else:
         where_p = where
     own = {k2: v for k2, v in body.items() if k2 in _PRESET_KEYS}
-    for layer, w in ((preset, where_p), (own, where)):
-        if "export" in layer:
-            raise BatchError(
-                f"{w}: field 'export': engine export needs the tilesynth.export module, which this "
-                "installation does not have; remove the field"
-            )
     options, _ = _effective(
         {k2: v for k2, v in preset.items() if k2 in _BUILD_OPTIONS},
         {k2: v for k2, v in own.items() if k2 in _BUILD_OPTIONS},
@@ -470,6 +472,7 @@ def _expand_job(
     sheet = _typed(out.get("sheet", True), bool, f"{w_out}: field 'sheet'")
     previews = _previews(out.get("previews", []), f"{w_out}: field 'previews'")
     report = _report(out.get("report", False), f"{w_out}: field 'report'")
+    export = _export(out.get("export", False), f"{w_out}: field 'export'")
     kinds = _typed(out.get("map_kinds", {}), dict, f"{w_out}: field 'map_kinds'")
     for mname, kind in kinds.items():
         if not isinstance(kind, str) or kind not in _MAP_KINDS:
@@ -529,7 +532,12 @@ def _expand_job(
             if not mp.is_file():
                 raise BatchError(f"{wm} = {mpath!r}: no such file ({mp})")
             maps[mname] = (mp, kinds.get(mname, "auto"))
-        outputs = _outputs(out_dir, name, sheet, previews, report, maps)
+        if export is not None and export["maps"] and "albedo" in maps:
+            raise BatchError(
+                f"{wj}: field 'maps' entry 'albedo': the engine export names the colour atlas 'albedo'; "
+                "rename the map (or set export.maps = false)"
+            )
+        outputs = _outputs(out_dir, name, sheet, previews, report, maps, export)
         jobs.append(
             Job(
                 k,
@@ -543,6 +551,7 @@ def _expand_job(
                 outputs,
                 out_dir / (name + STAMP_SUFFIX),
                 wj,
+                export,
             )
         )
     return jobs
@@ -607,6 +616,42 @@ def _report(value: Any, where: str) -> dict[str, Any] | None:
     }
 
 
+def _export(value: Any, where: str) -> dict[str, Any] | None:
+    """The engine export options of a job (every one resolved to its default), or None for no export."""
+    if value is False:
+        return None
+    if value is True:
+        value = {}
+    _typed(value, dict, where)
+    _unknown(value, _EXPORT_KEYS, where)
+    bits = value.get("bits", 8)
+    if isinstance(bits, bool) or bits not in (8, 16):
+        raise BatchError(f"{where}: field 'bits' = {bits!r}: expected 8 or 16")
+    padding = _typed(value.get("padding", 8), int, f"{where}: field 'padding'")
+    if padding < 0:
+        raise BatchError(f"{where}: field 'padding' = {padding}: must be >= 0")
+    seed = _typed(value.get("seed", 0), int, f"{where}: field 'seed'")
+    if not 0 <= seed < 2**32:
+        raise BatchError(f"{where}: field 'seed' = {seed}: must be in [0, 2**32)")
+    index_seed = _typed(value.get("index_seed", 0), int, f"{where}: field 'index_seed'")
+    if not 0 <= index_seed < 2**63:
+        raise BatchError(f"{where}: field 'index_seed' = {index_seed}: must be in [0, 2**63)")
+    choices = {
+        "lookup": ("auto", "hash", "index_map"),
+        "normal_y": ("+y", "-y"),
+        "map_smooth": ("auto", "on", "off"),
+    }
+    out: dict[str, Any] = {"bits": bits, "padding": padding, "seed": seed, "index_seed": index_seed}
+    for key, allowed in choices.items():
+        v = _typed(value.get(key, allowed[0]), str, f"{where}: field {key!r}")
+        if v not in allowed:
+            raise BatchError(f"{where}: field {key!r} = {v!r}: expected one of {', '.join(allowed)}")
+        out[key] = v
+    out["viewer"] = _typed(value.get("viewer", False), bool, f"{where}: field 'viewer'")
+    out["maps"] = _typed(value.get("maps", True), bool, f"{where}: field 'maps'")
+    return out
+
+
 def _map_suffix(path: Path) -> str:
     """``.npy`` for a float map, ``.png`` otherwise (as ``tilesynth synth --with``), from the header only."""
     try:
@@ -630,6 +675,7 @@ def _outputs(
     previews: list[dict[str, Any]],
     report: dict[str, Any] | None,
     maps: dict[str, tuple[Path, str]],
+    export: dict[str, Any] | None = None,
 ) -> dict[str, Path]:
     o = {"tiles": out_dir / f"{name}.tiles"}
     if sheet:
@@ -642,6 +688,8 @@ def _outputs(
                 o[f"{role}-{mname}"] = out_dir / f"{name}-{role}-{mname}{_map_suffix(mp)}"
     if report is not None:
         o["report"] = out_dir / f"{name}-report"
+    if export is not None:
+        o["export"] = out_dir / f"{name}-export"
     return o
 
 
@@ -922,6 +970,10 @@ def _build_job(
             name=outputs["tiles"].name,
         )
         timings["report_s"] = time.perf_counter() - t0
+    if spec.get("export") is not None:
+        t0 = time.perf_counter()
+        _export_job(ts, spec, staged, {k: a for k, (a, _) in maps.items()})
+        timings["export_s"] = time.perf_counter() - t0
     out_dir = Path(spec["stamp"]).parent
     recs = {}
     for role, p in staged.items():
@@ -939,6 +991,15 @@ def _build_job(
         "seed": int(ts.params["seed"]),
     }
     return [str(outputs[r]) for r in staged], stamp
+
+
+def _export_job(ts: Any, spec: dict[str, Any], staged: dict[str, Path], maps: dict[str, Any]) -> None:
+    """The engine export of the job's tile set into ``target`` (``tilesynth export`` with ``--with`` per map)."""
+    from .engine import export
+
+    e = dict(spec["export"])
+    # the staged .tiles file: the same bytes and file name as the final one (the manifest records both)
+    export(ts, staged["export"], maps=maps if e.pop("maps") else None, source_path=staged["tiles"], **e)
 
 
 def _commit(spec: dict[str, Any], tmp: Path, stamp: dict[str, Any]) -> None:
@@ -1288,6 +1349,7 @@ def _spec(job: Job, key: str, parts: dict[str, Any], run_id: str) -> dict[str, A
         "sheet": job.sheet,
         "previews": [dict(p) for p in job.previews],
         "report": job.report,
+        "export": job.export,
         "outputs": {k: str(v) for k, v in job.outputs.items()},
         "stamp": str(job.stamp),
         "key": key,
