@@ -118,6 +118,23 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
 
+    _add_build_parser(sub)
+    _add_synth_parser(sub)
+    _add_info_parser(sub)
+    _add_sheet_parser(sub)
+    _add_demo_parser(sub)
+    _add_metrics_parsers(sub)
+    from .batch import add_parser as _add_batch_parser  # issue 17: tilesynth batch
+
+    _add_batch_parser(sub)
+    from .engine.cli import add_parsers as _add_export_parsers  # issue 13: export, view
+
+    _add_export_parsers(sub)
+    return p
+
+
+def _add_build_parser(sub) -> None:  # noqa: ANN001
+    """``tilesynth build``: its common options, then those of the registered schemes."""
     b = sub.add_parser("build", help="build a tile set from an exemplar image")
     b.add_argument("input", help="exemplar image (PNG, JPEG, ...)")
     b.add_argument("-o", "--output", required=True, help="tile-set file to write (.tiles)")
@@ -166,6 +183,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     add_png_compression_argument(b)
 
+
+def _add_synth_parser(sub) -> None:  # noqa: ANN001
+    """``tilesynth synth``."""
     s = sub.add_parser("synth", help="synthesize a texture from a tile set")
     s.add_argument("tileset", help="tile-set file (.tiles)")
     s.add_argument(
@@ -224,10 +244,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
+
+def _add_info_parser(sub) -> None:  # noqa: ANN001
+    """``tilesynth info``."""
     i = sub.add_parser("info", help="describe a tile set")
     i.add_argument("tileset", help="tile-set file (.tiles)")
     i.add_argument("--json", action="store_true", help="machine-readable output")
 
+
+def _add_sheet_parser(sub) -> None:  # noqa: ANN001
+    """``tilesynth sheet``."""
     sh = sub.add_parser(
         "sheet", help="write a contact sheet (all tiles, corner colours, cutting curves) as PNG"
     )
@@ -236,6 +262,9 @@ def build_parser() -> argparse.ArgumentParser:
     sh.add_argument("--no-cuts", action="store_true", help="do not draw the cutting curves")
     add_png_compression_argument(sh)
 
+
+def _add_demo_parser(sub) -> None:  # noqa: ANN001
+    """``tilesynth demo``."""
     d = sub.add_parser("demo", help="build and synthesize on the bundled exemplar (lettuce leaves)")
     d.add_argument(
         "-o",
@@ -249,14 +278,6 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--threads", type=_pos, default=None, help="worker threads")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     add_png_compression_argument(d)
-    _add_metrics_parsers(sub)
-    from .batch import add_parser as _add_batch_parser  # issue 17: tilesynth batch
-
-    _add_batch_parser(sub)
-    from .engine.cli import add_parsers as _add_export_parsers  # issue 13: export, view
-
-    _add_export_parsers(sub)
-    return p
 
 
 def _add_metrics_parsers(sub) -> None:  # noqa: ANN001
