@@ -18,7 +18,7 @@ import sys
 import time
 from importlib import resources
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -569,8 +569,42 @@ def _synth(
     out_dtype = np.float32 if Path(output).suffix.lower() == ".exr" else np.uint16 if bits == 16 else np.uint8
     # refuse up front what cannot fit: the image, plus the copy the PNG encoder makes
     check_size(ts, size[0], size[1], out_dtype, copies=2)
+    maps, smooth_maps = _synth_load_maps(ts, ts_path, output, with_maps, map_smooth)
+    t0 = time.perf_counter()
+    prog("synthesis", 0, 1)
+    img, imap = synthesize(
+        ts,
+        size[0],
+        size[1],
+        seed=seed,
+        index_map=index_map,
+        dtype=out_dtype,
+        threads=threads,
+        origin=origin,
+        wrap=wrap,
+    )
+    prog("synthesis", 1, 1)
+    prog("writing image", 0, 1)
+    save_image(output, img)
+    prog("writing image", 1, 1)
+    if save_map:
+        with atomic_open(save_map) as fh:
+            np.save(fh, imap, allow_pickle=False)
+    _synth_write_maps(prog, ts, maps, imap, size, threads, smooth_maps)
+    how = f"seed {seed}" if seed is not None else f"map {map_path}"
+    prog.message(
+        f"wrote {output}: {size[0]}x{size[1]}, {imap.shape[1]}x{imap.shape[0]} tiles, {how}, "
+        f"{time.perf_counter() - t0:.2f} s"
+    )
+
+
+def _synth_load_maps(
+    ts: Any, ts_path: str, output: str, with_maps: list[str] | None, map_smooth: str
+) -> tuple[list[tuple[str, np.ndarray, Path]], bool]:
+    """Load and check every ``--with`` map before anything is written: ``[(path, array, output)]`` and whether
+    the maps are Poisson-smoothed."""
     from .io import load_raster
-    from .synthesis import check_smoothable, is_smoothed, synthesize_map
+    from .synthesis import check_smoothable, is_smoothed
 
     smooth_maps = {"auto": None, "on": True, "off": False}[map_smooth]
     smooth_maps = is_smoothed(ts) if smooth_maps is None else smooth_maps
@@ -597,26 +631,22 @@ def _synth(
         if smooth_maps:  # refused before anything is written
             check_smoothable(arr, f"--with = {mp!r}: the map")
         maps.append((mp, arr, target))
-    t0 = time.perf_counter()
-    prog("synthesis", 0, 1)
-    img, imap = synthesize(
-        ts,
-        size[0],
-        size[1],
-        seed=seed,
-        index_map=index_map,
-        dtype=out_dtype,
-        threads=threads,
-        origin=origin,
-        wrap=wrap,
-    )
-    prog("synthesis", 1, 1)
-    prog("writing image", 0, 1)
-    save_image(output, img)
-    prog("writing image", 1, 1)
-    if save_map:
-        with atomic_open(save_map) as fh:
-            np.save(fh, imap, allow_pickle=False)
+    return maps, smooth_maps
+
+
+def _synth_write_maps(
+    prog: Any,
+    ts: Any,
+    maps: list[tuple[str, np.ndarray, Path]],
+    imap: np.ndarray,
+    size: tuple[int, int],
+    threads: int | None,
+    smooth_maps: bool,
+) -> None:
+    """Synthesize every ``--with`` map through the cuts and layout of the colour, and write it."""
+    from .io import atomic_open, save_image
+    from .synthesis import synthesize_map
+
     for k, (mp, arr, target) in enumerate(maps):
         prog("maps", k, len(maps))
         out_map = synthesize_map(ts, arr, imap, size[0], size[1], threads=threads, smooth=smooth_maps)
@@ -630,11 +660,6 @@ def _synth(
             f"wrote {target}: {mp} ({arr.dtype}, {arr.shape[2]} channel(s)) through the same cuts"
             + (", Poisson-smoothed" if smooth_maps else "")
         )
-    how = f"seed {seed}" if seed is not None else f"map {map_path}"
-    prog.message(
-        f"wrote {output}: {size[0]}x{size[1]}, {imap.shape[1]}x{imap.shape[0]} tiles, {how}, "
-        f"{time.perf_counter() - t0:.2f} s"
-    )
 
 
 def _info(ts_path: str, as_json: bool) -> None:
@@ -787,6 +812,64 @@ def _demo(
     prog.message(f"done: open {d / 'tiles.png'} and {d / 'texture.png'}")
 
 
+def _run_command(args: argparse.Namespace) -> int:
+    """Run the parsed command; its exit status (errors propagate to :func:`main`, which reports them)."""
+    if args.command == "build":
+        _build(
+            args.input,
+            args.output,
+            scheme=args.scheme,
+            set_name=args.set,
+            tile_size=args.tile_size,
+            seed=args.seed,
+            threads=args.threads,
+            quiet=args.quiet,
+            sheet=args.sheet,
+            select=args.select,
+            polish=args.polish,
+            generations=args.generations,
+            population=args.population,
+            options=_scheme_kwargs(args, get_scheme(args.scheme)),
+        )
+    elif args.command == "synth":
+        _synth(
+            args.tileset,
+            args.output,
+            args.size,
+            args.seed,
+            args.map,
+            args.save_map,
+            args.bits,
+            args.threads,
+            args.quiet,
+            args.with_maps,
+            args.map_smooth,
+            args.origin,
+            args.wrap,
+        )
+    elif args.command == "info":
+        _info(args.tileset, args.json)
+    elif args.command == "sheet":
+        from .tilefile import TileSet
+
+        _write_sheet(TileSet.load(args.tileset), args.output, not args.no_cuts)
+    elif args.command == "demo":
+        _demo(args.output_dir, args.set, args.size, args.seed, args.threads, args.quiet)
+    elif args.command == "metrics":
+        _metrics(args)
+    elif args.command == "report":
+        _report(args)
+    elif args.command == "batch":  # issue 17: exit status 1 when any job failed
+        from .batch import cli_main as _batch_main
+
+        return _batch_main(args)
+    elif args.command in ("export", "view"):  # issue 13
+        from .engine.cli import run as _run_export
+
+        _run_export(args)
+    return EXIT_OK
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``tilesynth`` command; returns the exit status."""
     from ._signals import EXIT_TERMINATED, Terminated, install_sigterm
@@ -798,60 +881,7 @@ def main(argv: list[str] | None = None) -> int:
         from .paths import check_command
 
         check_command(args)  # before any work: no output may be an input or another output (issue 16)
-        if args.command == "build":
-            _build(
-                args.input,
-                args.output,
-                scheme=args.scheme,
-                set_name=args.set,
-                tile_size=args.tile_size,
-                seed=args.seed,
-                threads=args.threads,
-                quiet=args.quiet,
-                sheet=args.sheet,
-                select=args.select,
-                polish=args.polish,
-                generations=args.generations,
-                population=args.population,
-                options=_scheme_kwargs(args, get_scheme(args.scheme)),
-            )
-        elif args.command == "synth":
-            _synth(
-                args.tileset,
-                args.output,
-                args.size,
-                args.seed,
-                args.map,
-                args.save_map,
-                args.bits,
-                args.threads,
-                args.quiet,
-                args.with_maps,
-                args.map_smooth,
-                args.origin,
-                args.wrap,
-            )
-        elif args.command == "info":
-            _info(args.tileset, args.json)
-        elif args.command == "sheet":
-            from .tilefile import TileSet
-
-            _write_sheet(TileSet.load(args.tileset), args.output, not args.no_cuts)
-        elif args.command == "demo":
-            _demo(args.output_dir, args.set, args.size, args.seed, args.threads, args.quiet)
-        elif args.command == "metrics":
-            _metrics(args)
-        elif args.command == "report":
-            _report(args)
-        elif args.command == "batch":  # issue 17: exit status 1 when any job failed
-            from .batch import cli_main as _batch_main
-
-            return _batch_main(args)
-        elif args.command in ("export", "view"):  # issue 13
-            from .engine.cli import run as _run_export
-
-            _run_export(args)
-        return EXIT_OK
+        return _run_command(args)
     except UsageError as exc:
         print(f"{exc} (see 'tilesynth --help')", file=sys.stderr)
         return EXIT_USAGE
