@@ -1185,6 +1185,67 @@ def build_many(
     """
     start = time.perf_counter()
     lib = _as_library(jobs)
+    _check_run_args(executor, workers, threads, scheduler)
+    log_path = Path(log) if log is not None else lib.log
+    run_id = (
+        datetime.datetime.now(datetime.timezone.utc).strftime("%Y%m%dT%H%M%SZ") + f"-{uuid.uuid4().hex[:8]}"
+    )
+
+    phase = {"validate_s": time.perf_counter() - start}
+    plan = _plan(lib.jobs, force, run_id)
+    to_run = [spec for _, spec, _ in plan if spec is not None]
+    phase["plan_s"] = time.perf_counter() - start - phase["validate_s"]
+    t_exec = time.perf_counter()
+
+    executor, slots, own_pool, own_client = _start_executor(executor, scheduler, to_run, workers, threads)
+    phase["start_s"] = time.perf_counter() - t_exec
+    t_run = time.perf_counter()
+
+    if log_path is not None:
+        log_path.parent.mkdir(parents=True, exist_ok=True)
+    lib.output_dir.mkdir(parents=True, exist_ok=True)
+    progress = _JobProgress(len(to_run), len(plan) - len(to_run), quiet, stream)
+    results: dict[int, dict[str, Any]] = {}
+    futures: dict[cf.Future, dict[str, Any]] = {}
+    log_fh = open(log_path, "a", encoding="utf-8") if log_path is not None else None  # noqa: SIM115
+    try:
+        for k, (_, _unused, rec) in enumerate(plan):
+            if rec is not None:
+                results[k] = rec
+                _log(log_fh, rec, run_id)
+        order = {id(spec): k for k, (_, spec, _) in enumerate(plan) if spec is not None}
+        if executor == "serial":
+            _run_serial(to_run, order, results, log_fh, run_id, progress)
+        elif to_run:
+            _run_on_executor(executor, to_run, futures, slots, order, results, log_fh, run_id, progress)
+    except KeyboardInterrupt:
+        # stop now: cancel what has not started (Dask cancels on the cluster too) and end the local workers, which
+        # would otherwise run the calls already queued to them; a job cut short leaves only its temporary
+        # directory, removed when it next runs
+        for f in futures:
+            f.cancel()
+        if own_pool is not None:
+            procs = list((getattr(own_pool, "_processes", None) or {}).values())
+            own_pool.shutdown(wait=False, cancel_futures=True)
+            for proc in procs:
+                with contextlib.suppress(Exception):
+                    proc.terminate()
+            own_pool = None
+        raise
+    finally:
+        progress.close()
+        if log_fh is not None:
+            log_fh.close()
+        if own_pool is not None:
+            own_pool.shutdown(wait=True)
+        if own_client is not None:
+            own_client.close()
+    phase["run_s"] = time.perf_counter() - t_run
+    return BatchResult([results[k] for k in range(len(plan))], log_path, time.perf_counter() - start, phase)
+
+
+def _check_run_args(executor: Any, workers: Any, threads: Any, scheduler: Any) -> None:
+    """The argument checks of :func:`build_many` (before any work)."""
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise ParameterError(f"workers = {workers!r}: must be a positive integer")
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
@@ -1201,14 +1262,15 @@ def build_many(
         )
     if executor is not None and not isinstance(executor, (str, cf.Executor)):
         raise TypeError(f"executor = {executor!r}: expected a concurrent.futures.Executor")
-    log_path = Path(log) if log is not None else lib.log
-    run_id = (
-        datetime.datetime.now(datetime.timezone.utc).strftime("%Y%m%dT%H%M%SZ") + f"-{uuid.uuid4().hex[:8]}"
-    )
 
+
+def _plan(
+    jobs: list[Job], force: bool, run_id: str
+) -> list[tuple[Job, dict[str, Any] | None, dict[str, Any] | None]]:
+    """For every job, in order: ``(job, spec to run, None)``, or ``(job, None, record)`` when it is up to date
+    (``skipped``) or an input cannot be read (``failed``)."""
     plan: list[tuple[Job, dict[str, Any] | None, dict[str, Any] | None]] = []  # job, spec to run, or record
-    phase = {"validate_s": time.perf_counter() - start}
-    for job in lib.jobs:
+    for job in jobs:
         try:
             key, parts = job_key(job)
         except OSError as exc:
@@ -1218,10 +1280,18 @@ def build_many(
             plan.append((job, None, _record(job, "skipped", outputs=[str(p) for p in job.outputs.values()])))
         else:
             plan.append((job, _spec(job, key, parts, run_id), None))
-    to_run = [spec for _, spec, _ in plan if spec is not None]
-    phase["plan_s"] = time.perf_counter() - start - phase["validate_s"]
-    t_exec = time.perf_counter()
+    return plan
 
+
+def _start_executor(
+    executor: Any,
+    scheduler: str | None,
+    to_run: list[dict[str, Any]],
+    workers: int | None,
+    threads: int | None,
+) -> tuple[Any, int | None, cf.ProcessPoolExecutor | None, Any]:
+    """The executor to submit to, how many jobs it runs at once (None: unknown), and the local pool or Dask
+    client opened here (None otherwise; closed by the caller); sets the ``threads`` of every spec."""
     own_pool = own_client = None
     slots: int | None = None
     if scheduler is not None:
@@ -1254,71 +1324,56 @@ def build_many(
     if threads is not None:
         for s in to_run:
             s["threads"] = threads
-    phase["start_s"] = time.perf_counter() - t_exec
-    t_run = time.perf_counter()
+    return executor, slots, own_pool, own_client
 
-    if log_path is not None:
-        log_path.parent.mkdir(parents=True, exist_ok=True)
-    lib.output_dir.mkdir(parents=True, exist_ok=True)
-    progress = _JobProgress(len(to_run), len(plan) - len(to_run), quiet, stream)
-    results: dict[int, dict[str, Any]] = {}
-    futures: dict[cf.Future, dict[str, Any]] = {}
-    log_fh = open(log_path, "a", encoding="utf-8") if log_path is not None else None  # noqa: SIM115
-    try:
-        for k, (_, _unused, rec) in enumerate(plan):
-            if rec is not None:
-                results[k] = rec
-                _log(log_fh, rec, run_id)
-        order = {id(spec): k for k, (_, spec, _) in enumerate(plan) if spec is not None}
-        if executor == "serial":
-            for spec in to_run:
-                progress.tick(1)
-                rec = run_job(spec)
-                results[order[id(spec)]] = rec
-                _log(log_fh, rec, run_id)
-                progress.finished(rec, 0)
-        elif to_run:
-            futures = {executor.submit(run_job, spec): spec for spec in to_run}
-            pending = set(futures)
-            progress.tick(min(len(pending), slots or len(pending)))
-            while pending:
-                done, pending = cf.wait(pending, timeout=1.0, return_when=cf.FIRST_COMPLETED)
-                running = min(len(pending), slots) if slots else sum(f.running() for f in pending)
-                for f in done:
-                    spec = futures[f]
-                    try:
-                        rec = f.result()
-                    except Exception as exc:  # noqa: BLE001 - the executor lost the job (worker died, ...)
-                        rec = _record_spec(spec, "failed", error=f"executor: {type(exc).__name__}: {exc}")
-                    results[order[id(spec)]] = rec
-                    _log(log_fh, rec, run_id)
-                    progress.finished(rec, running)
-                if not done:
-                    progress.tick(running)
-    except KeyboardInterrupt:
-        # stop now: cancel what has not started (Dask cancels on the cluster too) and end the local workers, which
-        # would otherwise run the calls already queued to them; a job cut short leaves only its temporary
-        # directory, removed when it next runs
-        for f in futures:
-            f.cancel()
-        if own_pool is not None:
-            procs = list((getattr(own_pool, "_processes", None) or {}).values())
-            own_pool.shutdown(wait=False, cancel_futures=True)
-            for proc in procs:
-                with contextlib.suppress(Exception):
-                    proc.terminate()
-            own_pool = None
-        raise
-    finally:
-        progress.close()
-        if log_fh is not None:
-            log_fh.close()
-        if own_pool is not None:
-            own_pool.shutdown(wait=True)
-        if own_client is not None:
-            own_client.close()
-    phase["run_s"] = time.perf_counter() - t_run
-    return BatchResult([results[k] for k in range(len(plan))], log_path, time.perf_counter() - start, phase)
+
+def _run_serial(
+    to_run: list[dict[str, Any]],
+    order: dict[int, int],
+    results: dict[int, dict[str, Any]],
+    log_fh: TextIO | None,
+    run_id: str,
+    progress: _JobProgress,
+) -> None:
+    """``executor="serial"``: the jobs one after another in this process."""
+    for spec in to_run:
+        progress.tick(1)
+        rec = run_job(spec)
+        results[order[id(spec)]] = rec
+        _log(log_fh, rec, run_id)
+        progress.finished(rec, 0)
+
+
+def _run_on_executor(
+    executor: cf.Executor,
+    to_run: list[dict[str, Any]],
+    futures: dict[cf.Future, dict[str, Any]],
+    slots: int | None,
+    order: dict[int, int],
+    results: dict[int, dict[str, Any]],
+    log_fh: TextIO | None,
+    run_id: str,
+    progress: _JobProgress,
+) -> None:
+    """Submit every spec (filling ``futures``, which the caller cancels on Ctrl-C) and collect the records as
+    they finish."""
+    futures.update({executor.submit(run_job, spec): spec for spec in to_run})
+    pending = set(futures)
+    progress.tick(min(len(pending), slots or len(pending)))
+    while pending:
+        done, pending = cf.wait(pending, timeout=1.0, return_when=cf.FIRST_COMPLETED)
+        running = min(len(pending), slots) if slots else sum(f.running() for f in pending)
+        for f in done:
+            spec = futures[f]
+            try:
+                rec = f.result()
+            except Exception as exc:  # noqa: BLE001 - the executor lost the job (worker died, ...)
+                rec = _record_spec(spec, "failed", error=f"executor: {type(exc).__name__}: {exc}")
+            results[order[id(spec)]] = rec
+            _log(log_fh, rec, run_id)
+            progress.finished(rec, running)
+        if not done:
+            progress.tick(running)
 
 
 def _as_library(jobs: Any) -> Library:
