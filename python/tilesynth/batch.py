@@ -871,18 +871,40 @@ def _clean_stale(stamp: Path) -> None:
 def _build_job(
     spec: dict[str, Any], tmp: Path, timings: dict[str, float]
 ) -> tuple[list[str], dict[str, Any]]:
-    import numpy as np
-
-    from .io import atomic_open, load_image, load_raster, save_image
+    from .io import save_image
     from .render import contact_sheet
-    from .report import write_report
-    from .schemes import build
-    from .synthesis import check_smoothable, is_smoothed, synthesize, synthesize_map
 
     threads = spec.get("threads")
     outputs = {role: Path(p) for role, p in spec["outputs"].items()}
     staged = {role: tmp / p.name for role, p in outputs.items()}
     t0 = time.perf_counter()
+    image, bits, maps = _load_inputs(spec)
+    timings["load_s"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    ts = _build_tileset(spec, image, bits, threads)
+    timings["build_s"] = time.perf_counter() - t0
+    ts.save(staged["tiles"])
+    if spec["sheet"]:
+        t0 = time.perf_counter()
+        save_image(staged["sheet"], contact_sheet(ts, show_cuts=True))
+        timings["sheet_s"] = time.perf_counter() - t0
+    _write_previews(ts, spec, staged, maps, bits, threads, timings)
+    if spec["report"] is not None:
+        t0 = time.perf_counter()
+        _write_job_report(ts, spec, staged, outputs, threads)
+        timings["report_s"] = time.perf_counter() - t0
+    if spec.get("export") is not None:
+        t0 = time.perf_counter()
+        _export_job(ts, spec, staged, {k: a for k, (a, _) in maps.items()})
+        timings["export_s"] = time.perf_counter() - t0
+    return [str(outputs[r]) for r in staged], _job_stamp(spec, ts, staged, outputs)
+
+
+def _load_inputs(spec: dict[str, Any]) -> tuple[Any, Any, dict[str, tuple[Any, str]]]:
+    """The exemplar, its bit depth and the job's maps ``{name: (array, kind)}``, each checked to be
+    pixel-aligned with the exemplar."""
+    from .io import load_image, load_raster
+
     image, bits = load_image(spec["exemplar"])
     maps = {}
     for mname, (mpath, kind) in spec["maps"].items():
@@ -893,11 +915,16 @@ def _build_job(
                 f"{image.shape[1]}x{image.shape[0]}; a map must be pixel-aligned with the exemplar"
             )
         maps[mname] = (arr, kind)
-    timings["load_s"] = time.perf_counter() - t0
+    return image, bits, maps
+
+
+def _build_tileset(spec: dict[str, Any], image: Any, bits: Any, threads: int | None) -> Any:
+    """The job's tile set, built with the keyword arguments of ``tilesynth build`` (``cli._build``), so that a
+    batch build equals a CLI build."""
+    from .schemes import build
 
     o = dict(spec["options"])
     scheme = o.pop("scheme")
-    # the keyword arguments of `tilesynth build` (cli._build), so a batch build equals a CLI build
     common: dict[str, Any] = dict(
         tileset=o["set"],
         tile_size=o["tile_size"],
@@ -924,14 +951,24 @@ def _build_job(
         extra = dict(cut=o["cut"], overlap=o["overlap"], corners=o["corners"], samples=o["samples"])
     else:
         extra = dict(gradients=o["gradients"], supplementary=o["supplementary"])
-    t0 = time.perf_counter()
-    ts = build(image, scheme=scheme, **common, **extra)
-    timings["build_s"] = time.perf_counter() - t0
-    ts.save(staged["tiles"])
-    if spec["sheet"]:
-        t0 = time.perf_counter()
-        save_image(staged["sheet"], contact_sheet(ts, show_cuts=True))
-        timings["sheet_s"] = time.perf_counter() - t0
+    return build(image, scheme=scheme, **common, **extra)
+
+
+def _write_previews(
+    ts: Any,
+    spec: dict[str, Any],
+    staged: dict[str, Path],
+    maps: dict[str, tuple[Any, str]],
+    bits: Any,
+    threads: int | None,
+    timings: dict[str, float],
+) -> None:
+    """Every preview of the job (as ``tilesynth synth``, with ``--with`` for each map when asked)."""
+    import numpy as np
+
+    from .io import atomic_open, save_image
+    from .synthesis import check_smoothable, is_smoothed, synthesize, synthesize_map
+
     smoothed = is_smoothed(ts)
     for i, pv in enumerate(spec["previews"], start=1):
         t0 = time.perf_counter()
@@ -956,24 +993,31 @@ def _build_job(
                 else:
                     save_image(target, out_map)
         timings[f"{role}_s"] = time.perf_counter() - t0
-    if spec["report"] is not None:
-        t0 = time.perf_counter()
-        r = spec["report"]
-        write_report(
-            ts,
-            staged["report"],
-            r["size"][0],
-            r["size"][1],
-            r["seed"],
-            r["borders"],
-            threads,
-            name=outputs["tiles"].name,
-        )
-        timings["report_s"] = time.perf_counter() - t0
-    if spec.get("export") is not None:
-        t0 = time.perf_counter()
-        _export_job(ts, spec, staged, {k: a for k, (a, _) in maps.items()})
-        timings["export_s"] = time.perf_counter() - t0
+
+
+def _write_job_report(
+    ts: Any, spec: dict[str, Any], staged: dict[str, Path], outputs: dict[str, Path], threads: int | None
+) -> None:
+    """The job's report directory (as ``tilesynth report``)."""
+    from .report import write_report
+
+    r = spec["report"]
+    write_report(
+        ts,
+        staged["report"],
+        r["size"][0],
+        r["size"][1],
+        r["seed"],
+        r["borders"],
+        threads,
+        name=outputs["tiles"].name,
+    )
+
+
+def _job_stamp(
+    spec: dict[str, Any], ts: Any, staged: dict[str, Path], outputs: dict[str, Path]
+) -> dict[str, Any]:
+    """The up-to-date record of the job: its key, what went into it, every output with its size."""
     out_dir = Path(spec["stamp"]).parent
     recs = {}
     for role, p in staged.items():
@@ -990,7 +1034,7 @@ def _build_job(
         "E": float(ts.E),
         "seed": int(ts.params["seed"]),
     }
-    return [str(outputs[r]) for r in staged], stamp
+    return stamp
 
 
 def _export_job(ts: Any, spec: dict[str, Any], staged: dict[str, Path], maps: dict[str, Any]) -> None:
