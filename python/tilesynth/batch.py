@@ -450,64 +450,20 @@ def _expand_job(
             f"{where}: field 'exemplar' is missing (an image path or a glob, relative to the file)"
         )
     pattern = _typed(body["exemplar"], str, f"{where}: field 'exemplar'")
-    preset_name = body.get("preset")
-    preset: dict[str, Any] = {}
-    if preset_name is not None:
-        _typed(preset_name, str, f"{where}: field 'preset'")
-        if preset_name not in presets:
-            known = ", ".join(presets) or "none defined"
-            raise BatchError(f"{where}: field 'preset' = {preset_name!r}: unknown preset (presets: {known})")
-        preset = presets[preset_name]
-        where_p = f"{source}: preset {preset_name!r}"
-    else:
-        where_p = where
+    preset, where_p = _job_preset(body, presets, where, source)
     own = {k2: v for k2, v in body.items() if k2 in _PRESET_KEYS}
     options, _ = _effective(
         {k2: v for k2, v in preset.items() if k2 in _BUILD_OPTIONS},
         {k2: v for k2, v in own.items() if k2 in _BUILD_OPTIONS},
         where,
     )
-    out = {**preset, **own}
-    w_out = where if any(k2 in own for k2 in _OUTPUT_OPTIONS) else where_p
-    sheet = _typed(out.get("sheet", True), bool, f"{w_out}: field 'sheet'")
-    previews = _previews(out.get("previews", []), f"{w_out}: field 'previews'")
-    report = _report(out.get("report", False), f"{w_out}: field 'report'")
-    export = _export(out.get("export", False), f"{w_out}: field 'export'")
-    kinds = _typed(out.get("map_kinds", {}), dict, f"{w_out}: field 'map_kinds'")
-    for mname, kind in kinds.items():
-        if not isinstance(kind, str) or kind not in _MAP_KINDS:
-            raise BatchError(
-                f"{w_out}: field 'map_kinds' entry {mname!r} = {kind!r}: expected one of "
-                f"{', '.join(_MAP_KINDS)}"
-            )
-        if kind == "smooth" and not options.get("smooth"):
-            raise BatchError(
-                f"{w_out}: field 'map_kinds' entry {mname!r} = \"smooth\": the tile set is not "
-                "smoothed (set smooth = true), there is nothing to follow"
-            )
+    sheet, previews, report, export, kinds = _output_options(preset, own, options, where, where_p)
     maps_raw = _typed(body.get("maps", {}), dict, f"{where}: field 'maps'")
     exclude = _typed(body.get("exclude", []), list, f"{where}: field 'exclude'")
     for e in exclude:
         _typed(e, str, f"{where}: field 'exclude' entry")
     name_t = _typed(body.get("name", "{stem}"), str, f"{where}: field 'name'")
-    is_glob = glob.has_magic(pattern)
-    if is_glob:
-        found = sorted(Path(p) for p in glob.glob(str(base / pattern), recursive=True) if Path(p).is_file())
-        found = [p for p in found if not any(fnmatch.fnmatch(p.name, e) for e in exclude)]
-        if not found:
-            raise BatchError(f"{where}: field 'exemplar' = {pattern!r}: the glob matches no file (in {base})")
-        if "{stem}" not in name_t and len(found) > 1:
-            raise BatchError(
-                f"{where}: field 'name' = {name_t!r}: the glob matches {len(found)} files; the name "
-                "needs {stem} so that each gets its own outputs"
-            )
-    else:
-        if exclude:
-            raise BatchError(f"{where}: field 'exclude': only used when 'exemplar' is a glob")
-        p = base / pattern
-        if not p.is_file():
-            raise BatchError(f"{where}: field 'exemplar' = {pattern!r}: no such file ({p})")
-        found = [p]
+    found, is_glob = _exemplars(base, pattern, exclude, name_t, where)
     jobs = []
     for ex in found:
         stem = ex.stem
@@ -519,19 +475,7 @@ def _expand_job(
             ) from None
         wj = f"{where} -> {name!r}" if is_glob else where
         _check_name(name, f"{wj}: field 'name'")
-        maps: dict[str, tuple[Path, str]] = {}
-        for mname, mval in maps_raw.items():
-            wm = f"{wj}: field 'maps' entry {mname!r}"
-            _check_name(mname, wm, slash=False)
-            mpath = _typed(mval, str, wm)
-            try:
-                mpath = mpath.format(stem=stem)
-            except (KeyError, IndexError, ValueError, AttributeError) as exc:
-                raise BatchError(f"{wm} = {mval!r}: bad placeholder ({exc}); only {{stem}} exists") from None
-            mp = (base / mpath).resolve()
-            if not mp.is_file():
-                raise BatchError(f"{wm} = {mpath!r}: no such file ({mp})")
-            maps[mname] = (mp, kinds.get(mname, "auto"))
+        maps = _job_maps(maps_raw, stem, base, kinds, wj)
         if export is not None and export["maps"] and "albedo" in maps:
             raise BatchError(
                 f"{wj}: field 'maps' entry 'albedo': the engine export names the colour atlas 'albedo'; "
@@ -555,6 +499,94 @@ def _expand_job(
             )
         )
     return jobs
+
+
+def _job_preset(
+    body: dict[str, Any], presets: dict[str, dict[str, Any]], where: str, source: str
+) -> tuple[dict[str, Any], str]:
+    """The preset a job names (empty when none) and where its keys are reported from."""
+    preset_name = body.get("preset")
+    preset: dict[str, Any] = {}
+    if preset_name is not None:
+        _typed(preset_name, str, f"{where}: field 'preset'")
+        if preset_name not in presets:
+            known = ", ".join(presets) or "none defined"
+            raise BatchError(f"{where}: field 'preset' = {preset_name!r}: unknown preset (presets: {known})")
+        preset = presets[preset_name]
+        where_p = f"{source}: preset {preset_name!r}"
+    else:
+        where_p = where
+    return preset, where_p
+
+
+def _output_options(
+    preset: dict[str, Any], own: dict[str, Any], options: dict[str, Any], where: str, where_p: str
+) -> tuple[bool, list[dict[str, Any]], dict[str, Any] | None, dict[str, Any] | None, dict[str, Any]]:
+    """The output options of a job (its own over its preset's): sheet, previews, report, export, map kinds."""
+    out = {**preset, **own}
+    w_out = where if any(k2 in own for k2 in _OUTPUT_OPTIONS) else where_p
+    sheet = _typed(out.get("sheet", True), bool, f"{w_out}: field 'sheet'")
+    previews = _previews(out.get("previews", []), f"{w_out}: field 'previews'")
+    report = _report(out.get("report", False), f"{w_out}: field 'report'")
+    export = _export(out.get("export", False), f"{w_out}: field 'export'")
+    kinds = _typed(out.get("map_kinds", {}), dict, f"{w_out}: field 'map_kinds'")
+    for mname, kind in kinds.items():
+        if not isinstance(kind, str) or kind not in _MAP_KINDS:
+            raise BatchError(
+                f"{w_out}: field 'map_kinds' entry {mname!r} = {kind!r}: expected one of "
+                f"{', '.join(_MAP_KINDS)}"
+            )
+        if kind == "smooth" and not options.get("smooth"):
+            raise BatchError(
+                f"{w_out}: field 'map_kinds' entry {mname!r} = \"smooth\": the tile set is not "
+                "smoothed (set smooth = true), there is nothing to follow"
+            )
+    return sheet, previews, report, export, kinds
+
+
+def _exemplars(
+    base: Path, pattern: str, exclude: list[str], name_t: str, where: str
+) -> tuple[list[Path], bool]:
+    """The exemplar files of a job (its glob expanded, sorted, without the excluded) and whether it is a glob."""
+    is_glob = glob.has_magic(pattern)
+    if is_glob:
+        found = sorted(Path(p) for p in glob.glob(str(base / pattern), recursive=True) if Path(p).is_file())
+        found = [p for p in found if not any(fnmatch.fnmatch(p.name, e) for e in exclude)]
+        if not found:
+            raise BatchError(f"{where}: field 'exemplar' = {pattern!r}: the glob matches no file (in {base})")
+        if "{stem}" not in name_t and len(found) > 1:
+            raise BatchError(
+                f"{where}: field 'name' = {name_t!r}: the glob matches {len(found)} files; the name "
+                "needs {stem} so that each gets its own outputs"
+            )
+    else:
+        if exclude:
+            raise BatchError(f"{where}: field 'exclude': only used when 'exemplar' is a glob")
+        p = base / pattern
+        if not p.is_file():
+            raise BatchError(f"{where}: field 'exemplar' = {pattern!r}: no such file ({p})")
+        found = [p]
+    return found, is_glob
+
+
+def _job_maps(
+    maps_raw: dict[str, Any], stem: str, base: Path, kinds: dict[str, Any], wj: str
+) -> dict[str, tuple[Path, str]]:
+    """The maps of one expanded job, ``{name: (absolute path, kind)}``, ``{stem}`` filled in."""
+    maps: dict[str, tuple[Path, str]] = {}
+    for mname, mval in maps_raw.items():
+        wm = f"{wj}: field 'maps' entry {mname!r}"
+        _check_name(mname, wm, slash=False)
+        mpath = _typed(mval, str, wm)
+        try:
+            mpath = mpath.format(stem=stem)
+        except (KeyError, IndexError, ValueError, AttributeError) as exc:
+            raise BatchError(f"{wm} = {mval!r}: bad placeholder ({exc}); only {{stem}} exists") from None
+        mp = (base / mpath).resolve()
+        if not mp.is_file():
+            raise BatchError(f"{wm} = {mpath!r}: no such file ({mp})")
+        maps[mname] = (mp, kinds.get(mname, "auto"))
+    return maps
 
 
 def _check_name(name: str, where: str, slash: bool = True) -> None:
