@@ -83,6 +83,7 @@ from __future__ import annotations
 import contextlib
 import math
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -279,9 +280,39 @@ def coherence_energy(
 
     ``index``: optionally a prebuilt :class:`tilesynth.SsdIndex` of ``exemplar`` (reused across calls).
     """
+    t0 = time.perf_counter()
+    img, ex, p, s = _coherence_args(image, exemplar, patch, stride, index)
+    h, w, c = img.shape
+    rows, cols = (h - p) // s + 1, (w - p) // s + 1
+    rx = ex.shape[1] - p + 1
+    m = rows * cols
+    values = np.full(m, np.nan)
+    offsets = np.zeros((m, 2), np.int64)
+    out_patches, ex_patches = _patch_gatherers(img, ex, p, s, m, cols, rx)
+    _exact_copies(img, ex, p, s, rows, cols, values, offsets, out_patches, ex_patches)
+    todo = _search_the_rest(ex, values, offsets, out_patches, index, threads)
+    energy = float(values.mean())
+    return Coherence(
+        energy=energy,
+        rms=math.sqrt(energy / (p * p * c)),
+        max=float(values.max()),
+        patch=p,
+        stride=s,
+        n_patches=m,
+        exact_copies=int(m - todo.size),
+        searched=int(todo.size),
+        seconds=time.perf_counter() - t0,
+        values=values.reshape(rows, cols),
+        offsets=offsets.reshape(rows, cols, 2),
+    )
+
+
+def _coherence_args(
+    image: np.ndarray, exemplar: np.ndarray, patch: int, stride: int, index: Any
+) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """The checked arguments of :func:`coherence_energy`: image, exemplar, patch, stride."""
     from .kernels import SsdIndex
 
-    t0 = time.perf_counter()
     img = as_image(image)
     ex = as_image(exemplar, "exemplar")
     p = positive_int(patch, "patch")
@@ -294,21 +325,14 @@ def coherence_energy(
     for name, a in (("image", img), ("exemplar", ex)):
         if p > a.shape[0] or p > a.shape[1]:
             raise ParameterError(f"patch = {p}: larger than the {a.shape[1]}x{a.shape[0]} {name}")
-    h, w, c = img.shape
-    rows, cols = (h - p) // s + 1, (w - p) // s + 1
-    ry, rx = ex.shape[0] - p + 1, ex.shape[1] - p + 1
+    return img, ex, p, s
 
-    weights = np.random.default_rng(_HASH_SEED).integers(0, 2**63, size=(p, p, c), dtype=np.uint64) * 2 + 1
-    ex_keys = _patch_keys(_float_bits(ex), p, ry, rx, 1, weights).ravel()
-    out_keys = _patch_keys(_float_bits(img), p, rows, cols, s, weights).ravel()
-    order = np.argsort(ex_keys, kind="stable")  # equal keys stay in increasing (row, col) order
-    sorted_keys = ex_keys[order]
-    lo = np.searchsorted(sorted_keys, out_keys, side="left")
-    hi = np.searchsorted(sorted_keys, out_keys, side="right")
 
-    m = rows * cols
-    values = np.full(m, np.nan)
-    offsets = np.zeros((m, 2), np.int64)
+def _patch_gatherers(
+    img: np.ndarray, ex: np.ndarray, p: int, s: int, m: int, cols: int, rx: int
+) -> tuple[Callable[[np.ndarray], np.ndarray], Callable[[np.ndarray], np.ndarray]]:
+    """``out_patches(i)``: the p x p output patches of grid indices ``i``; ``ex_patches(k)``: the exemplar
+    patches at flat offsets ``k`` (row * rx + col)."""
     py, px = np.divmod(np.arange(m), cols)
     py, px = py * s, px * s
     ii, jj = np.mgrid[0:p, 0:p]
@@ -319,6 +343,33 @@ def coherence_energy(
     def ex_patches(flat: np.ndarray) -> np.ndarray:
         r, q = np.divmod(flat, rx)
         return ex[r[:, None, None] + ii, q[:, None, None] + jj]
+
+    return out_patches, ex_patches
+
+
+def _exact_copies(
+    img: np.ndarray,
+    ex: np.ndarray,
+    p: int,
+    s: int,
+    rows: int,
+    cols: int,
+    values: np.ndarray,
+    offsets: np.ndarray,
+    out_patches: Callable[[np.ndarray], np.ndarray],
+    ex_patches: Callable[[np.ndarray], np.ndarray],
+) -> None:
+    """Mark every output patch that is a bit-for-bit copy of an exemplar patch (value 0, its offset): a hash of
+    the float bits of every patch, confirmed by the pixels."""
+    c = img.shape[2]
+    ry, rx = ex.shape[0] - p + 1, ex.shape[1] - p + 1
+    weights = np.random.default_rng(_HASH_SEED).integers(0, 2**63, size=(p, p, c), dtype=np.uint64) * 2 + 1
+    ex_keys = _patch_keys(_float_bits(ex), p, ry, rx, 1, weights).ravel()
+    out_keys = _patch_keys(_float_bits(img), p, rows, cols, s, weights).ravel()
+    order = np.argsort(ex_keys, kind="stable")  # equal keys stay in increasing (row, col) order
+    sorted_keys = ex_keys[order]
+    lo = np.searchsorted(sorted_keys, out_keys, side="left")
+    hi = np.searchsorted(sorted_keys, out_keys, side="right")
 
     # exact copies: confirm the first key match by the pixels; on a (never seen) collision try the others
     hits = np.nonzero(hi > lo)[0]
@@ -334,6 +385,19 @@ def coherence_energy(
                     values[q] = 0.0
                     offsets[q] = divmod(int(k), rx)
                     break
+
+
+def _search_the_rest(
+    ex: np.ndarray,
+    values: np.ndarray,
+    offsets: np.ndarray,
+    out_patches: Callable[[np.ndarray], np.ndarray],
+    index: Any,
+    threads: int | None,
+) -> np.ndarray:
+    """The exhaustive nearest-patch search of every patch that is not an exact copy; returns their indices."""
+    from .kernels import SsdIndex
+
     todo = np.nonzero(np.isnan(values))[0]
     if todo.size:
         idx = index if index is not None else SsdIndex(ex, threads)
@@ -342,20 +406,7 @@ def coherence_energy(
             off, val = idx.best_matches(np.ascontiguousarray(out_patches(sel)), k=1, threads=threads)
             values[sel] = np.maximum(val[:, 0], 0.0)
             offsets[sel] = off[:, 0]
-    energy = float(values.mean())
-    return Coherence(
-        energy=energy,
-        rms=math.sqrt(energy / (p * p * c)),
-        max=float(values.max()),
-        patch=p,
-        stride=s,
-        n_patches=m,
-        exact_copies=int(m - todo.size),
-        searched=int(todo.size),
-        seconds=time.perf_counter() - t0,
-        values=values.reshape(rows, cols),
-        offsets=offsets.reshape(rows, cols, 2),
-    )
+    return todo
 
 
 # ------------------------------------------------------------------------------------------------- coverage
