@@ -1008,10 +1008,18 @@ class _Steps:
 
 def format_metrics(m: dict[str, Any]) -> str:
     """Human-readable lines of a dict from :func:`image_metrics` / :func:`tileset_metrics`."""
+    lines = _format_header(m) + _format_measures(m) + _format_objective(m)
+    for note in m.get("notes", []):
+        lines.append(f"note          {note}")
+    return "\n".join(lines)
 
-    def num(v: Any, fmt: str = ".4g") -> str:
-        return "n/a" if v is None else format(v, fmt)
 
+def _num(v: Any, fmt: str = ".4g") -> str:
+    return "n/a" if v is None else format(v, fmt)
+
+
+def _format_header(m: dict[str, Any]) -> list[str]:
+    """What was measured: the tile set and its sample, or the image."""
     lines = []
     inp = m["input"]
     if "tileset" in m:
@@ -1027,75 +1035,85 @@ def format_metrics(m: dict[str, Any]) -> str:
         )
     else:
         lines.append(f"image         {inp['width']}x{inp['height']}, {inp['channels']} channel(s)")
+    return lines
+
+
+def _format_measures(m: dict[str, Any]) -> list[str]:
+    """The image measures: seam, coherence, coverage, repetition, detail peak, copies, histograms."""
+    lines = []
     sm = m.get("seam")
     if sm:
         lines.append(
-            f"seam score    {num(sm['score'], '.4f')}  (border / interior mean squared step; x "
-            f"{num(sm['ratio_x'], '.4f')}, y {num(sm['ratio_y'], '.4f')}; tile {sm['tile_size']})"
+            f"seam score    {_num(sm['score'], '.4f')}  (border / interior mean squared step; x "
+            f"{_num(sm['ratio_x'], '.4f')}, y {_num(sm['ratio_y'], '.4f')}; tile {sm['tile_size']})"
         )
     co = m.get("coherence")
     if co:
         lines.append(
-            f"coherence     {num(co['energy'], '.5g')}  (mean min SSD of {co['patch']}x{co['patch']} "
-            f"patches, stride {co['stride']}; rms {num(co['rms'], '.4f')}; {co['n_patches']} patches, "
+            f"coherence     {_num(co['energy'], '.5g')}  (mean min SSD of {co['patch']}x{co['patch']} "
+            f"patches, stride {co['stride']}; rms {_num(co['rms'], '.4f')}; {co['n_patches']} patches, "
             f"{co['exact_copies']} exact copies, {co['searched']} searched, {co['seconds']:.2f} s)"
         )
     cv = m.get("coverage")
     if cv:
         lines.append(
-            f"coverage      {num(cv['fraction'], '.4f')} of exemplar pixels used  (evenness "
-            f"{num(cv['evenness'], '.4f')}, cv {num(cv['cv'], '.3f')})"
+            f"coverage      {_num(cv['fraction'], '.4f')} of exemplar pixels used  (evenness "
+            f"{_num(cv['evenness'], '.4f')}, cv {_num(cv['cv'], '.3f')})"
         )
     rp = m.get("repetition")
     if rp:
         where = "none" if rp["offset"] is None else f"at (dy, dx) = ({rp['offset'][0]}, {rp['offset'][1]})"
         lines.append(
-            f"repetition    {num(rp['peak'], '.4f')}  (strongest non-zero autocorrelation peak, {where})"
+            f"repetition    {_num(rp['peak'], '.4f')}  (strongest non-zero autocorrelation peak, {where})"
         )
     dr = m.get("detail_repetition")
     if dr:
         where = "none" if dr["offset"] is None else f"at (dy, dx) = ({dr['offset'][0]}, {dr['offset'][1]})"
         lines.append(
-            f"detail peak   {num(dr['peak'], '.4f')}  (autocorrelation peak of the detail layer, σ "
+            f"detail peak   {_num(dr['peak'], '.4f')}  (autocorrelation peak of the detail layer, σ "
             f"{dr['sigma']:g}, {where})"
         )
     pc = m.get("periodic_copies")
     if pc:
         lines.append(
-            f"copies        {num(pc['fraction'], '.4f')} of {pc['n_patches']} {pc['patch']}x{pc['patch']} "
+            f"copies        {_num(pc['fraction'], '.4f')} of {pc['n_patches']} {pc['patch']}x{pc['patch']} "
             f"patches copy the patch one dominant lag away (lags {pc['lags']})"
         )
     hd = m.get("histogram")
     if hd:
         lines.append(
-            f"histograms    {num(hd['distance'], '.4f')}  (mean 1-D Wasserstein of colour channels and of "
+            f"histograms    {_num(hd['distance'], '.4f')}  (mean 1-D Wasserstein of colour channels and of "
             f"gradient magnitude at scales {hd['scales']})"
         )
+    return lines
+
+
+def _format_objective(m: dict[str, Any]) -> list[str]:
+    """The tile set's own measures: the objective E, D_j, the cut costs and the cut seam."""
+    lines = []
     ob = m.get("objective")
     if ob:
         d, c = ob["D"], ob["cut_costs"]
         lines.append(
-            f"objective     E {num(ob['E'], '.6g')}, f = 1/E {num(ob['f'], '.4g')}; normalised (003) E "
-            f"{num(ob['E_normalised'], '.4g')}, f {num(ob['f_normalised'], '.4f')}  "
+            f"objective     E {_num(ob['E'], '.6g')}, f = 1/E {_num(ob['f'], '.4g')}; normalised (003) E "
+            f"{_num(ob['E_normalised'], '.4g')}, f {_num(ob['f_normalised'], '.4f')}  "
             f"({ob['intermediate_tiles']} intermediate tiles, selection {ob['selection']})"
         )
         lines.append(
-            f"D_j           min {num(d['min'])}, max {num(d['max'])}, mean {num(d['mean'])}, std "
-            f"{num(d['std'])}, max/min {num(d['max_over_min'], '.3g')}"
+            f"D_j           min {_num(d['min'])}, max {_num(d['max'])}, mean {_num(d['mean'])}, std "
+            f"{_num(d['std'])}, max/min {_num(d['max_over_min'], '.3g')}"
         )
         lines.append(
-            f"cut costs     min {num(c['min'])}, max {num(c['max'])}, mean {num(c['mean'])}, "
-            f"sum {num(c['sum'])}"
+            f"cut costs     min {_num(c['min'])}, max {_num(c['max'])}, mean {_num(c['mean'])}, "
+            f"sum {_num(c['sum'])}"
         )
     cs = m.get("cut_seam")
     if cs:
         lines.append(
-            f"cut seam      {num(cs['score'], '.4f')}  (mean squared step across the cutting curves / over "
+            f"cut seam      {_num(cs['score'], '.4f')}  (mean squared step across the cutting curves / over "
             f"all pixel pairs of the tiles; {cs['cut_pairs']} pairs on the cuts)"
         )
-    for note in m.get("notes", []):
-        lines.append(f"note          {note}")
-    return "\n".join(lines)
+    return lines
 
 
 __all__ = [
