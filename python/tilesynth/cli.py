@@ -783,7 +783,9 @@ def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
         step = max(1, len(best) // 12)
         shown = sorted(set(range(0, len(best), step)) | {len(best) - 1})
         for g in shown:
-            lines.append(f"              {g + 1:>4}: {best[g]:.6g} / {mean[g]:.6g}")
+            # a tampered file may hold fewer means than bests: show what is there, never fail on it
+            m_g = f"{mean[g]:.6g}" if g < len(mean) else "?"
+            lines.append(f"              {g + 1:>4}: {best[g]:.6g} / {m_g}")
     return lines
 
 
