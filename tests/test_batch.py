@@ -400,7 +400,22 @@ BAD = {
         '[[jobs]]\nexemplar = "tex/bread-sheet.png"\nname = "r"\n',
         "would overwrite an input",
     ),
-    "export": ('[[jobs]]\nexemplar = "tex/bread.png"\nexport = {format = "gltf"}\n', "field 'export'"),
+    "export unknown option": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\nexport = {format = "gltf"}\n',
+        "field 'export': unknown field 'format'",
+    ),
+    "export bad bits": (
+        '[presets.e]\nexport = {bits = 12}\n[[jobs]]\nexemplar = "tex/bread.png"\npreset = "e"\n',
+        "preset 'e': field 'export': field 'bits' = 12: expected 8 or 16",
+    ),
+    "export bad lookup": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\nexport = {lookup = "wang"}\n',
+        "field 'export': field 'lookup' = 'wang': expected one of auto, hash, index_map",
+    ),
+    "export not a table": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\nexport = "yes"\n',
+        "field 'export' = 'yes'",
+    ),
     "no jobs": ('[presets.p]\nset = "8"\n', "no jobs"),
     "not toml": ("[[jobs]\nexemplar = 1\n", "not valid TOML"),
     "version": ('version = 2\n[[jobs]]\nexemplar = "tex/bread.png"\n', "only version 1"),
@@ -583,3 +598,52 @@ def test_any_executor_thread_pool(lib_dir: Path) -> None:
     assert res.n_built == 3 and res.exit_status == 0
     assert build_many(d / "b.toml", executor="serial", quiet=True).n_built == 3
     _same_outputs(d / "a", d / "b")
+
+
+# ------------------------------------------------------------------------------------------------ engine export
+def test_job_with_export_writes_a_valid_manifest(lib_dir: Path) -> None:
+    pytest.importorskip("jsonschema")
+    from tilesynth.engine import validate_manifest
+
+    d = lib_dir / "export"
+    (d / "tex").mkdir(parents=True)
+    (d / "maps").mkdir()
+    shutil.copy(lib_dir / "tex" / "gravel.png", d / "tex" / "gravel.png")
+    shutil.copy(lib_dir / "maps" / "gravel-height.png", d / "maps" / "gravel-height.png")
+    text = (
+        'output_dir = "out"\n[[jobs]]\nexemplar = "tex/gravel.png"\ntile_size = 16\nset = "8"\n'
+        'maps = {{ height = "maps/gravel-height.png" }}\nexport = {export}\n'
+    )
+    f = d / "lib.toml"
+    f.write_text(
+        text.format(export='{ bits = 16, padding = 4, viewer = true, lookup = "index_map", index_seed = 9 }')
+    )
+    res = build_many(f, executor="serial", quiet=True)
+    assert _run(res.records) == {"gravel": "built"}, res.summary()
+    out = d / "out" / "gravel-export"
+    assert str(out) in res.records[0]["outputs"] and "export_s" in res.records[0]["timings"]
+    manifest = json.loads((out / "manifest.json").read_text("utf-8"))
+    validate_manifest(manifest)
+    assert manifest["lookup"]["mode"] == "index_map" and manifest["tile_count"] == 8
+    files = manifest["files"]
+    names = files if isinstance(files, list) else list(files)
+    names = [n if isinstance(n, str) else n["path"] for n in names]
+    assert names and all((out / n).is_file() for n in names), files
+    assert (out / "viewer.html").is_file()
+    assert "height" in json.dumps(manifest["maps"])
+    assert not list(d.rglob(".tilesynth-*"))  # the temporary directory is gone
+    stamp = json.loads((d / "out" / "gravel.batch.json").read_text("utf-8"))
+    assert stamp["outputs"]["export"] == {"path": "gravel-export", "size": None}
+    # the same batch again: up to date; another export option: rebuilt with another key
+    assert _run(build_many(f, executor="serial", quiet=True).records) == {"gravel": "skipped"}
+    f.write_text(
+        text.format(export='{ bits = 16, padding = 4, viewer = true, lookup = "index_map", index_seed = 10 }')
+    )
+    assert _run(build_many(f, executor="serial", quiet=True).records) == {"gravel": "built"}
+    stamp2 = json.loads((d / "out" / "gravel.batch.json").read_text("utf-8"))
+    assert stamp2["key"] != stamp["key"] and stamp2["params_sha256"] != stamp["params_sha256"]
+    # export = false (the default) drops the output from the job and changes the key again
+    f.write_text(text.replace("export = {export}\n", "").format())
+    lib = load_library(f)
+    assert "export" not in lib.jobs[0].outputs and lib.jobs[0].export is None
+    assert batch.job_key(lib.jobs[0])[0] != stamp2["key"]

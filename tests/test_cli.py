@@ -390,3 +390,37 @@ def test_same_seed_same_bytes_across_runs_and_threads(exemplar_png, tmp_path):
         offset = za.getinfo("timing.json").header_offset
     assert (a / "t.tiles").read_bytes()[:offset] == (b / "t.tiles").read_bytes()[:offset]
     assert tilesynth.load(a / "t.tiles").content_digest() == tilesynth.load(b / "t.tiles").content_digest()
+
+
+def test_info_with_a_shorter_mean_history_does_not_fail(tmp_path, capsys) -> None:
+    """A tampered file whose selection history holds fewer means than bests (found by the manifest fuzzer):
+    ``info`` shows what is there instead of an internal error."""
+    import zipfile
+
+    rng = np.random.default_rng(5)
+    ts = tilesynth.build_omega(
+        rng.random((48, 48, 3), dtype=np.float32),
+        tileset="4",
+        tile_size=16,
+        seed=1,
+        select="ga",
+        generations=3,
+        population=4,
+    )
+    src = tmp_path / "ga.tiles"
+    ts.save(src)
+    with zipfile.ZipFile(src) as zf:
+        members = {n: zf.read(n) for n in zf.namelist()}
+    manifest = json.loads(members["manifest.json"])
+    hist = manifest["params"]["selection"]["history"]
+    assert len(hist["best"]) > 1
+    hist["mean"] = []
+    members["manifest.json"] = json.dumps(manifest).encode()
+    bad = tmp_path / "bad.tiles"
+    with zipfile.ZipFile(bad, "w", zipfile.ZIP_DEFLATED) as zo:
+        for n, b in members.items():
+            zo.writestr(n, b)
+    assert main(["info", str(bad)]) in (0, 2)
+    out, err = capsys.readouterr()
+    assert "internal error" not in err
+    assert "convergence" not in out or " / ?" in out

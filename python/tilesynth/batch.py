@@ -62,12 +62,16 @@ an error. Output options: ``sheet``, ``previews`` (a list of ``{size = "WxH" or 
 maps = true}``, each one the ``tilesynth synth`` command with ``--with`` for every map of the job), ``report``
 (``true`` or ``{size, seed, borders}``, as ``tilesynth report``) and ``map_kinds``: ``auto`` smooths a map where
 the colour tiles were smoothed, ``smooth`` requires it (the preset must set ``smooth = true``), ``copy`` never
-blends (labels, masks, IDs). ``export`` (engine formats) is refused with a clear error: this installation has no
-``tilesynth.export``.
+blends (labels, masks, IDs). ``export`` (default ``false``; ``true`` or a table ``{bits = 8|16, padding = 8,
+lookup = "auto"|"hash"|"index_map", seed = 0, index_seed = 0, normal_y = "+y"|"-y", map_smooth =
+"auto"|"on"|"off", viewer = false, maps = true}``) writes the engine export of the tile set, as ``tilesynth
+export NAME.tiles -o NAME-export/`` with ``--with`` for every map of the job (``maps = false``: the colour only);
+the options mean what the options of :func:`tilesynth.engine.export` of the same name mean (defaults the same).
 
 Outputs of job ``NAME`` (relative to ``output_dir``): ``NAME.tiles``, ``NAME-sheet.png``, ``NAME-preview.png``
 (``NAME-preview2.png``, ... for more previews) and ``NAME-preview-<map>.png`` (``.npy`` for float maps),
-``NAME-report/``, and the stamp ``NAME.batch.json``.
+``NAME-report/``, ``NAME-export/`` (the engine export: atlases, index, ``manifest.json``, shaders, the viewer),
+and the stamp ``NAME.batch.json``.
 
 Up to date, atomic, resumable
 =============================
@@ -206,6 +210,8 @@ _TOP_KEYS = ("version", "output_dir", "log", "presets", "jobs")
 _PREVIEW_KEYS = ("size", "seed", "bits", "maps")
 _REPORT_KEYS = ("size", "seed", "borders")
 _MAP_KINDS = ("auto", "smooth", "copy")
+# the options of tilesynth.engine.export a batch job may set, and `maps` (pass the job's maps or not)
+_EXPORT_KEYS = ("bits", "padding", "lookup", "seed", "index_seed", "normal_y", "map_smooth", "viewer", "maps")
 _NAME_RE = re.compile(r"^[A-Za-z0-9_.+\-/]+$")
 
 
@@ -229,6 +235,7 @@ class Job:
     outputs: dict[str, Path]
     stamp: Path
     where: str  # "job 3 ('textures/*.png' -> gravel)" for messages
+    export: dict[str, Any] | None = None  # the engine export options, None for no export
 
     def params(self) -> dict[str, Any]:
         """The effective parameters that define the outputs (hashed into the key; no paths, no threads)."""
@@ -240,6 +247,7 @@ class Job:
             "sheet": self.sheet,
             "previews": list(self.previews),
             "report": self.report,
+            "export": self.export,
             "outputs": {k: os.path.relpath(v, out_dir) for k, v in sorted(self.outputs.items())},
         }
 
@@ -442,6 +450,61 @@ def _expand_job(
             f"{where}: field 'exemplar' is missing (an image path or a glob, relative to the file)"
         )
     pattern = _typed(body["exemplar"], str, f"{where}: field 'exemplar'")
+    preset, where_p = _job_preset(body, presets, where, source)
+    own = {k2: v for k2, v in body.items() if k2 in _PRESET_KEYS}
+    options, _ = _effective(
+        {k2: v for k2, v in preset.items() if k2 in _BUILD_OPTIONS},
+        {k2: v for k2, v in own.items() if k2 in _BUILD_OPTIONS},
+        where,
+    )
+    sheet, previews, report, export, kinds = _output_options(preset, own, options, where, where_p)
+    maps_raw = _typed(body.get("maps", {}), dict, f"{where}: field 'maps'")
+    exclude = _typed(body.get("exclude", []), list, f"{where}: field 'exclude'")
+    for e in exclude:
+        _typed(e, str, f"{where}: field 'exclude' entry")
+    name_t = _typed(body.get("name", "{stem}"), str, f"{where}: field 'name'")
+    found, is_glob = _exemplars(base, pattern, exclude, name_t, where)
+    jobs = []
+    for ex in found:
+        stem = ex.stem
+        try:
+            name = name_t.format(stem=stem)
+        except (KeyError, IndexError, ValueError, AttributeError) as exc:
+            raise BatchError(
+                f"{where}: field 'name' = {name_t!r}: bad placeholder ({exc}); only {{stem}} exists"
+            ) from None
+        wj = f"{where} -> {name!r}" if is_glob else where
+        _check_name(name, f"{wj}: field 'name'")
+        maps = _job_maps(maps_raw, stem, base, kinds, wj)
+        if export is not None and export["maps"] and "albedo" in maps:
+            raise BatchError(
+                f"{wj}: field 'maps' entry 'albedo': the engine export names the colour atlas 'albedo'; "
+                "rename the map (or set export.maps = false)"
+            )
+        outputs = _outputs(out_dir, name, sheet, previews, report, maps, export)
+        jobs.append(
+            Job(
+                k,
+                name,
+                ex.resolve(),
+                options,
+                maps,
+                sheet,
+                tuple(previews),
+                report,
+                outputs,
+                out_dir / (name + STAMP_SUFFIX),
+                wj,
+                export,
+            )
+        )
+    return jobs
+
+
+def _job_preset(
+    body: dict[str, Any], presets: dict[str, dict[str, Any]], where: str, source: str
+) -> tuple[dict[str, Any], str]:
+    """The preset a job names (empty when none) and where its keys are reported from."""
     preset_name = body.get("preset")
     preset: dict[str, Any] = {}
     if preset_name is not None:
@@ -453,23 +516,19 @@ def _expand_job(
         where_p = f"{source}: preset {preset_name!r}"
     else:
         where_p = where
-    own = {k2: v for k2, v in body.items() if k2 in _PRESET_KEYS}
-    for layer, w in ((preset, where_p), (own, where)):
-        if "export" in layer:
-            raise BatchError(
-                f"{w}: field 'export': engine export needs the tilesynth.export module, which this "
-                "installation does not have; remove the field"
-            )
-    options, _ = _effective(
-        {k2: v for k2, v in preset.items() if k2 in _BUILD_OPTIONS},
-        {k2: v for k2, v in own.items() if k2 in _BUILD_OPTIONS},
-        where,
-    )
+    return preset, where_p
+
+
+def _output_options(
+    preset: dict[str, Any], own: dict[str, Any], options: dict[str, Any], where: str, where_p: str
+) -> tuple[bool, list[dict[str, Any]], dict[str, Any] | None, dict[str, Any] | None, dict[str, Any]]:
+    """The output options of a job (its own over its preset's): sheet, previews, report, export, map kinds."""
     out = {**preset, **own}
     w_out = where if any(k2 in own for k2 in _OUTPUT_OPTIONS) else where_p
     sheet = _typed(out.get("sheet", True), bool, f"{w_out}: field 'sheet'")
     previews = _previews(out.get("previews", []), f"{w_out}: field 'previews'")
     report = _report(out.get("report", False), f"{w_out}: field 'report'")
+    export = _export(out.get("export", False), f"{w_out}: field 'export'")
     kinds = _typed(out.get("map_kinds", {}), dict, f"{w_out}: field 'map_kinds'")
     for mname, kind in kinds.items():
         if not isinstance(kind, str) or kind not in _MAP_KINDS:
@@ -482,11 +541,13 @@ def _expand_job(
                 f"{w_out}: field 'map_kinds' entry {mname!r} = \"smooth\": the tile set is not "
                 "smoothed (set smooth = true), there is nothing to follow"
             )
-    maps_raw = _typed(body.get("maps", {}), dict, f"{where}: field 'maps'")
-    exclude = _typed(body.get("exclude", []), list, f"{where}: field 'exclude'")
-    for e in exclude:
-        _typed(e, str, f"{where}: field 'exclude' entry")
-    name_t = _typed(body.get("name", "{stem}"), str, f"{where}: field 'name'")
+    return sheet, previews, report, export, kinds
+
+
+def _exemplars(
+    base: Path, pattern: str, exclude: list[str], name_t: str, where: str
+) -> tuple[list[Path], bool]:
+    """The exemplar files of a job (its glob expanded, sorted, without the excluded) and whether it is a glob."""
     is_glob = glob.has_magic(pattern)
     if is_glob:
         found = sorted(Path(p) for p in glob.glob(str(base / pattern), recursive=True) if Path(p).is_file())
@@ -505,47 +566,27 @@ def _expand_job(
         if not p.is_file():
             raise BatchError(f"{where}: field 'exemplar' = {pattern!r}: no such file ({p})")
         found = [p]
-    jobs = []
-    for ex in found:
-        stem = ex.stem
+    return found, is_glob
+
+
+def _job_maps(
+    maps_raw: dict[str, Any], stem: str, base: Path, kinds: dict[str, Any], wj: str
+) -> dict[str, tuple[Path, str]]:
+    """The maps of one expanded job, ``{name: (absolute path, kind)}``, ``{stem}`` filled in."""
+    maps: dict[str, tuple[Path, str]] = {}
+    for mname, mval in maps_raw.items():
+        wm = f"{wj}: field 'maps' entry {mname!r}"
+        _check_name(mname, wm, slash=False)
+        mpath = _typed(mval, str, wm)
         try:
-            name = name_t.format(stem=stem)
+            mpath = mpath.format(stem=stem)
         except (KeyError, IndexError, ValueError, AttributeError) as exc:
-            raise BatchError(
-                f"{where}: field 'name' = {name_t!r}: bad placeholder ({exc}); only {{stem}} exists"
-            ) from None
-        wj = f"{where} -> {name!r}" if is_glob else where
-        _check_name(name, f"{wj}: field 'name'")
-        maps: dict[str, tuple[Path, str]] = {}
-        for mname, mval in maps_raw.items():
-            wm = f"{wj}: field 'maps' entry {mname!r}"
-            _check_name(mname, wm, slash=False)
-            mpath = _typed(mval, str, wm)
-            try:
-                mpath = mpath.format(stem=stem)
-            except (KeyError, IndexError, ValueError, AttributeError) as exc:
-                raise BatchError(f"{wm} = {mval!r}: bad placeholder ({exc}); only {{stem}} exists") from None
-            mp = (base / mpath).resolve()
-            if not mp.is_file():
-                raise BatchError(f"{wm} = {mpath!r}: no such file ({mp})")
-            maps[mname] = (mp, kinds.get(mname, "auto"))
-        outputs = _outputs(out_dir, name, sheet, previews, report, maps)
-        jobs.append(
-            Job(
-                k,
-                name,
-                ex.resolve(),
-                options,
-                maps,
-                sheet,
-                tuple(previews),
-                report,
-                outputs,
-                out_dir / (name + STAMP_SUFFIX),
-                wj,
-            )
-        )
-    return jobs
+            raise BatchError(f"{wm} = {mval!r}: bad placeholder ({exc}); only {{stem}} exists") from None
+        mp = (base / mpath).resolve()
+        if not mp.is_file():
+            raise BatchError(f"{wm} = {mpath!r}: no such file ({mp})")
+        maps[mname] = (mp, kinds.get(mname, "auto"))
+    return maps
 
 
 def _check_name(name: str, where: str, slash: bool = True) -> None:
@@ -607,6 +648,42 @@ def _report(value: Any, where: str) -> dict[str, Any] | None:
     }
 
 
+def _export(value: Any, where: str) -> dict[str, Any] | None:
+    """The engine export options of a job (every one resolved to its default), or None for no export."""
+    if value is False:
+        return None
+    if value is True:
+        value = {}
+    _typed(value, dict, where)
+    _unknown(value, _EXPORT_KEYS, where)
+    bits = value.get("bits", 8)
+    if isinstance(bits, bool) or bits not in (8, 16):
+        raise BatchError(f"{where}: field 'bits' = {bits!r}: expected 8 or 16")
+    padding = _typed(value.get("padding", 8), int, f"{where}: field 'padding'")
+    if padding < 0:
+        raise BatchError(f"{where}: field 'padding' = {padding}: must be >= 0")
+    seed = _typed(value.get("seed", 0), int, f"{where}: field 'seed'")
+    if not 0 <= seed < 2**32:
+        raise BatchError(f"{where}: field 'seed' = {seed}: must be in [0, 2**32)")
+    index_seed = _typed(value.get("index_seed", 0), int, f"{where}: field 'index_seed'")
+    if not 0 <= index_seed < 2**63:
+        raise BatchError(f"{where}: field 'index_seed' = {index_seed}: must be in [0, 2**63)")
+    choices = {
+        "lookup": ("auto", "hash", "index_map"),
+        "normal_y": ("+y", "-y"),
+        "map_smooth": ("auto", "on", "off"),
+    }
+    out: dict[str, Any] = {"bits": bits, "padding": padding, "seed": seed, "index_seed": index_seed}
+    for key, allowed in choices.items():
+        v = _typed(value.get(key, allowed[0]), str, f"{where}: field {key!r}")
+        if v not in allowed:
+            raise BatchError(f"{where}: field {key!r} = {v!r}: expected one of {', '.join(allowed)}")
+        out[key] = v
+    out["viewer"] = _typed(value.get("viewer", False), bool, f"{where}: field 'viewer'")
+    out["maps"] = _typed(value.get("maps", True), bool, f"{where}: field 'maps'")
+    return out
+
+
 def _map_suffix(path: Path) -> str:
     """``.npy`` for a float map, ``.png`` otherwise (as ``tilesynth synth --with``), from the header only."""
     try:
@@ -630,6 +707,7 @@ def _outputs(
     previews: list[dict[str, Any]],
     report: dict[str, Any] | None,
     maps: dict[str, tuple[Path, str]],
+    export: dict[str, Any] | None = None,
 ) -> dict[str, Path]:
     o = {"tiles": out_dir / f"{name}.tiles"}
     if sheet:
@@ -642,6 +720,8 @@ def _outputs(
                 o[f"{role}-{mname}"] = out_dir / f"{name}-{role}-{mname}{_map_suffix(mp)}"
     if report is not None:
         o["report"] = out_dir / f"{name}-report"
+    if export is not None:
+        o["export"] = out_dir / f"{name}-export"
     return o
 
 
@@ -823,18 +903,40 @@ def _clean_stale(stamp: Path) -> None:
 def _build_job(
     spec: dict[str, Any], tmp: Path, timings: dict[str, float]
 ) -> tuple[list[str], dict[str, Any]]:
-    import numpy as np
-
-    from .io import atomic_open, load_image, load_raster, save_image
+    from .io import save_image
     from .render import contact_sheet
-    from .report import write_report
-    from .schemes import build
-    from .synthesis import check_smoothable, is_smoothed, synthesize, synthesize_map
 
     threads = spec.get("threads")
     outputs = {role: Path(p) for role, p in spec["outputs"].items()}
     staged = {role: tmp / p.name for role, p in outputs.items()}
     t0 = time.perf_counter()
+    image, bits, maps = _load_inputs(spec)
+    timings["load_s"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    ts = _build_tileset(spec, image, bits, threads)
+    timings["build_s"] = time.perf_counter() - t0
+    ts.save(staged["tiles"])
+    if spec["sheet"]:
+        t0 = time.perf_counter()
+        save_image(staged["sheet"], contact_sheet(ts, show_cuts=True))
+        timings["sheet_s"] = time.perf_counter() - t0
+    _write_previews(ts, spec, staged, maps, bits, threads, timings)
+    if spec["report"] is not None:
+        t0 = time.perf_counter()
+        _write_job_report(ts, spec, staged, outputs, threads)
+        timings["report_s"] = time.perf_counter() - t0
+    if spec.get("export") is not None:
+        t0 = time.perf_counter()
+        _export_job(ts, spec, staged, {k: a for k, (a, _) in maps.items()})
+        timings["export_s"] = time.perf_counter() - t0
+    return [str(outputs[r]) for r in staged], _job_stamp(spec, ts, staged, outputs)
+
+
+def _load_inputs(spec: dict[str, Any]) -> tuple[Any, Any, dict[str, tuple[Any, str]]]:
+    """The exemplar, its bit depth and the job's maps ``{name: (array, kind)}``, each checked to be
+    pixel-aligned with the exemplar."""
+    from .io import load_image, load_raster
+
     image, bits = load_image(spec["exemplar"])
     maps = {}
     for mname, (mpath, kind) in spec["maps"].items():
@@ -845,11 +947,16 @@ def _build_job(
                 f"{image.shape[1]}x{image.shape[0]}; a map must be pixel-aligned with the exemplar"
             )
         maps[mname] = (arr, kind)
-    timings["load_s"] = time.perf_counter() - t0
+    return image, bits, maps
+
+
+def _build_tileset(spec: dict[str, Any], image: Any, bits: Any, threads: int | None) -> Any:
+    """The job's tile set, built with the keyword arguments of ``tilesynth build`` (``cli._build``), so that a
+    batch build equals a CLI build."""
+    from .schemes import build
 
     o = dict(spec["options"])
     scheme = o.pop("scheme")
-    # the keyword arguments of `tilesynth build` (cli._build), so a batch build equals a CLI build
     common: dict[str, Any] = dict(
         tileset=o["set"],
         tile_size=o["tile_size"],
@@ -876,14 +983,24 @@ def _build_job(
         extra = dict(cut=o["cut"], overlap=o["overlap"], corners=o["corners"], samples=o["samples"])
     else:
         extra = dict(gradients=o["gradients"], supplementary=o["supplementary"])
-    t0 = time.perf_counter()
-    ts = build(image, scheme=scheme, **common, **extra)
-    timings["build_s"] = time.perf_counter() - t0
-    ts.save(staged["tiles"])
-    if spec["sheet"]:
-        t0 = time.perf_counter()
-        save_image(staged["sheet"], contact_sheet(ts, show_cuts=True))
-        timings["sheet_s"] = time.perf_counter() - t0
+    return build(image, scheme=scheme, **common, **extra)
+
+
+def _write_previews(
+    ts: Any,
+    spec: dict[str, Any],
+    staged: dict[str, Path],
+    maps: dict[str, tuple[Any, str]],
+    bits: Any,
+    threads: int | None,
+    timings: dict[str, float],
+) -> None:
+    """Every preview of the job (as ``tilesynth synth``, with ``--with`` for each map when asked)."""
+    import numpy as np
+
+    from .io import atomic_open, save_image
+    from .synthesis import check_smoothable, is_smoothed, synthesize, synthesize_map
+
     smoothed = is_smoothed(ts)
     for i, pv in enumerate(spec["previews"], start=1):
         t0 = time.perf_counter()
@@ -908,20 +1025,31 @@ def _build_job(
                 else:
                     save_image(target, out_map)
         timings[f"{role}_s"] = time.perf_counter() - t0
-    if spec["report"] is not None:
-        t0 = time.perf_counter()
-        r = spec["report"]
-        write_report(
-            ts,
-            staged["report"],
-            r["size"][0],
-            r["size"][1],
-            r["seed"],
-            r["borders"],
-            threads,
-            name=outputs["tiles"].name,
-        )
-        timings["report_s"] = time.perf_counter() - t0
+
+
+def _write_job_report(
+    ts: Any, spec: dict[str, Any], staged: dict[str, Path], outputs: dict[str, Path], threads: int | None
+) -> None:
+    """The job's report directory (as ``tilesynth report``)."""
+    from .report import write_report
+
+    r = spec["report"]
+    write_report(
+        ts,
+        staged["report"],
+        r["size"][0],
+        r["size"][1],
+        r["seed"],
+        r["borders"],
+        threads,
+        name=outputs["tiles"].name,
+    )
+
+
+def _job_stamp(
+    spec: dict[str, Any], ts: Any, staged: dict[str, Path], outputs: dict[str, Path]
+) -> dict[str, Any]:
+    """The up-to-date record of the job: its key, what went into it, every output with its size."""
     out_dir = Path(spec["stamp"]).parent
     recs = {}
     for role, p in staged.items():
@@ -938,7 +1066,16 @@ def _build_job(
         "E": float(ts.E),
         "seed": int(ts.params["seed"]),
     }
-    return [str(outputs[r]) for r in staged], stamp
+    return stamp
+
+
+def _export_job(ts: Any, spec: dict[str, Any], staged: dict[str, Path], maps: dict[str, Any]) -> None:
+    """The engine export of the job's tile set into ``target`` (``tilesynth export`` with ``--with`` per map)."""
+    from .engine import export
+
+    e = dict(spec["export"])
+    # the staged .tiles file: the same bytes and file name as the final one (the manifest records both)
+    export(ts, staged["export"], maps=maps if e.pop("maps") else None, source_path=staged["tiles"], **e)
 
 
 def _commit(spec: dict[str, Any], tmp: Path, stamp: dict[str, Any]) -> None:
@@ -1124,6 +1261,67 @@ def build_many(
     """
     start = time.perf_counter()
     lib = _as_library(jobs)
+    _check_run_args(executor, workers, threads, scheduler)
+    log_path = Path(log) if log is not None else lib.log
+    run_id = (
+        datetime.datetime.now(datetime.timezone.utc).strftime("%Y%m%dT%H%M%SZ") + f"-{uuid.uuid4().hex[:8]}"
+    )
+
+    phase = {"validate_s": time.perf_counter() - start}
+    plan = _plan(lib.jobs, force, run_id)
+    to_run = [spec for _, spec, _ in plan if spec is not None]
+    phase["plan_s"] = time.perf_counter() - start - phase["validate_s"]
+    t_exec = time.perf_counter()
+
+    executor, slots, own_pool, own_client = _start_executor(executor, scheduler, to_run, workers, threads)
+    phase["start_s"] = time.perf_counter() - t_exec
+    t_run = time.perf_counter()
+
+    if log_path is not None:
+        log_path.parent.mkdir(parents=True, exist_ok=True)
+    lib.output_dir.mkdir(parents=True, exist_ok=True)
+    progress = _JobProgress(len(to_run), len(plan) - len(to_run), quiet, stream)
+    results: dict[int, dict[str, Any]] = {}
+    futures: dict[cf.Future, dict[str, Any]] = {}
+    log_fh = open(log_path, "a", encoding="utf-8") if log_path is not None else None  # noqa: SIM115
+    try:
+        for k, (_, _unused, rec) in enumerate(plan):
+            if rec is not None:
+                results[k] = rec
+                _log(log_fh, rec, run_id)
+        order = {id(spec): k for k, (_, spec, _) in enumerate(plan) if spec is not None}
+        if executor == "serial":
+            _run_serial(to_run, order, results, log_fh, run_id, progress)
+        elif to_run:
+            _run_on_executor(executor, to_run, futures, slots, order, results, log_fh, run_id, progress)
+    except KeyboardInterrupt:
+        # stop now: cancel what has not started (Dask cancels on the cluster too) and end the local workers, which
+        # would otherwise run the calls already queued to them; a job cut short leaves only its temporary
+        # directory, removed when it next runs
+        for f in futures:
+            f.cancel()
+        if own_pool is not None:
+            procs = list((getattr(own_pool, "_processes", None) or {}).values())
+            own_pool.shutdown(wait=False, cancel_futures=True)
+            for proc in procs:
+                with contextlib.suppress(Exception):
+                    proc.terminate()
+            own_pool = None
+        raise
+    finally:
+        progress.close()
+        if log_fh is not None:
+            log_fh.close()
+        if own_pool is not None:
+            own_pool.shutdown(wait=True)
+        if own_client is not None:
+            own_client.close()
+    phase["run_s"] = time.perf_counter() - t_run
+    return BatchResult([results[k] for k in range(len(plan))], log_path, time.perf_counter() - start, phase)
+
+
+def _check_run_args(executor: Any, workers: Any, threads: Any, scheduler: Any) -> None:
+    """The argument checks of :func:`build_many` (before any work)."""
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise ParameterError(f"workers = {workers!r}: must be a positive integer")
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
@@ -1140,14 +1338,15 @@ def build_many(
         )
     if executor is not None and not isinstance(executor, (str, cf.Executor)):
         raise TypeError(f"executor = {executor!r}: expected a concurrent.futures.Executor")
-    log_path = Path(log) if log is not None else lib.log
-    run_id = (
-        datetime.datetime.now(datetime.timezone.utc).strftime("%Y%m%dT%H%M%SZ") + f"-{uuid.uuid4().hex[:8]}"
-    )
 
+
+def _plan(
+    jobs: list[Job], force: bool, run_id: str
+) -> list[tuple[Job, dict[str, Any] | None, dict[str, Any] | None]]:
+    """For every job, in order: ``(job, spec to run, None)``, or ``(job, None, record)`` when it is up to date
+    (``skipped``) or an input cannot be read (``failed``)."""
     plan: list[tuple[Job, dict[str, Any] | None, dict[str, Any] | None]] = []  # job, spec to run, or record
-    phase = {"validate_s": time.perf_counter() - start}
-    for job in lib.jobs:
+    for job in jobs:
         try:
             key, parts = job_key(job)
         except OSError as exc:
@@ -1157,10 +1356,18 @@ def build_many(
             plan.append((job, None, _record(job, "skipped", outputs=[str(p) for p in job.outputs.values()])))
         else:
             plan.append((job, _spec(job, key, parts, run_id), None))
-    to_run = [spec for _, spec, _ in plan if spec is not None]
-    phase["plan_s"] = time.perf_counter() - start - phase["validate_s"]
-    t_exec = time.perf_counter()
+    return plan
 
+
+def _start_executor(
+    executor: Any,
+    scheduler: str | None,
+    to_run: list[dict[str, Any]],
+    workers: int | None,
+    threads: int | None,
+) -> tuple[Any, int | None, cf.ProcessPoolExecutor | None, Any]:
+    """The executor to submit to, how many jobs it runs at once (None: unknown), and the local pool or Dask
+    client opened here (None otherwise; closed by the caller); sets the ``threads`` of every spec."""
     own_pool = own_client = None
     slots: int | None = None
     if scheduler is not None:
@@ -1193,71 +1400,56 @@ def build_many(
     if threads is not None:
         for s in to_run:
             s["threads"] = threads
-    phase["start_s"] = time.perf_counter() - t_exec
-    t_run = time.perf_counter()
+    return executor, slots, own_pool, own_client
 
-    if log_path is not None:
-        log_path.parent.mkdir(parents=True, exist_ok=True)
-    lib.output_dir.mkdir(parents=True, exist_ok=True)
-    progress = _JobProgress(len(to_run), len(plan) - len(to_run), quiet, stream)
-    results: dict[int, dict[str, Any]] = {}
-    futures: dict[cf.Future, dict[str, Any]] = {}
-    log_fh = open(log_path, "a", encoding="utf-8") if log_path is not None else None  # noqa: SIM115
-    try:
-        for k, (_, _unused, rec) in enumerate(plan):
-            if rec is not None:
-                results[k] = rec
-                _log(log_fh, rec, run_id)
-        order = {id(spec): k for k, (_, spec, _) in enumerate(plan) if spec is not None}
-        if executor == "serial":
-            for spec in to_run:
-                progress.tick(1)
-                rec = run_job(spec)
-                results[order[id(spec)]] = rec
-                _log(log_fh, rec, run_id)
-                progress.finished(rec, 0)
-        elif to_run:
-            futures = {executor.submit(run_job, spec): spec for spec in to_run}
-            pending = set(futures)
-            progress.tick(min(len(pending), slots or len(pending)))
-            while pending:
-                done, pending = cf.wait(pending, timeout=1.0, return_when=cf.FIRST_COMPLETED)
-                running = min(len(pending), slots) if slots else sum(f.running() for f in pending)
-                for f in done:
-                    spec = futures[f]
-                    try:
-                        rec = f.result()
-                    except Exception as exc:  # noqa: BLE001 - the executor lost the job (worker died, ...)
-                        rec = _record_spec(spec, "failed", error=f"executor: {type(exc).__name__}: {exc}")
-                    results[order[id(spec)]] = rec
-                    _log(log_fh, rec, run_id)
-                    progress.finished(rec, running)
-                if not done:
-                    progress.tick(running)
-    except KeyboardInterrupt:
-        # stop now: cancel what has not started (Dask cancels on the cluster too) and end the local workers, which
-        # would otherwise run the calls already queued to them; a job cut short leaves only its temporary
-        # directory, removed when it next runs
-        for f in futures:
-            f.cancel()
-        if own_pool is not None:
-            procs = list((getattr(own_pool, "_processes", None) or {}).values())
-            own_pool.shutdown(wait=False, cancel_futures=True)
-            for proc in procs:
-                with contextlib.suppress(Exception):
-                    proc.terminate()
-            own_pool = None
-        raise
-    finally:
-        progress.close()
-        if log_fh is not None:
-            log_fh.close()
-        if own_pool is not None:
-            own_pool.shutdown(wait=True)
-        if own_client is not None:
-            own_client.close()
-    phase["run_s"] = time.perf_counter() - t_run
-    return BatchResult([results[k] for k in range(len(plan))], log_path, time.perf_counter() - start, phase)
+
+def _run_serial(
+    to_run: list[dict[str, Any]],
+    order: dict[int, int],
+    results: dict[int, dict[str, Any]],
+    log_fh: TextIO | None,
+    run_id: str,
+    progress: _JobProgress,
+) -> None:
+    """``executor="serial"``: the jobs one after another in this process."""
+    for spec in to_run:
+        progress.tick(1)
+        rec = run_job(spec)
+        results[order[id(spec)]] = rec
+        _log(log_fh, rec, run_id)
+        progress.finished(rec, 0)
+
+
+def _run_on_executor(
+    executor: cf.Executor,
+    to_run: list[dict[str, Any]],
+    futures: dict[cf.Future, dict[str, Any]],
+    slots: int | None,
+    order: dict[int, int],
+    results: dict[int, dict[str, Any]],
+    log_fh: TextIO | None,
+    run_id: str,
+    progress: _JobProgress,
+) -> None:
+    """Submit every spec (filling ``futures``, which the caller cancels on Ctrl-C) and collect the records as
+    they finish."""
+    futures.update({executor.submit(run_job, spec): spec for spec in to_run})
+    pending = set(futures)
+    progress.tick(min(len(pending), slots or len(pending)))
+    while pending:
+        done, pending = cf.wait(pending, timeout=1.0, return_when=cf.FIRST_COMPLETED)
+        running = min(len(pending), slots) if slots else sum(f.running() for f in pending)
+        for f in done:
+            spec = futures[f]
+            try:
+                rec = f.result()
+            except Exception as exc:  # noqa: BLE001 - the executor lost the job (worker died, ...)
+                rec = _record_spec(spec, "failed", error=f"executor: {type(exc).__name__}: {exc}")
+            results[order[id(spec)]] = rec
+            _log(log_fh, rec, run_id)
+            progress.finished(rec, running)
+        if not done:
+            progress.tick(running)
 
 
 def _as_library(jobs: Any) -> Library:
@@ -1288,6 +1480,7 @@ def _spec(job: Job, key: str, parts: dict[str, Any], run_id: str) -> dict[str, A
         "sheet": job.sheet,
         "previews": [dict(p) for p in job.previews],
         "report": job.report,
+        "export": job.export,
         "outputs": {k: str(v) for k, v in job.outputs.items()},
         "stamp": str(job.stamp),
         "key": key,

@@ -18,7 +18,7 @@ import sys
 import time
 from importlib import resources
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -118,6 +118,23 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
 
+    _add_build_parser(sub)
+    _add_synth_parser(sub)
+    _add_info_parser(sub)
+    _add_sheet_parser(sub)
+    _add_demo_parser(sub)
+    _add_metrics_parsers(sub)
+    from .batch import add_parser as _add_batch_parser  # issue 17: tilesynth batch
+
+    _add_batch_parser(sub)
+    from .engine.cli import add_parsers as _add_export_parsers  # issue 13: export, view
+
+    _add_export_parsers(sub)
+    return p
+
+
+def _add_build_parser(sub) -> None:  # noqa: ANN001
+    """``tilesynth build``: its common options, then those of the registered schemes."""
     b = sub.add_parser("build", help="build a tile set from an exemplar image")
     b.add_argument("input", help="exemplar image (PNG, JPEG, ...)")
     b.add_argument("-o", "--output", required=True, help="tile-set file to write (.tiles)")
@@ -166,6 +183,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     add_png_compression_argument(b)
 
+
+def _add_synth_parser(sub) -> None:  # noqa: ANN001
+    """``tilesynth synth``."""
     s = sub.add_parser("synth", help="synthesize a texture from a tile set")
     s.add_argument("tileset", help="tile-set file (.tiles)")
     s.add_argument(
@@ -224,10 +244,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
+
+def _add_info_parser(sub) -> None:  # noqa: ANN001
+    """``tilesynth info``."""
     i = sub.add_parser("info", help="describe a tile set")
     i.add_argument("tileset", help="tile-set file (.tiles)")
     i.add_argument("--json", action="store_true", help="machine-readable output")
 
+
+def _add_sheet_parser(sub) -> None:  # noqa: ANN001
+    """``tilesynth sheet``."""
     sh = sub.add_parser(
         "sheet", help="write a contact sheet (all tiles, corner colours, cutting curves) as PNG"
     )
@@ -236,6 +262,9 @@ def build_parser() -> argparse.ArgumentParser:
     sh.add_argument("--no-cuts", action="store_true", help="do not draw the cutting curves")
     add_png_compression_argument(sh)
 
+
+def _add_demo_parser(sub) -> None:  # noqa: ANN001
+    """``tilesynth demo``."""
     d = sub.add_parser("demo", help="build and synthesize on the bundled exemplar (lettuce leaves)")
     d.add_argument(
         "-o",
@@ -249,14 +278,6 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--threads", type=_pos, default=None, help="worker threads")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     add_png_compression_argument(d)
-    _add_metrics_parsers(sub)
-    from .batch import add_parser as _add_batch_parser  # issue 17: tilesynth batch
-
-    _add_batch_parser(sub)
-    from .engine.cli import add_parsers as _add_export_parsers  # issue 13: export, view
-
-    _add_export_parsers(sub)
-    return p
 
 
 def _add_metrics_parsers(sub) -> None:  # noqa: ANN001
@@ -548,8 +569,42 @@ def _synth(
     out_dtype = np.float32 if Path(output).suffix.lower() == ".exr" else np.uint16 if bits == 16 else np.uint8
     # refuse up front what cannot fit: the image, plus the copy the PNG encoder makes
     check_size(ts, size[0], size[1], out_dtype, copies=2)
+    maps, smooth_maps = _synth_load_maps(ts, ts_path, output, with_maps, map_smooth)
+    t0 = time.perf_counter()
+    prog("synthesis", 0, 1)
+    img, imap = synthesize(
+        ts,
+        size[0],
+        size[1],
+        seed=seed,
+        index_map=index_map,
+        dtype=out_dtype,
+        threads=threads,
+        origin=origin,
+        wrap=wrap,
+    )
+    prog("synthesis", 1, 1)
+    prog("writing image", 0, 1)
+    save_image(output, img)
+    prog("writing image", 1, 1)
+    if save_map:
+        with atomic_open(save_map) as fh:
+            np.save(fh, imap, allow_pickle=False)
+    _synth_write_maps(prog, ts, maps, imap, size, threads, smooth_maps)
+    how = f"seed {seed}" if seed is not None else f"map {map_path}"
+    prog.message(
+        f"wrote {output}: {size[0]}x{size[1]}, {imap.shape[1]}x{imap.shape[0]} tiles, {how}, "
+        f"{time.perf_counter() - t0:.2f} s"
+    )
+
+
+def _synth_load_maps(
+    ts: Any, ts_path: str, output: str, with_maps: list[str] | None, map_smooth: str
+) -> tuple[list[tuple[str, np.ndarray, Path]], bool]:
+    """Load and check every ``--with`` map before anything is written: ``[(path, array, output)]`` and whether
+    the maps are Poisson-smoothed."""
     from .io import load_raster
-    from .synthesis import check_smoothable, is_smoothed, synthesize_map
+    from .synthesis import check_smoothable, is_smoothed
 
     smooth_maps = {"auto": None, "on": True, "off": False}[map_smooth]
     smooth_maps = is_smoothed(ts) if smooth_maps is None else smooth_maps
@@ -576,26 +631,22 @@ def _synth(
         if smooth_maps:  # refused before anything is written
             check_smoothable(arr, f"--with = {mp!r}: the map")
         maps.append((mp, arr, target))
-    t0 = time.perf_counter()
-    prog("synthesis", 0, 1)
-    img, imap = synthesize(
-        ts,
-        size[0],
-        size[1],
-        seed=seed,
-        index_map=index_map,
-        dtype=out_dtype,
-        threads=threads,
-        origin=origin,
-        wrap=wrap,
-    )
-    prog("synthesis", 1, 1)
-    prog("writing image", 0, 1)
-    save_image(output, img)
-    prog("writing image", 1, 1)
-    if save_map:
-        with atomic_open(save_map) as fh:
-            np.save(fh, imap, allow_pickle=False)
+    return maps, smooth_maps
+
+
+def _synth_write_maps(
+    prog: Any,
+    ts: Any,
+    maps: list[tuple[str, np.ndarray, Path]],
+    imap: np.ndarray,
+    size: tuple[int, int],
+    threads: int | None,
+    smooth_maps: bool,
+) -> None:
+    """Synthesize every ``--with`` map through the cuts and layout of the colour, and write it."""
+    from .io import atomic_open, save_image
+    from .synthesis import synthesize_map
+
     for k, (mp, arr, target) in enumerate(maps):
         prog("maps", k, len(maps))
         out_map = synthesize_map(ts, arr, imap, size[0], size[1], threads=threads, smooth=smooth_maps)
@@ -609,11 +660,6 @@ def _synth(
             f"wrote {target}: {mp} ({arr.dtype}, {arr.shape[2]} channel(s)) through the same cuts"
             + (", Poisson-smoothed" if smooth_maps else "")
         )
-    how = f"seed {seed}" if seed is not None else f"map {map_path}"
-    prog.message(
-        f"wrote {output}: {size[0]}x{size[1]}, {imap.shape[1]}x{imap.shape[0]} tiles, {how}, "
-        f"{time.perf_counter() - t0:.2f} s"
-    )
 
 
 def _info(ts_path: str, as_json: bool) -> None:
@@ -737,7 +783,9 @@ def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
         step = max(1, len(best) // 12)
         shown = sorted(set(range(0, len(best), step)) | {len(best) - 1})
         for g in shown:
-            lines.append(f"              {g + 1:>4}: {best[g]:.6g} / {mean[g]:.6g}")
+            # a tampered file may hold fewer means than bests: show what is there, never fail on it
+            m_g = f"{mean[g]:.6g}" if g < len(mean) else "?"
+            lines.append(f"              {g + 1:>4}: {best[g]:.6g} / {m_g}")
     return lines
 
 
@@ -766,6 +814,64 @@ def _demo(
     prog.message(f"done: open {d / 'tiles.png'} and {d / 'texture.png'}")
 
 
+def _run_command(args: argparse.Namespace) -> int:
+    """Run the parsed command; its exit status (errors propagate to :func:`main`, which reports them)."""
+    if args.command == "build":
+        _build(
+            args.input,
+            args.output,
+            scheme=args.scheme,
+            set_name=args.set,
+            tile_size=args.tile_size,
+            seed=args.seed,
+            threads=args.threads,
+            quiet=args.quiet,
+            sheet=args.sheet,
+            select=args.select,
+            polish=args.polish,
+            generations=args.generations,
+            population=args.population,
+            options=_scheme_kwargs(args, get_scheme(args.scheme)),
+        )
+    elif args.command == "synth":
+        _synth(
+            args.tileset,
+            args.output,
+            args.size,
+            args.seed,
+            args.map,
+            args.save_map,
+            args.bits,
+            args.threads,
+            args.quiet,
+            args.with_maps,
+            args.map_smooth,
+            args.origin,
+            args.wrap,
+        )
+    elif args.command == "info":
+        _info(args.tileset, args.json)
+    elif args.command == "sheet":
+        from .tilefile import TileSet
+
+        _write_sheet(TileSet.load(args.tileset), args.output, not args.no_cuts)
+    elif args.command == "demo":
+        _demo(args.output_dir, args.set, args.size, args.seed, args.threads, args.quiet)
+    elif args.command == "metrics":
+        _metrics(args)
+    elif args.command == "report":
+        _report(args)
+    elif args.command == "batch":  # issue 17: exit status 1 when any job failed
+        from .batch import cli_main as _batch_main
+
+        return _batch_main(args)
+    elif args.command in ("export", "view"):  # issue 13
+        from .engine.cli import run as _run_export
+
+        _run_export(args)
+    return EXIT_OK
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``tilesynth`` command; returns the exit status."""
     from ._signals import EXIT_TERMINATED, Terminated, install_sigterm
@@ -777,60 +883,7 @@ def main(argv: list[str] | None = None) -> int:
         from .paths import check_command
 
         check_command(args)  # before any work: no output may be an input or another output (issue 16)
-        if args.command == "build":
-            _build(
-                args.input,
-                args.output,
-                scheme=args.scheme,
-                set_name=args.set,
-                tile_size=args.tile_size,
-                seed=args.seed,
-                threads=args.threads,
-                quiet=args.quiet,
-                sheet=args.sheet,
-                select=args.select,
-                polish=args.polish,
-                generations=args.generations,
-                population=args.population,
-                options=_scheme_kwargs(args, get_scheme(args.scheme)),
-            )
-        elif args.command == "synth":
-            _synth(
-                args.tileset,
-                args.output,
-                args.size,
-                args.seed,
-                args.map,
-                args.save_map,
-                args.bits,
-                args.threads,
-                args.quiet,
-                args.with_maps,
-                args.map_smooth,
-                args.origin,
-                args.wrap,
-            )
-        elif args.command == "info":
-            _info(args.tileset, args.json)
-        elif args.command == "sheet":
-            from .tilefile import TileSet
-
-            _write_sheet(TileSet.load(args.tileset), args.output, not args.no_cuts)
-        elif args.command == "demo":
-            _demo(args.output_dir, args.set, args.size, args.seed, args.threads, args.quiet)
-        elif args.command == "metrics":
-            _metrics(args)
-        elif args.command == "report":
-            _report(args)
-        elif args.command == "batch":  # issue 17: exit status 1 when any job failed
-            from .batch import cli_main as _batch_main
-
-            return _batch_main(args)
-        elif args.command in ("export", "view"):  # issue 13
-            from .engine.cli import run as _run_export
-
-            _run_export(args)
-        return EXIT_OK
+        return _run_command(args)
     except UsageError as exc:
         print(f"{exc} (see 'tilesynth --help')", file=sys.stderr)
         return EXIT_USAGE

@@ -83,6 +83,7 @@ from __future__ import annotations
 import contextlib
 import math
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -279,9 +280,39 @@ def coherence_energy(
 
     ``index``: optionally a prebuilt :class:`tilesynth.SsdIndex` of ``exemplar`` (reused across calls).
     """
+    t0 = time.perf_counter()
+    img, ex, p, s = _coherence_args(image, exemplar, patch, stride, index)
+    h, w, c = img.shape
+    rows, cols = (h - p) // s + 1, (w - p) // s + 1
+    rx = ex.shape[1] - p + 1
+    m = rows * cols
+    values = np.full(m, np.nan)
+    offsets = np.zeros((m, 2), np.int64)
+    out_patches, ex_patches = _patch_gatherers(img, ex, p, s, m, cols, rx)
+    _exact_copies(img, ex, p, s, rows, cols, values, offsets, out_patches, ex_patches)
+    todo = _search_the_rest(ex, values, offsets, out_patches, index, threads)
+    energy = float(values.mean())
+    return Coherence(
+        energy=energy,
+        rms=math.sqrt(energy / (p * p * c)),
+        max=float(values.max()),
+        patch=p,
+        stride=s,
+        n_patches=m,
+        exact_copies=int(m - todo.size),
+        searched=int(todo.size),
+        seconds=time.perf_counter() - t0,
+        values=values.reshape(rows, cols),
+        offsets=offsets.reshape(rows, cols, 2),
+    )
+
+
+def _coherence_args(
+    image: np.ndarray, exemplar: np.ndarray, patch: int, stride: int, index: Any
+) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """The checked arguments of :func:`coherence_energy`: image, exemplar, patch, stride."""
     from .kernels import SsdIndex
 
-    t0 = time.perf_counter()
     img = as_image(image)
     ex = as_image(exemplar, "exemplar")
     p = positive_int(patch, "patch")
@@ -294,21 +325,14 @@ def coherence_energy(
     for name, a in (("image", img), ("exemplar", ex)):
         if p > a.shape[0] or p > a.shape[1]:
             raise ParameterError(f"patch = {p}: larger than the {a.shape[1]}x{a.shape[0]} {name}")
-    h, w, c = img.shape
-    rows, cols = (h - p) // s + 1, (w - p) // s + 1
-    ry, rx = ex.shape[0] - p + 1, ex.shape[1] - p + 1
+    return img, ex, p, s
 
-    weights = np.random.default_rng(_HASH_SEED).integers(0, 2**63, size=(p, p, c), dtype=np.uint64) * 2 + 1
-    ex_keys = _patch_keys(_float_bits(ex), p, ry, rx, 1, weights).ravel()
-    out_keys = _patch_keys(_float_bits(img), p, rows, cols, s, weights).ravel()
-    order = np.argsort(ex_keys, kind="stable")  # equal keys stay in increasing (row, col) order
-    sorted_keys = ex_keys[order]
-    lo = np.searchsorted(sorted_keys, out_keys, side="left")
-    hi = np.searchsorted(sorted_keys, out_keys, side="right")
 
-    m = rows * cols
-    values = np.full(m, np.nan)
-    offsets = np.zeros((m, 2), np.int64)
+def _patch_gatherers(
+    img: np.ndarray, ex: np.ndarray, p: int, s: int, m: int, cols: int, rx: int
+) -> tuple[Callable[[np.ndarray], np.ndarray], Callable[[np.ndarray], np.ndarray]]:
+    """``out_patches(i)``: the p x p output patches of grid indices ``i``; ``ex_patches(k)``: the exemplar
+    patches at flat offsets ``k`` (row * rx + col)."""
     py, px = np.divmod(np.arange(m), cols)
     py, px = py * s, px * s
     ii, jj = np.mgrid[0:p, 0:p]
@@ -319,6 +343,33 @@ def coherence_energy(
     def ex_patches(flat: np.ndarray) -> np.ndarray:
         r, q = np.divmod(flat, rx)
         return ex[r[:, None, None] + ii, q[:, None, None] + jj]
+
+    return out_patches, ex_patches
+
+
+def _exact_copies(
+    img: np.ndarray,
+    ex: np.ndarray,
+    p: int,
+    s: int,
+    rows: int,
+    cols: int,
+    values: np.ndarray,
+    offsets: np.ndarray,
+    out_patches: Callable[[np.ndarray], np.ndarray],
+    ex_patches: Callable[[np.ndarray], np.ndarray],
+) -> None:
+    """Mark every output patch that is a bit-for-bit copy of an exemplar patch (value 0, its offset): a hash of
+    the float bits of every patch, confirmed by the pixels."""
+    c = img.shape[2]
+    ry, rx = ex.shape[0] - p + 1, ex.shape[1] - p + 1
+    weights = np.random.default_rng(_HASH_SEED).integers(0, 2**63, size=(p, p, c), dtype=np.uint64) * 2 + 1
+    ex_keys = _patch_keys(_float_bits(ex), p, ry, rx, 1, weights).ravel()
+    out_keys = _patch_keys(_float_bits(img), p, rows, cols, s, weights).ravel()
+    order = np.argsort(ex_keys, kind="stable")  # equal keys stay in increasing (row, col) order
+    sorted_keys = ex_keys[order]
+    lo = np.searchsorted(sorted_keys, out_keys, side="left")
+    hi = np.searchsorted(sorted_keys, out_keys, side="right")
 
     # exact copies: confirm the first key match by the pixels; on a (never seen) collision try the others
     hits = np.nonzero(hi > lo)[0]
@@ -334,6 +385,19 @@ def coherence_energy(
                     values[q] = 0.0
                     offsets[q] = divmod(int(k), rx)
                     break
+
+
+def _search_the_rest(
+    ex: np.ndarray,
+    values: np.ndarray,
+    offsets: np.ndarray,
+    out_patches: Callable[[np.ndarray], np.ndarray],
+    index: Any,
+    threads: int | None,
+) -> np.ndarray:
+    """The exhaustive nearest-patch search of every patch that is not an exact copy; returns their indices."""
+    from .kernels import SsdIndex
+
     todo = np.nonzero(np.isnan(values))[0]
     if todo.size:
         idx = index if index is not None else SsdIndex(ex, threads)
@@ -342,20 +406,7 @@ def coherence_energy(
             off, val = idx.best_matches(np.ascontiguousarray(out_patches(sel)), k=1, threads=threads)
             values[sel] = np.maximum(val[:, 0], 0.0)
             offsets[sel] = off[:, 0]
-    energy = float(values.mean())
-    return Coherence(
-        energy=energy,
-        rms=math.sqrt(energy / (p * p * c)),
-        max=float(values.max()),
-        patch=p,
-        stride=s,
-        n_patches=m,
-        exact_copies=int(m - todo.size),
-        searched=int(todo.size),
-        seconds=time.perf_counter() - t0,
-        values=values.reshape(rows, cols),
-        offsets=offsets.reshape(rows, cols, 2),
-    )
+    return todo
 
 
 # ------------------------------------------------------------------------------------------------- coverage
@@ -957,10 +1008,18 @@ class _Steps:
 
 def format_metrics(m: dict[str, Any]) -> str:
     """Human-readable lines of a dict from :func:`image_metrics` / :func:`tileset_metrics`."""
+    lines = _format_header(m) + _format_measures(m) + _format_objective(m)
+    for note in m.get("notes", []):
+        lines.append(f"note          {note}")
+    return "\n".join(lines)
 
-    def num(v: Any, fmt: str = ".4g") -> str:
-        return "n/a" if v is None else format(v, fmt)
 
+def _num(v: Any, fmt: str = ".4g") -> str:
+    return "n/a" if v is None else format(v, fmt)
+
+
+def _format_header(m: dict[str, Any]) -> list[str]:
+    """What was measured: the tile set and its sample, or the image."""
     lines = []
     inp = m["input"]
     if "tileset" in m:
@@ -976,75 +1035,85 @@ def format_metrics(m: dict[str, Any]) -> str:
         )
     else:
         lines.append(f"image         {inp['width']}x{inp['height']}, {inp['channels']} channel(s)")
+    return lines
+
+
+def _format_measures(m: dict[str, Any]) -> list[str]:
+    """The image measures: seam, coherence, coverage, repetition, detail peak, copies, histograms."""
+    lines = []
     sm = m.get("seam")
     if sm:
         lines.append(
-            f"seam score    {num(sm['score'], '.4f')}  (border / interior mean squared step; x "
-            f"{num(sm['ratio_x'], '.4f')}, y {num(sm['ratio_y'], '.4f')}; tile {sm['tile_size']})"
+            f"seam score    {_num(sm['score'], '.4f')}  (border / interior mean squared step; x "
+            f"{_num(sm['ratio_x'], '.4f')}, y {_num(sm['ratio_y'], '.4f')}; tile {sm['tile_size']})"
         )
     co = m.get("coherence")
     if co:
         lines.append(
-            f"coherence     {num(co['energy'], '.5g')}  (mean min SSD of {co['patch']}x{co['patch']} "
-            f"patches, stride {co['stride']}; rms {num(co['rms'], '.4f')}; {co['n_patches']} patches, "
+            f"coherence     {_num(co['energy'], '.5g')}  (mean min SSD of {co['patch']}x{co['patch']} "
+            f"patches, stride {co['stride']}; rms {_num(co['rms'], '.4f')}; {co['n_patches']} patches, "
             f"{co['exact_copies']} exact copies, {co['searched']} searched, {co['seconds']:.2f} s)"
         )
     cv = m.get("coverage")
     if cv:
         lines.append(
-            f"coverage      {num(cv['fraction'], '.4f')} of exemplar pixels used  (evenness "
-            f"{num(cv['evenness'], '.4f')}, cv {num(cv['cv'], '.3f')})"
+            f"coverage      {_num(cv['fraction'], '.4f')} of exemplar pixels used  (evenness "
+            f"{_num(cv['evenness'], '.4f')}, cv {_num(cv['cv'], '.3f')})"
         )
     rp = m.get("repetition")
     if rp:
         where = "none" if rp["offset"] is None else f"at (dy, dx) = ({rp['offset'][0]}, {rp['offset'][1]})"
         lines.append(
-            f"repetition    {num(rp['peak'], '.4f')}  (strongest non-zero autocorrelation peak, {where})"
+            f"repetition    {_num(rp['peak'], '.4f')}  (strongest non-zero autocorrelation peak, {where})"
         )
     dr = m.get("detail_repetition")
     if dr:
         where = "none" if dr["offset"] is None else f"at (dy, dx) = ({dr['offset'][0]}, {dr['offset'][1]})"
         lines.append(
-            f"detail peak   {num(dr['peak'], '.4f')}  (autocorrelation peak of the detail layer, σ "
+            f"detail peak   {_num(dr['peak'], '.4f')}  (autocorrelation peak of the detail layer, σ "
             f"{dr['sigma']:g}, {where})"
         )
     pc = m.get("periodic_copies")
     if pc:
         lines.append(
-            f"copies        {num(pc['fraction'], '.4f')} of {pc['n_patches']} {pc['patch']}x{pc['patch']} "
+            f"copies        {_num(pc['fraction'], '.4f')} of {pc['n_patches']} {pc['patch']}x{pc['patch']} "
             f"patches copy the patch one dominant lag away (lags {pc['lags']})"
         )
     hd = m.get("histogram")
     if hd:
         lines.append(
-            f"histograms    {num(hd['distance'], '.4f')}  (mean 1-D Wasserstein of colour channels and of "
+            f"histograms    {_num(hd['distance'], '.4f')}  (mean 1-D Wasserstein of colour channels and of "
             f"gradient magnitude at scales {hd['scales']})"
         )
+    return lines
+
+
+def _format_objective(m: dict[str, Any]) -> list[str]:
+    """The tile set's own measures: the objective E, D_j, the cut costs and the cut seam."""
+    lines = []
     ob = m.get("objective")
     if ob:
         d, c = ob["D"], ob["cut_costs"]
         lines.append(
-            f"objective     E {num(ob['E'], '.6g')}, f = 1/E {num(ob['f'], '.4g')}; normalised (003) E "
-            f"{num(ob['E_normalised'], '.4g')}, f {num(ob['f_normalised'], '.4f')}  "
+            f"objective     E {_num(ob['E'], '.6g')}, f = 1/E {_num(ob['f'], '.4g')}; normalised (003) E "
+            f"{_num(ob['E_normalised'], '.4g')}, f {_num(ob['f_normalised'], '.4f')}  "
             f"({ob['intermediate_tiles']} intermediate tiles, selection {ob['selection']})"
         )
         lines.append(
-            f"D_j           min {num(d['min'])}, max {num(d['max'])}, mean {num(d['mean'])}, std "
-            f"{num(d['std'])}, max/min {num(d['max_over_min'], '.3g')}"
+            f"D_j           min {_num(d['min'])}, max {_num(d['max'])}, mean {_num(d['mean'])}, std "
+            f"{_num(d['std'])}, max/min {_num(d['max_over_min'], '.3g')}"
         )
         lines.append(
-            f"cut costs     min {num(c['min'])}, max {num(c['max'])}, mean {num(c['mean'])}, "
-            f"sum {num(c['sum'])}"
+            f"cut costs     min {_num(c['min'])}, max {_num(c['max'])}, mean {_num(c['mean'])}, "
+            f"sum {_num(c['sum'])}"
         )
     cs = m.get("cut_seam")
     if cs:
         lines.append(
-            f"cut seam      {num(cs['score'], '.4f')}  (mean squared step across the cutting curves / over "
+            f"cut seam      {_num(cs['score'], '.4f')}  (mean squared step across the cutting curves / over "
             f"all pixel pairs of the tiles; {cs['cut_pairs']} pairs on the cuts)"
         )
-    for note in m.get("notes", []):
-        lines.append(f"note          {note}")
-    return "\n".join(lines)
+    return lines
 
 
 __all__ = [

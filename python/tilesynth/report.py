@@ -35,6 +35,7 @@ import math
 import os
 import shutil
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -293,113 +294,145 @@ def _fmt(v: Any, spec: str = ".4g") -> str:
 def metrics_rows(m: dict[str, Any]) -> list[tuple[str, str, str]]:
     """(metric, value, meaning) rows of the metrics table."""
     rows: list[tuple[str, str, str]] = []
-    sm, co, cv, rp, ob = (m.get(k) for k in ("seam", "coherence", "coverage", "repetition", "objective"))
-    if sm:
-        rows += [
-            (
-                "border seam score S",
-                _fmt(sm["score"], ".4f"),
-                "mean squared step across tile borders / inside tiles; about 1 = borders invisible",
-            ),
-            ("  across vertical borders (x)", _fmt(sm["ratio_x"], ".4f"), "B_x / I_x"),
-            ("  across horizontal borders (y)", _fmt(sm["ratio_y"], ".4f"), "B_y / I_y"),
-        ]
-    if co:
-        rows += [
-            (
-                "coherence energy",
-                _fmt(co["energy"], ".5g"),
-                f"mean over {co['n_patches']} output patches ({co['patch']}x{co['patch']}, stride {co['stride']}) "
-                "of the smallest SSD to any exemplar patch (Kwatra), exact",
-            ),
-            ("  as rms pixel difference", _fmt(co["rms"], ".4f"), "√(energy / (p²·C)), values in [0, 1]"),
-            (
-                "  exact copies / searched",
-                f"{co['exact_copies']} / {co['searched']}",
-                "patches copied bit for bit from the exemplar (e = 0) / matched exhaustively",
-            ),
-        ]
-    if cv:
-        rows += [
-            ("coverage", _fmt(cv["fraction"], ".4f"), "share of exemplar pixels that appear in the sample"),
-            (
-                "  evenness",
-                _fmt(cv["evenness"], ".4f"),
-                "entropy of the per-pixel usage / its maximum (1 = all pixels used equally)",
-            ),
-            ("  usage cv", _fmt(cv["cv"], ".3f"), "std / mean of the per-pixel usage counts"),
-        ]
-    if rp:
-        off = "none" if rp["offset"] is None else f"(dy, dx) = ({rp['offset'][0]}, {rp['offset'][1]})"
-        rows.append(
-            (
-                "repetition peak",
-                _fmt(rp["peak"], ".4f"),
-                f"strongest non-zero peak of the normalised autocorrelation, at {off}",
-            )
-        )
-    dr, pc, hd = (m.get(k) for k in ("detail_repetition", "periodic_copies", "histogram"))
-    if pc:
-        rows.append(
-            (
-                "periodic-copy fraction",
-                _fmt(pc["fraction"], ".4f"),
-                f"share of {pc['patch']}x{pc['patch']} grid patches equal (mse <= (2/255)²) to the patch one "
-                "dominant autocorrelation lag away; 0 = no visible repetition",
-            )
-        )
-    if dr:
-        rows.append(
-            (
-                "detail autocorrelation peak",
-                _fmt(dr["peak"], ".4f"),
-                f"strongest off-origin peak of the autocorrelation of luminance minus a σ = {dr['sigma']:g} blur",
-            )
-        )
-    if hd:
-        rows.append(
-            (
-                "histogram distance",
-                _fmt(hd["distance"], ".4f"),
-                "mean 1-D Wasserstein distance to the exemplar of colour channels and gradient magnitude "
-                f"(scales {hd['scales']})",
-            )
-        )
-    if ob:
-        rows += [
-            (
-                "E",
-                _fmt(ob["E"], ".6g"),
-                f"λ·ΣD_j + (1−λ)·Var(D_j), λ = {ob['lambda']}, {ob['intermediate_tiles']} intermediate tiles",
-            ),
-            ("f = 1/E", _fmt(ob["f"], ".4g"), "affinity (003)"),
-            (
-                "f normalised",
-                _fmt(ob["f_normalised"], ".4f"),
-                "1/E with D_j divided by the N·N tile pixels (003)",
-            ),
-            (
-                "D_j min / mean / max",
-                f"{_fmt(ob['D']['min'])} / {_fmt(ob['D']['mean'])} / {_fmt(ob['D']['max'])}",
-                f"std {_fmt(ob['D']['std'])}, max/min {_fmt(ob['D']['max_over_min'], '.3g')}",
-            ),
-            (
-                "cut costs min / mean / max",
-                f"{_fmt(ob['cut_costs']['min'])} / {_fmt(ob['cut_costs']['mean'])} / {_fmt(ob['cut_costs']['max'])}",
-                f"sum {_fmt(ob['cut_costs']['sum'])} (min-cut cost of each tile's cutting curve)",
-            ),
-        ]
-    cs = m.get("cut_seam")
-    if cs:
-        rows.append(
-            (
-                "cut seam",
-                _fmt(cs["score"], ".4f"),
-                "mean squared step across the cutting curves / over all "
-                "pixel pairs of the tiles (1 = invisible; Poisson smoothing lowers it)",
-            )
-        )
+    for key, make in _ROW_MAKERS:
+        if m.get(key):
+            rows += make(m[key])
     return rows
+
+
+def _seam_rows(sm: dict[str, Any]) -> list[tuple[str, str, str]]:
+    return [
+        (
+            "border seam score S",
+            _fmt(sm["score"], ".4f"),
+            "mean squared step across tile borders / inside tiles; about 1 = borders invisible",
+        ),
+        ("  across vertical borders (x)", _fmt(sm["ratio_x"], ".4f"), "B_x / I_x"),
+        ("  across horizontal borders (y)", _fmt(sm["ratio_y"], ".4f"), "B_y / I_y"),
+    ]
+
+
+def _coherence_rows(co: dict[str, Any]) -> list[tuple[str, str, str]]:
+    return [
+        (
+            "coherence energy",
+            _fmt(co["energy"], ".5g"),
+            f"mean over {co['n_patches']} output patches ({co['patch']}x{co['patch']}, stride {co['stride']}) "
+            "of the smallest SSD to any exemplar patch (Kwatra), exact",
+        ),
+        ("  as rms pixel difference", _fmt(co["rms"], ".4f"), "√(energy / (p²·C)), values in [0, 1]"),
+        (
+            "  exact copies / searched",
+            f"{co['exact_copies']} / {co['searched']}",
+            "patches copied bit for bit from the exemplar (e = 0) / matched exhaustively",
+        ),
+    ]
+
+
+def _coverage_rows(cv: dict[str, Any]) -> list[tuple[str, str, str]]:
+    return [
+        ("coverage", _fmt(cv["fraction"], ".4f"), "share of exemplar pixels that appear in the sample"),
+        (
+            "  evenness",
+            _fmt(cv["evenness"], ".4f"),
+            "entropy of the per-pixel usage / its maximum (1 = all pixels used equally)",
+        ),
+        ("  usage cv", _fmt(cv["cv"], ".3f"), "std / mean of the per-pixel usage counts"),
+    ]
+
+
+def _repetition_rows(rp: dict[str, Any]) -> list[tuple[str, str, str]]:
+    off = "none" if rp["offset"] is None else f"(dy, dx) = ({rp['offset'][0]}, {rp['offset'][1]})"
+    return [
+        (
+            "repetition peak",
+            _fmt(rp["peak"], ".4f"),
+            f"strongest non-zero peak of the normalised autocorrelation, at {off}",
+        )
+    ]
+
+
+def _periodic_copy_rows(pc: dict[str, Any]) -> list[tuple[str, str, str]]:
+    return [
+        (
+            "periodic-copy fraction",
+            _fmt(pc["fraction"], ".4f"),
+            f"share of {pc['patch']}x{pc['patch']} grid patches equal (mse <= (2/255)²) to the patch one "
+            "dominant autocorrelation lag away; 0 = no visible repetition",
+        )
+    ]
+
+
+def _detail_rows(dr: dict[str, Any]) -> list[tuple[str, str, str]]:
+    return [
+        (
+            "detail autocorrelation peak",
+            _fmt(dr["peak"], ".4f"),
+            f"strongest off-origin peak of the autocorrelation of luminance minus a σ = {dr['sigma']:g} blur",
+        )
+    ]
+
+
+def _histogram_rows(hd: dict[str, Any]) -> list[tuple[str, str, str]]:
+    return [
+        (
+            "histogram distance",
+            _fmt(hd["distance"], ".4f"),
+            "mean 1-D Wasserstein distance to the exemplar of colour channels and gradient magnitude "
+            f"(scales {hd['scales']})",
+        )
+    ]
+
+
+def _objective_rows(ob: dict[str, Any]) -> list[tuple[str, str, str]]:
+    return [
+        (
+            "E",
+            _fmt(ob["E"], ".6g"),
+            f"λ·ΣD_j + (1−λ)·Var(D_j), λ = {ob['lambda']}, {ob['intermediate_tiles']} intermediate tiles",
+        ),
+        ("f = 1/E", _fmt(ob["f"], ".4g"), "affinity (003)"),
+        (
+            "f normalised",
+            _fmt(ob["f_normalised"], ".4f"),
+            "1/E with D_j divided by the N·N tile pixels (003)",
+        ),
+        (
+            "D_j min / mean / max",
+            f"{_fmt(ob['D']['min'])} / {_fmt(ob['D']['mean'])} / {_fmt(ob['D']['max'])}",
+            f"std {_fmt(ob['D']['std'])}, max/min {_fmt(ob['D']['max_over_min'], '.3g')}",
+        ),
+        (
+            "cut costs min / mean / max",
+            f"{_fmt(ob['cut_costs']['min'])} / {_fmt(ob['cut_costs']['mean'])} / {_fmt(ob['cut_costs']['max'])}",
+            f"sum {_fmt(ob['cut_costs']['sum'])} (min-cut cost of each tile's cutting curve)",
+        ),
+    ]
+
+
+def _cut_seam_rows(cs: dict[str, Any]) -> list[tuple[str, str, str]]:
+    return [
+        (
+            "cut seam",
+            _fmt(cs["score"], ".4f"),
+            "mean squared step across the cutting curves / over all "
+            "pixel pairs of the tiles (1 = invisible; Poisson smoothing lowers it)",
+        )
+    ]
+
+
+# the metric families in the order of the table, each with the rows it makes
+_ROW_MAKERS: tuple[tuple[str, Callable[[dict[str, Any]], list[tuple[str, str, str]]]], ...] = (
+    ("seam", _seam_rows),
+    ("coherence", _coherence_rows),
+    ("coverage", _coverage_rows),
+    ("repetition", _repetition_rows),
+    ("periodic_copies", _periodic_copy_rows),
+    ("detail_repetition", _detail_rows),
+    ("histogram", _histogram_rows),
+    ("objective", _objective_rows),
+    ("cut_seam", _cut_seam_rows),
+)
 
 
 _CSS = """
@@ -448,8 +481,23 @@ def _page(
         f"{s['tiles'][0]}x{s['tiles'][1]} tiles ({s['distinct_tiles_used']} distinct). tilesynth {esc(__version__)}."
         "</p>",
         "<h2>Metrics</h2>",
-        "<table><tr><th>metric</th><th>value</th><th>meaning</th></tr>",
     ]
+    parts += _metrics_table(m, reference, wang)
+    parts += _figures(files, s, wang, reference)
+    for note in notes:
+        parts.append(f'<p class="note">{esc(note)}</p>')
+    parts += _per_tile_table(tileset, wang)
+    if m.get("notes"):
+        parts += [f'<p class="note">{esc(n)}</p>' for n in m["notes"]]
+    parts.append("</body></html>")
+    return "\n".join(parts) + "\n"
+
+
+def _metrics_table(m: dict[str, Any], reference: float | None, wang: bool) -> list[str]:
+    """The metrics table (with the random-placement reference under the seam score) and the link to the JSON."""
+    esc = html.escape
+    parts: list[str] = []
+    parts.append("<table><tr><th>metric</th><th>value</th><th>meaning</th></tr>")
     rows = metrics_rows(m)
     if reference is not None and m.get("seam"):
         rows.insert(
@@ -470,6 +518,12 @@ def _page(
         )
     parts.append("</table>")
     parts.append('<p>All numbers as JSON: <a href="metrics.json">metrics.json</a>.</p>')
+    return parts
+
+
+def _figures(files: dict[str, str], s: dict[str, Any], wang: bool, reference: float | None) -> list[str]:
+    """The figures: tiles, sample, seam and coherence heat-maps, selection convergence."""
+    parts: list[str] = []
     parts.append("<h2>Tiles</h2>")
     if wang:
         parts.append(
@@ -523,8 +577,13 @@ def _page(
     parts.append("<h2>Selection convergence</h2>")
     if "convergence" in files:
         parts.append(_img(files["convergence"], "Best and mean E of the population in every generation."))
-    for note in notes:
-        parts.append(f'<p class="note">{esc(note)}</p>')
+    return parts
+
+
+def _per_tile_table(tileset: Any, wang: bool) -> list[str]:
+    """The per-tile table."""
+    esc = html.escape
+    parts: list[str] = []
     # Wang tiles have edge colours and no variants (their rows have "edges", ω rows "corners" and "variant")
     colours, variant = ("N E S W", "") if wang else ("TL BL TR BR", "<th>variant</th>")
     parts.append(
@@ -539,10 +598,7 @@ def _page(
             f"<td class=num>{row['D']:.4f}</td><td class=num>{row['cut_cost']:.4f}</td></tr>"
         )
     parts.append("</table>")
-    if m.get("notes"):
-        parts += [f'<p class="note">{esc(n)}</p>' for n in m["notes"]]
-    parts.append("</body></html>")
-    return "\n".join(parts) + "\n"
+    return parts
 
 
 def random_placement_seam(

@@ -322,6 +322,12 @@ class TileSet:
     def _check(self, values: bool = False) -> None:
         """Consistency of dtypes and shapes, and with ``values`` of the array contents and the layout
         (raises TileSetFormatError). ``load`` checks everything; ``save`` the dtypes and shapes."""
+        self._check_shapes(values)
+        if values:
+            self._check_values()
+
+    def _check_shapes(self, values: bool) -> None:
+        """Dtypes and shapes of the arrays, and (with ``values``) the manifest's exemplar shape."""
         for name, dt in self._arrays().items():
             a = getattr(self, name)
             if not isinstance(a, np.ndarray) or a.dtype != np.dtype(dt):
@@ -363,8 +369,10 @@ class TileSet:
             )
         if self.genes.ndim != 2 or self.genes.shape[1] != 2 or self.genes.shape[0] == 0:
             raise TileSetFormatError(f"array genes has shape {self.genes.shape}, expected (n, 2) with n >= 1")
-        if not values:
-            return
+
+    def _check_values(self) -> None:
+        """The array contents and the layout: values in range, positions inside the exemplar."""
+        k, n = self.tiles.shape[:2]
         try:
             from .tilesets import tileset_from_dict
 

@@ -216,6 +216,55 @@ def export(
     viewer : also write ``viewer.html``.
     source_path : the ``.tiles`` file, recorded in the manifest (its file digest) when given.
     """
+    padding, lookup, hl = _check_export_args(
+        tileset, maps, padding, bits, lookup, seed, wrap, index_size, index_seed, normal_y, map_smooth
+    )
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "shaders").mkdir(exist_ok=True)
+
+    levels = _atlas.max_mip_level(tileset.tile_size, padding)
+    cols, rows = _atlas.grid_for(tileset.n_tiles)
+    built = build_maps(tileset, maps, padding, bits, map_smooth)
+    files: list[str] = []
+    tiles_q = _atlas.quantise(tileset.tiles, bits)
+    exact = _atlas.gutter_exactness(tileset, built["albedo"]["cells"], padding, tiles_q)
+    map_entries = _write_atlases(built, out, cols, rows, levels, normal_y, files)
+    if lookup == "hash":
+        lookup_entry = _hash_lookup(hl, seed, wrap)
+    else:
+        lookup_entry = _write_index_map(tileset.definition, out, index_size, index_seed, files)
+    _write_shaders(out, files)
+    manifest = _manifest(tileset, padding, cols, rows, levels, exact, map_entries, lookup_entry, source_path)
+    if viewer:
+        from .viewer import write_viewer
+
+        write_viewer(tileset, out / "viewer.html", manifest, built, out)
+        files.append("viewer.html")
+    manifest["files"] = sorted(files)
+    try:
+        validate_manifest(manifest)
+    except ImportError:
+        pass
+    (out / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
+    return manifest
+
+
+def _check_export_args(
+    tileset: Any,
+    maps: Any,
+    padding: Any,
+    bits: Any,
+    lookup: str,
+    seed: Any,
+    wrap: Any,
+    index_size: Any,
+    index_seed: Any,
+    normal_y: str,
+    map_smooth: str,
+) -> tuple[int, str, dict[str, Any] | None]:
+    """Check the arguments of :func:`export` before anything is written; returns (padding, lookup mode, hash
+    layout)."""
     from ..tilefile import TileSet
 
     if not isinstance(tileset, TileSet):
@@ -265,17 +314,21 @@ def export(
             )
         ):
             raise ParameterError(f"wrap = {wrap!r}: expected (Tx, Ty) integers in [1, 2^31)")
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "shaders").mkdir(exist_ok=True)
+    return padding, lookup, hl
 
-    levels = _atlas.max_mip_level(n, padding)
-    cols, rows = _atlas.grid_for(tileset.n_tiles)
-    built = build_maps(tileset, maps, padding, bits, map_smooth)
-    files: list[str] = []
+
+def _write_atlases(
+    built: dict[str, dict[str, Any]],
+    out: Path,
+    cols: int,
+    rows: int,
+    levels: int,
+    normal_y: str,
+    files: list[str],
+) -> list[dict[str, Any]]:
+    """Pack every map's cells, write its mip chain (appending the file names to ``files``); the manifest's
+    ``maps`` entries."""
     map_entries = []
-    tiles_q = _atlas.quantise(tileset.tiles, bits)
-    exact = _atlas.gutter_exactness(tileset, built["albedo"]["cells"], padding, tiles_q)
     for name, info in built.items():
         cells = info["cells"]
         srgb = name == "albedo" and cells.dtype != np.float32
@@ -302,46 +355,71 @@ def export(
         if "normal" in name.lower():
             entry["normal_y"] = normal_y
         map_entries.append(entry)
+    return map_entries
 
-    lookup_entry: dict[str, Any]
-    if lookup == "hash":
-        lookup_entry = {
-            "mode": "hash",
-            "hash": HASH_NAME,
-            "constants": HASH_CONSTANTS,
-            "seed": int(seed),
-            "wrap": [int(wrap[0]), int(wrap[1])] if wrap is not None else None,
-            "roles": {"vertex": 0, "horizontal_edge": 1, "vertical_edge": 2, "variant": 3},
-            **hl,  # type: ignore[dict-item]
-        }
-    else:
-        if index_size is None:
-            index_size = default_index_size(defn)
-        icols, irows = (int(v) for v in index_size)
-        if icols < 1 or irows < 1 or icols * irows > 1 << 22:
-            raise ParameterError(f"index_size = {index_size!r}: (cols, rows) >= 1 and at most 4M cells")
-        imap = toroidal_index_map(defn, irows, icols, index_seed)
-        from ..io import save_image
 
-        save_image(out / "index.png", imap.astype(np.uint16), bits=16)
-        files.append("index.png")
-        lookup_entry = {
-            "mode": "index_map",
-            "file": "index.png",
-            "width": icols,
-            "height": irows,
-            "format": "R16_UINT",
-            "wrap": "repeat",
-            "seed": int(index_seed),
-            "periodic": "toroidal tiling found by backtracking scan-line search (tilesynth.engine.periodic)",
-        }
+def _hash_lookup(hl: dict[str, Any] | None, seed: int, wrap: tuple[int, int] | None) -> dict[str, Any]:
+    """The manifest's ``lookup`` entry of the hash mode."""
+    return {
+        "mode": "hash",
+        "hash": HASH_NAME,
+        "constants": HASH_CONSTANTS,
+        "seed": int(seed),
+        "wrap": [int(wrap[0]), int(wrap[1])] if wrap is not None else None,
+        "roles": {"vertex": 0, "horizontal_edge": 1, "vertical_edge": 2, "variant": 3},
+        **hl,  # type: ignore[dict-item]
+    }
+
+
+def _write_index_map(
+    defn: Any, out: Path, index_size: tuple[int, int] | None, index_seed: int, files: list[str]
+) -> dict[str, Any]:
+    """Write ``index.png`` (a toroidal tiling) and return the manifest's ``lookup`` entry of the index-map mode."""
+    if index_size is None:
+        index_size = default_index_size(defn)
+    icols, irows = (int(v) for v in index_size)
+    if icols < 1 or irows < 1 or icols * irows > 1 << 22:
+        raise ParameterError(f"index_size = {index_size!r}: (cols, rows) >= 1 and at most 4M cells")
+    imap = toroidal_index_map(defn, irows, icols, index_seed)
+    from ..io import save_image
+
+    save_image(out / "index.png", imap.astype(np.uint16), bits=16)
+    files.append("index.png")
+    return {
+        "mode": "index_map",
+        "file": "index.png",
+        "width": icols,
+        "height": irows,
+        "format": "R16_UINT",
+        "wrap": "repeat",
+        "seed": int(index_seed),
+        "periodic": "toroidal tiling found by backtracking scan-line search (tilesynth.engine.periodic)",
+    }
+
+
+def _write_shaders(out: Path, files: list[str]) -> None:
     for s in SHADER_FILES:
         dst = out / "shaders" / s
         dst.write_text(shader_source(s), encoding="utf-8")
         files.append(f"shaders/{s}")
 
+
+def _manifest(
+    tileset: Any,
+    padding: int,
+    cols: int,
+    rows: int,
+    levels: int,
+    exact: dict[str, Any],
+    map_entries: list[dict[str, Any]],
+    lookup_entry: dict[str, Any],
+    source_path: str | os.PathLike[str] | None,
+) -> dict[str, Any]:
+    """The manifest (``files`` still None: the caller fills it in once every file is written)."""
+    defn = tileset.definition
+    n = tileset.tile_size
     s = n + 2 * padding
-    manifest: dict[str, Any] = {
+    return {
         "format": EXPORT_FORMAT,
         "format_version": EXPORT_VERSION,
         "tilesynth_version": tileset.version or _version(),
@@ -384,18 +462,6 @@ def export(
         },
         "files": None,
     }
-    if viewer:
-        from .viewer import write_viewer
-
-        write_viewer(tileset, out / "viewer.html", manifest, built, out)
-        files.append("viewer.html")
-    manifest["files"] = sorted(files)
-    try:
-        validate_manifest(manifest)
-    except ImportError:
-        pass
-    (out / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
-    return manifest
 
 
 def _version() -> str:
