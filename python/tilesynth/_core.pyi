@@ -31,6 +31,23 @@ __all__ = [
     "edge_weight_sums",
     "weighted_ssd_map",
     "_raise_panic",
+    # the hashed lookup (rust/py/hash.rs)
+    "HASH_NAME",
+    "HASH_PCG_MUL",
+    "HASH_PCG_INC",
+    "HASH_ROLE_MUL",
+    "HASH_ROLES",
+    "ts_hash",
+    "hashed_index_map",
+    "tile_copy_window",
+    # image files (rust/py/io.rs)
+    "png_decode",
+    "png_encode",
+    "exr_decode",
+    "exr_encode",
+    # gradients (rust/py/gradients.rs) and the bench baseline of the matching (rust/py/ssd.rs)
+    "patch_gradients",
+    "_best_matches_sorting",
 ]
 
 __version__: str
