@@ -32,6 +32,7 @@ use ndarray::{Array2, Array3, ArrayView2, ArrayView3, ArrayView4, Axis, Zip};
 use rayon::prelude::*;
 
 use crate::seams::check_pair;
+use crate::seams::{check_eps, check_grad};
 pub use crate::seams::{kwatra_weights, DEFAULT_EPS};
 
 /// Whether pixel `(y, x)` lies on the one-pixel border ring of an `n x n` tile.
@@ -149,33 +150,6 @@ pub fn omega_cut(
         takes_o: Array2::from_shape_vec((n, n), takes_o).expect("n * n labels"),
         cost,
     })
-}
-
-fn check_grad(g: Option<&ArrayView3<f64>>, h: usize, w: usize) -> Result<()> {
-    if let Some(g) = g {
-        if g.dim() != (h, w, 2) {
-            return Err(TilesynthError::shape(
-                "intermediate_grad",
-                fmt_shape(&[h, w, 2]),
-                fmt_shape(g.shape()),
-            ));
-        }
-        if g.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
-            return Err(TilesynthError::param(
-                "intermediate_grad",
-                "negative or non-finite value",
-                "gradient norms must be finite and >= 0",
-            ));
-        }
-    }
-    Ok(())
-}
-
-fn check_eps(eps: f64) -> Result<()> {
-    if !(eps.is_finite() && eps > 0.0) {
-        return Err(TilesynthError::param("eps", eps, "must be finite and > 0"));
-    }
-    Ok(())
 }
 
 /// Pixel classes of the ω construction.

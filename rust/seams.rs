@@ -12,6 +12,35 @@ use ndarray::{Array2, ArrayView2, ArrayView3, Axis};
 /// vanish; 1e-6 matches the reference data in `shared/reference/mincut80.npz`).
 pub const DEFAULT_EPS: f64 = 1e-6;
 
+/// Checks that the gradient norms `g` (if given) are `(h, w, 2)`, finite and >= 0.
+pub(crate) fn check_grad(g: Option<&ArrayView3<f64>>, h: usize, w: usize) -> Result<()> {
+    if let Some(g) = g {
+        if g.dim() != (h, w, 2) {
+            return Err(TilesynthError::shape(
+                "intermediate_grad",
+                fmt_shape(&[h, w, 2]),
+                fmt_shape(g.shape()),
+            ));
+        }
+        if g.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(TilesynthError::param(
+                "intermediate_grad",
+                "negative or non-finite value",
+                "gradient norms must be finite and >= 0",
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Checks that the Kwatra epsilon is finite and > 0.
+pub(crate) fn check_eps(eps: f64) -> Result<()> {
+    if !(eps.is_finite() && eps > 0.0) {
+        return Err(TilesynthError::param("eps", eps, "must be finite and > 0"));
+    }
+    Ok(())
+}
+
 /// Checks that `i` and `o` are non-empty `(H, W, C)` images of one shape with finite values.
 pub(crate) fn check_pair(i: &ArrayView3<f32>, o: &ArrayView3<f32>) -> Result<()> {
     let (h, w, c) = i.dim();
@@ -55,27 +84,9 @@ pub fn kwatra_weights(
     a_grad: Option<ArrayView3<f64>>,
 ) -> Result<(Array2<f64>, Array2<f64>)> {
     check_pair(&a, &b)?;
-    if let Some(g) = &a_grad {
-        let (h, w, _) = a.dim();
-        if g.dim() != (h, w, 2) {
-            return Err(TilesynthError::shape(
-                "intermediate_grad",
-                fmt_shape(&[h, w, 2]),
-                fmt_shape(g.shape()),
-            ));
-        }
-        if g.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
-            return Err(TilesynthError::param(
-                "intermediate_grad",
-                "negative or non-finite value",
-                "gradient norms must be finite and >= 0",
-            ));
-        }
-    }
-    if !(eps.is_finite() && eps > 0.0) {
-        return Err(TilesynthError::param("eps", eps, "must be finite and > 0"));
-    }
     let (h, w, _) = a.dim();
+    check_grad(a_grad.as_ref(), h, w)?;
+    check_eps(eps)?;
     if let Some(r) = &region {
         if r.dim() != (h, w) {
             return Err(TilesynthError::shape(
