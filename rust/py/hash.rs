@@ -1,14 +1,10 @@
-//! Bindings of the hashed lookup (`rust/hash.rs`, `HASH-SPEC.md`) and of the windowed tile copy.
+//! Bindings of the hashed lookup (`rust/hash.rs`, `HASH-SPEC.md`); the windowed tile copy is in `synth.rs`.
 
-use super::convert::contiguous;
-use super::errors::{guard, layout_error, to_pyerr};
+use super::errors::{guard, to_pyerr};
 use super::run;
 use crate::error::TilesynthError;
-use crate::{hash, synth};
-use numpy::{
-    IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray4,
-    PyReadwriteArray3, PyUntypedArrayMethods,
-};
+use crate::hash;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 
@@ -118,51 +114,6 @@ fn hashed_index_map<'py>(
     })
 }
 
-/// Writes the window of the tiling by `index_map` whose top-left pixel is `offset = (oy, ox)` pixels into the
-/// first cell into `out` `(H, W, C)` (same dtype as `atlas`: uint8, uint16, float32 or int32).
-#[pyfunction]
-#[pyo3(signature = (atlas, index_map, offset, out, threads=None))]
-fn tile_copy_window<'py>(
-    py: Python<'py>,
-    atlas: &Bound<'py, PyAny>,
-    index_map: PyReadonlyArray2<'py, i32>,
-    offset: (usize, usize),
-    out: &Bound<'py, PyAny>,
-    threads: Option<usize>,
-) -> PyResult<()> {
-    guard("tile_copy_window", || {
-        contiguous("index_map", &index_map)?;
-        let map = index_map.as_array();
-        macro_rules! dispatch {
-            ($t:ty) => {
-                if let (Ok(a), Ok(mut o)) = (
-                    atlas.extract::<PyReadonlyArray4<'py, $t>>(),
-                    out.extract::<PyReadwriteArray3<'py, $t>>(),
-                ) {
-                    contiguous("atlas", &a)?;
-                    if !o.is_c_contiguous() {
-                        return Err(layout_error("out", "array must be C-contiguous"));
-                    }
-                    let a = a.as_array();
-                    let o = o.as_array_mut();
-                    return run(py, threads, || {
-                        synth::tile_copy_window_into(a, map, offset, o)
-                    });
-                }
-            };
-        }
-        dispatch!(u8);
-        dispatch!(u16);
-        dispatch!(f32);
-        dispatch!(i32);
-        Err(layout_error(
-            "atlas/out",
-            "expected a 4-d atlas and a 3-d writable out (not sharing memory with atlas) of the same \
-             native-endian dtype, uint8, uint16, float32 or int32",
-        ))
-    })
-}
-
 /// Registers the functions and the hash's name and constants (`HASH_NAME`, `HASH_PCG_MUL`, `HASH_PCG_INC`,
 /// `HASH_ROLE_MUL`, `HASH_ROLES`).
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -181,6 +132,5 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add_function(wrap_pyfunction!(ts_hash, m)?)?;
     m.add_function(wrap_pyfunction!(hashed_index_map, m)?)?;
-    m.add_function(wrap_pyfunction!(tile_copy_window, m)?)?;
     Ok(())
 }

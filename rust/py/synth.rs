@@ -1,4 +1,5 @@
-//! The synthesis tile copy.
+//! The synthesis tile copy: the whole tiling, or a window of it at a pixel offset (the hashed lookup's random
+//! access).
 
 use super::convert::contiguous;
 use super::errors::{self, guard};
@@ -18,7 +19,43 @@ pub(super) fn tile_copy<'py>(
     out: &Bound<'py, PyAny>,
     threads: Option<usize>,
 ) -> PyResult<()> {
-    guard("tile_copy", || {
+    copy_window("tile_copy", py, atlas, index_map, (0, 0), out, threads)
+}
+
+/// Writes the window of the tiling by `index_map` whose top-left pixel is `offset = (oy, ox)` pixels into the
+/// first cell into `out` `(H, W, C)` (same dtype as `atlas`: uint8, uint16, float32 or int32).
+#[pyfunction]
+#[pyo3(signature = (atlas, index_map, offset, out, threads=None))]
+pub(super) fn tile_copy_window<'py>(
+    py: Python<'py>,
+    atlas: &Bound<'py, PyAny>,
+    index_map: PyReadonlyArray2<'py, i32>,
+    offset: (usize, usize),
+    out: &Bound<'py, PyAny>,
+    threads: Option<usize>,
+) -> PyResult<()> {
+    copy_window(
+        "tile_copy_window",
+        py,
+        atlas,
+        index_map,
+        offset,
+        out,
+        threads,
+    )
+}
+
+/// The dtype dispatch of both copies ([`synth::tile_copy_window_into`]; offset (0, 0) is the plain copy).
+fn copy_window<'py>(
+    what: &str,
+    py: Python<'py>,
+    atlas: &Bound<'py, PyAny>,
+    index_map: PyReadonlyArray2<'py, i32>,
+    offset: (usize, usize),
+    out: &Bound<'py, PyAny>,
+    threads: Option<usize>,
+) -> PyResult<()> {
+    guard(what, || {
         contiguous("index_map", &index_map)?;
         let map = index_map.as_array();
         macro_rules! dispatch {
@@ -33,7 +70,9 @@ pub(super) fn tile_copy<'py>(
                     }
                     let a = a.as_array();
                     let o = o.as_array_mut();
-                    return run(py, threads, || synth::tile_copy_into(a, map, o));
+                    return run(py, threads, || {
+                        synth::tile_copy_window_into(a, map, offset, o)
+                    });
                 }
             };
         }
@@ -52,5 +91,6 @@ pub(super) fn tile_copy<'py>(
 /// Adds this family's bindings to the module.
 pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tile_copy, m)?)?;
+    m.add_function(wrap_pyfunction!(tile_copy_window, m)?)?;
     Ok(())
 }
