@@ -349,6 +349,28 @@ MANIFEST = Obj(
 )
 
 
+TOP_LEVEL_KINDS: dict[str, type | tuple[type, ...]] = {
+    "scheme": str,
+    "layout": dict,
+    "params": dict,
+    "exemplar": dict,
+    "tilesynth_version": str,
+    "E": (int, float),
+}
+"""The kind of every top-level field a reader needs."""
+
+
+def check_top_level(m: Mapping[str, Any]) -> None:
+    """Each field of :data:`TOP_LEVEL_KINDS` present, of its kind (no bool for a number), and ``E`` finite."""
+    for key, t in TOP_LEVEL_KINDS.items():
+        if key not in m:
+            raise TileSetFormatError(f"manifest.json lacks {key!r}")
+        if not isinstance(m[key], t) or isinstance(m[key], bool):
+            raise TileSetFormatError(f"manifest.json field {key!r} = {m[key]!r:.60}: wrong type")
+    if isinstance(m["E"], float) and not math.isfinite(m["E"]):
+        raise TileSetFormatError(f"manifest.json field 'E' = {m['E']!r}: must be finite")
+
+
 def validate_manifest(m: Any) -> None:
     """Check ``m`` (the parsed ``manifest.json``) against :data:`MANIFEST` and the scheme/layout pairing;
     raises :class:`TileSetFormatError` naming the first bad field."""
@@ -358,22 +380,7 @@ def validate_manifest(m: Any) -> None:
         )
     if not _is_v1(m):
         return  # not a tile set of this version: the loader's magic and version check says so
-    # the top-level kinds first, in the loader's established wording
-    kinds = {
-        "scheme": str,
-        "layout": dict,
-        "params": dict,
-        "exemplar": dict,
-        "tilesynth_version": str,
-        "E": (int, float),
-    }
-    for key, t in kinds.items():
-        if key not in m:
-            raise TileSetFormatError(f"manifest.json lacks {key!r}")
-        if not isinstance(m[key], t) or isinstance(m[key], bool):
-            raise TileSetFormatError(f"manifest.json field {key!r} = {m[key]!r:.60}: wrong type")
-    if isinstance(m["E"], float) and not math.isfinite(m["E"]):
-        raise TileSetFormatError(f"manifest.json field 'E' = {m['E']!r}: must be finite")
+    check_top_level(m)  # the top-level kinds first, in the loader's established wording
     for k, s in MANIFEST.required.items():
         if k not in m:
             raise TileSetFormatError(f"manifest.json lacks {k!r}")
@@ -522,4 +529,12 @@ def check_archive(zf: Any, manifest: Any, dtypes: Mapping[str, str]) -> None:
     check_member_headers(headers, dtypes, manifest)
 
 
-__all__ = ["MANIFEST", "check_archive", "check_member_headers", "read_npy_header", "validate_manifest"]
+__all__ = [
+    "MANIFEST",
+    "TOP_LEVEL_KINDS",
+    "check_archive",
+    "check_top_level",
+    "check_member_headers",
+    "read_npy_header",
+    "validate_manifest",
+]

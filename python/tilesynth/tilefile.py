@@ -435,21 +435,9 @@ def _check_manifest(m: Any) -> None:
         raise TileSetFormatError(
             f"format version {m.get('format_version')!r}, this tilesynth reads version {FORMAT_VERSION}"
         )
-    types = {
-        "scheme": str,
-        "layout": dict,
-        "params": dict,
-        "exemplar": dict,
-        "tilesynth_version": str,
-        "E": (int, float),
-    }
-    for key, t in types.items():
-        if key not in m:
-            raise TileSetFormatError(f"manifest.json lacks {key!r}")
-        if not isinstance(m[key], t) or isinstance(m[key], bool):
-            raise TileSetFormatError(f"manifest.json field {key!r} = {m[key]!r:.60}: wrong type")
-    if not np.isfinite(m["E"]):
-        raise TileSetFormatError(f"manifest.json field 'E' = {m['E']!r}: must be finite")
+    from ._manifest import check_top_level
+
+    check_top_level(m)
     shape = m["exemplar"].get("shape")
     if not (isinstance(shape, list) and len(shape) == 3 and all(type(v) is int for v in shape)):
         raise TileSetFormatError(f"manifest.json field exemplar.shape = {shape!r:.60}: expected [H, W, C]")
