@@ -1528,6 +1528,8 @@ def _log(fh: TextIO | None, rec: dict[str, Any], run_id: str) -> None:
 # ------------------------------------------------------------------------------------------------ command line
 def add_parser(sub: Any) -> None:
     """Register ``tilesynth batch`` on the subparsers ``sub`` of the main parser."""
+    from .schemes.base import positive_int_text
+
     b = sub.add_parser(
         "batch",
         help="build a texture library described by a TOML batch file",
@@ -1538,13 +1540,13 @@ def add_parser(sub: Any) -> None:
     b.add_argument("--force", action="store_true", help="rebuild jobs that are up to date")
     b.add_argument(
         "--workers",
-        type=_pos,
+        type=positive_int_text,
         default=None,
         help="local worker processes (default: the usable cores, at most the jobs to build)",
     )
     b.add_argument(
         "--threads",
-        type=_pos,
+        type=positive_int_text,
         default=None,
         help="kernel threads per job (default: cores / workers locally; all cores with --scheduler)",
     )
@@ -1565,16 +1567,6 @@ def add_parser(sub: Any) -> None:
         "--json", action="store_true", help="print the records as JSON instead of the summary table"
     )
     b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
-
-
-def _pos(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"{v} must be >= 1")
-    return v
 
 
 def cli_main(args: argparse.Namespace) -> int:

@@ -25,7 +25,7 @@ import numpy as np
 from .errors import InternalError, ParameterError, TilesynthError
 from .io import add_png_compression_argument, set_png_compression
 from .schemes import REGISTRY, SCHEMES, Option, Scheme, get_scheme
-from .schemes.base import layout_kind
+from .schemes.base import layout_kind, nonneg_int_text, positive_int_text
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
@@ -49,21 +49,8 @@ def _size(text: str) -> tuple[int, int]:
     return int(m.group(1)), int(m.group(2) or m.group(1))
 
 
-def _nonneg(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"{v} must be >= 0")
-    return v
-
-
-def _pos(text: str) -> int:
-    v = _nonneg(text)
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"{v} must be >= 1")
-    return v
+_nonneg = nonneg_int_text  # argparse types shared with the scheme options (schemes.base)
+_pos = positive_int_text
 
 
 def _origin(text: str) -> tuple[int, int]:

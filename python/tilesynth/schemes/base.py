@@ -28,6 +28,7 @@ __all__ = [
     "lambda_energy_line",
     "layout_kind",
     "layout_of_set",
+    "nonneg_int_text",
     "positive_int_text",
 ]
 
@@ -43,12 +44,20 @@ def layout_kind(layout: dict[str, Any]) -> str:
     return "edge" if layout.get("kind", "corner") == FILE_KIND["edge"] else "corner"
 
 
-def positive_int_text(text: str) -> int:
-    """argparse type: an integer >= 1."""
+def nonneg_int_text(text: str) -> int:
+    """argparse type: an integer >= 0."""
     try:
         v = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"{v} must be >= 0")
+    return v
+
+
+def positive_int_text(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    v = nonneg_int_text(text)
     if v < 1:
         raise argparse.ArgumentTypeError(f"{v} must be >= 1")
     return v

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..omega import build_omega
-from .base import Option, Scheme, lambda_energy_line
+from .base import Option, Scheme, lambda_energy_line, nonneg_int_text
 from .common import GRADIENTS, LITERAL_BORDER
 
 
@@ -36,19 +36,6 @@ def _describe(ts: Any) -> list[str]:
         *([smoothing_line(sm)] if isinstance(sm, dict) else []),
         lambda_energy_line(p, ts.E, "intermediate tiles"),
     ]
-
-
-def _nonneg(text: str) -> int:
-    """argparse type: an integer >= 0."""
-    import argparse
-
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"{v} must be >= 0")
-    return v
 
 
 def _match_k(text: str | None) -> int | str | None:
@@ -128,7 +115,7 @@ SCHEME = Scheme(
             "--diversity",
             "assign matching patches so that each exemplar region is used at most M times (less repetition); "
             "0: each tile's best match. Default 1 for complete sets (c4, c3x2, ...), 0 for the papers' sets",
-            cli_type=_nonneg,
+            cli_type=nonneg_int_text,
             metavar="M",
         ),
     ),
