@@ -843,6 +843,20 @@ impl SsdIndex {
         k: usize,
         r: usize,
     ) -> Vec<Match> {
+        self.walk(t, mask, k, r, false)
+    }
+
+    /// The greedy walk of both paths: translations in increasing FFT value, each one's exact SSD computed
+    /// when the bound cannot rule it out, the best k taken with their exclusion windows. `sort_all`: the
+    /// order is sorted whole up front ([`LazyOrder::full`]) instead of grown lazily; the walk is the same.
+    fn walk(
+        &self,
+        t: &Tmpl,
+        mask: Option<&[bool]>,
+        k: usize,
+        r: usize,
+        sort_all: bool,
+    ) -> Vec<Match> {
         let (mh, mw) = self.map_dim(t.h, t.w);
         let n = mh * mw;
         let k = k.min(n);
@@ -850,7 +864,11 @@ impl SsdIndex {
             return Vec::new();
         }
         let (map, bound) = self.fft_map_f64(t, mask);
-        let mut order = LazyOrder::new(&map);
+        let mut order = if sort_all {
+            LazyOrder::full(&map)
+        } else {
+            LazyOrder::new(&map)
+        };
         let exact = |i: usize| self.exact(t, mask, i / mw, i % mw) + 0.0; // + 0.0: no -0.0 in the order
         let mut excluded = if k > 1 { vec![false; n] } else { Vec::new() };
         let is_excluded = |ex: &[bool], i: usize| !ex.is_empty() && ex[i];
@@ -937,87 +955,7 @@ impl SsdIndex {
         k: usize,
         r: usize,
     ) -> Vec<Match> {
-        let (mh, mw) = self.map_dim(t.h, t.w);
-        let n = mh * mw;
-        let k = k.min(n);
-        if k == 0 {
-            return Vec::new();
-        }
-        let (map, bound) = self.fft_map_f64(t, mask);
-        let mut order: Vec<usize> = (0..n).collect();
-        order.sort_unstable_by(|&a, &b| {
-            let (fa, fb) = (map[a], map[b]);
-            fa.is_nan()
-                .cmp(&fb.is_nan())
-                .then(fa.partial_cmp(&fb).unwrap_or(std::cmp::Ordering::Equal))
-                .then(a.cmp(&b))
-        });
-        let exact = |i: usize| self.exact(t, mask, i / mw, i % mw) + 0.0; // + 0.0: no -0.0 in the order
-        let mut excluded = if k > 1 { vec![false; n] } else { Vec::new() };
-        let is_excluded = |ex: &[bool], i: usize| !ex.is_empty() && ex[i];
-        // `order[..next]` are resolved or were excluded when reached (exclusion never ends).
-        let mut next = 0;
-        let mut heap: BinaryHeap<Reverse<(TotalF64, usize)>> = BinaryHeap::new();
-        let mut out = Vec::with_capacity(k);
-        while out.len() < k {
-            while let Some(Reverse((_, i))) = heap.peek() {
-                if is_excluded(&excluded, *i) {
-                    heap.pop();
-                } else {
-                    break;
-                }
-            }
-            if heap.is_empty() {
-                while next < n && is_excluded(&excluded, order[next]) {
-                    next += 1;
-                }
-                // NaN or +inf FFT values are never a match (as no finite input makes them)
-                if next == n || map[order[next]].is_nan() || map[order[next]] == f64::INFINITY {
-                    break;
-                }
-                let i = order[next];
-                next += 1;
-                heap.push(Reverse((TotalF64(exact(i)), i)));
-            }
-            loop {
-                let top = heap.peek().map_or(f64::NAN, |Reverse((e, _))| e.0);
-                let thr = top + bound;
-                let mut batch = Vec::new();
-                while next < n && map[order[next]] <= thr {
-                    let i = order[next];
-                    next += 1;
-                    if !is_excluded(&excluded, i) {
-                        batch.push(i);
-                    }
-                }
-                if batch.is_empty() {
-                    break;
-                }
-                let vals: Vec<f64> = if batch.len() >= 64 {
-                    batch.par_iter().map(|&i| exact(i)).collect()
-                } else {
-                    batch.iter().map(|&i| exact(i)).collect()
-                };
-                heap.extend(
-                    batch
-                        .into_iter()
-                        .zip(vals)
-                        .map(|(i, e)| Reverse((TotalF64(e), i))),
-                );
-            }
-            let Some(Reverse((TotalF64(e), i))) = heap.pop() else {
-                break;
-            };
-            let (row, col) = (i / mw, i % mw);
-            out.push(Match { row, col, ssd: e });
-            if k > 1 {
-                for yy in row.saturating_sub(r)..=row.saturating_add(r).min(mh - 1) {
-                    let line = &mut excluded[yy * mw..(yy + 1) * mw];
-                    line[col.saturating_sub(r)..=col.saturating_add(r).min(mw - 1)].fill(true);
-                }
-            }
-        }
-        out
+        self.walk(t, mask, k, r, true)
     }
 }
 
@@ -1051,6 +989,13 @@ impl<'a> LazyOrder<'a> {
             covered: f64::NEG_INFINITY,
             left: map.len() - nan,
         }
+    }
+
+    /// The whole order at once (every translation that is not NaN; nothing left to grow).
+    fn full(map: &'a [f64]) -> Self {
+        let mut order = Self::new(map);
+        order.take_upto(f64::INFINITY);
+        order
     }
 
     /// Moves every translation with `covered < f <= c` into `sorted` (in order); `covered = c`.

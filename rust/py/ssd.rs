@@ -90,18 +90,18 @@ impl PySsdIndex {
         mask: Option<PyReadonlyArray2<'py, bool>>,
         threads: Option<usize>,
     ) -> PyResult<MatchArrays<'py>> {
-        guard("SsdIndex.best_matches", || {
-            contiguous("templates", &templates)?;
-            if let Some(m) = &mask {
-                contiguous("mask", m)?;
-            }
-            let templates = templates.as_array();
-            let mask = mask.as_ref().map(|m| m.as_array());
-            let found = run(py, threads, || {
-                ssd::best_matches_many(&self.inner, templates, mask, k, exclude_radius)
-            })?;
-            Ok(pack_matches(py, found))
-        })
+        let how = ssd::best_matches_many;
+        matches_of(
+            "SsdIndex.best_matches",
+            py,
+            &self.inner,
+            templates,
+            k,
+            exclude_radius,
+            mask,
+            threads,
+            how,
+        )
     }
 }
 
@@ -144,7 +144,43 @@ fn _best_matches_sorting<'py>(
     mask: Option<PyReadonlyArray2<'py, bool>>,
     threads: Option<usize>,
 ) -> PyResult<MatchArrays<'py>> {
-    guard("_best_matches_sorting", || {
+    let how = ssd::best_matches_many_sorting;
+    matches_of(
+        "_best_matches_sorting",
+        py,
+        &index.inner,
+        templates,
+        k,
+        exclude_radius,
+        mask,
+        threads,
+        how,
+    )
+}
+
+/// The core function of a best-matches call: index, templates, mask, k, exclusion radius.
+type MatchesFn = fn(
+    &ssd::SsdIndex,
+    ndarray::ArrayView4<f32>,
+    Option<ndarray::ArrayView2<bool>>,
+    usize,
+    usize,
+) -> crate::error::Result<Vec<Vec<ssd::Match>>>;
+
+/// Both best-matches bindings: borrow, run `how` without the GIL, pack the result.
+#[allow(clippy::too_many_arguments)]
+fn matches_of<'py>(
+    what: &str,
+    py: Python<'py>,
+    index: &ssd::SsdIndex,
+    templates: PyReadonlyArray4<'py, f32>,
+    k: usize,
+    exclude_radius: usize,
+    mask: Option<PyReadonlyArray2<'py, bool>>,
+    threads: Option<usize>,
+    how: MatchesFn,
+) -> PyResult<MatchArrays<'py>> {
+    guard(what, || {
         contiguous("templates", &templates)?;
         if let Some(m) = &mask {
             contiguous("mask", m)?;
@@ -152,7 +188,7 @@ fn _best_matches_sorting<'py>(
         let templates = templates.as_array();
         let mask = mask.as_ref().map(|m| m.as_array());
         let found = run(py, threads, || {
-            ssd::best_matches_many_sorting(&index.inner, templates, mask, k, exclude_radius)
+            how(index, templates, mask, k, exclude_radius)
         })?;
         Ok(pack_matches(py, found))
     })
