@@ -510,6 +510,20 @@ def _box_sums(sat: np.ndarray, r0: np.ndarray, r1: np.ndarray, c0: np.ndarray, c
     return sat[r1, c1] - sat[r0, c1] - sat[r1, c0] + sat[r0, c0]
 
 
+def _lag_maxima(r: np.ndarray, hm: int, wm: int) -> tuple[np.ndarray, np.ndarray]:
+    """The autocorrelation ``r`` without its outer ring (``core``, lag (0, 0) at ``[hm, wm]``) and the mask of
+    its local maxima over the 8 neighbours (NaN never one, the origin excluded)."""
+    core = r[1:-1, 1:-1]
+    filled = np.where(np.isnan(r), -np.inf, r)
+    is_max = np.isfinite(core)
+    for ddy in (-1, 0, 1):
+        for ddx in (-1, 0, 1):
+            if ddy or ddx:
+                is_max &= core >= filled[1 + ddy : r.shape[0] - 1 + ddy, 1 + ddx : r.shape[1] - 1 + ddx]
+    is_max[hm, wm] = False
+    return core, is_max
+
+
 def autocorrelation(image: np.ndarray, max_dy: int, max_dx: int) -> np.ndarray:
     """r(dy, dx) of the module docstring for |dy| <= max_dy, |dx| <= max_dx: ``(2·max_dy+1, 2·max_dx+1)``."""
     x = as_image(image).astype(np.float64)
@@ -551,14 +565,7 @@ def repetition(image: np.ndarray) -> Repetition:
         raise ShapeError(f"image is {w}x{h}: repetition needs at least 4x4 pixels")
     hm, wm = h // 2, w // 2
     r = autocorrelation(img, hm + 1, wm + 1)  # one ring more, so every candidate has its 8 neighbours
-    core = r[1:-1, 1:-1]
-    filled = np.where(np.isnan(r), -np.inf, r)
-    is_max = np.isfinite(core)
-    for ddy in (-1, 0, 1):
-        for ddx in (-1, 0, 1):
-            if ddy or ddx:
-                is_max &= core >= filled[1 + ddy : r.shape[0] - 1 + ddy, 1 + ddx : r.shape[1] - 1 + ddx]
-    is_max[hm, wm] = False
+    core, is_max = _lag_maxima(r, hm, wm)
     if not is_max.any():
         return Repetition(peak=None, offset=None, max_offset=(hm, wm), correlation=core)
     ys, xs = np.nonzero(is_max)
@@ -701,14 +708,7 @@ def _autocorr_peaks(x: np.ndarray, count: int) -> tuple[list[tuple[int, int]], l
     h, w = x.shape
     hm, wm = h // 2, w // 2
     r = autocorrelation(unit.astype(np.float32)[..., None], hm + 1, wm + 1)
-    core = r[1:-1, 1:-1]
-    filled = np.where(np.isnan(r), -np.inf, r)
-    is_max = np.isfinite(core)
-    for ddy in (-1, 0, 1):
-        for ddx in (-1, 0, 1):
-            if ddy or ddx:
-                is_max &= core >= filled[1 + ddy : r.shape[0] - 1 + ddy, 1 + ddx : r.shape[1] - 1 + ddx]
-    is_max[hm, wm] = False
+    core, is_max = _lag_maxima(r, hm, wm)
     ys, xs = np.nonzero(is_max)
     dys, dxs = ys - hm, xs - wm
     keep = (dys > 0) | ((dys == 0) & (dxs > 0))  # one of each ±d
