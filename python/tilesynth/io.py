@@ -458,15 +458,23 @@ def _orient(orientation: int, arr: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(op(arr)) if op else arr
 
 
+def check_writable(path: str | os.PathLike[str], label: str = "output") -> Path:
+    """Raise :class:`ParameterError` (naming ``label``) unless ``path`` can be written as a file: its directory
+    exists and it is not a directory. Returns the directory."""
+    target = Path(path)
+    parent = target.parent if str(target.parent) else Path(".")
+    if not parent.is_dir():
+        raise ParameterError(f"{label} = {str(target)!r}: directory {str(parent)!r} does not exist")
+    if target.is_dir():
+        raise ParameterError(f"{label} = {str(target)!r}: is a directory, expected a file name")
+    return parent
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path next to ``path``; on success move it into place, on any error remove it."""
     target = Path(path)
-    parent = target.parent if str(target.parent) else Path(".")
-    if not parent.is_dir():
-        raise ParameterError(f"output = {str(target)!r}: directory {str(parent)!r} does not exist")
-    if target.is_dir():
-        raise ParameterError(f"output = {str(target)!r}: is a directory, expected a file name")
+    parent = check_writable(target)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=parent)
     os.close(fd)
     tmp_path = Path(tmp)

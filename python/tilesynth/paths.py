@@ -107,15 +107,11 @@ def check_output(label: str, path: str | os.PathLike[str], kind: str = "file") -
     exists, it is not a directory, and an image output has an extension Pillow writes."""
     if kind not in OUTPUT_KINDS:
         raise ValueError(f"kind = {kind!r}: expected one of {OUTPUT_KINDS}")
-    p = Path(path)
-    parent = p.parent if str(p.parent) else Path(".")
-    if not parent.is_dir():
-        raise ParameterError(f"{label} = {str(p)!r}: directory {str(parent)!r} does not exist")
-    if p.is_dir():
-        raise ParameterError(f"{label} = {str(p)!r}: is a directory, expected a file name")
-    if kind == "image" and p.suffix.lower() != ".exr":  # .exr: written by tilesynth's own OpenEXR codec
-        from .io import _format_for
+    from .io import _format_for, check_writable
 
+    p = Path(path)
+    check_writable(p, label)
+    if kind == "image" and p.suffix.lower() != ".exr":  # .exr: written by tilesynth's own OpenEXR codec
         try:
             _format_for(p)
         except ParameterError as exc:
