@@ -508,10 +508,10 @@ def _check_output_dir(path: str) -> None:
 
 
 def _map_output(output: str, map_path: str, dtype: np.dtype) -> Path:
-    """``OUT-<map stem>.png`` next to ``output`` (``.npy`` for float maps)."""
-    out = Path(output)
-    ext = ".exr" if Path(map_path).suffix.lower() == ".exr" else ".npy" if dtype == np.float32 else ".png"
-    return out.with_name(f"{out.stem}-{Path(map_path).stem}{ext}")
+    """``OUT-<map stem>.png`` next to ``output`` (:func:`tilesynth.paths.map_output`)."""
+    from .paths import map_output
+
+    return map_output(output, map_path, dtype)
 
 
 def _synth(

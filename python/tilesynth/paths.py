@@ -118,13 +118,24 @@ def check_output(label: str, path: str | os.PathLike[str], kind: str = "file") -
             raise ParameterError(str(exc).replace("output = ", f"{label} = ", 1)) from None
 
 
-def _with_output(output: str, map_path: str) -> Path:
-    """The file ``synth --with MAP`` writes (``OUT-<map stem>.png``, ``.npy`` for a float32 ``.npy`` map);
-    the dtype of an ``.npy`` map is read from its header only."""
-    ext = ".exr" if Path(map_path).suffix.lower() == ".exr" else ".png"
-    if Path(map_path).suffix.lower() == ".npy":
-        import numpy as np
+def map_output(output: str, map_path: str, dtype: Any) -> Path:
+    """``OUT-<map stem>.png`` next to ``output`` for a ``synth --with`` map (``.exr`` for an EXR map, ``.npy``
+    for a float32 one): the one naming rule of the CLI and of the path check."""
+    import numpy as np
 
+    out = Path(output)
+    suffix = Path(map_path).suffix.lower()
+    ext = ".exr" if suffix == ".exr" else ".npy" if np.dtype(dtype) == np.float32 else ".png"
+    return out.with_name(f"{out.stem}-{Path(map_path).stem}{ext}")
+
+
+def _with_output(output: str, map_path: str) -> Path:
+    """The file ``synth --with MAP`` writes (:func:`map_output`); the dtype of an ``.npy`` map is read from its
+    header only (other maps are not float32 .npy, so any non-float dtype names them the same)."""
+    import numpy as np
+
+    dtype: Any = np.uint8
+    if Path(map_path).suffix.lower() == ".npy":
         try:
             with open(map_path, "rb") as fh:
                 version = np.lib.format.read_magic(fh)
@@ -134,12 +145,9 @@ def _with_output(output: str, map_path: str) -> Path:
                     else np.lib.format.read_array_header_2_0
                 )
                 _, _, dtype = read(fh)
-            if np.dtype(dtype) == np.float32:
-                ext = ".npy"
         except (OSError, ValueError, SyntaxError, TypeError):
             pass  # an unreadable map is refused later by load_raster, before anything is written
-    out = Path(output)
-    return out.with_name(f"{out.stem}-{Path(map_path).stem}{ext}")
+    return map_output(output, map_path, dtype)
 
 
 def command_paths(args: Any) -> tuple[list[tuple[str, Any]], list[tuple[str, Any, str]]]:
@@ -202,4 +210,4 @@ def check_command(args: Any) -> None:
     check_paths(ins, outs)
 
 
-__all__ = ["check_command", "check_output", "check_paths", "command_paths", "file_identity"]
+__all__ = ["map_output", "check_command", "check_output", "check_paths", "command_paths", "file_identity"]
