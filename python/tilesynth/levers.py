@@ -119,24 +119,25 @@ def diverse_matches(
     u = inter.shape[0]
     chosen = np.zeros((u, n_variants, 2), np.int64)
     chosen_d = np.zeros((u, n_variants))
-    used: list[tuple[int, int]] = []
+    used = np.zeros((u * n_variants, 2), np.int64)  # the offsets assigned so far: used[:m]
+    m = 0
     radius = n // 2
     for v in range(n_variants):
         for t in np.argsort(ssd[:, min(v, ssd.shape[1] - 1)], kind="stable"):
-            taken = {tuple(chosen[t, w]) for w in range(v)}
-            best, best_uses = None, None
-            for j in range(offsets.shape[1]):
-                r, c = (int(x) for x in offsets[t, j])
-                if (r, c) in taken:
-                    continue
-                uses = sum(1 for (ur, uc) in used if max(abs(ur - r), abs(uc - c)) <= radius)
-                if uses < max_uses:
-                    best, best_uses = j, uses
-                    break
-                if best_uses is None or uses < best_uses:
-                    best, best_uses = j, uses
-            assert best is not None
-            chosen[t, v] = offsets[t, best]
+            cand = offsets[t]  # (J, 2), nearest first
+            free = ~(cand[:, None, :] == chosen[t, None, :v, :]).all(axis=2).any(axis=1)  # not a variant yet
+            # uses of each candidate's region: assigned offsets within `radius` (Chebyshev), all at once
+            uses = (np.abs(cand[:, None, :] - used[None, :m, :]).max(axis=2) <= radius).sum(axis=1)
+            ok = free & (uses < max_uses)
+            # the first candidate under the bound, else the first of the least used
+            best = (
+                int(np.argmax(ok))
+                if ok.any()
+                else int(np.argmin(np.where(free, uses, np.iinfo(np.int64).max)))
+            )
+            assert free[best]
+            chosen[t, v] = cand[best]
             chosen_d[t, v] = ssd[t, best]
-            used.append((int(offsets[t, best, 0]), int(offsets[t, best, 1])))
+            used[m] = cand[best]
+            m += 1
     return chosen, chosen_d
