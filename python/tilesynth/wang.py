@@ -60,10 +60,15 @@ corner pixels always take the horizontal-edge sample. With **pinned** corners th
 corner pixel and never touches the other edges, so every edge pixel shows its own edge's sample and adjacent
 tiles continue each other's exemplar content across every shared edge, except the two pixel pairs at the ends
 of every vertical edge, where four samples meet (the junction every Wang tiling has at tile corners). With
-**free** corners (Cohen's construction, the default for diamonds) the band runs on past the corner by w, as
+**free** corners (Cohen's literal construction, ``corners="free"``) the band runs on past the corner by w, as
 the overlap of Cohen's diamonds does, the path ends anywhere on its last line and the tile is cropped: the cut
 generally crosses the tile edge a few pixels from the corner, and there the edge shows the wrong sample —
 004's *corner problem*, measured by :func:`corner_mismatch`.
+
+**Pinned is the default** (issue 14) because a demanding user expects tile borders to be invisible: measured by
+``benches/seams.py`` (``benches/seams-results.md``), free corners leave 10-12 % of the pixel pairs across tile
+borders discontinuous and a border seam score well above 1, pinned corners only the junction pairs at the ends
+of every vertical edge. ``corners="free"`` stays available for the literal construction of Cohen et al.
 
 **Choices where the papers are silent or garbled.** (1) The four cuts all start at the tile centre, so the
 four regions are well defined without Cohen's sequential compositing (the joint problem of 004 is then a
@@ -115,9 +120,10 @@ from ._validate import as_image, positive_int
 from .errors import ParameterError
 from .genes import LAMBDA, energy
 from .options import BuildOptions, Progress, SeedLike, common_options
-from .select import GA_DEFAULTS, Evaluate, choose_genes
+from .select import GA_DEFAULTS, Evaluate, choose_genes, wants_selection
 from .stages.compose import finish_tileset, offset_source, patch_gradients, patches_at
 from .tilefile import TileSet
+from .wangborders import DEFAULT_BORDER_TRIES, border_aware_genes, check_border_tries
 from .wangsets import WangTileSet, get_wang_tileset
 
 __all__ = [
@@ -284,7 +290,9 @@ def wang_options(
             )
         corners, ov = "pinned", n
     else:
-        corners = "free" if corners is None else corners
+        # issue 14: pinned by default (Cohen's free corners leave ~11 % of the border pairs discontinuous and a
+        # border seam score of 1.4-2.5 on photos, benches/seams.py); "free" stays for the literal construction.
+        corners = "pinned" if corners is None else corners
         if corners not in ("free", "pinned"):
             raise ParameterError(f"corners = {corners!r}: must be 'free' or 'pinned'")
         ov = default_overlap(n) if overlap is None else positive_int(overlap, "overlap", minimum=2)
@@ -309,6 +317,27 @@ def wang_evaluator(b: BuildOptions, o: WangOptions, tile_patches: np.ndarray) ->
     return lambda g: ev.evaluate(g, b.threads)
 
 
+def _border_draws(
+    b: BuildOptions,
+    genes: Any,
+    select: Any,
+    polish: Any,
+    select_params: Any,
+    genes_arr: np.ndarray,
+    sel: dict[str, Any],
+    sample_size: int,
+    tries: int,
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """The border-aware random draw of both Wang schemes (:func:`tilesynth.wangborders.border_aware_genes`):
+    only when the genes were one random draw; ``tries`` = 1 keeps that draw (and records nothing)."""
+    if genes is not None or tries == 1 or wants_selection(select, polish, select_params):
+        return genes_arr, sel
+    g, rec = border_aware_genes(
+        b.exemplar, genes_arr, len(b.definition.horizontal), b.tile_size, sample_size, b.rng, tries
+    )
+    return g, {**sel, **rec}
+
+
 def _sum4(values: np.ndarray) -> np.ndarray:
     """Per tile, the sum of its four cuts' values in the evaluator's order (bit-identical to it)."""
     return np.array([((s[0] + s[1]) + s[2]) + s[3] for s in values.tolist()], dtype=np.float64)
@@ -328,6 +357,7 @@ def build_wang(
     corners: str | None = None,
     samples: str = "diamond",
     cut: str = "dp",
+    border_tries: int = DEFAULT_BORDER_TRIES,
     genes: np.ndarray | None = None,
     seed: SeedLike = None,
     threads: int | None = None,
@@ -351,11 +381,18 @@ def build_wang(
     tile_size : N, even; default half the exemplar's shorter side (at most 256).
     overlap : width of the band between two diamonds (even, >= 2); default N/4 rounded down to even.
         Not used with ``samples="square"``.
-    corners : "free" (Cohen: the cut runs past the corner, default for diamonds) or "pinned" (the cut ends at
-        the corner pixel: edges match exactly; the only choice for square samples).
+    corners : "pinned" (default: the cut ends at the corner pixel, so every edge pixel shows its own edge's
+        sample and neighbouring tiles continue each other's exemplar content across every shared edge; the only
+        choice for square samples) or "free" (Cohen's literal construction: the cut runs on past the corner and
+        may cross the tile edge near it, 004's corner problem; about 11 % of the pixel pairs across tile
+        borders are then seams, border seam score 1.2-2.3 on the photos of ``benches/seams.py``).
     samples : "diamond" (Cohen, default) or "square" (Burke, 002 §2: N x N squares overlapping on whole
         quadrants).
     cut : "dp" (Efros–Freeman dynamic programming, default) or "graph" (min-cut with Kwatra weights).
+    border_tries : with random samples (no ``genes``, ``select`` None or "random"), the number of random gene
+        vectors drawn; the one whose tile borders fall on the quietest exemplar lines (smallest predicted border
+        seam, :mod:`tilesynth.wangborders`) is kept. Default 16; 1 is Cohen's single random draw
+        (``corners="free", border_tries=1`` is the literal construction of Cohen et al.).
     genes : optional ``(n, 2)`` top-left corners of the P x P sample squares, in the order of the set's colours
         (horizontal, then vertical); P = :func:`sample_size`.
     seed : seed of the random choices (recorded; None draws one).
@@ -380,6 +417,7 @@ def build_wang(
         progress=progress, exemplar_info=exemplar_info,
     )  # fmt: skip
     o = wang_options(b, overlap=overlap, corners=corners, samples=samples, cut=cut, omega=omega, eps=eps)
+    tries = check_border_tries(border_tries)
     defn, n = b.definition, b.tile_size
     tile_patches = defn.sample_indices()
     genes_arr, sel = choose_genes(
@@ -388,6 +426,9 @@ def build_wang(
         generations=generations, population=population, select_params=select_params, selection=selection,
         ga_defaults=GA_001, progress=b.progress,
     )  # fmt: skip
+    genes_arr, sel = _border_draws(
+        b, genes, select, polish, select_params, genes_arr, sel, o.sample_size, tries
+    )
     t_sel = time.perf_counter()
     b.report("cuts", 0, 1)
     labels, stats = kernels.wang_tiles(
@@ -400,7 +441,7 @@ def build_wang(
     params = {
         "set": defn.name, "tile_size": n, "samples": o.samples, "overlap": o.overlap, "sample_size": o.sample_size,
         "corners": o.corners, "cut": o.cut, "omega": o.omega, "eps": float(o.eps), "seed": b.seed,
-        "selection": sel,
+        "selection": sel, "border_tries": tries,
     }  # fmt: skip
     return finish_tileset(
         scheme="wang", definition=defn, exemplar=b.exemplar, tiles=b.exemplar[source[..., 0], source[..., 1]],
@@ -553,6 +594,7 @@ def build_swang(
     genes: np.ndarray | None = None,
     supplementary: str | np.ndarray = "ssd",
     candidates: int = 8,
+    border_tries: int = DEFAULT_BORDER_TRIES,
     seed: SeedLike = None,
     threads: int | None = None,
     eps: float = kernels.DEFAULT_EPS,
@@ -580,6 +622,8 @@ def build_swang(
         closed cut is cheapest: closer to 004's "most suitable sub-images using graph cut"), or an int
         ``(K, 2)`` array of top-left corners, one per tile.
     candidates : number of candidates of ``supplementary="cut"``.
+    border_tries : with random samples, the number of random gene vectors drawn, the one with the smallest
+        predicted border seam kept (as for :func:`build_wang`; default 16, 1 = a single random draw).
     seed, threads, eps : as for :func:`tilesynth.build_omega`.
     gradients : "patch" (default: gradients of the samples, through the provenance) or "tile" (of the
         assembled initial tile) in the Kwatra weight, as for ω-tiles.
@@ -596,6 +640,7 @@ def build_swang(
         progress=progress, exemplar_info=exemplar_info,
     )  # fmt: skip
     o = swang_options(b, supplementary=supplementary, candidates=candidates, gradients=gradients, eps=eps)
+    tries = check_border_tries(border_tries)
     ex, defn, n = b.exemplar, b.definition, b.tile_size
     k, tile_patches = len(defn), defn.sample_indices()
     genes_arr, sel = choose_genes(
@@ -604,6 +649,7 @@ def build_swang(
         select=select, polish=polish, generations=generations, population=population,
         select_params=select_params, selection=selection, ga_defaults=GA_DEFAULTS, progress=b.progress,
     )  # fmt: skip
+    genes_arr, sel = _border_draws(b, genes, select, polish, select_params, genes_arr, sel, n, tries)
     t_sel = time.perf_counter()
     b.report("initial tiles", 0, 1)
     I_tiles, I_src, I_lab = _initial_tiles(ex, genes_arr, tile_patches, n)
@@ -622,7 +668,7 @@ def build_swang(
     params = {
         "set": defn.name, "tile_size": n, "sample_size": n, "samples": "diamond", "supplementary": o.method,
         "candidates": o.candidates if o.method == "cut" else None, "eps": float(o.eps), "gradients": o.gradients,
-        "lambda": LAMBDA, "match": "ssd", "seed": b.seed, "selection": sel,
+        "lambda": LAMBDA, "match": "ssd", "seed": b.seed, "selection": sel, "border_tries": tries,
     }  # fmt: skip
     return finish_tileset(
         scheme="swang", definition=defn, exemplar=ex, tiles=ex[source[..., 0], source[..., 1]], source=source,

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..wang import build_swang
-from .base import Option, Scheme, lambda_energy_line
+from .base import Option, Scheme, lambda_energy_line, positive_int_text
 from .common import GRADIENTS
 
 
@@ -28,6 +28,13 @@ SCHEME = Scheme(
             "the supplementary patch with the smallest SSD to the initial "
             "tile (default), or the one with the cheapest closed cut among the 8 best SSD candidates",
             choices=("ssd", "cut"),
+        ),
+        Option(
+            "border_tries",
+            "--border-tries",
+            "random sample sets drawn, the one whose tile borders fall on the quietest exemplar lines kept "
+            "(default 16; 1: a single random draw)",
+            cli_type=positive_int_text,
         ),
     ),
     describe=_describe,

@@ -40,9 +40,16 @@ SCHEME = Scheme(
         Option(
             "corners",
             "--corners",
-            "free (Cohen: the cut may miss the corner; default for diamonds) or pinned "
-            "(the cut ends at the corner, edges match exactly)",
+            "pinned (default: the cut ends at the corner, edges match exactly) or free (Cohen's literal "
+            "construction: the cut may miss the corner, visible seams near the tile corners)",
             choices=("free", "pinned"),
+        ),
+        Option(
+            "border_tries",
+            "--border-tries",
+            "random sample sets drawn, the one whose tile borders fall on the quietest exemplar lines kept "
+            "(default 16; 1: a single random draw, with --corners free Cohen's literal construction)",
+            cli_type=positive_int_text,
         ),
         Option(
             "samples",
