@@ -152,7 +152,7 @@ def test_ga_from_the_cli(exemplar_png, tmp_path, capsys):
         (["--scheme", "wang", "--gradients", "tile"], "--gradients: not used with --scheme wang"),
         (["--scheme", "wang", "--overlap", "5"], "overlap = 5: must be even"),
         (["--scheme", "wang", "--samples", "square", "--corners", "free"], "square samples"),
-        (["--scheme", "wang", "--tile-size", "90"], "sample squares"),
+        (["--scheme", "wang", "--tile-size", "90", "--corners", "free"], "sample squares"),
         (["--scheme", "hex"], "invalid choice"),
     ],
 )
@@ -176,18 +176,32 @@ def test_bad_input_is_one_line_exit_2_no_output(args, words, exemplar_png, tmp_p
 # the platform or the thread count. To update on purpose: rerun with TILESYNTH_PRINT_GOLDEN=1, look at the
 # sheets, paste the printed hashes and say why in the CHANGELOG.
 
+# Issue 14 changed the defaults of both Wang schemes (pinned corners, border-aware random draws: border_tries=16),
+# so the three digests of the defaults changed once; the "-literal" entries build the old defaults by name
+# (corners="free", border_tries=1; s-Wang border_tries=1) and keep the digests from before, byte for byte.
 GOLDEN = {
-    "swang": ("392ddd221fcd38011c88b3c9", "d70990fa7e340ef28acdfcce"),
-    "wang-dp": ("1e40980721572d0846fd33d9", "a562c8d1bbcf21d8406af12e"),
-    "wang-graph": ("e2b6d0c574df4e29fa7140a9", "8b94266948d53e7008ef3404"),
+    "swang": ("477e1d14a7c58532aaca5992", "4ce46128f73672be436f948b"),
+    "wang-dp": ("7e5bf76a84c7bee48421664d", "fcccb6aba5b08390c9b24bcb"),
+    "wang-graph": ("77c895cd5bb934deab7a6230", "6123c7355d654560c3f5f0bf"),
+    "swang-literal": ("392ddd221fcd38011c88b3c9", "d70990fa7e340ef28acdfcce"),
+    "wang-dp-literal": ("1e40980721572d0846fd33d9", "a562c8d1bbcf21d8406af12e"),
+    "wang-graph-literal": ("e2b6d0c574df4e29fa7140a9", "8b94266948d53e7008ef3404"),
 }
 
+_COHEN = {"corners": "free", "border_tries": 1}
 GOLDEN_BUILDS = {
     "wang-dp": lambda ex, t: tilesynth.build_wang(ex, tile_size=32, seed=2026, threads=t),
     "wang-graph": lambda ex, t: tilesynth.build_wang(
         ex, tileset="wang18", tile_size=32, seed=2026, cut="graph", threads=t
     ),
     "swang": lambda ex, t: tilesynth.build_swang(ex, tile_size=32, seed=2026, threads=t),
+    "wang-dp-literal": lambda ex, t: tilesynth.build_wang(ex, tile_size=32, seed=2026, threads=t, **_COHEN),
+    "wang-graph-literal": lambda ex, t: tilesynth.build_wang(
+        ex, tileset="wang18", tile_size=32, seed=2026, cut="graph", threads=t, **_COHEN
+    ),
+    "swang-literal": lambda ex, t: tilesynth.build_swang(
+        ex, tile_size=32, seed=2026, threads=t, border_tries=1
+    ),
 }
 
 

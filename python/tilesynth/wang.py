@@ -391,7 +391,7 @@ def build_wang(
     cut : "dp" (Efros–Freeman dynamic programming, default) or "graph" (min-cut with Kwatra weights).
     border_tries : with random samples (no ``genes``, ``select`` None or "random"), the number of random gene
         vectors drawn; the one whose tile borders fall on the quietest exemplar lines (smallest predicted border
-        seam, :mod:`tilesynth.wangborders`) is kept. Default 16; 1 is Cohen's single random draw
+        seam, :mod:`tilesynth.wangborders`) is kept. Default 32; 1 is Cohen's single random draw
         (``corners="free", border_tries=1`` is the literal construction of Cohen et al.).
     genes : optional ``(n, 2)`` top-left corners of the P x P sample squares, in the order of the set's colours
         (horizontal, then vertical); P = :func:`sample_size`.
@@ -623,7 +623,7 @@ def build_swang(
         ``(K, 2)`` array of top-left corners, one per tile.
     candidates : number of candidates of ``supplementary="cut"``.
     border_tries : with random samples, the number of random gene vectors drawn, the one with the smallest
-        predicted border seam kept (as for :func:`build_wang`; default 16, 1 = a single random draw).
+        predicted border seam kept (as for :func:`build_wang`; default 32, 1 = a single random draw).
     seed, threads, eps : as for :func:`tilesynth.build_omega`.
     gradients : "patch" (default: gradients of the samples, through the provenance) or "tile" (of the
         assembled initial tile) in the Kwatra weight, as for ω-tiles.

@@ -33,7 +33,7 @@ SCHEME = Scheme(
             "border_tries",
             "--border-tries",
             "random sample sets drawn, the one whose tile borders fall on the quietest exemplar lines kept "
-            "(default 16; 1: a single random draw)",
+            "(default 32; 1: a single random draw)",
             cli_type=positive_int_text,
         ),
     ),

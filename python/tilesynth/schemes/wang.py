@@ -48,7 +48,7 @@ SCHEME = Scheme(
             "border_tries",
             "--border-tries",
             "random sample sets drawn, the one whose tile borders fall on the quietest exemplar lines kept "
-            "(default 16; 1: a single random draw, with --corners free Cohen's literal construction)",
+            "(default 32; 1: a single random draw, with --corners free Cohen's literal construction)",
             cli_type=positive_int_text,
         ),
         Option(
