@@ -130,42 +130,70 @@ def fmt(v: float | None, spec: str = ".3f") -> str:
     return "–" if v is None else format(v, spec)
 
 
+SHORT = {
+    "omega default (c4)": "ω c4",
+    "patch default (16a)": "patch 16a",
+    "wang wang8 free, 1 try (Cohen, before)": "Wang-8 before",
+    "wang wang8 pinned, 1 try": "Wang-8 pinned only",
+    "wang default (wang8)": "Wang-8 after",
+    "wang wang18 free, 1 try (Cohen, before)": "Wang-18 before",
+    "wang wang18 pinned, 1 try": "Wang-18 pinned only",
+    "wang wang18 default": "Wang-18 after",
+    "wang wc2 free, 1 try (Cohen, before)": "wc2 before",
+    "wang wc2 pinned, 1 try": "wc2 pinned only",
+    "wang wc2 default": "wc2 after",
+    "swang wang8 1 try (before)": "s-Wang-8 before",
+    "swang default (wang8)": "s-Wang-8 after",
+}
+"""Column names of the Markdown tables, in their order (before, pinned only, after for each Wang scheme)."""
+
+
 def markdown(rows: list[dict[str, Any]], labels: list[str], meta: dict[str, Any]) -> str:
     texs = list(dict.fromkeys(r["texture"] for r in rows))
     by = {(r["texture"], r["variant"]): r for r in rows}
+    cols = [lab for lab in SHORT if lab in labels] + [lab for lab in labels if lab not in SHORT]
+    head = "| texture | class | " + " | ".join(SHORT.get(c, c) for c in cols) + " |"
+    rule = "|---|---|" + "---|" * len(cols)
     out = [
         "# Border and cut seams of every scheme (benches/seams.py)",
         "",
-        f"Machine: {meta['machine']}; {meta['note']}",
-        f"Synthesis {meta['size']}x{meta['size']} (tiling seed 7), tile sets seed 1, exemplars cropped to "
-        f"{meta['crop']}x{meta['crop']} when larger; tile size: each scheme's default.",
-        "",
-        "Each cell: border seam score / cut seam score / share of border pixel pairs that are discontinuous.",
+        f"Machine: {meta['machine']}; {meta['note']}.",
+        f"Synthesis {meta['size']}x{meta['size']} (tiling seed 7), tile sets seed 1, exemplars cropped to their "
+        f"central {meta['crop']}x{meta['crop']} when larger; tile size: each scheme's default (half the shorter "
+        "side, a quarter for ω's complete set c4). *before*: the old Wang defaults (Cohen's free corners, one "
+        "random draw; s-Wang one random draw); *pinned only*: pinned corners, one random draw; *after*: the "
+        "defaults now (pinned corners, 32 border-aware draws). ω c4 and patch are unchanged (ω's defaults are "
+        "issue 12's).",
         "",
     ]
-    out.append("| texture | class | " + " | ".join(labels) + " |")
-    out.append("|---|---|" + "---|" * len(labels))
-    for t in texs:
-        cells = []
-        for lab in labels:
-            r = by.get((t, lab))
-            cells.append(
-                "–"
-                if r is None
-                else f"{fmt(r['border'], '.2f')} / {fmt(r['cut'], '.2f')} / {100 * r['disc']:.1f} %"
-            )
-        cls = next(r["class"] for r in rows if r["texture"] == t)
-        out.append(f"| {t.removesuffix('.png')} | {cls} | " + " | ".join(cells) + " |")
-    out += ["", "Border seam score, range over the textures (target: ≤ 1.0 for every scheme's default):", ""]
-    out.append("| variant | min | median | max | textures > 1.0 |")
+    for key, title, spec in (
+        ("border", "Border seam score (1 = tile borders like any other step; target ≤ 1.0)", ".2f"),
+        ("cut", "Cut seam score of the tile set (steps across the cuts inside the tiles)", ".2f"),
+        (
+            "disc",
+            "Share of the pixel pairs across tile borders that are not continuous exemplar content",
+            "%",
+        ),
+    ):
+        out += [f"## {title}", "", head, rule]
+        for t in texs:
+            cells = []
+            for c in cols:
+                r = by.get((t, c))
+                v = None if r is None else r[key]
+                cells.append("–" if v is None else (f"{100 * v:.1f} %" if spec == "%" else format(v, spec)))
+            cls = next(r["class"] for r in rows if r["texture"] == t)
+            out.append(f"| {t.removesuffix('.png')} | {cls} | " + " | ".join(cells) + " |")
+        out.append("")
+    out += ["## Border seam score over the textures", "", "| variant | min | median | max | textures > 1.0 |"]
     out.append("|---|---|---|---|---|")
-    for lab in labels:
-        v = [by[(t, lab)]["border"] for t in texs if (t, lab) in by]
+    for c in cols:
+        v = [by[(t, c)]["border"] for t in texs if (t, c) in by]
         if not v:
             continue
-        over = [t.removesuffix(".png") for t in texs if (t, lab) in by and by[(t, lab)]["border"] > 1.0]
+        over = [t.removesuffix(".png") for t in texs if (t, c) in by and by[(t, c)]["border"] > 1.0]
         out.append(
-            f"| {lab} | {min(v):.2f} | {float(np.median(v)):.2f} | {max(v):.2f} | "
+            f"| {SHORT.get(c, c)} | {min(v):.2f} | {float(np.median(v)):.2f} | {max(v):.2f} | "
             f"{len(over)}{': ' + ', '.join(over) if over else ''} |"
         )
     return "\n".join(out) + "\n"
@@ -182,7 +210,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--markdown", type=Path, default=None)
     ap.add_argument("--note", default="", help="a line about the machine's load, copied into the Markdown")
+    ap.add_argument(
+        "--from-json", type=Path, default=None, help="rewrite the Markdown of an earlier --json run"
+    )
     args = ap.parse_args(argv)
+    if args.from_json:
+        data = json.loads(args.from_json.read_text(encoding="utf-8"))
+        labels = list(dict.fromkeys(r["variant"] for r in data["rows"]))
+        md = markdown(data["rows"], labels, data["meta"])
+        print(md)
+        if args.markdown:
+            args.markdown.write_text(md, encoding="utf-8")
+        return 0
     todo = [v for v in variants() if args.only is None or args.only in v[0]]
     texs = [t for t in TEXTURES if args.texture is None or t[0] in args.texture]
     rows = []

@@ -623,6 +623,7 @@ def build_wang(d: st.DrawFn):
                 "eps",
                 "select",
                 "genes",
+                "border_tries",
             ]
         )
     )
@@ -669,7 +670,15 @@ def build_wang(d: st.DrawFn):
         for key in ("select", "generations", "population"):
             kw.pop(key, None)
         kw["genes"] = d(arrays(2, I64, (None, 2), max_side=8, lo=-1, hi=20))
+    kw.update(border_tries_kwargs(d, broken == "border_tries"))
     return ts.build_wang, (ex,), kw, ()
+
+
+def border_tries_kwargs(d: st.DrawFn, broken: bool) -> dict:
+    """``border_tries`` of the Wang schemes (issue 14): often left out, else valid, or carelessly drawn."""
+    if broken:
+        return {"border_tries": d(st.sampled_from([0, -1, 1.5, True, "8", None, 4097, 2**70, np.int64(0)]))}
+    return d(st.sampled_from([{}, {}, {"border_tries": 1}, {"border_tries": d(st.integers(1, 40))}]))
 
 
 @st.composite
@@ -689,6 +698,7 @@ def build_swang(d: st.DrawFn):
                 "gradients",
                 "select",
                 "genes",
+                "border_tries",
             ]
         )
     )
@@ -729,6 +739,7 @@ def build_swang(d: st.DrawFn):
         for key in ("select", "generations", "population"):
             kw.pop(key, None)
         kw["genes"] = d(arrays(2, I64, (None, 2), max_side=8, lo=-1, hi=16))
+    kw.update(border_tries_kwargs(d, broken == "border_tries"))
     return ts.build_swang, (ex,), kw, ()
 
 
