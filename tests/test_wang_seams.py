@@ -159,7 +159,7 @@ def test_literal_construction_is_still_available(small_exemplar, tmp_path):
     assert back.params["border_tries"] == DEFAULT_BORDER_TRIES and back.content_digest() == d.content_digest()
 
 
-@pytest.mark.parametrize("bad", [0, -3, 1.5, True, "8", None])
+@pytest.mark.parametrize("bad", [0, -3, 1.5, True, "8", None, 4097, 2**70])
 def test_border_tries_errors(bad, small_exemplar):
     with pytest.raises(tilesynth.ParameterError, match="border_tries"):
         check_border_tries(bad)
