@@ -33,7 +33,10 @@ FIGURES: dict[str, tuple[str, list[tuple[str, dict[str, Any]]]]] = {
     # name: (texture, [(scheme, builder kwargs), ...])
     "guide-wang-corners": (
         "lettuce-leaves.png",
-        [("wang", {"tileset": "wang8", "corners": "free", "border_tries": 1}), ("wang", {"tileset": "wang8"})],
+        [
+            ("wang", {"tileset": "wang8", "corners": "free", "border_tries": 1}),
+            ("wang", {"tileset": "wang8"}),
+        ],
     ),
     "guide-stochastic": ("rust.png", [("omega", {"tileset": "c4"}), ("wang", {"tileset": "wang8"})]),
     "guide-semi-structured": ("pebbles.png", [("omega", {"tileset": "c4"}), ("swang", {"tileset": "wang8"})]),
