@@ -263,6 +263,10 @@ SELECTION = Obj(
         "normalise": Bool(),
         "history": Optional(_HISTORY),
         "polish": Optional(_POLISH),
+        # the border-aware random draws of the Wang schemes (issue 14, tilesynth.wangborders)
+        "border_tries": _POS,
+        "border_seam_first": Num(nan_ok=True),
+        "border_seam_predicted": Num(nan_ok=True),
     },
 )
 
@@ -306,6 +310,7 @@ PARAMS = Obj(
         "cut_region": Str(("circle", "free")),
         "cut_bias": Num(0.0),
         "diversity": _POS,
+        "border_tries": _POS,  # the Wang schemes (issue 14)
     },
 )
 

@@ -756,6 +756,13 @@ def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
             f"stopped by {sel.get('stop_reason', '?')}, {seconds or 0.0:.3f} s; "
             f"objective {obj} = {sel.get('objective_E', float('nan')):.6g}"
         )
+    if (
+        "border_tries" in sel
+    ):  # the Wang schemes' border-aware draws (issue 14); numbers checked by the manifest
+        lines.append(
+            f"              border-aware: best of {sel['border_tries']} random draws, predicted border seam "
+            f"{sel.get('border_seam_first', float('nan')):.3f} -> {sel.get('border_seam_predicted', float('nan')):.3f}"
+        )
     pol = sel.get("polish")
     if pol:
         lines.append(
