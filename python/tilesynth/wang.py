@@ -66,9 +66,10 @@ generally crosses the tile edge a few pixels from the corner, and there the edge
 004's *corner problem*, measured by :func:`corner_mismatch`.
 
 **Pinned is the default** (issue 14) because a demanding user expects tile borders to be invisible: measured by
-``benches/seams.py`` (``benches/seams-results.md``), free corners leave 10-12 % of the pixel pairs across tile
-borders discontinuous and a border seam score well above 1, pinned corners only the junction pairs at the ends
-of every vertical edge. ``corners="free"`` stays available for the literal construction of Cohen et al.
+``benches/seams.py`` (``benches/seams-results.md``), free corners leave 7-13 % of the pixel pairs across tile
+borders discontinuous (border seam score 0.9-3.6 on 12 textures), pinned corners only the junction pairs at the
+ends of every vertical edge (0.8-1.6 %). Where the borders then fall in the exemplar is chosen by the
+border-aware random draws (``border_tries``, :mod:`tilesynth.wangborders`). ``corners="free"`` stays available for the literal construction of Cohen et al.
 
 **Choices where the papers are silent or garbled.** (1) The four cuts all start at the tile centre, so the
 four regions are well defined without Cohen's sequential compositing (the joint problem of 004 is then a
@@ -290,8 +291,8 @@ def wang_options(
             )
         corners, ov = "pinned", n
     else:
-        # issue 14: pinned by default (Cohen's free corners leave ~11 % of the border pairs discontinuous and a
-        # border seam score of 1.4-2.5 on photos, benches/seams.py); "free" stays for the literal construction.
+        # issue 14: pinned by default (Cohen's free corners leave 7-13 % of the border pairs discontinuous, border
+        # seam score 0.9-3.6, benches/seams-results.md); "free" stays for the literal construction.
         corners = "pinned" if corners is None else corners
         if corners not in ("free", "pinned"):
             raise ParameterError(f"corners = {corners!r}: must be 'free' or 'pinned'")
@@ -384,8 +385,8 @@ def build_wang(
     corners : "pinned" (default: the cut ends at the corner pixel, so every edge pixel shows its own edge's
         sample and neighbouring tiles continue each other's exemplar content across every shared edge; the only
         choice for square samples) or "free" (Cohen's literal construction: the cut runs on past the corner and
-        may cross the tile edge near it, 004's corner problem; about 11 % of the pixel pairs across tile
-        borders are then seams, border seam score 1.2-2.3 on the photos of ``benches/seams.py``).
+        may cross the tile edge near it, 004's corner problem; 7-13 % of the pixel pairs across tile borders
+        are then seams, border seam score 0.9-3.6 on the 12 textures of ``benches/seams.py``).
     samples : "diamond" (Cohen, default) or "square" (Burke, 002 §2: N x N squares overlapping on whole
         quadrants).
     cut : "dp" (Efros–Freeman dynamic programming, default) or "graph" (min-cut with Kwatra weights).
