@@ -674,6 +674,37 @@ def build_wang(d: st.DrawFn):
     return ts.build_wang, (ex,), kw, ()
 
 
+@st.composite
+def predicted_border_seam_call(d: st.DrawFn):
+    """tilesynth.wangborders.predicted_border_seam: valid genes of a small exemplar, or one argument careless."""
+    from tilesynth.wangborders import predicted_border_seam
+
+    broken = d(
+        st.sampled_from(["none", "none", "exemplar", "genes", "n_horizontal", "tile_size", "sample_size"])
+    )
+    ex = d(exemplars()) if broken == "exemplar" else wang_exemplar(d)
+    n = d(st.sampled_from([2, 4, 6, 8]))
+    p = n + d(st.sampled_from([0, 0, 2]))
+    k = d(st.integers(2, 6))
+    rng = np.random.default_rng(d(st.integers(0, 999)))
+    shape = np.shape(ex)
+    rows = max(shape[0] - p + 1, 1) if len(shape) >= 2 else 1
+    cols = max(shape[1] - p + 1, 1) if len(shape) >= 2 else 1
+    genes = np.stack([rng.integers(0, rows, k), rng.integers(0, cols, k)], axis=1).astype(np.int64)
+    nh = d(st.integers(1, k - 1))
+    if broken == "genes":
+        genes = d(
+            arrays(2, I64, (None, 2), max_side=8, lo=-1, hi=20) | st.sampled_from([None, "x", [[1, 2]]])
+        )
+    elif broken == "n_horizontal":
+        nh = d(sizes(-2, 8))
+    elif broken == "tile_size":
+        n = d(sizes(-2, 12))
+    elif broken == "sample_size":
+        p = d(sizes(-2, 24))
+    return predicted_border_seam, (ex, genes, nh, n, p), {}, ()
+
+
 def border_tries_kwargs(d: st.DrawFn, broken: bool) -> dict:
     """``border_tries`` of the Wang schemes (issue 14): often left out, else valid, or carelessly drawn."""
     if broken:
@@ -1289,6 +1320,7 @@ API = {
     "periodic_copies": repetition_measures,
     "detail_repetition": repetition_measures,
     "histogram_distance": histogram_distance_call,
+    "predicted_border_seam": predicted_border_seam_call,
 }
 
 NOT_FUZZED = {

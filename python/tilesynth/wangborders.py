@@ -40,8 +40,9 @@ from typing import Any
 
 import numpy as np
 
+from ._validate import as_image, positive_int
 from .errors import ParameterError
-from .genes import random_genes
+from .genes import check_genes, random_genes
 
 __all__ = [
     "DEFAULT_BORDER_TRIES",
@@ -69,9 +70,29 @@ def predicted_border_seam(
     exemplar: np.ndarray, genes: np.ndarray, n_horizontal: int, tile_size: int, sample_size: int
 ) -> float:
     """S_pred of ``genes`` (``(n, 2)`` top-left corners of the ``sample_size`` squares, the ``n_horizontal``
-    horizontal-edge colours first) for tiles of ``tile_size`` (see the module docstring)."""
-    ex = np.asarray(exemplar, dtype=np.float64)
-    return _predict(_steps(ex), ex, np.asarray(genes), n_horizontal, tile_size, sample_size)
+    horizontal-edge colours first) for tiles of ``tile_size`` (see the module docstring).
+
+    Raises ParameterError / ShapeError for a tile size that is odd, below 2 or above the sample size, a sample
+    larger than the exemplar, ``n_horizontal`` outside [1, n − 1], or genes that are not n distinct positions of
+    the sample squares inside the exemplar.
+    """
+    img = as_image(exemplar, "exemplar")
+    n = positive_int(tile_size, "tile_size", minimum=2)
+    p = positive_int(sample_size, "sample_size", minimum=2)
+    if n % 2 or n > p or (p - n) % 2:
+        raise ParameterError(
+            f"tile_size = {n}, sample_size = {p}: the tile size must be even and at most the sample size, "
+            "with an even difference"
+        )
+    g = np.asarray(genes)
+    nh = positive_int(n_horizontal, "n_horizontal")
+    if g.ndim != 2 or not 2 <= g.shape[0] or not nh < g.shape[0]:
+        raise ParameterError(
+            f"n_horizontal = {nh} with genes of shape {g.shape}: need (n, 2) genes with 1 <= n_horizontal < n"
+        )
+    g = check_genes(g, g.shape[0], img.shape, p)
+    ex = img.astype(np.float64)
+    return _predict(_steps(ex), ex, g, nh, n, p)
 
 
 def _predict(
