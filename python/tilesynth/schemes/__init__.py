@@ -55,12 +55,20 @@ def get_scheme(name: Any) -> Scheme:
     raise ParameterError(f"scheme = {name!r}: must be one of {', '.join(SCHEMES)}")
 
 
-def build(exemplar: np.ndarray, scheme: str = "omega", **kwargs: Any) -> TileSet:
+def build(exemplar: np.ndarray, scheme: str = "omega", *, maps: Any = None, **kwargs: Any) -> TileSet:
     """Build a tile set of ``scheme`` from ``exemplar``; ``kwargs`` go to the scheme's builder.
+
+    ``maps={name: array}`` (with optional ``map_kinds``, ``map_weights``, ``normal_y``) makes a material build:
+    matching and cuts on the exemplar and every map jointly, every map stored in the set
+    (:func:`tilesynth.materials.build_material`).
 
     Raises
     ------
     ParameterError
         If ``scheme`` is unknown (and whatever the builder raises for its parameters).
     """
+    if maps is not None or any(k in kwargs for k in ("map_kinds", "map_weights", "normal_y")):
+        from ..materials import build_material  # issue 14: material builds
+
+        return build_material(exemplar, scheme=scheme, maps=maps, **kwargs)
     return get_scheme(scheme).build(exemplar, **kwargs)
