@@ -71,10 +71,21 @@ def test_every_map_goes_through_the_colour_provenance():
     f = albedo[..., 1].copy()  # the green channel, as its own map (joint, weight 1)
     t = _build(albedo, {"green": f, "height": height})
     img, imap = ts.synthesize(t, 80, 72, seed=5, dtype=np.uint8)
-    out = materials.synthesize_maps(t, imap, 80, 72)
+    out = materials.synthesize_maps(t, imap, 80, 72, smooth=False)
     assert np.array_equal(out["green"][..., 0], img[..., 1])
     where = ts.source_map(t, imap, 80, 72)
     assert np.array_equal(out["height"][..., 0], height[where[..., 0], where[..., 1]])
+    # by default scalar maps are smoothed inside the cuts, and pure copies everywhere else
+    smoothed = materials.synthesize_maps(t, imap, 80, 72)["height"][..., 0]
+    inside = kernels_tile_copy(t.cut_masks[..., None].astype(np.uint8), imap, (72, 80))[..., 0] == 1
+    assert np.array_equal(smoothed[~inside], out["height"][..., 0][~inside])
+    assert not np.array_equal(smoothed[inside], out["height"][..., 0][inside])
+
+
+def kernels_tile_copy(atlas: np.ndarray, imap: np.ndarray, hw: tuple[int, int]) -> np.ndarray:
+    out = np.empty((*hw, atlas.shape[3]), atlas.dtype)
+    ts.tile_copy(np.ascontiguousarray(atlas), imap, out)
+    return out
 
 
 def test_joint_build_differs_from_colour_only_and_label_only_equals_it():

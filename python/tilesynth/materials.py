@@ -24,7 +24,10 @@ maps={...})``, ``tilesynth build EX --map height=H.png``) chooses them on every 
    regions, for ``smooth=True``).
 4. **Maps travel with the set.** Every map is stored in the tile set (``map_<name>.npy`` in its own sample type,
    with its kind and weight in ``manifest.json`` ``maps``), and :func:`synthesize_maps` lays each out through the
-   same provenance and cuts as the colour (``synth``, ``export`` and ``report`` write all of them).
+   same provenance and cuts as the colour (``synth``, ``export`` and ``report`` write all of them). Scalar and
+   normal maps are Poisson-smoothed inside the cut regions by default (:func:`smooths`: a smooth map shows the
+   level offset of two patches as a cliff that no cut avoids); ``smooth=False`` / ``--map-smooth off`` gives
+   pure copies.
 
 **Map kinds** (:data:`KINDS`), inferred from the name (:func:`infer_kind`) unless given:
 
@@ -32,8 +35,8 @@ maps={...})``, ``tilesynth build EX --map height=H.png``) chooses them on every 
 kind       meaning                                                default weight  in synthesis
 =========  =====================================================  ==============  ====================================
 colour     sRGB colour (albedo, base colour, emissive)            1               copied; smoothed with the colour
-scalar     linear data (height, roughness, metallic, AO, ...)     1               copied; smoothed with the colour
-normal     tangent-space normal, 3 channels, Y up or down         1               copied; smoothed then renormalised
+scalar     linear data (height, roughness, metallic, AO, ...)     1               smoothed inside the cuts
+normal     tangent-space normal, 3 channels, Y up or down         1               smoothed inside the cuts, renormalised
 label      mask, material ID, segmentation (any integer value)    0               exact copies, never smoothed
 =========  =====================================================  ==============  ====================================
 
@@ -75,6 +78,7 @@ __all__ = [
     "infer_kind",
     "normal_lengths",
     "renormalise_image",
+    "smooths",
     "synthesize_maps",
 ]
 
@@ -465,23 +469,45 @@ def renormalise_image(a: np.ndarray, encoding: str) -> np.ndarray:
     return _renormalise(flat, length > 0.5, encoding).reshape(a.shape)
 
 
+#: The kinds whose maps are Poisson-smoothed inside the cuts by default, even when the albedo is not.
+SMOOTH_KINDS: tuple[str, ...] = ("scalar", "normal")
+
+
+def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
+    """Whether map ``spec`` of ``tileset`` is Poisson-smoothed inside the cuts: never for labels; for
+    ``smooth=None`` (the default) when the colour tiles were smoothed, and for every scalar and normal map
+    (:data:`SMOOTH_KINDS`) of a set with matching patches. Why the maps without the albedo: the cuts of the joint
+    build make the maps agree along the cut as well as the matching allows, but a smooth map (a height field)
+    still shows the *level* offset between the two patches as a cliff along the curve (measured:
+    ``benches/materials.py``, cut seam 8-15 without smoothing, 1.5-2.5 with it), while the albedo, whose pixel
+    steps are large, hides the same offset; the gradient-domain fill removes the offset and keeps every border
+    pixel, so tilings stay seamless. ``smooth=False`` gives pure copies."""
+    from .synthesis import is_smoothed
+
+    if spec.kind == "label":
+        return False
+    patches = not (np.asarray(tileset.match_offsets) == -1).all()
+    if smooth is None:
+        return bool(is_smoothed(tileset) or (spec.kind in SMOOTH_KINDS and patches))
+    if smooth and not patches:
+        raise ParameterError(
+            f"map {spec.name!r}: the tile set has no matching patches (scheme {tileset.scheme!r}), so there is "
+            "no smoothing to follow; use map smoothing off"
+        )
+    return bool(smooth)
+
+
 def map_atlas(
     tileset: Any, spec: MapSpec, arr: np.ndarray, smooth: bool | None = None, threads: int | None = None
 ) -> np.ndarray:
     """The tiles ``(K, N, N, C)`` of one map of ``tileset``: copied through the provenance, Poisson-smoothed in
-    the colour's regions when the set is smoothed (``smooth=None``; never for labels), normals renormalised
-    where smoothed."""
-    from .synthesis import _smooth_map_atlas, is_smoothed
+    the cut regions when :func:`smooths` says so (never for labels), normals renormalised where smoothed."""
+    from .synthesis import _smooth_map_atlas
 
     src = tileset.source
     atlas = np.ascontiguousarray(arr[src[..., 0], src[..., 1]])
-    smooth = is_smoothed(tileset) if smooth is None else bool(smooth)
-    if spec.kind == "label" or not smooth:
+    if not smooths(tileset, spec, smooth):
         return atlas
-    if not is_smoothed(tileset):
-        raise ParameterError(
-            f"map {spec.name!r}: the tile set was not Poisson-smoothed; there is nothing to follow"
-        )
     atlas = _smooth_map_atlas(tileset, arr, atlas, threads)
     if spec.kind == "normal":
         atlas = _renormalise(atlas, np.asarray(tileset.cut_masks, bool), spec.encoding or "unorm")
@@ -499,8 +525,8 @@ def synthesize_maps(
     normal_y: str | None = None,
 ) -> dict[str, np.ndarray]:
     """Every map stored in a material tile set, laid out like the colour output of ``index_map``:
-    ``{name: (height, width, C)}`` in each map's own sample type. ``smooth``: None (follow the set), True or
-    False (labels are never smoothed); ``normal_y``: "up" / "down" converts normal maps recorded in the other
+    ``{name: (height, width, C)}`` in each map's own sample type. ``smooth``: None (:func:`smooths`: scalar and
+    normal maps, and every map of a smoothed set), True or False (labels are never smoothed); ``normal_y``: "up" / "down" converts normal maps recorded in the other
     convention (None: as recorded)."""
     from . import kernels
     from ._validate import positive_int
