@@ -519,6 +519,10 @@ def _check_map_shapes(maps: Any, specs: Any, hw: tuple[int, ...]) -> None:
     if sorted(names) != sorted(maps):
         raise TileSetFormatError(f"maps {sorted(maps)} disagree with manifest.json field maps {names}")
     for d in specs:
+        if d["kind"] == "normal" and d["channels"] != 3:
+            raise TileSetFormatError(
+                f"map {d['name']!r} is a normal map of {d['channels']} channel(s), expected 3"
+            )
         a = maps[d["name"]]
         want = (int(hw[0]), int(hw[1]), int(d["channels"]))
         if not isinstance(a, np.ndarray) or a.dtype != np.dtype(d["dtype"]) or a.shape != want:
