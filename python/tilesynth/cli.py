@@ -475,7 +475,8 @@ def _build(
         raise ParameterError(f"--population = {population}: not used with --select random")
     build = sc.build
     if material:  # issue 14: a material build (every map checked before any work)
-        from .materials import build_material, check_maps
+        from .materials import check_maps
+        from .schemes import build_material
 
         check_maps(
             image.shape,

@@ -2,7 +2,7 @@
 
 A colour-only build chooses its matching patches and cuts on the albedo alone; a height map sent through the
 same cuts afterwards (``synth --with``) is discontinuous wherever the albedo hid a seam that the height does not
-(issue 14: height cliffs along every cut). A **material build** (:func:`build_material`, ``tilesynth.build(img,
+(issue 14: height cliffs along every cut). A **material build** (:func:`tilesynth.build_material`, ``tilesynth.build(img,
 maps={...})``, ``tilesynth build EX --map height=H.png``) chooses them on every map jointly:
 
 1. **Features.** Each map (and the albedo) is centred and divided by its own standard deviation (the square
@@ -71,7 +71,7 @@ __all__ = [
     "KINDS",
     "MapSpec",
     "NORMAL_TOLERANCE",
-    "build_material",
+    "build_with_maps",
     "check_maps",
     "convert_normal_y",
     "feature_image",
@@ -285,7 +285,9 @@ def check_maps(
         a = _as_map_array(name, value, shape)  # type: ignore[arg-type]
         w = _weight(weights.get(name, DEFAULT_WEIGHTS[kind]), name)
         encoding = _check_normal(name, a) if kind == "normal" else None
-        suffix = (suffixes or {}).get(name, ".exr" if a.dtype == np.float32 else ".png")
+        suffix = str((suffixes or {}).get(name, "")).lower()
+        if suffix not in (".png", ".exr", ".npy", ".tif", ".tiff"):
+            suffix = ".exr" if a.dtype == np.float32 else ".png"
         spec = MapSpec(
             name,
             kind,
@@ -369,10 +371,10 @@ def feature_image(
     return np.ascontiguousarray(feats), record
 
 
-def build_material(
+def build_with_maps(
+    build: Any,
     exemplar: Any,
     *,
-    scheme: str = "omega",
     maps: Any,
     map_kinds: Any = None,
     map_weights: Any = None,
@@ -380,26 +382,13 @@ def build_material(
     map_suffixes: dict[str, str] | None = None,
     **kwargs: Any,
 ) -> Any:
-    """Build a tile set of ``scheme`` from ``exemplar`` (the albedo) and its pixel-aligned ``maps``, cut jointly
-    (see the module docstring); ``kwargs`` go to the scheme's builder. Used by :func:`tilesynth.build` when
-    ``maps`` is given.
-
-    Parameters
-    ----------
-    exemplar : the albedo, as for every builder.
-    maps : ``{name: (H, W[, C]) uint8 | uint16 | float array}``, each pixel-aligned with the exemplar.
-    map_kinds : ``{name: kind}`` overriding the kind inferred from the name (:data:`KINDS`).
-    map_weights : ``{name: weight >= 0}`` (``"albedo"`` too) overriding :data:`DEFAULT_WEIGHTS`.
-    normal_y : "up" (OpenGL, default) or "down" (DirectX): the Y convention of the input normal maps.
-    map_suffixes : the file suffix of each map (".png", ".exr", ".npy"), recorded to name the outputs alike.
-    """
+    """A material build with the scheme builder ``build`` (``Scheme.build``): the body of
+    :func:`tilesynth.build_material` (which looks the scheme up; this module does not import the registry)."""
     from ._validate import as_image
-    from .schemes import get_scheme
     from .stages.compose import exemplar_record
     from .stages.smoothing import smooth_tiles
     from .synthesis import is_smoothed
 
-    sc = get_scheme(scheme)
     albedo = as_image(exemplar, "exemplar")
     if np.may_share_memory(albedo, exemplar):
         albedo = albedo.copy()
@@ -412,7 +401,7 @@ def build_material(
         feats, record = albedo, {"feature_channels": int(albedo.shape[2]), "variance_kept": 1.0,
                                  "feature_scale": 1.0, "albedo_weight": aw}  # fmt: skip
     info = kwargs.pop("exemplar_info", None)
-    ts = sc.build(feats, exemplar_info=info, **kwargs)
+    ts = build(feats, exemplar_info=info, **kwargs)
     if joint:
         src = ts.source
         tiles = albedo[src[..., 0], src[..., 1]]
@@ -529,14 +518,35 @@ def synthesize_maps(
     normal maps, and every map of a smoothed set), True or False (labels are never smoothed); ``normal_y``: "up" / "down" converts normal maps recorded in the other
     convention (None: as recorded)."""
     from . import kernels
-    from ._validate import positive_int
+    from ._validate import MAX_BYTES_ENV, fmt_bytes, memory_limit, positive_int, threads_arg
+    from .tilefile import TileSet
 
+    if not isinstance(tileset, TileSet):
+        raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet")
     if normal_y not in (None, "up", "down"):
         raise ParameterError(f"normal_y = {normal_y!r}: must be None, 'up' or 'down'")
+    if smooth is not None and not isinstance(smooth, (bool, np.bool_)):
+        raise ParameterError(f"smooth = {smooth!r}: must be None, True or False")
+    threads = threads_arg(threads)
     w, h = positive_int(width, "width"), positive_int(height, "height")
+    specs = tileset.map_specs or []
+    need = sum(h * w * int(d["channels"]) * np.dtype(d["dtype"]).itemsize for d in specs)
+    if need > memory_limit(None):
+        raise ParameterError(
+            f"width x height = {w}x{h}: the maps need {fmt_bytes(need)}, more than the limit of "
+            f"{fmt_bytes(memory_limit(None))} ({MAX_BYTES_ENV})"
+        )
     imap = kernels._index_map(index_map)
+    n = tileset.tile_size
+    if imap.ndim != 2 or imap.shape[0] * n < h or imap.shape[1] * n < w:
+        raise ShapeError(
+            f"index_map has shape {imap.shape}, expected at least ({-(-h // n)}, {-(-w // n)}) to cover {w}x{h} "
+            f"pixels with {n}x{n} tiles"
+        )
+    if imap.size and (imap.min() < 0 or imap.max() >= tileset.n_tiles):
+        raise ParameterError(f"index_map has tile indices outside [0, {tileset.n_tiles})")
     out = {}
-    for d in getattr(tileset, "map_specs", None) or []:
+    for d in specs:
         spec = MapSpec.from_dict(d)
         arr = tileset.maps[spec.name]
         atlas = map_atlas(tileset, spec, arr, smooth, threads)
