@@ -273,3 +273,27 @@ def test_export_refuses_a_with_map_named_like_a_stored_one(material_files):
         t = _build(albedo, {"normal": normal, "height": height})
     with pytest.raises(ParameterError, match="height"):
         ts.export(t, os.fspath(material_files / "exp2"), maps={"height": t.maps["height"]})
+
+
+def test_cli_refuses_a_map_that_is_the_output(material_files):
+    import shutil
+
+    shutil.copy(material_files / "height.png", material_files / "same.tiles")  # a readable map
+    before = (material_files / "same.tiles").read_bytes()
+    r = _cli("build", "albedo.png", "-o", "same.tiles", "--map", "height=same.tiles", cwd=material_files)
+    assert r.returncode == 2 and "same.tiles" in r.stderr and "--map" in r.stderr, r.stderr
+    assert (material_files / "same.tiles").read_bytes() == before
+
+
+def test_report_shows_every_map_with_its_cut_seam(tmp_path):
+    albedo, height, normal = _material()
+    t = _build(albedo, {"height": height, "normal": normal})
+    res = ts.write_report(t, tmp_path / "rep", 64, 64, seed=1)
+    assert (tmp_path / "rep" / "sample-height.png").is_file() and (
+        tmp_path / "rep" / "sample-normal.png"
+    ).is_file()
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert "sample-height.png" in page and "cut seam score" in page
+    assert "map-height" in res["files"]
+    seams = materials.map_cut_seams(t)
+    assert set(seams) == {"height", "normal"} and all(v is not None and v > 0 for v in seams.values())
