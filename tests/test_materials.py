@@ -297,3 +297,20 @@ def test_report_shows_every_map_with_its_cut_seam(tmp_path):
     assert "map-height" in res["files"]
     seams = materials.map_cut_seams(t)
     assert set(seams) == {"height", "normal"} and all(v is not None and v > 0 for v in seams.values())
+
+
+@pytest.mark.parametrize("scheme, tileset", [("wang", "wang8"), ("swang", "wang8"), ("patch", "4")])
+def test_every_scheme_builds_materials(tmp_path, scheme, tileset):
+    """Cohen's Wang tiles have no matching patch: their maps are copies (nothing to smooth along)."""
+    albedo, height, normal = _material()
+    t = ts.build(
+        albedo, scheme=scheme, tileset=tileset, tile_size=16, seed=1, maps={"height": height, "n": normal}
+    )
+    t.save(tmp_path / "s.tiles")
+    back = ts.load(tmp_path / "s.tiles")
+    _, imap = ts.synthesize(back, 48, 48, seed=2)
+    out = materials.synthesize_maps(back, imap, 48, 48)
+    where = ts.source_map(back, imap, 48, 48)
+    copies = height[where[..., 0], where[..., 1]]
+    assert out["n"].shape == (48, 48, 3) and out["height"].dtype == np.uint16
+    assert np.array_equal(out["height"][..., 0], copies) == (scheme == "wang")
