@@ -45,6 +45,13 @@ Names containing ``normal``/``nrm``/``nor`` are normals; ``mask``, ``label``, ``
 ``roughness``, ``ao``, ``metallic``, ``disp``, ...) linear scalars. Labels get weight 0 by default (their values are
 categories, not distances); a positive ``map_weights`` entry makes them count numerically.
 
+**What is left in smooth maps.** The ω construction keeps the tile border ring of the intermediate tile, whose
+central cross (where two sample patches meet) reaches the border at the four side midpoints; a few pixels of that
+cross are outside every cut region and stay as they are (in every scheme with a kept border). In an albedo they
+are invisible; in a smooth height map they show as a small dot at each tile side midpoint (seen on the rock
+figure, ``docs/figures/material-rock.png``). Removing them would change border pixels that the neighbouring tile
+shares, so they are left.
+
 **Normal maps.** ``normal_y`` records the Y convention of the input normals: ``"up"`` (OpenGL, green up, the
 default) or ``"down"`` (DirectX). Outputs can be converted (:func:`convert_normal_y`, ``synth --normal-y``): the
 green channel is negated (``max − g`` for unsigned encodings: exact for 8- and 16-bit). A normal map is *unsigned*

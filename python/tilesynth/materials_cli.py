@@ -170,7 +170,10 @@ def write_map_outputs(
         return
     prog("material maps", 0, 1)
     outs = synthesize_maps(ts, imap, size[0], size[1], threads=threads, smooth=smooth, normal_y=normal_y)
+    from .materials import MapSpec, smooths
+
     kinds = {d["name"]: d["kind"] for d in ts.map_specs}
+    smoothed = {d["name"]: smooths(ts, MapSpec.from_dict(d), smooth) for d in ts.map_specs}
     for name, target in planned:
         arr = outs[name]
         if target.suffix == ".npy":
@@ -178,7 +181,8 @@ def write_map_outputs(
                 np.save(fh, arr, allow_pickle=False)
         else:
             save_image(target, arr)
-        prog.message(f"wrote {target}: map {name} ({kinds[name]}, {arr.dtype}) through the same cuts")
+        how = ", Poisson-smoothed inside the cuts" if smoothed[name] else ", pure copies"
+        prog.message(f"wrote {target}: map {name} ({kinds[name]}, {arr.dtype}) through the same cuts{how}")
     prog("material maps", 1, 1)
 
 
