@@ -14,10 +14,12 @@ maps={...})``, ``tilesynth build EX --map height=H.png``) chooses them on every 
    on their first :data:`FEATURE_CHANNELS` principal components (exact when there are no more channels than
    that), and the result is mapped into [0, 1] by one affine map common to all channels. Why: the FFT matching
    search, the objective and the cut weights cost in proportion to the channel count; 4 components keep the
-   build within about the cost of a colour-only build (target: a 4-map build at most 1.5x, ``benches/materials.py``)
-   while keeping most of the joint variance (recorded as ``params["material"]["variance_kept"]``: 0.93-0.99 on
+   build at 1.1-1.3x the CPU time of a colour-only build (target: at most 1.5x, ``benches/materials.py``)
+   while keeping most of the joint variance (recorded as ``params["material"]["variance_kept"]``: 0.90-0.96 on
    the bench's materials). One affine map for every channel keeps SSD rankings exactly (a common scale and offset
    change every SSD by the same factor); the Kwatra ``eps`` is then relative to features of an image's range.
+   The feature image reaches the builder as an ordinary 4-channel float image: its 4th channel is a feature,
+   never an alpha channel or a mask.
 3. **Build.** The scheme's own builder runs on the feature image, unchanged: genes, matching patches, D_j, E and
    cut costs are all in feature units (recorded as such). The tile set then gets the real albedo: the exemplar
    is the albedo, and the tiles are the albedo copied through the provenance (or Poisson-smoothed in the same
