@@ -314,3 +314,32 @@ def test_every_scheme_builds_materials(tmp_path, scheme, tileset):
     copies = height[where[..., 0], where[..., 1]]
     assert out["n"].shape == (48, 48, 3) and out["height"].dtype == np.uint16
     assert np.array_equal(out["height"][..., 0], copies) == (scheme == "wang")
+
+
+def test_synth_with_a_normal_map_on_a_smoothed_set_renormalises_it(tmp_path):
+    albedo, _, normal = _material()
+    nf = normal.astype(np.float64) / 255 * 2 - 1
+    nf /= np.linalg.norm(nf, axis=-1, keepdims=True)
+    n16 = np.round((nf * 0.5 + 0.5) * 65535).astype(np.uint16)
+    ts.save_image(tmp_path / "albedo.png", albedo)
+    ts.save_image(tmp_path / "rock-normal.png", n16)
+    r = _cli(
+        "build",
+        "albedo.png",
+        "-o",
+        "s.tiles",
+        "--set",
+        "4",
+        "--tile-size",
+        "16",
+        "--smooth",
+        "-q",
+        cwd=tmp_path,
+    )
+    assert r.returncode == 0, r.stderr
+    r = _cli(
+        "synth", "s.tiles", "-o", "o.png", "--size", "64", "--with", "rock-normal.png", "-q", cwd=tmp_path
+    )
+    assert r.returncode == 0, r.stderr
+    out = ts.load_raster(tmp_path / "o-rock-normal.png")
+    assert (np.abs(materials.normal_lengths(out) - 1) <= 0.005).mean() >= 0.999

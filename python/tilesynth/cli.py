@@ -685,6 +685,10 @@ def _synth_write_maps(
     for k, (mp, arr, target) in enumerate(maps):
         prog("maps", k, len(maps))
         out_map = synthesize_map(ts, arr, imap, size[0], size[1], threads=threads, smooth=smooth_maps)
+        if smooth_maps:  # issue 14: a normal map (by its name) renormalised where smoothed
+            from .materials import renormalise_with_map
+
+            out_map = renormalise_with_map(ts, Path(mp).stem, arr, out_map, imap)
         if target.suffix == ".npy":
             with atomic_open(target) as fh:
                 np.save(fh, out_map, allow_pickle=False)

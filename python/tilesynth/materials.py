@@ -615,3 +615,24 @@ def report_maps(
         )
         out.append((d["name"], a, caption))
     return out
+
+
+def renormalise_with_map(
+    tileset: Any, name: str, aligned: np.ndarray, out: np.ndarray, index_map: np.ndarray
+) -> np.ndarray:
+    """For ``synth --with``: a smoothed map whose name says it is a normal map (:func:`infer_kind`), with 3
+    channels and unit vectors, gets its smoothed output vectors renormalised (the pixels inside the cuts);
+    any other map is returned as it is."""
+    from . import kernels
+
+    a = np.asarray(aligned)
+    if infer_kind(name) != "normal" or a.ndim != 3 or a.shape[2] != 3 or out.shape[2] != 3:
+        return out
+    try:
+        encoding = _check_normal(name, a)
+    except ParameterError:
+        return out  # not unit vectors: not ours to change
+    masks = np.ascontiguousarray(np.asarray(tileset.cut_masks, np.uint8)[..., None])
+    inside = np.empty((*out.shape[:2], 1), np.uint8)
+    kernels.tile_copy(masks, kernels._index_map(index_map), inside)
+    return _renormalise(out[None], inside[None, ..., 0] == 1, encoding)[0]
