@@ -164,9 +164,10 @@ def table(rows: list[dict], repeat: int) -> str:
         "",
         "Normals within 1 ± 0.005 of unit length (512² output of the joint build): copies / smoothed and "
         "renormalised (default) / for comparison, a colour-only `--smooth` set with the normal map sent through "
-        "`synth --with` (smoothed per channel, not renormalised):",
+        "`tilesynth.synthesize_map` (smoothed per channel, not renormalised; `synth --with` now renormalises a map "
+        "named like a normal map):",
         "",
-        "| material | copies | smoothed, renormalised | `--with` on a `--smooth` set |",
+        "| material | copies | smoothed, renormalised | `synthesize_map` on a `--smooth` set |",
         "|---|---|---|---|",
     ]
     for r in rows:
