@@ -138,7 +138,9 @@ def table(rows: list[dict], repeat: int) -> str:
         "",
         "**Derived materials, not real PBR sets**: height, normal and roughness are computed from each photo of",
         "`../shared/textures` plus independent random structure (see the bench's docstring); no permissively",
-        "licensed PBR set was reachable from this machine.",
+        "licensed PBR set was reachable from this machine (PyPI `bd-materials`: no images; `materialxmaterials`:",
+        "rendered previews only). Look at `docs/figures/material-rock.png` (`--figure`): rows colour-only + copies,",
+        "joint + copies, joint as `synth` writes it (scalar/normal maps smoothed inside the cuts).",
         "",
         f"Default build (`{SET}`, seed 1, centre crops). Cut seam score of each map (1 = the cuts are as invisible "
         "as any pair of neighbouring pixels): colour-only build → joint build. *copies*: the maps copied through "
