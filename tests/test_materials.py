@@ -343,3 +343,11 @@ def test_synth_with_a_normal_map_on_a_smoothed_set_renormalises_it(tmp_path):
     assert r.returncode == 0, r.stderr
     out = ts.load_raster(tmp_path / "o-rock-normal.png")
     assert (np.abs(materials.normal_lengths(out) - 1) <= 0.005).mean() >= 0.999
+
+
+def test_material_builds_are_deterministic_at_any_thread_count():
+    albedo, height, normal = _material()
+    maps = {"height": height, "normal": normal, "rough": albedo[..., 2].copy()}
+    a = _build(albedo, maps, threads=1)
+    b = _build(albedo, maps, threads=2)
+    assert a.content_digest() == b.content_digest()

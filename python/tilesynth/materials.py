@@ -361,12 +361,21 @@ def feature_image(
     total = float((f * f).sum())
     kept = 1.0
     if f.shape[1] > FEATURE_CHANNELS:
-        cov = f.T @ f
+        # sums in numpy's own pairwise order, not BLAS (whose result may depend on its thread count): the same
+        # bytes in every run and on any number of threads, as every tilesynth build
+        d = f.shape[1]
+        cov = np.empty((d, d))
+        for i in range(d):
+            for j in range(i, d):
+                cov[i, j] = cov[j, i] = float((f[:, i] * f[:, j]).sum())
         vals, vecs = np.linalg.eigh(cov)
         order = np.argsort(vals)[::-1][:FEATURE_CHANNELS]
         vecs = vecs[:, order]
         vecs *= np.where(vecs[np.abs(vecs).argmax(axis=0), np.arange(vecs.shape[1])] < 0, -1.0, 1.0)
-        f = f @ vecs
+        proj = np.zeros((f.shape[0], vecs.shape[1]))
+        for i in range(d):
+            proj += f[:, i : i + 1] * vecs[i]
+        f = proj
         kept = min(1.0, float(vals[order].sum() / total)) if total > 0 else 1.0
     lo, hi = float(f.min()), float(f.max())
     scale = 1.0 / (hi - lo) if hi > lo else 1.0
