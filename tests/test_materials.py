@@ -351,3 +351,12 @@ def test_material_builds_are_deterministic_at_any_thread_count():
     a = _build(albedo, maps, threads=1)
     b = _build(albedo, maps, threads=2)
     assert a.content_digest() == b.content_digest()
+
+
+def test_synth_map_smooth_on_a_set_without_matching_patches_fails_before_writing(tmp_path):
+    albedo, height, _ = _material()
+    t = ts.build(albedo, scheme="wang", tileset="wang8", tile_size=16, seed=1, maps={"height": height})
+    t.save(tmp_path / "w.tiles")
+    r = _cli("synth", "w.tiles", "-o", "o.png", "--size", "32", "--map-smooth", "on", "-q", cwd=tmp_path)
+    assert r.returncode == 2 and "height" in r.stderr and "matching patches" in r.stderr, r.stderr
+    assert not (tmp_path / "o.png").exists()

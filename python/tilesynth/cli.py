@@ -604,7 +604,8 @@ def _synth(
 
     if ts.map_specs and origin != (0, 0):
         raise ParameterError("--origin: a tile set with maps lays them out from (0, 0); leave --origin out")
-    stored = plan_map_outputs(ts, output, [Path(ts_path), *(t for _, _, t in maps)])
+    stored_smooth = {"auto": None, "on": True, "off": False}[map_smooth]
+    stored = plan_map_outputs(ts, output, [Path(ts_path), *(t for _, _, t in maps)], stored_smooth)
     t0 = time.perf_counter()
     prog("synthesis", 0, 1)
     img, imap = synthesize(
@@ -626,7 +627,6 @@ def _synth(
         with atomic_open(save_map) as fh:
             np.save(fh, imap, allow_pickle=False)
     _synth_write_maps(prog, ts, maps, imap, size, threads, smooth_maps)
-    stored_smooth = {"auto": None, "on": True, "off": False}[map_smooth]
     write_map_outputs(prog, ts, stored, imap, size, threads, stored_smooth, normal_y)
     how = f"seed {seed}" if seed is not None else f"map {map_path}"
     prog.message(
@@ -645,9 +645,9 @@ def _synth_load_maps(
 
     smooth_maps = {"auto": None, "on": True, "off": False}[map_smooth]
     smooth_maps = is_smoothed(ts) if smooth_maps is None else smooth_maps
-    if smooth_maps and not is_smoothed(ts):
+    if smooth_maps and not is_smoothed(ts) and with_maps:
         raise ParameterError(
-            f"--map-smooth on: {ts_path} was not built with --smooth; there is nothing to follow"
+            f"--map-smooth on: {ts_path} was not built with --smooth; there is nothing for --with maps to follow"
         )
     if map_smooth != "auto" and not with_maps and not ts.map_specs:
         raise ParameterError(f"--map-smooth {map_smooth}: only used with --with")

@@ -132,10 +132,17 @@ def load_build_maps(args: argparse.Namespace) -> dict[str, Any] | None:
     }
 
 
-def plan_map_outputs(ts: Any, output: str, taken: list[Path]) -> list[tuple[str, Path]]:
+def plan_map_outputs(
+    ts: Any, output: str, taken: list[Path], smooth: bool | None = None
+) -> list[tuple[str, Path]]:
     """``[(map name, output path)]`` of the maps stored in ``ts`` (``OUT-<name>.<ext>`` by
-    :func:`tilesynth.paths.map_output`), refused up front when one would overwrite another output."""
+    :func:`tilesynth.paths.map_output`), refused up front when one would overwrite another output or cannot be
+    smoothed as asked."""
+    from .materials import MapSpec, smooths
     from .paths import map_output
+
+    for d in getattr(ts, "map_specs", None) or []:
+        smooths(ts, MapSpec.from_dict(d), smooth)  # raises before anything is written
 
     out = []
     used = {Path(output).resolve(), *(t.resolve() for t in taken)}
