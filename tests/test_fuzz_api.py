@@ -1269,6 +1269,78 @@ def export_call(d: st.DrawFn):
     return ts.export, (tset, os.path.join(_tmpdir(), "export")), kw, ()
 
 
+def small_material() -> ts.TileSet:
+    """One small material set (issue 14), built once."""
+    if "material" not in _CACHE:
+        r = np.random.default_rng(8)
+        ex = r.random((24, 24, 3), dtype=np.float32)
+        v = r.standard_normal((24, 24, 3)) * 0.2 + [0, 0, 1]
+        v /= np.linalg.norm(v, axis=-1, keepdims=True)
+        maps = {
+            "height": r.random((24, 24), dtype=np.float32),
+            "normal": np.round((v * 0.5 + 0.5) * 255).astype(np.uint8),
+            "mask": (r.random((24, 24)) > 0.5).astype(np.uint8),
+        }
+        _CACHE["material"] = ts.build(ex, maps=maps, tileset="8", tile_size=8, seed=1, smooth=True)
+    return _CACHE["material"]  # type: ignore[return-value]
+
+
+@st.composite
+def build_material(d: st.DrawFn):
+    """Material builds: good maps most of the time, then careless names, arrays, kinds, weights, conventions."""
+    ex = d(exemplars()) if d(st.integers(0, 3)) == 0 else np.random.default_rng(1).random((24, 24, 3))
+    shape = np.shape(ex)[:2] if np.ndim(ex) >= 2 else (24, 24)
+    broken = d(
+        st.sampled_from(["none"] * 3 + ["array", "name", "kind", "weight", "normal_y", "maps", "normal"])
+    )
+    maps: Any = {"height": d(arrays(2, d(st.sampled_from(["uint8", "uint16", F32])), shape, wild=0.0))}
+    kw: dict = {"tileset": "8", "tile_size": 8, "seed": 1}
+    if broken == "array":
+        maps["height"] = d(arrays(d(st.sampled_from([2, 3])), d(st.sampled_from(fuzzing.ALL_DTYPES)), None,
+                                  max_side=24, wild=0.5))  # fmt: skip
+    elif broken == "name":
+        maps[d(st.sampled_from(["", "a/b", "albedo", "Height", "x" * 70, 3, None]))] = maps["height"]
+    elif broken == "kind":
+        kw["map_kinds"] = d(
+            st.sampled_from([{"height": "bump"}, {"height": 3}, {"other": "scalar"}, [1], None])
+        )
+    elif broken == "weight":
+        kw["map_weights"] = d(st.sampled_from([{"height": -1}, {"height": float("nan")}, {"height": "2"},
+                                               {"albedo": 0.0, "height": 0.0}, {"height": True}, "x"]))  # fmt: skip
+    elif broken == "normal_y":
+        kw["normal_y"] = d(st.sampled_from(["+y", None, 1, "UP"]))
+    elif broken == "maps":
+        maps = d(st.sampled_from([{}, [], "height", None, {"height": None}]))
+    elif broken == "normal":
+        maps["normal"] = d(
+            arrays(3, d(st.sampled_from(["uint8", F32])), (*shape, d(st.integers(1, 4))), wild=0.2)
+        )
+    return ts.build_material, (ex,), {"maps": maps, **kw}, ()
+
+
+@st.composite
+def synthesize_maps(d: st.DrawFn):
+    tset = small_material() if d(st.integers(0, 5)) else d(tilesets())
+    broken = d(st.sampled_from(["none"] * 3 + ["index_map", "size", "normal_y", "smooth", "threads"]))
+    w, h = d(st.integers(1, 40)), d(st.integers(1, 40))
+    imap = ts.synthesize(small_material(), 40, 40, seed=d(st.integers(0, 9)))[1]
+    kw: dict = {
+        "normal_y": d(st.sampled_from([None, "up", "down"])),
+        "smooth": d(st.sampled_from([None, True, False])),
+    }
+    if broken == "index_map":
+        imap = d(st.sampled_from([imap + 0.5, imap - imap.max() - 1, imap[:1, :1], None, imap + 100]))
+    elif broken == "size":
+        w, h = d(sizes(-1, 70) | st.just(10**6)), d(sizes(-1, 70) | st.just(10**6))
+    elif broken == "normal_y":
+        kw["normal_y"] = d(st.sampled_from(["+y", 1, "UP"]))
+    elif broken == "smooth":
+        kw["smooth"] = d(st.sampled_from(["on", 1, 0.5]))
+    elif broken == "threads":
+        kw["threads"] = d(threads())
+    return ts.synthesize_maps, (tset, imap, w, h), kw, ()
+
+
 API = {
     "export": export_call,
     "as_image": as_image_call,
@@ -1321,6 +1393,8 @@ API = {
     "detail_repetition": repetition_measures,
     "histogram_distance": histogram_distance_call,
     "predicted_border_seam": predicted_border_seam_call,
+    "build_material": build_material,
+    "synthesize_maps": synthesize_maps,
 }
 
 NOT_FUZZED = {

@@ -32,6 +32,16 @@ def sets(tmp_path_factory, small_exemplar) -> dict[str, Path]:
         "wang": ["--scheme", "wang"],
         "swang": ["--scheme", "swang", "--select", "ais", "--generations", "2", "--population", "6"],
     }
+    # issue 14: a material set (its maps, their kinds and the manifest's maps list are fuzzed too)
+    lum = small_exemplar.astype(np.float64).mean(axis=2)
+    tilesynth.save_image(d / "h.png", np.round(lum * 65535).astype(np.uint16))
+    gy, gx = np.gradient(lum * 4)
+    nrm = np.stack([-gx, gy, np.ones_like(gx)], axis=-1)
+    nrm /= np.linalg.norm(nrm, axis=-1, keepdims=True)
+    tilesynth.save_image(d / "n.png", np.round((nrm * 0.5 + 0.5) * 255).astype(np.uint8))
+    tilesynth.save_image(d / "m.png", (lum > 0.5).astype(np.uint8) * 255)
+    runs["material"] = ["--set", "4", "--map", f"height={d / 'h.png'}", "--map", f"normal={d / 'n.png'}",
+                        "--map", f"mask={d / 'm.png'}"]  # fmt: skip
     out = {}
     for name, extra in runs.items():
         out[name] = d / f"{name}.tiles"

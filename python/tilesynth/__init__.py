@@ -115,8 +115,12 @@ __all__ = [
     "detail_repetition",
     "histogram_distance",
     "build_patch",
+    "build_material",
+    "synthesize_maps",
 ]
 
 from .lookup import LookupScheme, ts_hash  # noqa: E402 - issue 12: the hashed lookup
 from .lookup import index_map as hashed_index_map  # noqa: E402
+from .materials import synthesize_maps  # noqa: E402 - issue 14: material builds
 from .metrics import detail_repetition, histogram_distance, periodic_copies  # noqa: E402
+from .schemes import build_material  # noqa: E402

@@ -281,6 +281,33 @@ SMOOTH = Obj(
     },
 )
 
+#: One map of a material build (issue 14, :mod:`tilesynth.materials`): the top-level ``maps`` entries.
+MAP = Obj(
+    required={
+        "name": Str(max_len=64),
+        "kind": Str(("colour", "scalar", "normal", "label")),
+        "weight": Num(0.0),
+        "dtype": Str(("uint8", "uint16", "float32")),
+        "channels": Int(1, 4),
+    },
+    optional={
+        "suffix": Str(max_len=16),
+        "normal_y": Optional(Str(("up", "down"))),
+        "encoding": Optional(Str(("unorm", "snorm"))),
+    },
+)
+#: params.material: the feature image a material set was built on.
+MATERIAL = Obj(
+    optional={
+        "feature_channels": Int(1, 4),
+        "variance_kept": Num(0.0, 1.0),
+        "feature_scale": Num(0.0),
+        "albedo_weight": Num(0.0),
+        "joint": Bool(),
+        "units": Str(),
+    }
+)
+
 PARAMS = Obj(
     optional={
         "set": Str(),
@@ -311,6 +338,7 @@ PARAMS = Obj(
         "cut_bias": Num(0.0),
         "diversity": _POS,
         "border_tries": _POS,  # the Wang schemes (issue 14)
+        "material": MATERIAL,  # issue 14
     },
 )
 
@@ -350,6 +378,7 @@ MANIFEST = Obj(
     optional={
         "per_tile": List(Obj()),
         "arrays": ARRAYS,
+        "maps": List(MAP, max_len=64),  # issue 14: material maps
     },
 )
 

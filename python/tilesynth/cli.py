@@ -166,6 +166,9 @@ def _add_build_parser(sub) -> None:  # noqa: ANN001
         help="population of ga/ais (default 40), count of best-of (default 100)",
     )
     _add_scheme_options(b)
+    from .materials_cli import add_build_arguments  # issue 14: material builds
+
+    add_build_arguments(b)
     b.add_argument("--sheet", default=None, help="also write a contact sheet of the tiles to this PNG")
     b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     add_png_compression_argument(b)
@@ -205,7 +208,9 @@ def _add_synth_parser(sub) -> None:  # noqa: ANN001
         default="auto",
         choices=("auto", "on", "off"),
         help="Poisson-smooth the --with maps inside the cuts like the colour tiles: auto (default: if the "
-        "tile set was built with --smooth), on, or off (pure copies: for labels, masks, IDs)",
+        "tile set was built with --smooth), on, or off (pure copies: for labels, masks, IDs). The maps a "
+        "material set stores (build --map): auto smooths its scalar and normal maps inside the cuts, never "
+        "its labels",
     )
     s.add_argument(
         "--bits",
@@ -229,6 +234,9 @@ def _add_synth_parser(sub) -> None:  # noqa: ANN001
         action="store_true",
         help="complete sets: make the output tile periodically (size a multiple of the tile size)",
     )
+    from .materials_cli import add_synth_arguments  # issue 14: --normal-y
+
+    add_synth_arguments(s)
     s.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
@@ -449,6 +457,7 @@ def _build(
     generations: int | None = None,
     population: int | None = None,
     options: dict | None = None,
+    material: dict | None = None,
 ) -> TileSet:  # noqa: F821
     """``tilesynth build``: ``options`` are the scheme's own builder keywords (:func:`_scheme_kwargs`)."""
     from .io import load_image
@@ -466,7 +475,23 @@ def _build(
         raise ParameterError(f"--generations = {generations}: only used with --select ga or ais")
     if select == "random" and population is not None:
         raise ParameterError(f"--population = {population}: not used with --select random")
-    ts = sc.build(
+    build = sc.build
+    if material:  # issue 14: a material build (every map checked before any work)
+        from .materials import check_maps
+        from .schemes import build_material
+
+        check_maps(
+            image.shape,
+            material["maps"],
+            material["map_kinds"],
+            material["map_weights"],
+            material["normal_y"],
+        )
+
+        def build(img: Any, **kw: Any) -> Any:
+            return build_material(img, scheme=scheme, **material, **kw)
+
+    ts = build(
         image,
         tileset=set_name,
         tile_size=tile_size,
@@ -484,6 +509,11 @@ def _build(
     sel = ts.params.get("selection", {})
     how = sel.get("method", "random") + (" + polish" if sel.get("params", {}).get("polish") else "")
     how += ", Poisson-smoothed" if ts.params.get("smooth") else ""
+    how += (
+        f", maps {', '.join(d['name'] + ' (' + d['kind'] + ')' for d in ts.map_specs)}"
+        if ts.map_specs
+        else ""
+    )
     prog.message(
         f"wrote {output}: {ts.n_tiles} {sc.title} of {ts.tile_size}x{ts.tile_size} (set {set_name}, {how}, seed "
         f"{ts.params['seed']}), E = {ts.E:.6g}, {ts.timing['total_s']:.2f} s"
@@ -492,6 +522,18 @@ def _build(
         _write_sheet(ts, sheet, True)
         prog.message(f"wrote {sheet}: contact sheet")
     return ts
+
+
+def _material_args(args: argparse.Namespace) -> dict | None:
+    from .materials_cli import load_build_maps  # issue 14
+
+    return load_build_maps(args)
+
+
+def _material_info(ts: Any) -> list[str]:
+    from .materials_cli import info_lines  # issue 14
+
+    return info_lines(ts)
 
 
 def _write_sheet(ts, path: str, cuts: bool) -> None:  # noqa: ANN001
@@ -528,6 +570,7 @@ def _synth(
     map_smooth: str = "auto",
     origin: tuple[int, int] = (0, 0),
     wrap: bool = False,
+    normal_y: str | None = None,
 ) -> None:
     from ._validate import seed_int
     from .io import atomic_open, save_image
@@ -557,6 +600,12 @@ def _synth(
     # refuse up front what cannot fit: the image, plus the copy the PNG encoder makes
     check_size(ts, size[0], size[1], out_dtype, copies=2)
     maps, smooth_maps = _synth_load_maps(ts, ts_path, output, with_maps, map_smooth)
+    from .materials_cli import plan_map_outputs, write_map_outputs  # issue 14: the maps of a material set
+
+    if ts.map_specs and origin != (0, 0):
+        raise ParameterError("--origin: a tile set with maps lays them out from (0, 0); leave --origin out")
+    stored_smooth = {"auto": None, "on": True, "off": False}[map_smooth]
+    stored = plan_map_outputs(ts, output, [Path(ts_path), *(t for _, _, t in maps)], stored_smooth)
     t0 = time.perf_counter()
     prog("synthesis", 0, 1)
     img, imap = synthesize(
@@ -578,6 +627,7 @@ def _synth(
         with atomic_open(save_map) as fh:
             np.save(fh, imap, allow_pickle=False)
     _synth_write_maps(prog, ts, maps, imap, size, threads, smooth_maps)
+    write_map_outputs(prog, ts, stored, imap, size, threads, stored_smooth, normal_y)
     how = f"seed {seed}" if seed is not None else f"map {map_path}"
     prog.message(
         f"wrote {output}: {size[0]}x{size[1]}, {imap.shape[1]}x{imap.shape[0]} tiles, {how}, "
@@ -595,11 +645,11 @@ def _synth_load_maps(
 
     smooth_maps = {"auto": None, "on": True, "off": False}[map_smooth]
     smooth_maps = is_smoothed(ts) if smooth_maps is None else smooth_maps
-    if smooth_maps and not is_smoothed(ts):
+    if smooth_maps and not is_smoothed(ts) and with_maps:
         raise ParameterError(
-            f"--map-smooth on: {ts_path} was not built with --smooth; there is nothing to follow"
+            f"--map-smooth on: {ts_path} was not built with --smooth; there is nothing for --with maps to follow"
         )
-    if map_smooth != "auto" and not with_maps:
+    if map_smooth != "auto" and not with_maps and not ts.map_specs:
         raise ParameterError(f"--map-smooth {map_smooth}: only used with --with")
     maps = []  # load and check every map before writing anything
     for mp in with_maps or []:
@@ -637,6 +687,10 @@ def _synth_write_maps(
     for k, (mp, arr, target) in enumerate(maps):
         prog("maps", k, len(maps))
         out_map = synthesize_map(ts, arr, imap, size[0], size[1], threads=threads, smooth=smooth_maps)
+        if smooth_maps:  # issue 14: a normal map (by its name) renormalised where smoothed
+            from .materials import renormalise_with_map
+
+            out_map = renormalise_with_map(ts, Path(mp).stem, arr, out_map, imap)
         if target.suffix == ".npy":
             with atomic_open(target) as fh:
                 np.save(fh, out_map, allow_pickle=False)
@@ -646,6 +700,8 @@ def _synth_write_maps(
         prog.message(
             f"wrote {target}: {mp} ({arr.dtype}, {arr.shape[2]} channel(s)) through the same cuts"
             + (", Poisson-smoothed" if smooth_maps else "")
+            + "; note: it was not part of the cut (matching and cuts were chosen without it: seams may show in "
+            "it); build with --map NAME=FILE to cut on it"
         )
 
 
@@ -672,6 +728,7 @@ def _info(ts_path: str, as_json: bool) -> None:
         f"set           {p.get('set')} ({ts.n_tiles} tiles, colours {''.join(_colours(ts.layout))})",
         f"tile size     {ts.tile_size}x{ts.tile_size}, {ts.channels} channel(s)",
         f"exemplar      {ex.get('file', '?')} {ex['shape'][1]}x{ex['shape'][0]}, {ex.get('bits', '?')}-bit",
+        *_material_info(ts),
         *_selection_lines(sel, ts.timing.get("selection_s")),
         f"seed          {p.get('seed')}",
         *_describe(ts),
@@ -826,6 +883,7 @@ def _run_command(args: argparse.Namespace) -> int:
             generations=args.generations,
             population=args.population,
             options=_scheme_kwargs(args, get_scheme(args.scheme)),
+            material=_material_args(args),
         )
     elif args.command == "synth":
         _synth(
@@ -842,6 +900,7 @@ def _run_command(args: argparse.Namespace) -> int:
             args.map_smooth,
             args.origin,
             args.wrap,
+            args.normal_y,
         )
     elif args.command == "info":
         _info(args.tileset, args.json)

@@ -157,6 +157,9 @@ def command_paths(args: Any) -> tuple[list[tuple[str, Any]], list[tuple[str, Any
     outs: list[tuple[str, Any, str]] = []
     if cmd == "build":
         ins.append(("input", args.input))
+        ins.extend(
+            ("--map", m.partition("=")[2]) for m in getattr(args, "material_maps", None) or []
+        )  # issue 14
         outs.append(("--output", args.output, "tiles"))
         if args.sheet:
             outs.append(("--sheet", args.sheet, "image"))

@@ -484,6 +484,7 @@ def _page(
     ]
     parts += _metrics_table(m, reference, wang)
     parts += _figures(files, s, wang, reference)
+    parts += [_img(f, f"Map {k[4:]}") for k, f in files.items() if k.startswith("map-")]  # issue 14: maps
     for note in notes:
         parts.append(f'<p class="note">{esc(note)}</p>')
     parts += _per_tile_table(tileset, wang)
@@ -743,6 +744,13 @@ def _write_report_files(tileset: Any, d: Path, m: dict, objs: dict, borders: boo
             f"No convergence chart: the sample patches were chosen by '{sel.get('method', '?')}', which "
             "runs no generations (build with --select ga or ais to get one)."
         )
+    if getattr(tileset, "map_specs", None):  # issue 14: the maps of a material set
+        from .materials import report_maps
+
+        for map_name, arr, caption in report_maps(tileset, objs["index_map"], img.shape):
+            files[f"map-{map_name}"] = f"sample-{map_name}.png"
+            save_image(d / f"sample-{map_name}.png", arr)
+            notes.append(caption)
     with atomic_open(d / "metrics.json") as fh:
         fh.write(json.dumps(m, indent=1, sort_keys=True, allow_nan=False).encode("utf-8"))
     label = name or str(tileset.exemplar_info.get("file") or "tile set")

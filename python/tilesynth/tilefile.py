@@ -45,6 +45,13 @@ cuts NE, ES, SW, WN of every tile ``[D_overlap, n_overlap, D_path, n_path, D_bou
 :mod:`tilesynth.wang`). They were added without changing ``format_version`` (still 1): every version-1 file
 stays valid and loads as before.
 
+Optional members of a material build (issue 14, :mod:`tilesynth.materials`): ``map_<name>.npy``, one per map,
+``(H, W, C)`` uint8, uint16 or float32, pixel-aligned with the exemplar, and the manifest's top-level ``maps``
+list (one object per map, in order: ``name``, ``kind`` colour|scalar|normal|label, ``weight``, ``dtype``,
+``channels``, ``suffix`` and for normals ``normal_y`` up|down and ``encoding`` unorm|snorm). The exemplar is the
+albedo; ``params["material"]`` records the feature image the set was built on (D, E and cut costs are in its
+units). Files without maps are unchanged.
+
 Members are written in a fixed order with a fixed timestamp (1980-01-01) and deflate level 1
 (:data:`DEFLATE_LEVEL`), so the bytes depend only on the content. Arrays use the ``.npy`` format, floats in JSON use Python's shortest round-trip repr:
 loading and saving again reproduces every array and value bit for bit.
@@ -71,6 +78,7 @@ import hashlib
 import io
 import json
 import os
+import re
 import zipfile
 import zlib
 from dataclasses import dataclass, field
@@ -138,6 +146,10 @@ class TileSet:
     version: str = ""
     labels: np.ndarray | None = None
     cut_stats: np.ndarray | None = None
+    maps: dict[str, np.ndarray] | None = None
+    """Material builds (:mod:`tilesynth.materials`): every map, ``(H, W, C)`` in its own sample type."""
+    map_specs: list[dict[str, Any]] | None = None
+    """Material builds: the manifest's ``maps`` entries (name, kind, weight, dtype, channels, ...), in order."""
 
     # ----------------------------------------------------------------------------------------------- views
     @property
@@ -151,7 +163,14 @@ class TileSet:
         """Name -> dtype of every member array this tile set holds (the optional ones only when present)."""
         out = dict(_ARRAYS)
         out.update({k: v for k, v in _OPTIONAL.items() if getattr(self, k) is not None})
+        out.update(_map_members(self.map_specs))  # issue 14: material maps, last
         return out
+
+    def _member(self, name: str) -> np.ndarray:
+        """The array of member ``name`` (``map_<name>`` for a material map)."""
+        if name.startswith("map_") and self.maps is not None and name[4:] in self.maps:
+            return self.maps[name[4:]]
+        return getattr(self, name)
 
     @property
     def n_tiles(self) -> int:
@@ -213,9 +232,10 @@ class TileSet:
             "exemplar": self.exemplar_info,
             "per_tile": self.per_tile(),
             "arrays": {
-                name: {"dtype": dt, "shape": list(getattr(self, name).shape)}
+                name: {"dtype": dt, "shape": list(self._member(name).shape)}
                 for name, dt in self._arrays().items()
             },
+            **({"maps": self.map_specs} if self.map_specs else {}),
         }
 
     def content_digest(self) -> str:
@@ -223,7 +243,7 @@ class TileSet:
         h = hashlib.sha256()
         h.update(_json_bytes(self.manifest()))
         for name in self._arrays():
-            h.update(_npy_bytes(getattr(self, name)))
+            h.update(_npy_bytes(self._member(name)))
         return h.hexdigest()
 
     # ---------------------------------------------------------------------------------------------- files
@@ -237,7 +257,7 @@ class TileSet:
         with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w") as zf:
             _write_member(zf, "manifest.json", _json_bytes(self.manifest()))
             for name in self._arrays():
-                _write_member(zf, f"{name}.npy", _npy_bytes(getattr(self, name)))
+                _write_member(zf, f"{name}.npy", _npy_bytes(self._member(name)))
             if include_timing:
                 _write_member(zf, "timing.json", _json_bytes(self.timing))
 
@@ -269,8 +289,15 @@ class TileSet:
                 manifest = json.loads(zf.read("manifest.json"))
                 from ._manifest import check_archive
 
-                check_archive(zf, manifest, {**_ARRAYS, **_OPTIONAL})  # schema and .npy headers (issue 16)
+                members = {**_ARRAYS, **_OPTIONAL}
+                if isinstance(manifest, dict) and isinstance(manifest.get("maps"), list):
+                    members.update(_map_members(manifest["maps"], checked=False))  # issue 14
+                check_archive(zf, manifest, members)  # schema and .npy headers (issue 16)
                 _check_manifest(manifest)
+                map_specs = manifest.get("maps") or None
+                missing = [f"{m}.npy" for m in _map_members(map_specs) if f"{m}.npy" not in infos]
+                if missing:
+                    raise TileSetFormatError(f"manifest.json lists maps whose members are missing: {missing}")
                 timing = json.loads(zf.read("timing.json")) if "timing.json" in infos else {}
                 if not isinstance(timing, dict) or not all(
                     isinstance(k, str) and isinstance(v, (int, float)) and not isinstance(v, bool)
@@ -282,6 +309,10 @@ class TileSet:
                     for a in [*_ARRAYS, *_OPTIONAL]
                     if a in _ARRAYS or f"{a}.npy" in infos
                 }
+                maps = {
+                    m[4:]: np.load(io.BytesIO(zf.read(f"{m}.npy")), allow_pickle=False)
+                    for m in _map_members(map_specs)
+                } or None
         except TileSetFormatError as exc:
             if str(exc).startswith("tileset = "):
                 raise
@@ -311,6 +342,8 @@ class TileSet:
             exemplar_info=manifest["exemplar"],
             timing=timing,
             version=manifest["tilesynth_version"],
+            maps=maps,
+            map_specs=map_specs,
             **arrays,
         )
         try:
@@ -329,7 +362,7 @@ class TileSet:
     def _check_shapes(self, values: bool) -> None:
         """Dtypes and shapes of the arrays, and (with ``values``) the manifest's exemplar shape."""
         for name, dt in self._arrays().items():
-            a = getattr(self, name)
+            a = self._member(name)
             if not isinstance(a, np.ndarray) or a.dtype != np.dtype(dt):
                 raise TileSetFormatError(f"array {name} must be {dt}, got {getattr(a, 'dtype', type(a))}")
         k, n, n2, c = self.tiles.shape
@@ -363,6 +396,7 @@ class TileSet:
                 f"manifest exemplar.shape {self.exemplar_info.get('shape')} disagrees with the exemplar array "
                 f"{list(self.exemplar.shape)}"
             )
+        _check_map_shapes(self.maps, self.map_specs, self.exemplar.shape[:2])
         if k == 0 or n == 0 or not 1 <= c <= 4 or 0 in self.exemplar.shape:
             raise TileSetFormatError(
                 f"tiles have shape {self.tiles.shape}, expected (K, N, N, C) with K, N >= 1 and C in 1..4"
@@ -388,6 +422,9 @@ class TileSet:
             a = getattr(self, name)
             if not np.isfinite(a).all() or a.min() < 0 or a.max() > 1:
                 raise TileSetFormatError(f"array {name} has values outside [0, 1] (or NaN)")
+        for name, m in (self.maps or {}).items():
+            if m.dtype == np.float32 and not np.isfinite(m).all():
+                raise TileSetFormatError(f"map {name!r} has NaN or infinite values")
         for name in ("D", "cut_costs"):
             if not np.isfinite(getattr(self, name)).all():
                 raise TileSetFormatError(f"array {name} has non-finite values")
@@ -450,6 +487,49 @@ def _check_manifest(m: Any) -> None:
         raise TileSetFormatError("manifest.json field layout.tiles: expected a list of tiles")
     if not isinstance(m["params"].get("selection", {}), dict):
         raise TileSetFormatError("manifest.json field params.selection: expected an object")
+
+
+_MAP_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}")
+
+
+def _map_members(specs: Any, checked: bool = True) -> dict[str, str]:
+    """``{"map_<name>": dtype}`` of the maps of a material set (issue 14); ``checked=False`` skips what the
+    schema has not yet vetted (entries that are not objects with a name and a dtype)."""
+    out: dict[str, str] = {}
+    for d in specs or []:
+        if not checked and not (isinstance(d, dict) and isinstance(d.get("name"), str)
+                                and d.get("dtype") in ("uint8", "uint16", "float32")):  # fmt: skip
+            continue
+        name = d["name"]
+        if not _MAP_NAME.fullmatch(name):
+            raise TileSetFormatError(f"manifest.json field maps: map name {name[:70]!r} is not a valid name")
+        if f"map_{name}" in out:
+            raise TileSetFormatError(f"manifest.json field maps: duplicate map name {name!r}")
+        out[f"map_{name}"] = d["dtype"]
+    return out
+
+
+def _check_map_shapes(maps: Any, specs: Any, hw: tuple[int, ...]) -> None:
+    """The maps agree with their specs and are pixel-aligned with the exemplar."""
+    if (maps is None) != (not specs):
+        raise TileSetFormatError("maps and map_specs must be given together")
+    if maps is None:
+        return
+    names = [d["name"] for d in specs]
+    if sorted(names) != sorted(maps):
+        raise TileSetFormatError(f"maps {sorted(maps)} disagree with manifest.json field maps {names}")
+    for d in specs:
+        if d["kind"] == "normal" and d["channels"] != 3:
+            raise TileSetFormatError(
+                f"map {d['name']!r} is a normal map of {d['channels']} channel(s), expected 3"
+            )
+        a = maps[d["name"]]
+        want = (int(hw[0]), int(hw[1]), int(d["channels"]))
+        if not isinstance(a, np.ndarray) or a.dtype != np.dtype(d["dtype"]) or a.shape != want:
+            raise TileSetFormatError(
+                f"map {d['name']!r} has shape {getattr(a, 'shape', None)} and dtype {getattr(a, 'dtype', None)}, "
+                f"expected {want} {d['dtype']}"
+            )
 
 
 def exemplar_digest(exemplar: np.ndarray) -> str:

@@ -149,6 +149,7 @@ def build_maps(
     padding: int,
     bits: int,
     map_smooth: str = "auto",
+    normal_y: str = "+y",
 ) -> dict[str, dict[str, Any]]:
     """Level-0 padded cells of every map: ``{name: {"cells": (K, S, S, C), "source": "tileset"|"map"}}``."""
     from ..synthesis import _smooth_map_atlas, is_smoothed
@@ -157,7 +158,12 @@ def build_maps(
     src = tileset.source
     cells = _atlas.padded_tiles(tileset.tiles, tileset.exemplar, src, padding)
     out["albedo"] = {"cells": _atlas.quantise(cells, bits), "kind": "tileset"}
+    out.update(_stored_maps(tileset, padding, map_smooth, normal_y))  # issue 14: a material set's own maps
     for name, value in (maps or {}).items():
+        if name in out and name != "albedo":
+            raise ParameterError(
+                f"map name {name!r}: the tile set stores a map of that name; give another name"
+            )
         if not isinstance(name, str) or not name or not all(ch.isalnum() or ch in "-_" for ch in name):
             raise ParameterError(f"map name {name!r}: letters, digits, '-' and '_' only")
         if name == "albedo":
@@ -172,6 +178,23 @@ def build_maps(
                 raise ParameterError("map_smooth = 'on': the tile set was not Poisson-smoothed")
             tiles = _smooth_map_atlas(tileset, a, tiles, None)
         out[name] = {"cells": _atlas.padded_tiles(tiles, a, src, padding), "kind": "map"}
+    return out
+
+
+def _stored_maps(tileset: Any, padding: int, map_smooth: str, normal_y: str) -> dict[str, dict[str, Any]]:
+    """The padded cells of the maps a material tile set stores (:mod:`tilesynth.materials`): labels never
+    smoothed, normals renormalised where smoothed and given in the export's ``normal_y`` convention."""
+    from ..materials import MapSpec, convert_normal_y, map_atlas
+
+    out: dict[str, dict[str, Any]] = {}
+    smooth = {"auto": None, "on": True, "off": False}[map_smooth]
+    for d in getattr(tileset, "map_specs", None) or []:
+        spec = MapSpec.from_dict(d)
+        arr = tileset.maps[spec.name]
+        cells = _atlas.padded_tiles(map_atlas(tileset, spec, arr, smooth), arr, tileset.source, padding)
+        if spec.kind == "normal" and {"+y": "up", "-y": "down"}[normal_y] != spec.normal_y:
+            cells = convert_normal_y(cells, spec.encoding or "unorm")
+        out[spec.name] = {"cells": cells, "kind": "map", "map_kind": spec.kind, "encoding": spec.encoding}
     return out
 
 
@@ -225,7 +248,7 @@ def export(
 
     levels = _atlas.max_mip_level(tileset.tile_size, padding)
     cols, rows = _atlas.grid_for(tileset.n_tiles)
-    built = build_maps(tileset, maps, padding, bits, map_smooth)
+    built = build_maps(tileset, maps, padding, bits, map_smooth, normal_y)
     files: list[str] = []
     tiles_q = _atlas.quantise(tileset.tiles, bits)
     exact = _atlas.gutter_exactness(tileset, built["albedo"]["cells"], padding, tiles_q)
@@ -331,8 +354,12 @@ def _write_atlases(
     map_entries = []
     for name, info in built.items():
         cells = info["cells"]
-        srgb = name == "albedo" and cells.dtype != np.float32
+        srgb = (name == "albedo" or info.get("map_kind") == "colour") and cells.dtype != np.float32
         chain = _atlas.mip_chain(_atlas.pack(cells, cols, rows), levels, srgb)
+        if info.get("map_kind") == "normal":  # issue 14: filtered normals renormalised
+            from ..materials import renormalise_image
+
+            chain = [chain[0], *(renormalise_image(lv, info.get("encoding", "unorm")) for lv in chain[1:])]
         ext = "exr" if cells.dtype == np.float32 else "png"
         level_files = []
         for lv, arr in enumerate(chain):
@@ -352,7 +379,7 @@ def _write_atlases(
             "colour_space": "srgb" if srgb else "linear",
             "mips_reduced_in": "linear light" if srgb else "stored values",
         }
-        if "normal" in name.lower():
+        if info.get("map_kind", "normal" if "normal" in name.lower() else None) == "normal":
             entry["normal_y"] = normal_y
         map_entries.append(entry)
     return map_entries

@@ -29,7 +29,7 @@ from ..tilefile import TileSet
 from . import omega, patch, swang, wang
 from .base import Option, Scheme
 
-__all__ = ["DEFAULT_SETS", "REGISTRY", "SCHEMES", "Option", "Scheme", "build", "get_scheme"]
+__all__ = ["DEFAULT_SETS", "REGISTRY", "SCHEMES", "Option", "Scheme", "build", "build_material", "get_scheme"]
 
 #: Every scheme, in the order the command line lists them. A new scheme is one line here.
 REGISTRY: tuple[Scheme, ...] = (omega.SCHEME, wang.SCHEME, swang.SCHEME, patch.SCHEME)
@@ -55,12 +55,51 @@ def get_scheme(name: Any) -> Scheme:
     raise ParameterError(f"scheme = {name!r}: must be one of {', '.join(SCHEMES)}")
 
 
-def build(exemplar: np.ndarray, scheme: str = "omega", **kwargs: Any) -> TileSet:
+def build(exemplar: np.ndarray, scheme: str = "omega", *, maps: Any = None, **kwargs: Any) -> TileSet:
     """Build a tile set of ``scheme`` from ``exemplar``; ``kwargs`` go to the scheme's builder.
+
+    ``maps={name: array}`` (with optional ``map_kinds``, ``map_weights``, ``normal_y``) makes a material build:
+    matching and cuts on the exemplar and every map jointly, every map stored in the set
+    (:func:`tilesynth.materials.build_material`).
 
     Raises
     ------
     ParameterError
         If ``scheme`` is unknown (and whatever the builder raises for its parameters).
     """
+    if maps is not None or any(k in kwargs for k in ("map_kinds", "map_weights", "normal_y")):
+        return build_material(exemplar, scheme=scheme, maps=maps, **kwargs)  # issue 14
     return get_scheme(scheme).build(exemplar, **kwargs)
+
+
+def build_material(
+    exemplar: np.ndarray,
+    scheme: str = "omega",
+    *,
+    maps: Any,
+    map_kinds: Any = None,
+    map_weights: Any = None,
+    normal_y: str = "up",
+    map_suffixes: dict[str, str] | None = None,
+    **kwargs: Any,
+) -> TileSet:
+    """Build a tile set of ``scheme`` from ``exemplar`` (the albedo) and its pixel-aligned ``maps``, matched and
+    cut jointly (issue 14; the method, the kinds and the defaults: :mod:`tilesynth.materials`); ``kwargs`` go to
+    the scheme's builder. :func:`build` with ``maps=`` calls it.
+
+    Parameters
+    ----------
+    exemplar : the albedo, as for every builder.
+    maps : ``{name: (H, W[, C]) uint8 | uint16 | float array}``, each pixel-aligned with the exemplar.
+    map_kinds : ``{name: kind}`` overriding the kind inferred from the name (colour, scalar, normal, label).
+    map_weights : ``{name: weight >= 0}`` (``"albedo"`` too) overriding the defaults (1; labels 0).
+    normal_y : "up" (OpenGL, default) or "down" (DirectX): the Y convention of the input normal maps.
+    map_suffixes : the file suffix of each map (".png", ".exr", ".npy"), recorded to name the outputs alike.
+    """
+    from ..materials import build_with_maps
+
+    sc = get_scheme(scheme)
+    return build_with_maps(
+        sc.build, exemplar, maps=maps, map_kinds=map_kinds, map_weights=map_weights, normal_y=normal_y,
+        map_suffixes=map_suffixes, **kwargs,
+    )  # fmt: skip

@@ -1,0 +1,647 @@
+"""Material builds: an exemplar with pixel-aligned maps (normal, height, roughness, ...) cut as one material.
+
+A colour-only build chooses its matching patches and cuts on the albedo alone; a height map sent through the
+same cuts afterwards (``synth --with``) is discontinuous wherever the albedo hid a seam that the height does not
+(issue 14: height cliffs along every cut). A **material build** (:func:`tilesynth.build_material`, ``tilesynth.build(img,
+maps={...})``, ``tilesynth build EX --map height=H.png``) chooses them on every map jointly:
+
+1. **Features.** Each map (and the albedo) is centred and divided by its own standard deviation (the square
+   root of the sum of its channels' variances), then multiplied by ``sqrt(weight)``: a map of weight w
+   contributes w times the albedo's share of every SSD and every cut weight, whatever its range or channel
+   count. A normal map enters as its decoded vectors (``2·v − 1`` for unsigned encodings), a constant map not at
+   all (it has nothing to match).
+2. **Projection.** The stacked channels (3 + 3 + 1 + 1 = 8 for albedo, normal, height, roughness) are projected
+   on their first :data:`FEATURE_CHANNELS` principal components (exact when there are no more channels than
+   that), and the result is mapped into [0, 1] by one affine map common to all channels. Why: the FFT matching
+   search, the objective and the cut weights cost in proportion to the channel count; 4 components keep the
+   build at 1.1-1.3x the CPU time of a colour-only build (target: at most 1.5x, ``benches/materials.py``)
+   while keeping most of the joint variance (recorded as ``params["material"]["variance_kept"]``: 0.90-0.96 on
+   the bench's materials). One affine map for every channel keeps SSD rankings exactly (a common scale and offset
+   change every SSD by the same factor); the Kwatra ``eps`` is then relative to features of an image's range.
+   The feature image reaches the builder as an ordinary 4-channel float image: its 4th channel is a feature,
+   never an alpha channel or a mask.
+3. **Build.** The scheme's own builder runs on the feature image, unchanged: genes, matching patches, D_j, E and
+   cut costs are all in feature units (recorded as such). The tile set then gets the real albedo: the exemplar
+   is the albedo, and the tiles are the albedo copied through the provenance (or Poisson-smoothed in the same
+   regions, for ``smooth=True``).
+4. **Maps travel with the set.** Every map is stored in the tile set (``map_<name>.npy`` in its own sample type,
+   with its kind and weight in ``manifest.json`` ``maps``), and :func:`synthesize_maps` lays each out through the
+   same provenance and cuts as the colour (``synth``, ``export`` and ``report`` write all of them). Scalar and
+   normal maps are Poisson-smoothed inside the cut regions by default (:func:`smooths`: a smooth map shows the
+   level offset of two patches as a cliff that no cut avoids); ``smooth=False`` / ``--map-smooth off`` gives
+   pure copies.
+
+**Map kinds** (:data:`KINDS`), inferred from the name (:func:`infer_kind`) unless given:
+
+=========  =====================================================  ==============  ====================================
+kind       meaning                                                default weight  in synthesis
+=========  =====================================================  ==============  ====================================
+colour     sRGB colour (albedo, base colour, emissive)            1               copied; smoothed with the colour
+scalar     linear data (height, roughness, metallic, AO, ...)     1               smoothed inside the cuts
+normal     tangent-space normal, 3 channels, Y up or down         1               smoothed inside the cuts, renormalised
+label      mask, material ID, segmentation (any integer value)    0               exact copies, never smoothed
+=========  =====================================================  ==============  ====================================
+
+Names containing ``normal``/``nrm``/``nor`` are normals; ``mask``, ``label``, ``id``, ``segment``, ``class`` labels;
+``albedo``, ``color``/``colour``, ``diffuse``, ``base``, ``emissive`` colours; everything else (``height``,
+``roughness``, ``ao``, ``metallic``, ``disp``, ...) linear scalars. Labels get weight 0 by default (their values are
+categories, not distances); a positive ``map_weights`` entry makes them count numerically.
+
+**What is left in smooth maps.** The ω construction keeps the tile border ring of the intermediate tile, whose
+central cross (where two sample patches meet) reaches the border at the four side midpoints; a few pixels of that
+cross are outside every cut region and stay as they are (in every scheme with a kept border). In an albedo they
+are invisible; in a smooth height map they show as a small dot at each tile side midpoint (seen on the rock
+figure, ``docs/figures/material-rock.png``). Removing them would change border pixels that the neighbouring tile
+shares, so they are left.
+
+**Normal maps.** ``normal_y`` records the Y convention of the input normals: ``"up"`` (OpenGL, green up, the
+default) or ``"down"`` (DirectX). Outputs can be converted (:func:`convert_normal_y`, ``synth --normal-y``): the
+green channel is negated (``max − g`` for unsigned encodings: exact for 8- and 16-bit). A normal map is *unsigned*
+(values in [0, 1] encode ``2·v − 1``; every PNG) unless it has negative values (a float map of signed vectors).
+Inputs whose vectors are far from unit length are refused (:data:`NORMAL_TOLERANCE`): they are not normal maps
+(a height map given as ``normal``, a map in the wrong encoding). After smoothing, every smoothed vector is
+renormalised to unit length (then re-encoded; an 8-bit output can then be off by its quantisation, at most about
+0.007).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .errors import ParameterError, ShapeError
+
+__all__ = [
+    "DEFAULT_WEIGHTS",
+    "FEATURE_CHANNELS",
+    "KINDS",
+    "MapSpec",
+    "NORMAL_TOLERANCE",
+    "build_with_maps",
+    "check_maps",
+    "convert_normal_y",
+    "feature_image",
+    "infer_kind",
+    "normal_lengths",
+    "renormalise_image",
+    "smooths",
+    "synthesize_maps",
+]
+
+#: The map kinds.
+KINDS: tuple[str, ...] = ("colour", "scalar", "normal", "label")
+#: Other spellings accepted for a kind.
+KIND_ALIASES: dict[str, str] = {
+    "color": "colour",
+    "srgb": "colour",
+    "linear": "scalar",
+    "mask": "label",
+    "labels": "label",
+    "id": "label",
+}
+#: The weight of a map of each kind when ``map_weights`` does not name it (its share of the distance relative to
+#: the albedo's, which is 1).
+DEFAULT_WEIGHTS: dict[str, float] = {"colour": 1.0, "scalar": 1.0, "normal": 1.0, "label": 0.0}
+#: Channels of the feature image the scheme is built on (see the module docstring, step 2).
+FEATURE_CHANNELS = 4
+#: A normal map is refused when more than :data:`NORMAL_BAD_SHARE` of its vectors have a length outside
+#: 1 ± NORMAL_TOLERANCE (8-bit quantisation alone stays within 0.007).
+NORMAL_TOLERANCE = 0.1
+NORMAL_BAD_SHARE = 0.01
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}")
+_DTYPES = ("uint8", "uint16", "float32")
+
+
+@dataclass(frozen=True)
+class MapSpec:
+    """One map of a material: its name, kind, weight, sample type and channels, and for normals the Y
+    convention and encoding. :meth:`to_dict` is its ``manifest.json`` entry."""
+
+    name: str
+    kind: str
+    weight: float
+    dtype: str
+    channels: int
+    normal_y: str | None = None
+    encoding: str | None = None
+    suffix: str = ".png"
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "name": self.name,
+            "kind": self.kind,
+            "weight": float(self.weight),
+            "dtype": self.dtype,
+            "channels": int(self.channels),
+            "suffix": self.suffix,
+        }
+        if self.kind == "normal":
+            d["normal_y"] = self.normal_y
+            d["encoding"] = self.encoding
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> MapSpec:
+        return cls(
+            name=d["name"], kind=d["kind"], weight=float(d["weight"]), dtype=d["dtype"], channels=int(d["channels"]),
+            normal_y=d.get("normal_y"), encoding=d.get("encoding"), suffix=d.get("suffix", ".png"),
+        )  # fmt: skip
+
+
+def infer_kind(name: str) -> str:
+    """The kind of a map called ``name`` (see the module docstring)."""
+    low = name.lower()
+    words = set(re.split(r"[^a-z]+", low))  # "rock_nrm16" -> {"rock", "nrm"}
+    if "normal" in low or words & {"nrm", "nor", "n", "nml", "normals"}:
+        return "normal"
+    if any(w in low for w in ("mask", "label", "segment", "class")) or words & {"id", "ids", "matid"}:
+        return "label"
+    if any(w in low for w in ("albedo", "colour", "color", "diffuse", "basecolor", "base_color", "emissive")):
+        return "colour"
+    return "scalar"
+
+
+def _kind(value: Any, name: str) -> str:
+    k = KIND_ALIASES.get(str(value).lower(), str(value).lower()) if isinstance(value, str) else None
+    if k not in KINDS:
+        raise ParameterError(
+            f"map {name!r}: unknown map kind {value!r}; expected one of {', '.join(KINDS)} "
+            f"(or {', '.join(sorted(KIND_ALIASES))})"
+        )
+    return k
+
+
+def _as_map_array(name: str, value: Any, shape: tuple[int, int]) -> np.ndarray:
+    """The map as ``(H, W, C)`` uint8 / uint16 / float32 (float16 / float64 converted after the finiteness
+    check), checked: pixel-aligned with the exemplar, 1-4 channels, finite."""
+    try:
+        a = np.asarray(value)
+    except (ValueError, TypeError) as exc:
+        raise ShapeError(f"map {name!r} is not an array ({exc})") from None
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
+        raise ShapeError(
+            f"map {name!r} has shape {np.shape(value)}, expected (H, W) or (H, W, C) with C in 1..4"
+        )
+    if a.shape[:2] != shape:
+        raise ShapeError(
+            f"map {name!r} is {a.shape[1]}x{a.shape[0]}, the exemplar {shape[1]}x{shape[0]}: every map must be "
+            "pixel-aligned with the exemplar (same width and height)"
+        )
+    if a.dtype.kind == "f":
+        if a.dtype not in (np.float16, np.float32, np.float64):
+            raise TypeError(f"map {name!r} has dtype {a.dtype}, expected uint8, uint16 or float32")
+        bad = ~np.isfinite(a)
+        if bad.any():
+            y, x, c = (int(v) for v in np.argwhere(bad)[0])
+            raise ParameterError(
+                f"map {name!r} has {int(bad.sum())} NaN or infinite value(s) (the first {a[y, x, c]!r} at row {y}, "
+                f"column {x}, channel {c}); a map must be finite"
+            )
+        if a.dtype != np.float32:
+            with np.errstate(over="ignore"):
+                f = a.astype(np.float32)
+            if not np.isfinite(f).all():
+                raise ParameterError(f"map {name!r} has values beyond the float32 range")
+            a = f
+    elif a.dtype not in (np.uint8, np.uint16):
+        raise TypeError(
+            f"map {name!r} has dtype {a.dtype}, expected uint8, uint16 or float32 (convert explicitly: "
+            "arr.astype(np.uint8) for data in [0, 255])"
+        )
+    return np.ascontiguousarray(a)
+
+
+def _decoded_normals(a: np.ndarray, encoding: str) -> np.ndarray:
+    """The vectors of a normal map as float64 ``(H, W, 3)``."""
+    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(a.dtype, 1.0)
+    v = a.astype(np.float64) / scale
+    return 2.0 * v - 1.0 if encoding == "unorm" else v
+
+
+def normal_lengths(a: np.ndarray, encoding: str = "unorm") -> np.ndarray:
+    """The vector lengths of a normal map ``(H, W, 3)`` (``encoding`` "unorm": values in [0, 1] or uint encode
+    ``2·v − 1``; "snorm": the vectors themselves): float64 ``(H, W)``."""
+    return np.sqrt((_decoded_normals(np.asarray(a), encoding) ** 2).sum(axis=-1))
+
+
+def _check_normal(name: str, a: np.ndarray) -> str:
+    """Refuse a normal map that is not one; returns its encoding ("unorm" or "snorm")."""
+    if a.shape[2] != 3:
+        raise ParameterError(f"map {name!r} (kind normal) has {a.shape[2]} channel(s), expected 3 (x, y, z)")
+    encoding = "snorm" if a.dtype == np.float32 and float(a.min()) < 0.0 else "unorm"
+    length = normal_lengths(a, encoding)
+    bad = np.abs(length - 1.0) > NORMAL_TOLERANCE
+    if bad.mean() > NORMAL_BAD_SHARE:
+        raise ParameterError(
+            f"map {name!r} (kind normal): {100 * bad.mean():.1f}% of its vectors have a length outside "
+            f"1 ± {NORMAL_TOLERANCE} (median length {float(np.median(length)):.3f}, read as {encoding}: "
+            f"{'2·value − 1' if encoding == 'unorm' else 'the values themselves'}); not a unit normal map. Give "
+            "its kind (--map NAME:scalar=FILE, map_kinds) if it is not a normal map"
+        )
+    return encoding
+
+
+def check_maps(
+    exemplar_shape: tuple[int, ...],
+    maps: Any,
+    map_kinds: Any = None,
+    map_weights: Any = None,
+    normal_y: Any = "up",
+    suffixes: dict[str, str] | None = None,
+) -> list[tuple[MapSpec, np.ndarray]]:
+    """Validate the maps of a material build before any work: ``[(spec, array)]`` in the given order.
+
+    Raises :class:`ShapeError` (not pixel-aligned), :class:`ParameterError` (bad name, duplicate name, NaN or
+    infinity, unknown kind, a normal map far from unit length, a bad weight) or ``TypeError`` (dtype), each naming
+    the map and the value.
+    """
+    if not isinstance(maps, dict) or not maps:
+        raise ParameterError(f"maps = {type(maps).__name__}: expected a non-empty dict {{name: array}}")
+    if normal_y not in ("up", "down"):
+        raise ParameterError(f"normal_y = {normal_y!r}: must be 'up' (OpenGL) or 'down' (DirectX)")
+    kinds = {} if map_kinds is None else map_kinds
+    weights = {} if map_weights is None else map_weights
+    for what, d in (("map_kinds", kinds), ("map_weights", weights)):
+        if not isinstance(d, dict):
+            raise ParameterError(f"{what} = {d!r}: expected a dict {{map name: value}}")
+    seen: dict[str, str] = {}
+    for name in maps:
+        if not isinstance(name, str) or not _NAME.fullmatch(name):
+            raise ParameterError(
+                f"map name {name!r}: 1-64 letters, digits, '-' and '_', starting with a letter or digit"
+            )
+        if name.lower() == "albedo":
+            raise ParameterError("map name 'albedo' is the exemplar itself; give the map another name")
+        if name.lower() in seen:
+            raise ParameterError(
+                f"duplicate map name {name!r} (and {seen[name.lower()]!r}): map names must differ (ignoring case), "
+                "since each names an output file"
+            )
+        seen[name.lower()] = name
+    for what, d in (("map_kinds", kinds), ("map_weights", weights)):
+        for key in d:
+            if key not in maps and not (what == "map_weights" and key == "albedo"):
+                raise ParameterError(f"{what}: {key!r} is not one of the maps ({', '.join(maps)})")
+    out = []
+    shape = tuple(int(v) for v in exemplar_shape[:2])
+    for name, value in maps.items():
+        kind = _kind(kinds[name], name) if name in kinds else infer_kind(name)
+        a = _as_map_array(name, value, shape)  # type: ignore[arg-type]
+        w = _weight(weights.get(name, DEFAULT_WEIGHTS[kind]), name)
+        encoding = _check_normal(name, a) if kind == "normal" else None
+        suffix = str((suffixes or {}).get(name, "")).lower()
+        if suffix not in (".png", ".exr", ".npy", ".tif", ".tiff"):
+            suffix = ".exr" if a.dtype == np.float32 else ".png"
+        spec = MapSpec(
+            name,
+            kind,
+            w,
+            str(a.dtype),
+            int(a.shape[2]),
+            normal_y if kind == "normal" else None,
+            encoding,
+            suffix,
+        )
+        out.append((spec, a))
+    _weight(weights.get("albedo", 1.0), "albedo")
+    return out
+
+
+def _weight(value: Any, name: str) -> float:
+    try:
+        w = float(value)
+    except (TypeError, ValueError):
+        w = float("nan")
+    if isinstance(value, bool) or not np.isfinite(w) or w < 0:
+        raise ParameterError(f"map weight of {name!r} = {value!r}: expected a finite number >= 0")
+    return w
+
+
+def _normalised(x: np.ndarray, w: float) -> np.ndarray | None:
+    """``(P, C)`` float64 centred, divided by its total standard deviation and scaled by ``sqrt(w)``; None for a
+    constant map or weight 0."""
+    if w == 0.0:
+        return None
+    x = x - x.mean(axis=0)
+    s = float(np.sqrt((x * x).sum(axis=0).sum() / x.shape[0]))
+    if s <= 1e-12:
+        return None
+    return x * (np.sqrt(w) / s)
+
+
+def feature_image(
+    albedo: np.ndarray, specs: list[tuple[MapSpec, np.ndarray]], albedo_weight: float = 1.0
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """The feature image a material is built on (module docstring, steps 1-2): float32 ``(H, W, k)`` in [0, 1]
+    and its record (channels, variance kept, the maps' weights)."""
+    h, w = albedo.shape[:2]
+    cols = []
+    a = _normalised(albedo.reshape(h * w, -1).astype(np.float64), albedo_weight)
+    if a is not None:
+        cols.append(a)
+    for spec, arr in specs:
+        if spec.kind == "normal":
+            x = _decoded_normals(arr, spec.encoding or "unorm").reshape(h * w, 3)
+        else:
+            scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(arr.dtype, 1.0)
+            x = arr.reshape(h * w, -1).astype(np.float64) / scale
+        z = _normalised(x, spec.weight)
+        if z is not None:
+            cols.append(z)
+    if not cols:
+        raise ParameterError(
+            "material: the albedo and every map are constant or have weight 0; nothing to match"
+        )
+    f = np.concatenate(cols, axis=1)
+    total = float((f * f).sum())
+    kept = 1.0
+    if f.shape[1] > FEATURE_CHANNELS:
+        # sums in numpy's own pairwise order, not BLAS (whose result may depend on its thread count): the same
+        # bytes in every run and on any number of threads, as every tilesynth build
+        d = f.shape[1]
+        cov = np.empty((d, d))
+        for i in range(d):
+            for j in range(i, d):
+                cov[i, j] = cov[j, i] = float((f[:, i] * f[:, j]).sum())
+        vals, vecs = np.linalg.eigh(cov)
+        order = np.argsort(vals)[::-1][:FEATURE_CHANNELS]
+        vecs = vecs[:, order]
+        vecs *= np.where(vecs[np.abs(vecs).argmax(axis=0), np.arange(vecs.shape[1])] < 0, -1.0, 1.0)
+        proj = np.zeros((f.shape[0], vecs.shape[1]))
+        for i in range(d):
+            proj += f[:, i : i + 1] * vecs[i]
+        f = proj
+        kept = min(1.0, float(vals[order].sum() / total)) if total > 0 else 1.0
+    lo, hi = float(f.min()), float(f.max())
+    scale = 1.0 / (hi - lo) if hi > lo else 1.0
+    feats = np.clip((f - lo) * scale, 0.0, 1.0).astype(np.float32).reshape(h, w, -1)
+    record = {
+        "feature_channels": int(feats.shape[2]),
+        "variance_kept": kept,
+        "feature_scale": scale,
+        "albedo_weight": float(albedo_weight),
+    }
+    return np.ascontiguousarray(feats), record
+
+
+def build_with_maps(
+    build: Any,
+    exemplar: Any,
+    *,
+    maps: Any,
+    map_kinds: Any = None,
+    map_weights: Any = None,
+    normal_y: str = "up",
+    map_suffixes: dict[str, str] | None = None,
+    **kwargs: Any,
+) -> Any:
+    """A material build with the scheme builder ``build`` (``Scheme.build``): the body of
+    :func:`tilesynth.build_material` (which looks the scheme up; this module does not import the registry)."""
+    from ._validate import as_image
+    from .stages.compose import exemplar_record
+    from .stages.smoothing import smooth_tiles
+    from .synthesis import is_smoothed
+
+    albedo = as_image(exemplar, "exemplar")
+    if np.may_share_memory(albedo, exemplar):
+        albedo = albedo.copy()
+    specs = check_maps(albedo.shape, maps, map_kinds, map_weights, normal_y, map_suffixes)
+    aw = _weight((map_weights or {}).get("albedo", 1.0), "albedo")
+    joint = aw != 1.0 or any(s.weight > 0 for s, _ in specs)
+    if joint:
+        feats, record = feature_image(albedo, specs, aw)
+    else:  # only weight-0 maps (labels): the colour-only build, plus the maps
+        feats, record = albedo, {"feature_channels": int(albedo.shape[2]), "variance_kept": 1.0,
+                                 "feature_scale": 1.0, "albedo_weight": aw}  # fmt: skip
+    info = kwargs.pop("exemplar_info", None)
+    ts = build(feats, exemplar_info=info, **kwargs)
+    if joint:
+        src = ts.source
+        tiles = albedo[src[..., 0], src[..., 1]]
+        if is_smoothed(ts):
+            n = ts.tile_size
+            matching = np.stack([albedo[r : r + n, c : c + n] for r, c in np.asarray(ts.match_offsets)])
+            tiles, _ = smooth_tiles(tiles, matching, ts.cut_masks, threads=kwargs.get("threads"))
+        ts.tiles = np.ascontiguousarray(tiles, dtype=np.float32)
+        ts.exemplar = albedo
+        ts.exemplar_info = exemplar_record(albedo, info)
+    ts.params = {**ts.params, "material": {**record, "joint": bool(joint), "units": "feature"}}
+    ts.maps = {spec.name: arr for spec, arr in specs}
+    ts.map_specs = [spec.to_dict() for spec, _ in specs]
+    return ts
+
+
+def convert_normal_y(a: np.ndarray, encoding: str) -> np.ndarray:
+    """A normal map with its Y (green) channel flipped between OpenGL and DirectX: ``max − g`` for unsigned
+    encodings (exact for uint8 / uint16), ``−g`` for signed float vectors."""
+    out = np.array(a, copy=True)
+    if encoding == "snorm":
+        out[..., 1] = -out[..., 1]
+    elif out.dtype == np.uint8:
+        out[..., 1] = 255 - out[..., 1]
+    elif out.dtype == np.uint16:
+        out[..., 1] = 65535 - out[..., 1]
+    else:
+        out[..., 1] = np.float32(1.0) - out[..., 1]
+    return out
+
+
+def _renormalise(tiles: np.ndarray, where: np.ndarray, encoding: str) -> np.ndarray:
+    """``tiles`` (K, N, N, 3) with the vectors at ``where`` (K, N, N) set to unit length (re-encoded in the
+    tiles' own sample type)."""
+    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(tiles.dtype)
+    v = _decoded_normals(tiles[where], encoding)
+    v /= np.maximum(np.sqrt((v * v).sum(axis=-1, keepdims=True)), 1e-12)
+    if encoding == "unorm":
+        v = (v + 1.0) * 0.5
+    out = tiles.copy()
+    if scale:
+        out[where] = np.clip(np.rint(v * scale), 0, scale).astype(tiles.dtype)
+    else:
+        out[where] = v.astype(np.float32)
+    return out
+
+
+def renormalise_image(a: np.ndarray, encoding: str) -> np.ndarray:
+    """A normal image ``(..., 3)`` (any leading shape) with every vector longer than 0.5 set to unit length,
+    re-encoded in its own sample type (for filtered normals: mip levels, resampled atlases). Shorter vectors
+    (empty atlas cells, averaged-out normals) are left as they are."""
+    flat = np.ascontiguousarray(a).reshape(-1, 1, a.shape[-1])
+    length = normal_lengths(flat[:, 0], encoding)
+    return _renormalise(flat, length > 0.5, encoding).reshape(a.shape)
+
+
+#: The kinds whose maps are Poisson-smoothed inside the cuts by default, even when the albedo is not.
+SMOOTH_KINDS: tuple[str, ...] = ("scalar", "normal")
+
+
+def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
+    """Whether map ``spec`` of ``tileset`` is Poisson-smoothed inside the cuts: never for labels; for
+    ``smooth=None`` (the default) when the colour tiles were smoothed, and for every scalar and normal map
+    (:data:`SMOOTH_KINDS`) of a set with matching patches. Why the maps without the albedo: the cuts of the joint
+    build make the maps agree along the cut as well as the matching allows, but a smooth map (a height field)
+    still shows the *level* offset between the two patches as a cliff along the curve (measured:
+    ``benches/materials.py``, cut seam 8-15 without smoothing, 1.5-2.5 with it), while the albedo, whose pixel
+    steps are large, hides the same offset; the gradient-domain fill removes the offset and keeps every border
+    pixel, so tilings stay seamless. ``smooth=False`` gives pure copies."""
+    from .synthesis import is_smoothed
+
+    if spec.kind == "label":
+        return False
+    patches = not (np.asarray(tileset.match_offsets) == -1).all()
+    if smooth is None:
+        return bool(is_smoothed(tileset) or (spec.kind in SMOOTH_KINDS and patches))
+    if smooth and not patches:
+        raise ParameterError(
+            f"map {spec.name!r}: the tile set has no matching patches (scheme {tileset.scheme!r}), so there is "
+            "no smoothing to follow; use map smoothing off"
+        )
+    return bool(smooth)
+
+
+def map_atlas(
+    tileset: Any, spec: MapSpec, arr: np.ndarray, smooth: bool | None = None, threads: int | None = None
+) -> np.ndarray:
+    """The tiles ``(K, N, N, C)`` of one map of ``tileset``: copied through the provenance, Poisson-smoothed in
+    the cut regions when :func:`smooths` says so (never for labels), normals renormalised where smoothed."""
+    from .synthesis import _smooth_map_atlas
+
+    src = tileset.source
+    atlas = np.ascontiguousarray(arr[src[..., 0], src[..., 1]])
+    if not smooths(tileset, spec, smooth):
+        return atlas
+    atlas = _smooth_map_atlas(tileset, arr, atlas, threads)
+    if spec.kind == "normal":
+        atlas = _renormalise(atlas, np.asarray(tileset.cut_masks, bool), spec.encoding or "unorm")
+    return atlas
+
+
+def synthesize_maps(
+    tileset: Any,
+    index_map: np.ndarray,
+    width: int,
+    height: int,
+    *,
+    threads: int | None = None,
+    smooth: bool | None = None,
+    normal_y: str | None = None,
+) -> dict[str, np.ndarray]:
+    """Every map stored in a material tile set, laid out like the colour output of ``index_map``:
+    ``{name: (height, width, C)}`` in each map's own sample type. ``smooth``: None (:func:`smooths`: scalar and
+    normal maps, and every map of a smoothed set), True or False (labels are never smoothed); ``normal_y``: "up" / "down" converts normal maps recorded in the other
+    convention (None: as recorded)."""
+    from . import kernels
+    from ._validate import MAX_BYTES_ENV, fmt_bytes, memory_limit, positive_int, threads_arg
+    from .tilefile import TileSet
+
+    if not isinstance(tileset, TileSet):
+        raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet")
+    if normal_y not in (None, "up", "down"):
+        raise ParameterError(f"normal_y = {normal_y!r}: must be None, 'up' or 'down'")
+    if smooth is not None and not isinstance(smooth, (bool, np.bool_)):
+        raise ParameterError(f"smooth = {smooth!r}: must be None, True or False")
+    threads = threads_arg(threads)
+    w, h = positive_int(width, "width"), positive_int(height, "height")
+    specs = tileset.map_specs or []
+    need = sum(h * w * int(d["channels"]) * np.dtype(d["dtype"]).itemsize for d in specs)
+    if need > memory_limit(None):
+        raise ParameterError(
+            f"width x height = {w}x{h}: the maps need {fmt_bytes(need)}, more than the limit of "
+            f"{fmt_bytes(memory_limit(None))} ({MAX_BYTES_ENV})"
+        )
+    imap = kernels._index_map(index_map)
+    n = tileset.tile_size
+    if imap.ndim != 2 or imap.shape[0] * n < h or imap.shape[1] * n < w:
+        raise ShapeError(
+            f"index_map has shape {imap.shape}, expected at least ({-(-h // n)}, {-(-w // n)}) to cover {w}x{h} "
+            f"pixels with {n}x{n} tiles"
+        )
+    if imap.size and (imap.min() < 0 or imap.max() >= tileset.n_tiles):
+        raise ParameterError(f"index_map has tile indices outside [0, {tileset.n_tiles})")
+    out = {}
+    for d in specs:
+        spec = MapSpec.from_dict(d)
+        arr = tileset.maps[spec.name]
+        atlas = map_atlas(tileset, spec, arr, smooth, threads)
+        if spec.kind == "normal" and normal_y is not None and normal_y != spec.normal_y:
+            atlas = convert_normal_y(atlas, spec.encoding or "unorm")
+        img = np.empty((h, w, arr.shape[2]), arr.dtype)
+        kernels.tile_copy(np.ascontiguousarray(atlas), imap, img, threads=threads)
+        out[spec.name] = img
+    return out
+
+
+def _float_atlas(tileset: Any, spec: MapSpec, atlas: np.ndarray) -> np.ndarray:
+    """A map's tiles as float64 for measuring (normals decoded to vectors, uint scaled to [0, 1])."""
+    if spec.kind == "normal":
+        return _decoded_normals(atlas, spec.encoding or "unorm")
+    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(atlas.dtype, 1.0)
+    return atlas.astype(np.float64) / scale
+
+
+def map_cut_seams(tileset: Any, smooth: bool | None = None) -> dict[str, float | None]:
+    """The cut seam score (:func:`tilesynth.metrics.cut_seam_score`) of every stored map of ``tileset``, on its
+    tiles as :func:`synthesize_maps` lays them out (normals as vectors): ``{name: score or None}``."""
+    from types import SimpleNamespace
+
+    from .metrics import cut_seam_score
+
+    out: dict[str, float | None] = {}
+    for d in getattr(tileset, "map_specs", None) or []:
+        spec = MapSpec.from_dict(d)
+        atlas = map_atlas(tileset, spec, tileset.maps[spec.name], smooth)
+        cs = cut_seam_score(
+            SimpleNamespace(tiles=_float_atlas(tileset, spec, atlas), cut_masks=tileset.cut_masks)
+        )
+        out[spec.name] = None if cs is None else cs["score"]
+    return out
+
+
+def report_maps(
+    tileset: Any, index_map: np.ndarray, shape: tuple[int, ...]
+) -> list[tuple[str, np.ndarray, str]]:
+    """For ``tilesynth report``: ``[(map name, displayable image, caption)]`` of every stored map, laid out
+    like the report's sample (float maps scaled to [0, 1] for display), captions with each map's cut seam."""
+    maps = synthesize_maps(tileset, index_map, int(shape[1]), int(shape[0]))
+    seams = map_cut_seams(tileset)
+    out = []
+    for d in tileset.map_specs or []:
+        a = maps[d["name"]]
+        if a.dtype == np.float32:
+            lo, hi = float(a.min()), float(a.max())
+            a = ((a - lo) / (hi - lo) if hi > lo else np.zeros_like(a)).astype(np.float32)
+        if a.shape[2] == 2:
+            a = np.concatenate([a, np.zeros_like(a[..., :1])], axis=2)
+        s = seams[d["name"]]
+        caption = (
+            f"Map {d['name']} ({d['kind']}, weight {d['weight']:g}), laid out through the same cuts as the sample; "
+            f"cut seam score {'n/a' if s is None else format(s, '.3f')} (≈ 1: the cuts do not show in it)."
+        )
+        out.append((d["name"], a, caption))
+    return out
+
+
+def renormalise_with_map(
+    tileset: Any, name: str, aligned: np.ndarray, out: np.ndarray, index_map: np.ndarray
+) -> np.ndarray:
+    """For ``synth --with``: a smoothed map whose name says it is a normal map (:func:`infer_kind`), with 3
+    channels and unit vectors, gets its smoothed output vectors renormalised (the pixels inside the cuts);
+    any other map is returned as it is."""
+    from . import kernels
+
+    a = np.asarray(aligned)
+    if infer_kind(name) != "normal" or a.ndim != 3 or a.shape[2] != 3 or out.shape[2] != 3:
+        return out
+    try:
+        encoding = _check_normal(name, a)
+    except ParameterError:
+        return out  # not unit vectors: not ours to change
+    masks = np.ascontiguousarray(np.asarray(tileset.cut_masks, np.uint8)[..., None])
+    inside = np.empty((*out.shape[:2], 1), np.uint8)
+    kernels.tile_copy(masks, kernels._index_map(index_map), inside)
+    return _renormalise(out[None], inside[None, ..., 0] == 1, encoding)[0]
