@@ -1074,6 +1074,14 @@ def repetition_measures(d: st.DrawFn):
 
 
 @st.composite
+def inner_seam_call(d: st.DrawFn):
+    kw = {"tile_size": d(sizes(-2, 30))}
+    if d(st.booleans()):
+        kw["depths"] = d(st.one_of(st.tuples(sizes(-1, 20)), st.lists(sizes(-1, 20), max_size=3).map(tuple)))
+    return ts.inner_seam_score, (d(exemplars()),), kw, ()
+
+
+@st.composite
 def histogram_distance_call(d: st.DrawFn):
     return ts.histogram_distance, (d(exemplars()), d(exemplars())), {}, ()
 
@@ -1278,6 +1286,7 @@ API = {
     "periodic_copies": repetition_measures,
     "detail_repetition": repetition_measures,
     "histogram_distance": histogram_distance_call,
+    "inner_seam_score": inner_seam_call,
 }
 
 NOT_FUZZED = {

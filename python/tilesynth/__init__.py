@@ -115,8 +115,10 @@ __all__ = [
     "detail_repetition",
     "histogram_distance",
     "build_patch",
+    "inner_seam_score",
 ]
 
 from .lookup import LookupScheme, ts_hash  # noqa: E402 - issue 12: the hashed lookup
 from .lookup import index_map as hashed_index_map  # noqa: E402
 from .metrics import detail_repetition, histogram_distance, periodic_copies  # noqa: E402
+from .metrics import inner_seam_score  # noqa: E402 - issue 12: lattice-parallel seams inside the tiles
