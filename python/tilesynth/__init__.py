@@ -120,5 +120,9 @@ __all__ = [
 
 from .lookup import LookupScheme, ts_hash  # noqa: E402 - issue 12: the hashed lookup
 from .lookup import index_map as hashed_index_map  # noqa: E402
-from .metrics import detail_repetition, histogram_distance, periodic_copies  # noqa: E402
-from .metrics import inner_seam_score  # noqa: E402 - issue 12: lattice-parallel seams inside the tiles
+from .metrics import (  # noqa: E402
+    detail_repetition,
+    histogram_distance,
+    inner_seam_score,
+    periodic_copies,
+)
