@@ -10,7 +10,16 @@ import pytest
 import tilesynth as ts
 from tilesynth.errors import ParameterError
 from tilesynth.io import load_image
-from tilesynth.levers import FREE_BETA, RING_BIAS, RING_PENALTY, default_bias, free_terminals, free_weights
+from tilesynth.levers import (
+    FREE_BETA,
+    RING_BIAS,
+    RING_PENALTY,
+    default_bias,
+    diverse_matches,
+    free_terminals,
+    free_weights,
+    self_offsets,
+)
 
 
 @pytest.fixture(scope="module")
@@ -124,7 +133,9 @@ def test_diversity_with_variants(lettuce):
 
 def test_complete_set_defaults(lettuce):
     s = ts.build_omega(lettuce, tileset="c2", seed=1)
-    assert s.tile_size == 64 and s.params["cut_region"] == "free" and s.params["diversity"] == 1
+    assert (
+        s.tile_size == 64 and s.params["cut_region"] == "free" and s.params["diversity"] == 1
+    )  # 256 // 32 * 8
     off = ts.build_omega(lettuce, tileset="c2", seed=1, cut_region="circle", diversity=0)
     assert "cut_region" not in off.params and "diversity" not in off.params
     old = ts.build_omega(lettuce, tileset="16a", tile_size=64, seed=1)
@@ -252,3 +263,36 @@ def test_cli_plain_omega_on_a_complete_set(tmp_path, lettuce):
     )
     s = ts.load(out)
     assert "cut_region" not in s.params and "diversity" not in s.params
+
+
+def test_self_offsets_copy_the_quadrants_back(lettuce):
+    from tilesynth.layouts import intermediate_tiles
+
+    n, h = 48, 24
+    genes = np.array([[10, 10], [100, 30], [30, 150]])
+    patches = np.array([[0, 1, 2, 0], [2, 2, 1, 0]])
+    inter, src = intermediate_tiles(lettuce, genes, patches, n)
+    so = self_offsets(src)
+    assert so.shape == (2, 4, 2)
+    for u in range(2):
+        for q, (r, c) in enumerate(((0, 0), (h, 0), (0, h), (h, h))):
+            y, x = so[u, q]
+            # the exemplar window at that offset holds exactly the quadrant the tile was cut from
+            np.testing.assert_array_equal(
+                lettuce[y + r : y + r + h, x + c : x + c + h], inter[u, r : r + h, c : c + h]
+            )
+
+
+def test_diverse_matches_exclude_self_matches(lettuce):
+    from tilesynth.layouts import intermediate_tiles
+
+    s = ts.build_omega(lettuce, tileset="c2", tile_size=48, seed=3)
+    _, src = intermediate_tiles(s.exemplar, s.genes, s.tile_patches, 48)
+    own = self_offsets(src)
+    d = np.abs(s.match_offsets[:, None, :] - own).max(axis=2)
+    assert (d > 48 // 4).all()  # no tile takes a window within N/4 of one of its own quadrants
+    inter, _ = intermediate_tiles(s.exemplar, s.genes, np.unique(s.tile_patches, axis=0), 48)
+    free_choice, _ = diverse_matches(s.exemplar, inter, 1, 1)  # without the exclusion some tiles do
+    _, src_u = intermediate_tiles(s.exemplar, s.genes, np.unique(s.tile_patches, axis=0), 48)
+    d0 = np.abs(free_choice[:, 0, None, :] - self_offsets(src_u)).max(axis=2)
+    assert (d0 <= 48 // 4).any()

@@ -54,8 +54,9 @@ from .errors import ParameterError
 
 CUT_REGIONS = ("circle", "free", "ring")
 """Values of ``cut_region``."""
-DIVERSE_CANDIDATES = 24
-"""Candidate translations per intermediate tile of :func:`diverse_matches`."""
+DIVERSE_CANDIDATES = 32
+"""Candidate translations per intermediate tile of :func:`diverse_matches` (24 before self-matches were
+excluded; 32 keeps the c2 test set of 16 tiles pairwise more than N/2 apart)."""
 
 
 def free_terminals(n: int, ring: int | None = None, disc: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -165,12 +166,33 @@ def free_cuts(
     return masks, costs
 
 
+def self_offsets(inter_src: np.ndarray) -> np.ndarray:
+    """``(U, 4, 2)``: for every intermediate tile, the four matching-patch offsets that would copy one of its
+    own quadrants back from where it was cut (the offset that puts the tile's pixel (r, c) of a quadrant on its
+    exemplar source pixel, ``inter_src[u, r, c] − (r, c)``, at the quadrant's top-left corner)."""
+    n = inter_src.shape[1]
+    h = n // 2
+    corners = ((0, 0), (h, 0), (0, h), (h, h))
+    return np.stack([inter_src[:, r, c].astype(np.int64) - (r, c) for r, c in corners], axis=1)
+
+
 def diverse_matches(
-    ex: np.ndarray, inter: np.ndarray, n_variants: int, max_uses: int, threads: int | None = None
+    ex: np.ndarray,
+    inter: np.ndarray,
+    n_variants: int,
+    max_uses: int,
+    threads: int | None = None,
+    exclude: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Matching offsets ``(U, V, 2)`` and their SSD ``(U, V)`` under the diversity constraint (module docstring).
 
-    Variants of one tile also stay more than N/4 apart (the candidates are N/4-separated already)."""
+    Variants of one tile also stay more than N/4 apart (the candidates are N/4-separated already).
+    ``exclude`` ``(U, E, 2)`` (:func:`self_offsets`): offsets that tile u must not take, nor any candidate
+    within N/4 (Chebyshev) of them: a *self-match*, the exemplar window that holds one of the tile's own
+    sample quadrants, matches that quadrant exactly and is chosen for it (19 of 256 tiles of a c4 set on
+    cracked mud, 16 on lettuce), but only repeats the shared vertex content the matching patch is meant to
+    replace. N/4 is the distance at which variants count as different (:mod:`tilesynth.complete`). When every
+    candidate of a tile is excluded the rule falls back to all of them."""
     if not isinstance(max_uses, (int, np.integer)) or isinstance(max_uses, bool) or max_uses < 1:
         raise ParameterError(f"diversity = {max_uses!r}: must be a positive int (uses per exemplar region)")
     n = inter.shape[1]
@@ -190,6 +212,10 @@ def diverse_matches(
         for t in np.argsort(ssd[:, min(v, ssd.shape[1] - 1)], kind="stable"):
             cand = offsets[t]  # (J, 2), nearest first
             free = ~(cand[:, None, :] == chosen[t, None, :v, :]).all(axis=2).any(axis=1)  # not a variant yet
+            if exclude is not None:  # no self-match (docstring)
+                own = (np.abs(cand[:, None, :] - exclude[t][None, :, :]).max(axis=2) <= n // 4).any(axis=1)
+                if (free & ~own).any():
+                    free &= ~own
             # uses of each candidate's region: assigned offsets within `radius` (Chebyshev), all at once
             uses = (np.abs(cand[:, None, :] - used[None, :m, :]).max(axis=2) <= radius).sum(axis=1)
             ok = free & (uses < max_uses)

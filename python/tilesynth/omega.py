@@ -320,10 +320,12 @@ def _matching_patches(
     if opts.strategy != "ssd" or opts.metric != "color":
         return _choose_matches(b.exemplar, inter, inter_src, n, nv, exclude, opts, b.threads, b.report)
     if opts.diversity is not None:  # issue 12: diverse matching patches (tilesynth.levers); E keeps the best
-        from .levers import diverse_matches
+        from .levers import diverse_matches, self_offsets
 
         best = kernels.best_matches(b.exemplar, inter, k=1, threads=b.threads)[1][:, 0]
-        chosen, chosen_D = diverse_matches(b.exemplar, inter, nv, opts.diversity, b.threads)
+        chosen, chosen_D = diverse_matches(
+            b.exemplar, inter, nv, opts.diversity, b.threads, exclude=self_offsets(inter_src)
+        )
         return chosen, chosen_D, best
     # the plain path: exact best (and second-best, far enough) SSD translations
     offsets, ssd = kernels.best_matches(b.exemplar, inter, k=nv, exclude_radius=exclude, threads=b.threads)
@@ -372,7 +374,7 @@ def _omega_params(b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, sel: di
 def build_omega(
     exemplar: np.ndarray,
     *,
-    tileset: str = "16a",
+    tileset: str = "c4",
     tile_size: int | None = None,
     genes: np.ndarray | None = None,
     seed: SeedLike = None,
@@ -402,7 +404,9 @@ def build_omega(
     Parameters
     ----------
     exemplar : image ``(H, W[, C])``, uint8/uint16 or float in [0, 1].
-    tileset : name of the tile-set definition: "4", "8", "16a", "16b" or "32".
+    tileset : name of the tile-set definition: the papers' "4", "8", "16a", "16b", "32", "B", "n2", ... or a
+        complete set "c<K>" / "c<K>x<V>". Default "c4", the default of ``tilesynth build`` (measured with
+        ``benches/repetition.py``, issue 12: the papers' sets repeat visibly).
     tile_size : N, even, at most the exemplar's shorter side; default :func:`default_tile_size`.
     genes : optional ``(n, 2)`` top-left positions of the n sample patches (n = number of colours of the set),
         in the order of the set's colours. Default: random distinct positions drawn from ``seed``.
