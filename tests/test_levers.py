@@ -296,3 +296,14 @@ def test_diverse_matches_exclude_self_matches(lettuce):
     _, src_u = intermediate_tiles(s.exemplar, s.genes, np.unique(s.tile_patches, axis=0), 48)
     d0 = np.abs(free_choice[:, 0, None, :] - self_offsets(src_u)).max(axis=2)
     assert (d0 <= 48 // 4).any()
+
+
+def test_default_complete_tile_size_is_a_multiple_of_8():
+    from tilesynth.complete import default_complete_tile_size
+    from tilesynth.engine.atlas import max_mip_level
+
+    expect = {378: 88, 512: 128, 358: 88, 233: 56, 244: 56, 4096: 256, 32: 8, 63: 8}
+    for side, n in expect.items():
+        assert default_complete_tile_size((side, side + 10, 3)) == n
+        assert max_mip_level(n, 8) == 3  # the export's mips reach level 3 with its default gutter
+    assert default_complete_tile_size((20, 20, 3)) == 10  # small exemplars: the half-side default
