@@ -1,11 +1,15 @@
 """Repetition bench (issue 12): how much do outputs repeat, per method, on textures of ../shared/textures.
 
-Methods, on each texture (exemplar = the whole file, tile size N = ⌊min side / 4⌋ rounded down to even):
+Methods, on each texture (exemplar = the whole file, tile size N = the complete sets' default,
+:func:`tilesynth.complete.default_complete_tile_size`: a quarter of the shorter side rounded down to a multiple
+of 8):
 
 - ``16a``: the seed paper's set with the scan-line tiler (the old default), at the default tile size and at N;
 - ``c3``, ``c3x2``, ``c4``: complete corner sets (hashed lookup), built by the plain ω construction at N (inscribed
   circle, each tile's best match), and with the levers of :mod:`tilesynth.levers`: ``div1`` (diversity 1),
-  ``free`` (free cut region, area reward 0.02), ``free+div1`` (both: the defaults of complete sets);
+  ``free`` (free cut region: tapered area reward and ring penalty), ``free+div1`` (both: the defaults of
+  complete sets), ``ring+div1`` (the first free region, a uniform area reward 0.02: the default before the
+  inner-lattice seam was found);
 - ``periodic``: the exemplar itself tiled periodically (the worst case of repetition);
 - ``hex``: by-example hex tiling (Heitz & Neyret 2018, Mikkelsen 2022), numpy: a triangle grid of edge N·4/3,
   a random exemplar offset per vertex (kept inside the exemplar), barycentric weights sharpened (w³) and the
@@ -16,7 +20,8 @@ Methods, on each texture (exemplar = the whole file, tile size N = ⌊min side /
 
 Measures (:mod:`tilesynth.metrics`): periodic-copy fraction, detail-layer autocorrelation peak, exemplar
 coverage (the provenance of every pixel: for hex tiling the vertex with the largest weight), histogram distance,
-border seam score (tile sets: tile size N; others: n/a), build CPU seconds. One Markdown table, then means per
+border seam score and inner-lattice seam score (:func:`tilesynth.metrics.inner_seam_score`, the worst line
+1-4 px inside the tile borders; tile sets: tile size N; others: n/a), build CPU seconds. One Markdown table, then means per
 method. ``--quick``: 4 textures, 512² outputs. The machine is shared: CPU times are indicative only.
 
 Usage: ``python benches/repetition.py [--quick] [--size 1024] [--textures a.png,b.png] [--out table.md]``
@@ -34,8 +39,16 @@ import numpy as np
 
 import tilesynth as ts
 import tilesynth.metrics
+from tilesynth.complete import default_complete_tile_size
 from tilesynth.io import load_image
-from tilesynth.metrics import coverage, detail_repetition, histogram_distance, periodic_copies, seam_score
+from tilesynth.metrics import (
+    coverage,
+    detail_repetition,
+    histogram_distance,
+    inner_seam_score,
+    periodic_copies,
+    seam_score,
+)
 from tilesynth.synthesis import source_map
 
 TEXTURES = Path(__file__).resolve().parents[2] / "shared" / "textures"
@@ -58,6 +71,7 @@ LEVERS = [
     ("c3x2", "div1", {"cut_region": "circle", "diversity": 1}),
     ("c3x2", "free", {"cut_region": "free", "diversity": 0}),
     ("c3x2", "free+div1", {"cut_region": "free", "diversity": 1}),
+    ("c4", "ring+div1", {"cut_region": "ring", "diversity": 1}),
     ("c4", "free+div1", {"cut_region": "free", "diversity": 1}),
 ]
 
@@ -216,6 +230,7 @@ def measure(img: np.ndarray, ex: np.ndarray, src: np.ndarray | None, tile: int |
         "coverage": coverage(src, ex.shape).fraction if src is not None else None,
         "hist": histogram_distance(img, ex).distance,
         "seam": seam_score(img, tile).score if tile else None,
+        "inner": inner_seam_score(img, tile).max if tile else None,
     }
     return row
 
@@ -225,7 +240,7 @@ def run(textures: list[str], size: int, seed: int, quilt_on: bool, out_png: Path
     for name in textures:
         ex = load_image(TEXTURES / f"{name}.png")[0]
         h, w = ex.shape[:2]
-        n = (min(h, w) // 4) // 2 * 2
+        n = default_complete_tile_size(ex.shape)
         print(f"{name}: {w}x{h}, N = {n}", file=sys.stderr, flush=True)
         plain = {"cut_region": "circle", "diversity": 0}  # the plain ω construction (complete sets default to
         # the levers since issue 12)
@@ -236,7 +251,7 @@ def run(textures: list[str], size: int, seed: int, quilt_on: bool, out_png: Path
         )
         for label, set_name, tile, kw in methods:
             t = time.process_time()
-            tset = ts.build_omega(ex, set_name, tile_size=tile, seed=seed, **kw)
+            tset = ts.build_omega(ex, tileset=set_name, tile_size=tile, seed=seed, **kw)
             build = time.process_time() - t
             img, imap = ts.synthesize(tset, size, size, seed=seed)
             src = source_map(tset, imap, size, size)
@@ -291,21 +306,23 @@ def _f(v, fmt=".3f") -> str:
 
 def table(rows: list[dict]) -> str:
     lines = [
-        "| texture | method | copies | autocorr peak | coverage | hist dist | border seam | cut seam | build CPU s |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| texture | method | copies | autocorr peak | coverage | hist dist | border seam | inner seam | cut seam "
+        "| build CPU s |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
             f"| {r['texture']} | {r['method']} | {_f(r['copies'])} | {_f(r['autocorr'])} | "
-            f"{_f(r['coverage'])} | {_f(r['hist'])} | {_f(r['seam'])} | {_f(r.get('cut_seam'))} | "
+            f"{_f(r['coverage'])} | {_f(r['hist'])} | {_f(r['seam'])} | {_f(r.get('inner'))} | "
+            f"{_f(r.get('cut_seam'))} | "
             f"{_f(r['build_s'], '.2f')} |"
         )
     lines += [
         "",
         "Means over the textures:",
         "",
-        "| method | copies | autocorr peak | coverage | hist dist | border seam | cut seam | build CPU s |",
-        "|---|---|---|---|---|---|---|---|",
+        "| method | copies | autocorr peak | coverage | hist dist | border seam | inner seam | cut seam | build CPU s |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     by: dict[str, list[dict]] = {}
     for r in rows:
@@ -319,7 +336,7 @@ def table(rows: list[dict]) -> str:
 
         lines.append(
             f"| {key} | {_f(mean('copies'))} | {_f(mean('autocorr'))} | {_f(mean('coverage'))} | "
-            f"{_f(mean('hist'))} | {_f(mean('seam'))} | {_f(mean('cut_seam'))} | "
+            f"{_f(mean('hist'))} | {_f(mean('seam'))} | {_f(mean('inner'))} | {_f(mean('cut_seam'))} | "
             f"{_f(mean('build_s'), '.2f')} |"
         )
     return "\n".join(lines)

@@ -1116,6 +1116,14 @@ def repetition_measures(d: st.DrawFn):
 
 
 @st.composite
+def inner_seam_call(d: st.DrawFn):
+    kw = {"tile_size": d(sizes(-2, 30))}
+    if d(st.booleans()):
+        kw["depths"] = d(st.one_of(st.tuples(sizes(-1, 20)), st.lists(sizes(-1, 20), max_size=3).map(tuple)))
+    return ts.inner_seam_score, (d(exemplars()),), kw, ()
+
+
+@st.composite
 def histogram_distance_call(d: st.DrawFn):
     return ts.histogram_distance, (d(exemplars()), d(exemplars())), {}, ()
 
@@ -1395,6 +1403,7 @@ API = {
     "predicted_border_seam": predicted_border_seam_call,
     "build_material": build_material,
     "synthesize_maps": synthesize_maps,
+    "inner_seam_score": inner_seam_call,
 }
 
 NOT_FUZZED = {

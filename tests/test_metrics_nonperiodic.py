@@ -90,3 +90,44 @@ def test_image_metrics_include_the_new_measures():
     assert m["histogram"]["distance"] >= 0.0
     small = image_metrics(_noise(8, 8))
     assert small["periodic_copies"] is None
+
+
+# ------------------------------------------------------------------------------ inner-lattice seam (issue 12)
+def test_inner_seam_score_finds_a_grid_inside_the_tiles():
+    from tilesynth.metrics import inner_seam_score
+
+    rng = np.random.default_rng(5)
+    n = 32
+    noise = rng.random((256, 256, 3)).astype(np.float32) * 0.2 + 0.4
+    clean = inner_seam_score(noise, n)
+    assert set(clean.scores) == {1, -1, 2, -2, 3, -3, 4, -4}
+    assert all(abs(v - 1) < 0.05 for v in clean.scores.values())  # i.i.d. noise: every line is interior-like
+    # a square grid of seams 2 px inside every tile (the free cut pressed onto the ring): each tile's
+    # pixels 2..N-3 shifted by a constant, so the steps across lines +2 and -2 grow and no other line's
+    seamed = noise.copy()
+    inner = (np.arange(256) % n >= 2) & (np.arange(256) % n <= n - 3)
+    seamed[np.ix_(inner, inner)] += 0.3
+    s = inner_seam_score(seamed, n)
+    assert s.max > 3 and abs(s.depth_of_max) == 2
+    assert s.scores[2] > 3 and s.scores[-2] > 3
+    assert all(abs(s.scores[d] - 1) < 0.05 for d in (1, -1, 3, -3, 4, -4))
+    assert s.mean == pytest.approx(np.mean(list(s.scores.values())))
+    d = s.to_dict()
+    assert d["scores"]["2"] == pytest.approx(s.scores[2]) and d["tile_size"] == n
+    # the border seam score does not flag that grid (its interior mean even includes the grid lines)
+    from tilesynth.metrics import seam_score
+
+    assert seam_score(seamed, n).score < 1.05
+
+
+def test_inner_seam_score_errors_and_small_tiles():
+    from tilesynth.errors import ParameterError, ShapeError
+    from tilesynth.metrics import inner_seam_score
+
+    img = np.random.default_rng(1).random((64, 64, 1)).astype(np.float32)
+    with pytest.raises(ShapeError):
+        inner_seam_score(img, 64)  # one tile: no border
+    with pytest.raises(ParameterError):
+        inner_seam_score(img, 4, depths=(2, 3))  # no depth below N/2
+    s = inner_seam_score(img, 6)  # depths 1 and 2 only (3 = N/2 is left out)
+    assert set(s.scores) == {1, -1, 2, -2}

@@ -117,10 +117,16 @@ __all__ = [
     "build_patch",
     "build_material",
     "synthesize_maps",
+    "inner_seam_score",
 ]
 
 from .lookup import LookupScheme, ts_hash  # noqa: E402 - issue 12: the hashed lookup
 from .lookup import index_map as hashed_index_map  # noqa: E402
 from .materials import synthesize_maps  # noqa: E402 - issue 14: material builds
-from .metrics import detail_repetition, histogram_distance, periodic_copies  # noqa: E402
+from .metrics import (  # noqa: E402
+    detail_repetition,
+    histogram_distance,
+    inner_seam_score,
+    periodic_copies,
+)
 from .schemes import build_material  # noqa: E402

@@ -334,7 +334,7 @@ PARAMS = Obj(
         "sample_size": Optional(_POS),
         "threads": Optional(_POS),
         # the levers of the complete sets (issue 12, tilesynth.levers)
-        "cut_region": Str(("circle", "free")),
+        "cut_region": Str(("circle", "free", "ring")),
         "cut_bias": Num(0.0),
         "diversity": _POS,
         "border_tries": _POS,  # the Wang schemes (issue 14)

@@ -11,9 +11,27 @@ matching patch O. Two build options of :func:`tilesynth.build_omega` move that b
     tile's central cross (where its four sample quadrants meet), minus the sources. Everything else is free,
     so the min cut (Kwatra weights, the same as the circle's, by the general grid min cut
     :func:`tilesynth.kernels.grid_mincut`) may give most of the tile to O. The tile border is still the
-    intermediate tile's (the ring), so neighbouring tiles match exactly as before. Left alone the min cut
-    stays close to the cross (a short cut is cheap); ``cut_bias`` (default :data:`FREE_BIAS`) rewards the area
-    given to O so the cut moves outwards.
+    intermediate tile's (the ring), so neighbouring tiles match exactly as before.
+
+    On a 4-connected grid every monotone path from one side midpoint (where the cross meets the ring) to the
+    next has the same length, so left alone the cut wanders with the content, often close to the cross. Two
+    terms shape it (:func:`free_weights`):
+
+    - an *area reward* for giving pixels to O (a sink t-link of ``cut_bias`` times the tile's mean edge
+      weight per pixel, default :func:`default_bias` = 32/N), full inside the rounded square ρ ≤ 1/2 and
+      tapering linearly to 0 at the ring, where ρ = (|u|³ + |v|³)^(1/3) is the superellipse radius of the pixel
+      (u, v = its offsets from the tile centre in units of N/2): the cut moves outwards, into the corners
+      more than a circle would, but nothing presses it onto the ring;
+    - a *ring penalty* on the edges whose cut would run parallel to a tile border near it: their weight is
+      multiplied by 1 + :data:`RING_PENALTY`·(1 − t)², t = (depth − ring) / (N/4) clipped to [0, 1] (depth =
+      pixels from that border), smooth at both ends so that no depth is a preferred resting line.
+
+    Measured (``benches/repetition.py``, issue 12): with a uniform reward over the whole free region (the
+    first version, kept as ``cut_region="ring"``, reward 0.02) the cut lay on the ring along most of every
+    tile side and drew a square grid of straight seams two pixels inside the tile borders (inner-lattice seam
+    score :func:`tilesynth.metrics.inner_seam_score` 4.7 on cracked mud, a normal pixel step is 1); the
+    tapered reward without the penalty still left 3.1 (the tie of equal-length paths), the penalty brings it to
+    1.4-1.6 at a cost of a few points of O's share (0.71 instead of 0.78 of the tile on cracked mud).
 
 ``diversity=m`` (:func:`diverse_matches`)
     Instead of each intermediate tile's independent best matching patch, the matching patches are assigned
@@ -34,10 +52,11 @@ import numpy as np
 from . import kernels
 from .errors import ParameterError
 
-CUT_REGIONS = ("circle", "free")
+CUT_REGIONS = ("circle", "free", "ring")
 """Values of ``cut_region``."""
-DIVERSE_CANDIDATES = 24
-"""Candidate translations per intermediate tile of :func:`diverse_matches`."""
+DIVERSE_CANDIDATES = 32
+"""Candidate translations per intermediate tile of :func:`diverse_matches` (24 before self-matches were
+excluded; 32 keeps the c2 test set of 16 tiles pairwise more than N/2 apart)."""
 
 
 def free_terminals(n: int, ring: int | None = None, disc: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -62,12 +81,53 @@ def free_terminals(n: int, ring: int | None = None, disc: int | None = None) -> 
     return src, sink
 
 
-FREE_BIAS = 0.02
-"""Default area reward of the free cut region (see :func:`free_cuts`). Measured on grass (c3x2, 128-px tiles,
-diversity 1, 512² output): bias 0 gives O 52 % of the tile (the cut hugs the cross as the circle's does) and
-copies 0.24; 0.02 gives O 75 %, copies 0.05, autocorrelation peak 0.12, coverage 0.56, cut seam score 5.1
-(circle 4.4-4.8); 0.05 and more push the cut onto the border ring (O 83-90 %), where it shows as a square grid
-of straight seams two pixels inside the tile borders that the border seam score does not see."""
+FREE_BETA = 16.0
+"""Area reward of ``cut_region="free"`` at the tile centre, in units of (mean edge weight) / (N/2) per pixel:
+:func:`default_bias` is FREE_BETA / (N/2). Scale-free, so the cut takes the same shape at every tile size
+(a reward that beats a cut moved outwards by one pixel along a circle of radius ρ·N/2 where FREE_BETA·ρ·f(ρ)
+> 1). Chosen with the bench among 4, 8 and 16 (16: the largest share of O without a lattice seam)."""
+RING_BIAS = 0.02
+"""Uniform area reward of ``cut_region="ring"`` (the first free region of issue 12, kept for comparison)."""
+RING_PENALTY = 3.0
+"""Extra weight factor, at the ring, of the cut edges parallel to a nearby tile border (see the module
+docstring); it falls to 0 at N/4 inside. 3 and 6 were measured: 6 shrinks O with no further gain."""
+SUPERELLIPSE = 3.0
+"""Exponent of the rounded square that shapes the reward (2 = circle; 3 reaches further into the corners)."""
+FREE_REGIONS = ("free", "ring")
+"""The values of ``cut_region`` cut by :func:`free_cuts` (``circle`` is the ω kernel's)."""
+
+
+def default_bias(cut_region: str, n: int) -> float:
+    """The default ``cut_bias`` of a free cut region for tiles of ``n`` pixels: FREE_BETA / (N/2) for "free",
+    RING_BIAS for "ring"."""
+    return FREE_BETA / (n / 2) if cut_region == "free" else RING_BIAS
+
+
+def free_weights(
+    n: int, bias: float, ring: int | None = None, tapered: bool = True
+) -> tuple[np.ndarray, ...]:
+    """The shaping terms of a free cut region: ``(reward, factor_x, factor_y)``.
+
+    ``reward`` ``(n, n)``: the area reward per pixel in units of the mean edge weight (``bias`` at most;
+    tapered as in the module docstring, or ``bias`` everywhere with ``tapered=False``, the "ring" region);
+    ``factor_x`` ``(1, n)`` multiplies the horizontal-neighbour weights ``wx[:, x]`` (a cut there runs
+    parallel to the left and right borders), ``factor_y`` ``(n, 1)`` the vertical ones (all ones untapered)."""
+    if ring is None:
+        ring = 2 if n >= 16 else 1
+    if not tapered:
+        one = np.ones(n)
+        return np.full((n, n), float(bias)), one[None, :], one[:, None]
+    h = n / 2
+    t = np.abs(np.arange(n) - (n - 1) / 2) / h  # |u| of every pixel centre
+    rho = (t[:, None] ** SUPERELLIPSE + t[None, :] ** SUPERELLIPSE) ** (1 / SUPERELLIPSE)
+    rho0, rho1 = 0.5, 1 - ring / h
+    reward = bias * np.clip((rho1 - rho) / (rho1 - rho0), 0.0, 1.0)
+    # pair (x, x+1) lies (x + 1) pixels from the left border, (n - 1 - x) from the right one
+    x = np.arange(n)
+    depth = np.minimum(x + 1, np.maximum(n - 1 - x, 1))
+    taper = np.clip((depth - ring) / max(1.0, n / 4), 0.0, 1.0)
+    factor = 1 + RING_PENALTY * (1 - taper) ** 2
+    return reward, factor[None, :], factor[:, None]
 
 
 def free_cuts(
@@ -77,36 +137,62 @@ def free_cuts(
     grad: np.ndarray | None,
     ring: int | None = None,
     disc: int | None = None,
-    bias: float = FREE_BIAS,
+    bias: float | None = None,
+    cut_region: str = "free",
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Masks ``(K, N, N)`` (True = take O) and cut costs of the free cut region, one grid min cut per tile.
+    """Masks ``(K, N, N)`` (True = take O) and cut costs of a free cut region, one grid min cut per tile.
 
-    ``bias`` > 0 rewards area given to O: every free pixel gets a sink t-link of ``bias`` times the tile's mean
-    edge weight, so the cut moves outwards where the seam there costs little more (the reported cost is then
-    the cut's edge weights plus the rewards it forgoes)."""
+    ``cut_region`` "free" (tapered reward and ring penalty, :func:`free_weights`) or "ring" (a uniform reward,
+    the first version). ``bias`` > 0 rewards area given to O: free pixels get sink t-links of the reward times
+    the tile's mean edge weight (None: :func:`default_bias`). The reported cost is the cut's edge weights
+    (penalised ones included) plus the rewards it forgoes."""
+    if cut_region not in FREE_REGIONS:
+        raise ParameterError(f"cut_region = {cut_region!r}: free_cuts takes {FREE_REGIONS}")
     k, n = intermediate.shape[:2]
     src, sink = free_terminals(n, ring, disc)
     free = ~src & ~sink
+    bias = default_bias(cut_region, n) if bias is None else float(bias)
+    reward, fx, fy = free_weights(n, bias, ring, tapered=cut_region == "free")
+    reward = np.where(free, reward, 0.0)
     masks = np.zeros((k, n, n), bool)
     costs = np.zeros(k)
     for j in range(k):
         wx, wy = kernels.kwatra_weights(
             intermediate[j], matching[j], eps=eps, a_grad=None if grad is None else grad[j]
         )
-        cap = None
-        if bias > 0:
-            mean_w = float(np.concatenate([wx[:, :-1].ravel(), wy[:-1].ravel()]).mean())
-            cap = np.where(free, bias * mean_w, 0.0)
-        masks[j], costs[j] = kernels.grid_mincut(wx, wy, src, sink, sink_cap=cap)
+        mean_w = float(np.concatenate([wx[:, :-1].ravel(), wy[:-1].ravel()]).mean())
+        cap = reward * mean_w if bias > 0 else None
+        masks[j], costs[j] = kernels.grid_mincut(wx * fx, wy * fy, src, sink, sink_cap=cap)
     return masks, costs
 
 
+def self_offsets(inter_src: np.ndarray) -> np.ndarray:
+    """``(U, 4, 2)``: for every intermediate tile, the four matching-patch offsets that would copy one of its
+    own quadrants back from where it was cut (the offset that puts the tile's pixel (r, c) of a quadrant on its
+    exemplar source pixel, ``inter_src[u, r, c] − (r, c)``, at the quadrant's top-left corner)."""
+    n = inter_src.shape[1]
+    h = n // 2
+    corners = ((0, 0), (h, 0), (0, h), (h, h))
+    return np.stack([inter_src[:, r, c].astype(np.int64) - (r, c) for r, c in corners], axis=1)
+
+
 def diverse_matches(
-    ex: np.ndarray, inter: np.ndarray, n_variants: int, max_uses: int, threads: int | None = None
+    ex: np.ndarray,
+    inter: np.ndarray,
+    n_variants: int,
+    max_uses: int,
+    threads: int | None = None,
+    exclude: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Matching offsets ``(U, V, 2)`` and their SSD ``(U, V)`` under the diversity constraint (module docstring).
 
-    Variants of one tile also stay more than N/4 apart (the candidates are N/4-separated already)."""
+    Variants of one tile also stay more than N/4 apart (the candidates are N/4-separated already).
+    ``exclude`` ``(U, E, 2)`` (:func:`self_offsets`): offsets that tile u must not take, nor any candidate
+    within N/4 (Chebyshev) of them: a *self-match*, the exemplar window that holds one of the tile's own
+    sample quadrants, matches that quadrant exactly and is chosen for it (19 of 256 tiles of a c4 set on
+    cracked mud, 16 on lettuce), but only repeats the shared vertex content the matching patch is meant to
+    replace. N/4 is the distance at which variants count as different (:mod:`tilesynth.complete`). When every
+    candidate of a tile is excluded the rule falls back to all of them."""
     if not isinstance(max_uses, (int, np.integer)) or isinstance(max_uses, bool) or max_uses < 1:
         raise ParameterError(f"diversity = {max_uses!r}: must be a positive int (uses per exemplar region)")
     n = inter.shape[1]
@@ -126,6 +212,10 @@ def diverse_matches(
         for t in np.argsort(ssd[:, min(v, ssd.shape[1] - 1)], kind="stable"):
             cand = offsets[t]  # (J, 2), nearest first
             free = ~(cand[:, None, :] == chosen[t, None, :v, :]).all(axis=2).any(axis=1)  # not a variant yet
+            if exclude is not None:  # no self-match (docstring)
+                own = (np.abs(cand[:, None, :] - exclude[t][None, :, :]).max(axis=2) <= n // 4).any(axis=1)
+                if (free & ~own).any():
+                    free &= ~own
             # uses of each candidate's region: assigned offsets within `radius` (Chebyshev), all at once
             uses = (np.abs(cand[:, None, :] - used[None, :m, :]).max(axis=2) <= radius).sum(axis=1)
             ok = free & (uses < max_uses)

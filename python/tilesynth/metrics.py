@@ -848,6 +848,90 @@ def histogram_distance(
     return HistogramDistance(distance=float(np.mean(parts)), colour=colour, gradient=grad, scales=used)
 
 
+# -------------------------------------------------------------------------------- inner-lattice seam (issue 12)
+INNER_DEPTHS = (1, 2, 3, 4)
+"""Depths (pixels inside the tile borders) of the lines :func:`inner_seam_score` measures."""
+
+
+@dataclass(frozen=True)
+class InnerSeamScore:
+    """Seam score on the lattice-parallel lines a few pixels inside the tile borders (:func:`inner_seam_score`).
+
+    ``scores`` maps each signed depth to its score: +k is the line between pixels k−1 and k of every tile
+    (k pixels after a border), −k the line between pixels N−k−1 and N−k (k pixels before the next one).
+    ``max`` and ``mean`` are over those depths; ``depth_of_max`` says where the worst line is."""
+
+    max: float
+    mean: float
+    depth_of_max: int
+    scores: dict[int, float]
+    tile_size: int
+
+    def to_dict(self) -> dict[str, Any]:
+        d = _finite(asdict(self))
+        d["scores"] = {str(k): v for k, v in d["scores"].items()}
+        return d
+
+
+def inner_seam_score(
+    image: np.ndarray, tile_size: int, depths: tuple[int, ...] = INNER_DEPTHS
+) -> InnerSeamScore:
+    """Seam score of the lines parallel to the tile lattice ``depths`` pixels inside every tile border.
+
+    A cut that runs along the tile border at a fixed depth in every tile (for example a min cut pressed onto
+    the border ring of the free cut region) draws a square grid of straight seams that the border seam score
+    (:func:`seam_score`, depth 0) does not see. For each signed depth s (±k, k in ``depths``) the lattice pairs
+    are the neighbour pairs (i, i+1) with (i + 1 − s) mod N = 0 along x and along y; as in :func:`seam_score`,
+    S(s) = (B_x(s) + B_y(s)) / (I_x + I_y), where B is the mean squared colour step over those pairs and I the
+    mean over the pairs on none of the measured lines (not the borders, no depth ±k): S ≈ 1 when the lines
+    look like any other pixel step, a grid of seams gives S > 1. Depths of N/2 or more are left out (they
+    would meet the lines of the opposite border). Cost O(H·W·C).
+
+    Raises ShapeError when the image holds no tile border, ParameterError when no depth is below N/2.
+    """
+    img = as_image(image)
+    n = positive_int(tile_size, "tile_size", minimum=2)
+    h, w = img.shape[:2]
+    if h <= n and w <= n:
+        raise ShapeError(f"tile_size = {n}: the {w}x{h} image holds no tile border (one tile or less)")
+    ks = sorted({positive_int(k, "depth") for k in depths})
+    ks = [k for k in ks if k < n / 2]
+    if not ks:
+        raise ParameterError(f"depths = {tuple(depths)}: none is below tile_size / 2 = {n / 2:g}")
+    signed = [s for k in ks for s in (k, -k)]
+    measured = {0} | {s % n for s in signed}
+    dx2, dy2 = _pair_differences(img)
+    num = {s: 0.0 for s in signed}
+    den = 0.0
+    used = 0
+    for d2 in (dx2, dy2.T):  # (lines, pairs): pair j joins positions j and j + 1 along the last axis
+        if d2.shape[1] + 1 < n + ks[-1] + 1:
+            continue  # not every measured line crosses this direction
+        used += 1
+        cls = np.arange(1, d2.shape[1] + 1) % n
+        sums = np.bincount(cls, weights=d2.sum(axis=0), minlength=n)
+        counts = np.bincount(cls, minlength=n) * d2.shape[0]
+        inner = np.array([c not in measured for c in range(n)])
+        den += _ratio(float(sums[inner].sum()), float(counts[inner].sum()))
+        for s in signed:
+            c = s % n
+            num[s] += _ratio(float(sums[c]), float(counts[c])) if counts[c] else 0.0
+    if not used:
+        raise ShapeError(
+            f"tile_size = {n}: the {w}x{h} image is under N + {ks[-1] + 1} pixels in both directions "
+            "(no full set of inner lines)"
+        )
+    scores = {s: _ratio(num[s], den) for s in signed}
+    worst = max(signed, key=lambda s: (scores[s], -abs(s), s))
+    return InnerSeamScore(
+        max=float(scores[worst]),
+        mean=float(np.mean(list(scores.values()))),
+        depth_of_max=int(worst),
+        scores=scores,
+        tile_size=n,
+    )
+
+
 # ---------------------------------------------------------------------------------------------- everything
 def image_metrics(
     image: np.ndarray,
@@ -892,6 +976,9 @@ def _measure(
         with step("seam score"):
             objs["seam"] = seam_score(img, tile_size)
         out["seam"] = objs["seam"].to_dict()
+        if tile_size > 2 * INNER_DEPTHS[0]:  # issue 12: lattice-parallel seams inside the tiles
+            objs["inner_seam"] = inner_seam_score(img, tile_size)
+        out["inner_seam"] = objs["inner_seam"].to_dict() if "inner_seam" in objs else None
     if exemplar is None:
         out["coherence"] = None
         notes.append("coherence energy skipped: it needs the exemplar")
@@ -1047,6 +1134,12 @@ def _format_measures(m: dict[str, Any]) -> list[str]:
             f"seam score    {_num(sm['score'], '.4f')}  (border / interior mean squared step; x "
             f"{_num(sm['ratio_x'], '.4f')}, y {_num(sm['ratio_y'], '.4f')}; tile {sm['tile_size']})"
         )
+    ins = m.get("inner_seam")
+    if ins:
+        lines.append(
+            f"inner seam    {_num(ins['max'], '.4f')}  (worst lattice-parallel line {ins['depth_of_max']:+d} px "
+            f"inside the tile borders; mean over ±{len(ins['scores']) // 2} depths {_num(ins['mean'], '.4f')})"
+        )
     co = m.get("coherence")
     if co:
         lines.append(
@@ -1117,6 +1210,9 @@ def _format_objective(m: dict[str, Any]) -> list[str]:
 
 
 __all__ = [
+    "INNER_DEPTHS",
+    "InnerSeamScore",
+    "inner_seam_score",
     "DetailRepetition",
     "HistogramDistance",
     "PeriodicCopies",

@@ -275,14 +275,11 @@ def omega_options(
     metric = check_metric(metric)
     if not isinstance(smooth, (bool, np.bool_)):
         raise ParameterError(f"smooth = {smooth!r}: must be True or False")
-    if cut_region not in ("circle", "free"):
-        raise ParameterError(f"cut_region = {cut_region!r}: must be 'circle' or 'free'")
-    if cut_bias is not None and (cut_region != "free" or finite_float(cut_bias, "cut_bias") < 0):
-        raise ParameterError(f"cut_bias = {cut_bias!r}: a number >= 0, only with cut_region='free'")
-    if cut_region == "free":  # issue 12: the free cut region (tilesynth.levers)
-        from .levers import FREE_BIAS
-
-        cut_bias = FREE_BIAS if cut_bias is None else float(cut_bias)
+    if cut_region not in ("circle", "free", "ring"):
+        raise ParameterError(f"cut_region = {cut_region!r}: must be 'circle', 'free' or 'ring'")
+    if cut_bias is not None and (cut_region == "circle" or finite_float(cut_bias, "cut_bias") < 0):
+        raise ParameterError(f"cut_bias = {cut_bias!r}: a number >= 0, only with cut_region 'free' or 'ring'")
+    cut_bias = None if cut_bias is None else float(cut_bias)  # None: levers.default_bias (needs N)
     diversity = None if diversity == 0 else diversity
     if diversity is not None and (
         isinstance(diversity, (bool, np.bool_))
@@ -323,10 +320,12 @@ def _matching_patches(
     if opts.strategy != "ssd" or opts.metric != "color":
         return _choose_matches(b.exemplar, inter, inter_src, n, nv, exclude, opts, b.threads, b.report)
     if opts.diversity is not None:  # issue 12: diverse matching patches (tilesynth.levers); E keeps the best
-        from .levers import diverse_matches
+        from .levers import diverse_matches, self_offsets
 
         best = kernels.best_matches(b.exemplar, inter, k=1, threads=b.threads)[1][:, 0]
-        chosen, chosen_D = diverse_matches(b.exemplar, inter, nv, opts.diversity, b.threads)
+        chosen, chosen_D = diverse_matches(
+            b.exemplar, inter, nv, opts.diversity, b.threads, exclude=self_offsets(inter_src)
+        )
         return chosen, chosen_D, best
     # the plain path: exact best (and second-best, far enough) SSD translations
     offsets, ssd = kernels.best_matches(b.exemplar, inter, k=nv, exclude_radius=exclude, threads=b.threads)
@@ -336,6 +335,12 @@ def _matching_patches(
             "patches per intermediate tile; use a smaller tile size or a larger exemplar"
         )
     return offsets, ssd, ssd[:, 0]
+
+
+def _cut_bias(opts: OmegaOptions, n: int) -> float:
+    from .levers import default_bias
+
+    return default_bias(opts.cut_region, n) if opts.cut_bias is None else opts.cut_bias
 
 
 def _omega_params(b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, sel: dict, smooth_info: Any) -> dict:
@@ -355,7 +360,11 @@ def _omega_params(b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, sel: di
         "seed": b.seed,
         "selection": sel,
         **({"smooth": smooth_info} if smooth_info is not None else {}),
-        **({"cut_region": opts.cut_region, "cut_bias": opts.cut_bias} if opts.cut_region != "circle" else {}),
+        **(
+            {"cut_region": opts.cut_region, "cut_bias": _cut_bias(opts, n)}
+            if opts.cut_region != "circle"
+            else {}
+        ),
         **({"diversity": opts.diversity} if opts.diversity is not None else {}),
     }
 
@@ -365,7 +374,7 @@ def _omega_params(b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, sel: di
 def build_omega(
     exemplar: np.ndarray,
     *,
-    tileset: str = "16a",
+    tileset: str = "c4",
     tile_size: int | None = None,
     genes: np.ndarray | None = None,
     seed: SeedLike = None,
@@ -395,7 +404,9 @@ def build_omega(
     Parameters
     ----------
     exemplar : image ``(H, W[, C])``, uint8/uint16 or float in [0, 1].
-    tileset : name of the tile-set definition: "4", "8", "16a", "16b" or "32".
+    tileset : name of the tile-set definition: the papers' "4", "8", "16a", "16b", "32", "B", "n2", ... or a
+        complete set "c<K>" / "c<K>x<V>". Default "c4", the default of ``tilesynth build`` (measured with
+        ``benches/repetition.py``, issue 12: the papers' sets repeat visibly).
     tile_size : N, even, at most the exemplar's shorter side; default :func:`default_tile_size`.
     genes : optional ``(n, 2)`` top-left positions of the n sample patches (n = number of colours of the set),
         in the order of the set's colours. Default: random distinct positions drawn from ``seed``.
@@ -430,9 +441,13 @@ def build_omega(
     smooth : Poisson-smooth the region inside every cutting curve (002 §3.3; :func:`smooth_tiles`). The solver's
         statistics are stored in ``params["smooth"]``; the cut masks, costs and provenance are unchanged.
     cut_region : "circle" (002's inscribed circle) or "free" (free but for a border ring and corner discs, so
-        most of the tile is its own matching patch; :mod:`tilesynth.levers`). None (default): "free" for the
-        complete sets of the hashed lookup (``c3x2``, ``c4``, ...), "circle" for the papers' sets.
-    cut_bias : "free" only: the area reward of the free cut (default :data:`tilesynth.levers.FREE_BIAS`).
+        most of the tile is its own matching patch; a tapered area reward and a ring penalty keep the cut off
+        the ring; :mod:`tilesynth.levers`). "ring": the same region with a uniform area reward, which presses
+        the cut onto the ring (a grid of seams 2 px inside the tile borders; kept for comparison). None
+        (default): "free" for the complete sets of the hashed lookup (``c3x2``, ``c4``, ...), "circle" for the
+        papers' sets.
+    cut_bias : "free"/"ring" only: the area reward per pixel in units of the mean edge weight (default
+        :func:`tilesynth.levers.default_bias`: 32/N for "free", 0.02 for "ring").
     diversity : m >= 1: assign the matching patches under a diversity constraint (each exemplar region used at
         most m times, :func:`tilesynth.levers.diverse_matches`) instead of each tile's best; 0: each tile's
         best. None (default): 1 for complete sets (with ``match="ssd"``, ``metric="color"``), else 0.

@@ -312,6 +312,17 @@ def _seam_rows(sm: dict[str, Any]) -> list[tuple[str, str, str]]:
     ]
 
 
+def _inner_seam_rows(ins: dict[str, Any]) -> list[tuple[str, str, str]]:
+    return [
+        (
+            "inner-lattice seam",
+            _fmt(ins["max"], ".4f"),
+            f"worst lattice-parallel line inside the tiles ({ins['depth_of_max']:+d} px from the borders; "
+            f"mean {_fmt(ins['mean'], '.4f')}); about 1 = no grid of straight cuts",
+        )
+    ]
+
+
 def _coherence_rows(co: dict[str, Any]) -> list[tuple[str, str, str]]:
     return [
         (
@@ -424,6 +435,7 @@ def _cut_seam_rows(cs: dict[str, Any]) -> list[tuple[str, str, str]]:
 # the metric families in the order of the table, each with the rows it makes
 _ROW_MAKERS: tuple[tuple[str, Callable[[dict[str, Any]], list[tuple[str, str, str]]]], ...] = (
     ("seam", _seam_rows),
+    ("inner_seam", _inner_seam_rows),  # issue 12
     ("coherence", _coherence_rows),
     ("coverage", _coverage_rows),
     ("repetition", _repetition_rows),

@@ -101,13 +101,15 @@ SCHEME = Scheme(
             "--cut-region",
             "where the cut may run: the inscribed circle (002; default for the papers' sets) or free but for a "
             "border ring and corner discs, so most of each tile is its own matching patch (less repetition; "
-            "default for complete sets)",
-            choices=("circle", "free"),
+            "default for complete sets); ring: the free region with a uniform area reward, which draws a grid of "
+            "seams 2 px inside the tile borders (for comparison)",
+            choices=("circle", "free", "ring"),
         ),
         Option(
             "cut_bias",
             "--cut-bias",
-            "--cut-region free: area reward that moves the cut outwards (default 0.02)",
+            "--cut-region free/ring: area reward per pixel that moves the cut outwards, in units of the mean edge "
+            "weight (default 32/N for free, 0.02 for ring)",
             cli_type=float,
         ),
         Option(

@@ -122,8 +122,8 @@ def cut_and_compose(
     """The ω cut of each intermediate tile against the patch at ``offsets`` (``(K, 2)``), then the composed (or
     Poisson-smoothed) tiles and their provenance; the corner schemes' shared cut stage (ω, patch).
 
-    ``cut_region="free"`` cuts in the free region of :func:`tilesynth.levers.free_cuts` (area reward
-    ``cut_bias``) instead of the inscribed circle.
+    ``cut_region="free"`` (or ``"ring"``) cuts in the free region of :func:`tilesynth.levers.free_cuts` (area
+    reward ``cut_bias``, None: its default) instead of the inscribed circle.
 
     Returns ``(tiles, source, masks, costs, smooth_info, timing)``.
     """
@@ -132,12 +132,10 @@ def cut_and_compose(
     O_tiles = patches_at(ex, offsets, n)
     b.report("cutting curves", 0, k)
     grad = patch_gradients(ex, I_src) if grad_from_patches else None
-    if cut_region == "free":  # issue 12: the free cut region
-        from ..levers import FREE_BIAS, free_cuts
+    if cut_region in ("free", "ring"):  # issue 12: the free cut regions
+        from ..levers import free_cuts
 
-        masks, costs = free_cuts(
-            I_tiles, O_tiles, eps, grad, bias=FREE_BIAS if cut_bias is None else cut_bias
-        )
+        masks, costs = free_cuts(I_tiles, O_tiles, eps, grad, bias=cut_bias, cut_region=cut_region)
     else:
         masks, costs = kernels.omega_cuts(
             I_tiles, O_tiles, eps=eps, threads=b.threads, intermediate_grad=grad, keep_border=keep_border
