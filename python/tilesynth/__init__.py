@@ -115,7 +115,10 @@ __all__ = [
     "detail_repetition",
     "histogram_distance",
     "build_patch",
+    "InputWarning",
 ]
+
+from .diagnose import InputWarning  # noqa: E402 - issue 14: warnings for suspicious inputs
 
 from .lookup import LookupScheme, ts_hash  # noqa: E402 - issue 12: the hashed lookup
 from .lookup import index_map as hashed_index_map  # noqa: E402

@@ -306,6 +306,21 @@ PARAMS = Obj(
         "cut_region": Str(("circle", "free")),
         "cut_bias": Num(0.0),
         "diversity": _POS,
+        # issue 14: the exemplar's mask and the input warnings of the build (tilesynth.masking, .diagnose)
+        "mask": Obj(
+            optional={
+                "source": Str(),
+                "file": Str(),
+                "sha256": Str(max_len=64),
+                "masked_fraction": Num(0.0, 1.0),
+                "masked_pixels": _COUNT,
+                "largest_valid_window": _COUNT,
+                "threshold": Num(0.0, 1.0),
+            }
+        ),
+        "warnings": List(
+            Obj(optional={"code": Str(max_len=64), "message": Str(), "value": Num(), "threshold": Num()})
+        ),
     },
 )
 

@@ -483,6 +483,10 @@ def _page(
         "<h2>Metrics</h2>",
     ]
     parts += _metrics_table(m, reference, wang)
+    from .diagnose import info_lines  # issue 14: the mask and the input warnings of the build
+
+    parts += [f'<p class="note">{esc(line.split(None, 1)[0])}: {esc(line.split(None, 1)[1])}</p>'
+              for line in info_lines(tileset.params)]  # fmt: skip
     parts += _figures(files, s, wang, reference)
     for note in notes:
         parts.append(f'<p class="note">{esc(note)}</p>')
