@@ -274,7 +274,7 @@ class ExemplarMask:
         bound = 2.0 * size * size * max(rng2, 1.0)  # > the SSD of any two windows, with a margin of 2
         return float(2.0 ** -math.ceil(0.5 * math.log2(bound) + 1))
 
-    def search_image(self, ex: np.ndarray, size: int) -> np.ndarray:
+    def search_image(self, ex: np.ndarray, size: int, features: bool = False) -> np.ndarray:
         """The exemplar scaled by s (:meth:`search_scale`) with a penalty channel, for the SSD search of
         ``size`` windows.
 
@@ -284,10 +284,10 @@ class ExemplarMask:
         of two scales every float exactly, so the ranking and the values are the unmasked ones: divide by s²),
         and at least 1 — more than any valid window — at every window touching the mask. The exact k-best
         search of the SSD index therefore ranks every valid window first with no change to the kernel, whose
-        inputs stay in [0, 1]. The index takes at most 4 channels, so a masked exemplar has at most 3 (RGB, or
-        grey + alpha as colour): a 4-channel exemplar with a mask is refused."""
+        inputs stay in [0, 1]. Without ``features`` (an index of images, not of feature stacks) the index takes
+        at most 4 channels, so the exemplar may have at most 3 (RGB, or grey + alpha as colour)."""
         ex = np.asarray(ex, dtype=np.float32)
-        if ex.shape[2] >= 4:
+        if ex.shape[2] >= 4 and not features:
             raise ParameterError(
                 f"mask: the exemplar has {ex.shape[2]} channels; a masked build takes at most 3 (the SSD search "
                 "adds one for the mask). With RGBA and --alpha colour, drop the alpha channel or use --alpha mask"
@@ -456,12 +456,12 @@ def active(mask: ExemplarMask | None) -> ExemplarMask | None:
 
 
 def masked_search(
-    mask: ExemplarMask, exemplar: np.ndarray, templates: np.ndarray, size: int
+    mask: ExemplarMask, exemplar: np.ndarray, templates: np.ndarray, size: int, features: bool = False
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """The penalised exemplar and templates of a masked SSD search (:meth:`ExemplarMask.search_image`) and the
     factor 1/s² that turns its SSD values back into the exemplar's (exact: a power of two)."""
     scale = mask.search_scale(exemplar, size)
-    search = mask.search_image(exemplar, size)
+    search = mask.search_image(exemplar, size, features)
     return search, mask.templates(templates, scale), 1.0 / (scale * scale)
 
 
@@ -484,7 +484,8 @@ def valid_fallback(
     if ok.all():
         return chosen, chosen_d
     nv = chosen.shape[1]
-    plain, ssd = kernels.best_matches(search, templates, k=nv, exclude_radius=exclude, threads=threads)
+    index = kernels.SsdIndex(search, threads, features=True)
+    plain, ssd = index.best_matches(templates, k=nv, exclude_radius=exclude, threads=threads)
     chosen, chosen_d = chosen.copy(), chosen_d.copy()
     chosen[~ok] = plain[~ok]
     if plain.shape[1] < nv:

@@ -322,7 +322,7 @@ def omega_evaluator(
     unscale = 1.0
     if mask is not None:
         s = mask.search_scale(search, n)
-        search, unscale = mask.search_image(search, n), 1.0 / (s * s)
+        search, unscale = mask.search_image(search, n, features=True), 1.0 / (s * s)
     uniq = np.unique(plan.tile_patches, axis=0)
     ev = kernels.PopulationEvaluator(
         search, n, uniq, plan.n_colours, lam=LAMBDA, normalise=opts.normalise, features=True
@@ -353,7 +353,10 @@ def _matching_patches(
         if m is not None:
             m.check_windows(out[0], n, "matching patches", n)
         return out
-    search, tpl, unscale = (b.exemplar, inter, 1.0) if m is None else masked_search(m, b.exemplar, inter, n)
+    diverse = opts.diversity is not None  # the diversity lever's search takes images (at most 4 channels)
+    search, tpl, unscale = (
+        (b.exemplar, inter, 1.0) if m is None else masked_search(m, b.exemplar, inter, n, features=not diverse)
+    )
     if opts.diversity is not None:  # issue 12: diverse matching patches (tilesynth.levers); E keeps the best
         from .levers import diverse_matches
 
@@ -364,8 +367,11 @@ def _matching_patches(
             chosen, chosen_D = valid_fallback(m, chosen, chosen_D, search, tpl, exclude, b.threads, unscale)
         return chosen, chosen_D, best
     # the plain path: exact best (and second-best, far enough) SSD translations
-    offsets, ssd = kernels.best_matches(search, tpl, k=nv, exclude_radius=exclude, threads=b.threads)
-    if m is not None:
+    if m is None:
+        offsets, ssd = kernels.best_matches(search, tpl, k=nv, exclude_radius=exclude, threads=b.threads)
+    else:
+        index = kernels.SsdIndex(search, b.threads, features=True)
+        offsets, ssd = index.best_matches(tpl, k=nv, exclude_radius=exclude, threads=b.threads)
         ssd = ssd * unscale
         m.check_windows(offsets, n, "matching patches", n)
     if offsets.shape[1] < nv:

@@ -454,8 +454,8 @@ class SwangEvaluator:
         # issue 14: with a mask (tilesynth.masking.ExemplarMask), D_j is the best match among valid windows
         self._mask = mask
         self._scale = 1.0 if mask is None else mask.search_scale(self.exemplar, self.tile_size)
-        search = self.exemplar if mask is None else mask.search_image(self.exemplar, self.tile_size)
-        self._index = kernels.SsdIndex(search)
+        search = self.exemplar if mask is None else mask.search_image(self.exemplar, self.tile_size, True)
+        self._index = kernels.SsdIndex(search, features=mask is not None)
 
     def evaluate(self, genes: np.ndarray, threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(E[P], D[P, m])`` of ``genes`` ``(P, n, 2)``."""
@@ -528,8 +528,8 @@ def _supplementary_candidates(
         return o.given[:, None, :], ssd
     want = 1 if o.method == "ssd" else o.candidates
     m = active(b.mask)  # issue 14: supplementary patches only from windows clear of the mask
-    search, tpl, unscale = (ex, I_tiles, 1.0) if m is None else masked_search(m, ex, I_tiles, n)
-    index = kernels.SsdIndex(search, b.threads)
+    search, tpl, unscale = (ex, I_tiles, 1.0) if m is None else masked_search(m, ex, I_tiles, n, True)
+    index = kernels.SsdIndex(search, b.threads, features=m is not None)
     offsets, ssd = index.best_matches(tpl, k=want, exclude_radius=n // 4 if want > 1 else 0, threads=b.threads)
     if m is not None:
         ssd = ssd * unscale
