@@ -1286,6 +1286,7 @@ NOT_FUZZED = {
     "TileSetFormatError",
     "TilesynthError",
     "InternalError",  # exception classes
+    "InputWarning",  # a warning class (issue 14)
     "TileSet",  # the dataclass; its load and save are fuzzed
     "PoissonInfo",  # a frozen dataclass of results
     "load",  # alias of TileSet.load

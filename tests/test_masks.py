@@ -84,7 +84,7 @@ SCHEME_CASES = [
     ("omega", {"tileset": "16a"}),
     ("omega", {"tileset": "32", "match": "best-cut", "match_k": 4}),
     ("omega", {"tileset": "8", "metric": "eq3", "select": "ga", "population": 8, "generations": 3}),
-    ("omega", {"tileset": "8", "select": "ais", "population": 8, "generations": 2, "polish": True}),
+    ("omega", {"tileset": "4", "select": "ais", "population": 8, "generations": 2, "polish": True}),
     ("patch", {}),
     ("wang", {}),
     ("wang", {"select": "ga", "population": 8, "generations": 2}),
@@ -176,7 +176,9 @@ def test_too_little_valid_area_names_what_fits(bark_z):
     bark = bark_z[0]
     m = np.ones((96, 96), bool)
     m[10:50, 20:60] = False  # one clear 40 x 40 square
-    with pytest.raises(ts.ParameterError, match=r"largest valid square window: 40x40.*tile_size <= \d+ would fit"):
+    with pytest.raises(
+        ts.ParameterError, match=r"largest valid square window: 40x40.*tile_size <= \d+ would fit"
+    ):
         ts.build(bark, scheme="omega", tileset="16a", tile_size=48, mask=m, seed=1)
     # and the size it names does build
     msg = ""
@@ -259,7 +261,10 @@ def test_cli_prints_warnings(tmp_path, bricks_hole, capsys):
     ex = tmp_path / "hole.png"
     Image.fromarray((rgba * 255).round().astype(np.uint8), "RGBA").save(ex)
     out = tmp_path / "h.tiles"
-    assert cli_main(["build", str(ex), "-o", str(out), "--seed", "1", "-q", "--set", "16a", "--tile-size", "32"]) == 0
+    assert (
+        cli_main(["build", str(ex), "-o", str(out), "--seed", "1", "-q", "--set", "16a", "--tile-size", "32"])
+        == 0
+    )
     err = capsys.readouterr().err
     assert "warning: 17.0 % of the exemplar is transparent" in err
     assert cli_main(["info", str(out)]) == 0

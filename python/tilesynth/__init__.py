@@ -119,7 +119,6 @@ __all__ = [
 ]
 
 from .diagnose import InputWarning  # noqa: E402 - issue 14: warnings for suspicious inputs
-
 from .lookup import LookupScheme, ts_hash  # noqa: E402 - issue 12: the hashed lookup
 from .lookup import index_map as hashed_index_map  # noqa: E402
 from .metrics import detail_repetition, histogram_distance, periodic_copies  # noqa: E402

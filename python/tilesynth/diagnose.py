@@ -173,7 +173,11 @@ def diagnose_exemplar(exemplar: np.ndarray, mask: Any = None, tile_size: int | N
             share = float(v.mean()) if v.size else 0.0
         if frac >= MASKED_AREA or (share is not None and share < VALID_WINDOWS):
             what = "transparent" if mask.source.startswith("alpha") else "masked"
-            win = "" if share is None else f"; {100 * share:.0f} % of the {tile_size}x{tile_size} windows are clear of it"
+            win = (
+                ""
+                if share is None
+                else f"; {100 * share:.0f} % of the {tile_size}x{tile_size} windows are clear of it"
+            )
             found.append(
                 _finding(
                     "masked-area",

@@ -136,6 +136,15 @@ class ExemplarMask:
                 hi = mid - 1
         return lo
 
+    def default_tile_size(self, n: int) -> int:
+        """The default tile size ``n`` of an unmasked exemplar, made smaller when the mask leaves too few windows:
+        at most the largest even N whose windows of 1.25·N (the Wang samples of N + N/4) have at least 16 valid
+        positions. *Why:* a user who gave no tile size wants a build, and the largest size that fits is the
+        nearest to the default (an explicit ``tile_size`` that does not fit is an error instead)."""
+        fit = int(self.largest_fitting(16) / 1.25)
+        fit -= fit % 2
+        return max(4, min(n, fit))
+
     def digest(self) -> str:
         m = np.ascontiguousarray(self.masked, dtype=bool)
         return hashlib.sha256(np.packbits(m).tobytes() + repr(m.shape).encode()).hexdigest()
@@ -326,7 +335,9 @@ class ExemplarMask:
         if hits:
             from .errors import InternalError
 
-            raise InternalError(f"mask: {hits} tile pixels come from masked exemplar pixels (a bug, please report)")
+            raise InternalError(
+                f"mask: {hits} tile pixels come from masked exemplar pixels (a bug, please report)"
+            )
 
 
 def _binarise(m: np.ndarray, name: str) -> np.ndarray:
@@ -427,7 +438,8 @@ def resolve_mask(
         what = "the alpha channel is below 0.5 everywhere" if source == ["alpha"] else "every pixel is masked"
         raise ParameterError(
             f"mask ({em.source}{', ' + mask_file if mask_file else ''}): {what} ({w}x{h} pixels), nothing is "
-            "left to build from" + (" (use --alpha colour to match alpha as colour)" if "alpha" in source else "")
+            "left to build from"
+            + (" (use --alpha colour to match alpha as colour)" if "alpha" in source else "")
         )
     return exemplar, em
 

@@ -59,6 +59,7 @@ import numpy as np
 
 from . import kernels
 from ._validate import finite_float
+from .diagnose import finish_build
 from .errors import ParameterError
 from .genes import (  # noqa: F401 - re-exported: the public names of the genes stage lived here
     LAMBDA,
@@ -71,6 +72,7 @@ from .genes import (  # noqa: F401 - re-exported: the public names of the genes 
     random_genes,
 )
 from .layouts import CornerPlan, corner_set, intermediate_tiles
+from .masking import active, masked_search, valid_fallback
 from .matching import (
     EQ2_EPS,
     MU,
@@ -85,8 +87,6 @@ from .options import BuildOptions, Progress, SeedLike, common_options
 from .select import choose_genes, wants_selection
 from .stages.compose import cut_and_compose, finish_tileset, patch_gradients
 from .stages.smoothing import POISSON_TOL, smooth_tiles  # noqa: F401 - re-exported
-from .diagnose import finish_build
-from .masking import active, masked_search, valid_fallback
 from .tilefile import TileSet
 
 
@@ -355,7 +355,9 @@ def _matching_patches(
         return out
     diverse = opts.diversity is not None  # the diversity lever's search takes images (at most 4 channels)
     search, tpl, unscale = (
-        (b.exemplar, inter, 1.0) if m is None else masked_search(m, b.exemplar, inter, n, features=not diverse)
+        (b.exemplar, inter, 1.0)
+        if m is None
+        else masked_search(m, b.exemplar, inter, n, features=not diverse)
     )
     if opts.diversity is not None:  # issue 12: diverse matching patches (tilesynth.levers); E keeps the best
         from .levers import diverse_matches
@@ -506,8 +508,9 @@ def build_omega(
 
     complete = complete_defaults(b.definition, b.exemplar.shape, match, metric)
     if complete is not None:
-        if tile_size is None:
-            b = dataclasses.replace(b, tile_size=complete["tile_size"])
+        if tile_size is None:  # (with a mask: no larger than what fits, issue 14)
+            n_c = complete["tile_size"] if b.mask is None else min(complete["tile_size"], b.tile_size)
+            b = dataclasses.replace(b, tile_size=n_c)
         cut_region = complete["cut_region"] if cut_region is None else cut_region
         diversity = complete["diversity"] if diversity is None else diversity
     opts = omega_options(

@@ -112,6 +112,8 @@ def common_options(
     ex, exemplar_mask = build_mask(ex, mask, alpha)
     defn = resolve_set(tileset)
     n = default_tile_size(ex.shape) if tile_size is None else check_tile_size(tile_size, ex.shape)
+    if tile_size is None and exemplar_mask is not None:
+        n = exemplar_mask.default_tile_size(n)
     recorded, rng = resolve_seed(seed)
     threads = threads_arg(threads)
     if progress is not None and not callable(progress):

@@ -112,13 +112,13 @@ import numpy as np
 
 from . import _core, kernels
 from ._validate import as_image, positive_int
+from .diagnose import finish_build
 from .errors import ParameterError
 from .genes import LAMBDA, energy
+from .masking import active, masked_search
 from .options import BuildOptions, Progress, SeedLike, common_options
 from .select import GA_DEFAULTS, Evaluate, choose_genes
 from .stages.compose import finish_tileset, offset_source, patch_gradients, patches_at
-from .diagnose import finish_build
-from .masking import active, masked_search
 from .tilefile import TileSet
 from .wangsets import WangTileSet, get_wang_tileset
 
@@ -530,7 +530,9 @@ def _supplementary_candidates(
     m = active(b.mask)  # issue 14: supplementary patches only from windows clear of the mask
     search, tpl, unscale = (ex, I_tiles, 1.0) if m is None else masked_search(m, ex, I_tiles, n, True)
     index = kernels.SsdIndex(search, b.threads, features=m is not None)
-    offsets, ssd = index.best_matches(tpl, k=want, exclude_radius=n // 4 if want > 1 else 0, threads=b.threads)
+    offsets, ssd = index.best_matches(
+        tpl, k=want, exclude_radius=n // 4 if want > 1 else 0, threads=b.threads
+    )
     if m is not None:
         ssd = ssd * unscale
         if o.method == "cut":  # candidates touching the mask are dropped (the best valid ones come first)

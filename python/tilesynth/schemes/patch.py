@@ -26,8 +26,8 @@ import numpy as np
 
 from .. import kernels
 from .._validate import finite_float
-from ..errors import ParameterError
 from ..diagnose import finish_build
+from ..errors import ParameterError
 from ..genes import LAMBDA, energy
 from ..layouts import CornerPlan, corner_set, intermediate_tiles
 from ..masking import active
