@@ -350,3 +350,13 @@ def test_low_coverage_warns():
     with pytest.warns(InputWarning, match="only .* % of the usable exemplar"):
         t = ts.build_omega(big, tileset="4", tile_size=8, seed=1)
     assert [w["code"] for w in t.params["warnings"]] == ["low-coverage"]
+
+
+def test_report_shows_mask_and_warnings(bricks_hole, tmp_path):
+    rgba, _ = bricks_hole
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InputWarning)
+        t = ts.build(rgba, seed=1, tileset="16a", tile_size=32)
+    ts.write_report(t, tmp_path / "r", width=128, height=128)
+    page = (tmp_path / "r" / "index.html").read_text()
+    assert "mask: alpha: 17.0 % masked" in page and "warning: masked-area" in page

@@ -77,6 +77,7 @@ NONSTATIONARY_MEAN = 1.5
 NONSTATIONARY_R2 = 0.7
 NONSTATIONARY_CONTRAST = 3.0
 GRID = 8
+MIN_BLOCK = 8
 
 
 class InputWarning(UserWarning):
@@ -108,7 +109,10 @@ def stationarity(image: np.ndarray, masked: np.ndarray | None = None, grid: int 
     opposite one. *Why a plane and not the spread of the block means:* the block means of a stationary texture
     with large features (leaves, stones) spread widely but at random, which a plane does not follow; a lighting
     gradient, a darker half or a change of material is what a plane catches. Masked pixels are left out; blocks
-    with less than half their pixels usable are skipped. A flat image (or fewer than 4 blocks) gives 0 and 1."""
+    with less than half their pixels usable are skipped; blocks are at least :data:`MIN_BLOCK` (8) pixels a side
+    (a smaller image gets a coarser grid, and one under 24 pixels a side is not judged), and block standard
+    deviations are floored at 1 % of the global one (a flat block is not an infinite contrast). A flat image, or
+    fewer than 4 usable blocks, gives 0 and 1."""
     y = luminance(image)
     h, w = y.shape
     ok = np.ones((h, w), bool) if masked is None else ~np.asarray(masked, bool)
@@ -116,6 +120,9 @@ def stationarity(image: np.ndarray, masked: np.ndarray | None = None, grid: int 
     if ok.sum() < 2:
         return flat
     sd = float(y[ok].std())
+    grid = min(grid, h // MIN_BLOCK, w // MIN_BLOCK)  # blocks of at least MIN_BLOCK pixels a side
+    if grid < 3:
+        return flat
     means, sds, pos = [], [], []
     for i in range(grid):
         for j in range(grid):
@@ -135,7 +142,7 @@ def stationarity(image: np.ndarray, masked: np.ndarray | None = None, grid: int 
     cm = np.linalg.lstsq(A, mv, rcond=None)[0]
     tot = float(((mv - mv.mean()) ** 2).sum())
     r2 = 1.0 - float(((mv - A @ cm) ** 2).sum()) / tot if tot > 0 else 0.0
-    cs = np.linalg.lstsq(A, np.log(np.asarray(sds) + 1e-6 * sd), rcond=None)[0]
+    cs = np.linalg.lstsq(A, np.log(np.maximum(np.asarray(sds), 1e-2 * sd)), rcond=None)[0]
     return {
         "mean_trend": float(abs(cm[1]) + abs(cm[2])) / sd,
         "trend_r2": r2,

@@ -37,7 +37,15 @@ provenance (``TileSet.source``) is ever a masked pixel, in every scheme:
 An empty mask changes nothing (the build is that of no mask; the mask record says 0 % masked). An all-masked
 mask, one of another size than the exemplar, and one that leaves fewer valid windows than the build needs are
 refused with a :class:`~tilesynth.errors.ParameterError` (exit status 2) naming what is left (the largest valid
-square window) and what would fit (the largest tile size that works).
+square window) and what would fit (the largest tile size that works). Without an explicit tile size, the default
+shrinks to what fits (:meth:`ExemplarMask.default_tile_size`).
+
+**Exactness and cost.** The masked SSD search is the exact k-best search of the unmasked one on a scaled copy
+(see :meth:`ExemplarMask.search_image`), so the chosen matching patches are the exact best *valid* ones and their
+D_j the exemplar's SSD. The strategies and metrics that rank by whole maps (``match="circle"`` / ``"midpoints"``
+/ ``"best-cut"``, ``metric="eq3"`` / ``"eq2"``) restrict the maps to valid windows instead (the map precision of
+those paths, then the exact distance of the pick). ``benches/masks.py`` measures the cost: about 1.0-1.5x the
+build time of the clean exemplar at the same tile size.
 
 The tile set records the mask in ``params["mask"]`` (:meth:`ExemplarMask.record`: where it came from, its sha256,
 the masked fraction, the largest valid window) and ``tilesynth info`` shows it.
@@ -73,11 +81,17 @@ ALPHA_MODES = ("auto", "mask", "colour")
 _PENALTY_OFF = 1e30  # added to E of a gene vector whose projection repeats a window
 
 
-def _window_sums(masked: np.ndarray, size: int) -> np.ndarray:
-    """Number of masked pixels in every ``size x size`` window (top-left (r, c)), int64 ``(H-s+1, W-s+1)``."""
+def _integral(masked: np.ndarray) -> np.ndarray:
+    """The integral image ``(H+1, W+1)`` of the masked pixels."""
     h, w = masked.shape
     ii = np.zeros((h + 1, w + 1), np.int64)
     ii[1:, 1:] = masked.astype(np.int64).cumsum(0).cumsum(1)
+    return ii
+
+
+def _window_sums(ii: np.ndarray, size: int) -> np.ndarray:
+    """Number of masked pixels in every ``size x size`` window (top-left (r, c)), int64 ``(H-s+1, W-s+1)``,
+    from the integral image ``ii``."""
     return ii[size:, size:] - ii[:-size, size:] - ii[size:, :-size] + ii[:-size, :-size]
 
 
@@ -91,6 +105,7 @@ class ExemplarMask:
     file: str | None = None
     _valid: dict[int, np.ndarray] = field(default_factory=dict, repr=False)
     _proj: dict[int, np.ndarray] = field(default_factory=dict, repr=False)
+    _ii: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def fraction(self) -> float:
@@ -108,7 +123,9 @@ class ExemplarMask:
             if size > h or size > w:
                 self._valid[size] = np.zeros((max(h - size + 1, 0), max(w - size + 1, 0)), bool)
             else:
-                self._valid[size] = _window_sums(self.masked, size) == 0
+                if self._ii is None:
+                    self._ii = _integral(self.masked)
+                self._valid[size] = _window_sums(self._ii, size) == 0
         return self._valid[size]
 
     def count(self, size: int) -> int:
