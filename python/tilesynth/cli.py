@@ -500,8 +500,10 @@ def _build(
         raise ParameterError(f"--generations = {generations}: only used with --select ga or ais")
     if select == "random" and population is not None:
         raise ParameterError(f"--population = {population}: not used with --select random")
+    from .diagnose import InputWarning
+
     with warnings.catch_warnings(record=True) as caught:  # issue 14: InputWarning -> "warning: ..." lines
-        warnings.simplefilter("always")
+        warnings.simplefilter("always", InputWarning)  # other warnings keep their filters
         ts = sc.build(
             image,
             tileset=set_name,
