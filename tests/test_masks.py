@@ -251,7 +251,7 @@ def test_cli_mask_and_warning(tmp_path, bark_z, capsys):
     bad = tmp_path / "bad.tiles"
     assert cli_main(["build", str(ex), "-o", str(bad), "--mask", str(small), "-q"]) == 2
     err = capsys.readouterr().err
-    assert "mask has shape 60x50" in err and not bad.exists()
+    assert "mask 'small.png' has shape 60x50" in err and not bad.exists()
     assert cli_main(["build", str(ex), "-o", str(bad), "--mask", str(tmp_path / "none.png"), "-q"]) == 2
     assert "no such file" in capsys.readouterr().err
 

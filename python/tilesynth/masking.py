@@ -445,7 +445,7 @@ def resolve_mask(
             exemplar = np.ascontiguousarray(exemplar[..., :-1])
             source.append("alpha")
     if mask is not None:
-        m = _mask_array(mask, (h, w), "mask")
+        m = _mask_array(mask, (h, w), "mask" if mask_file is None else f"mask {mask_file!r}")
         masked = m if masked is None else (masked | m)
         source.append(mask_source)
     if masked is None:
