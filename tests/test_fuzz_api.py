@@ -228,6 +228,7 @@ def build_omega(d: st.DrawFn):
         st.sampled_from(
             ["none"] * 4
             + ["exemplar", "tileset", "tile_size", "seed", "threads", "gradients", "eps", "select", "genes"]
+            + ["mask", "alpha"]
         )
     )
     ex = d(exemplars()) if broken == "exemplar" else good_exemplar(d)
@@ -268,6 +269,22 @@ def build_omega(d: st.DrawFn):
     if broken == "genes":
         kw.pop("select", None), kw.pop("generations", None), kw.pop("population", None)
         kw["genes"] = d(arrays(2, I64, (None, 2), max_side=6, lo=-1, hi=24))
+    if broken == "mask":  # issue 14: a mask of any coverage, sometimes of the wrong shape or dtype
+        r = np.random.default_rng(d(st.integers(0, 999)))
+        shape = ex.shape[:2] if d(st.booleans()) else (d(st.integers(0, 26)), d(st.integers(0, 26)))
+        kw["mask"] = d(
+            st.sampled_from(
+                [
+                    r.random(shape) < d(st.sampled_from([0.0, 0.02, 0.3, 1.0])),
+                    r.random(shape).astype(np.float32),
+                    np.full(shape, np.nan),
+                    np.zeros(shape, np.uint16),
+                    "no-such-mask.png",
+                ]
+            )
+        )
+    elif broken == "alpha":
+        kw["alpha"] = d(st.sampled_from(["auto", "mask", "colour", "color", "", None, 1]))
     return ts.build_omega, (ex,), kw, ()
 
 
@@ -1412,6 +1429,7 @@ NOT_FUZZED = {
     "TileSetFormatError",
     "TilesynthError",
     "InternalError",  # exception classes
+    "InputWarning",  # a warning class (issue 14)
     "TileSet",  # the dataclass; its load and save are fuzzed
     "PoissonInfo",  # a frozen dataclass of results
     "load",  # alias of TileSet.load

@@ -118,8 +118,10 @@ __all__ = [
     "build_material",
     "synthesize_maps",
     "inner_seam_score",
+    "InputWarning",
 ]
 
+from .diagnose import InputWarning  # noqa: E402 - issue 14: warnings for suspicious inputs
 from .lookup import LookupScheme, ts_hash  # noqa: E402 - issue 12: the hashed lookup
 from .lookup import index_map as hashed_index_map  # noqa: E402
 from .materials import synthesize_maps  # noqa: E402 - issue 14: material builds

@@ -339,6 +339,21 @@ PARAMS = Obj(
         "diversity": _POS,
         "border_tries": _POS,  # the Wang schemes (issue 14)
         "material": MATERIAL,  # issue 14
+        # issue 14: the exemplar's mask and the input warnings of the build (tilesynth.masking, .diagnose)
+        "mask": Obj(
+            optional={
+                "source": Str(),
+                "file": Str(),
+                "sha256": Str(max_len=64),
+                "masked_fraction": Num(0.0, 1.0),
+                "masked_pixels": _COUNT,
+                "largest_valid_window": _COUNT,
+                "threshold": Num(0.0, 1.0),
+            }
+        ),
+        "warnings": List(
+            Obj(optional={"code": Str(max_len=64), "message": Str(), "value": Num(), "threshold": Num()})
+        ),
     },
 )
 

@@ -16,6 +16,7 @@ import os
 import re
 import sys
 import time
+import warnings
 from importlib import resources
 from pathlib import Path
 from typing import Any, NoReturn
@@ -169,6 +170,7 @@ def _add_build_parser(sub) -> None:  # noqa: ANN001
     from .materials_cli import add_build_arguments  # issue 14: material builds
 
     add_build_arguments(b)
+    _add_mask_options(b)
     b.add_argument("--sheet", default=None, help="also write a contact sheet of the tiles to this PNG")
     b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     add_png_compression_argument(b)
@@ -411,6 +413,36 @@ def _report(args: argparse.Namespace) -> None:
 
 
 # ------------------------------------------------------------------------------------------------ commands
+def _add_mask_options(parser: argparse.ArgumentParser) -> None:
+    """``--mask`` and ``--alpha`` (issue 14, :mod:`tilesynth.masking`)."""
+    parser.add_argument(
+        "--mask",
+        default=None,
+        metavar="M.png",
+        help="pixels never to use, pixel-aligned with the exemplar: white (>= 0.5) masked, black usable (an "
+        "image or a .npy array); no sample patch, matching patch or cut region takes a masked pixel",
+    )
+    parser.add_argument(
+        "--alpha",
+        default="auto",
+        choices=("auto", "mask", "colour"),
+        help="the exemplar's alpha channel: auto (default: a mask where it is not opaque everywhere, alpha < 0.5 "
+        "masked, and dropped from the tiles), mask (always), colour (matched as an ordinary channel)",
+    )
+
+
+def _print_input_warnings(caught: list) -> None:  # noqa: ANN001
+    """The builder's :class:`tilesynth.diagnose.InputWarning` as ``warning: ...`` lines on stderr; other
+    warnings are shown as Python shows them."""
+    from .diagnose import InputWarning
+
+    for w in caught:
+        if issubclass(w.category, InputWarning):
+            print(f"warning: {w.message}", file=sys.stderr)
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+
+
 def _add_scheme_options(parser: argparse.ArgumentParser) -> None:
     """One flag per option of the registered schemes (a flag shared by several schemes is added once)."""
     seen: dict[str, tuple[Option, Scheme]] = {}
@@ -458,6 +490,8 @@ def _build(
     population: int | None = None,
     options: dict | None = None,
     material: dict | None = None,
+    mask: str | None = None,
+    alpha: str = "auto",
 ) -> TileSet:  # noqa: F821
     """``tilesynth build``: ``options`` are the scheme's own builder keywords (:func:`_scheme_kwargs`)."""
     from .io import load_image
@@ -491,20 +525,27 @@ def _build(
         def build(img: Any, **kw: Any) -> Any:
             return build_material(img, scheme=scheme, **material, **kw)
 
-    ts = build(
-        image,
-        tileset=set_name,
-        tile_size=tile_size,
-        seed=seed,
-        threads=threads,
-        progress=prog,
-        exemplar_info={"file": os.path.basename(input_path), "bits": bits},
-        select=select,
-        polish=polish,
-        generations=generations,
-        population=population,
-        **(options or {}),
-    )
+    from .diagnose import InputWarning
+
+    with warnings.catch_warnings(record=True) as caught:  # issue 14: InputWarning -> "warning: ..." lines
+        warnings.simplefilter("always", InputWarning)  # other warnings keep their filters
+        ts = build(
+            image,
+            tileset=set_name,
+            tile_size=tile_size,
+            seed=seed,
+            threads=threads,
+            progress=prog,
+            exemplar_info={"file": os.path.basename(input_path), "bits": bits},
+            select=select,
+            polish=polish,
+            generations=generations,
+            population=population,
+            mask=mask,
+            alpha=alpha,
+            **(options or {}),
+        )
+    _print_input_warnings(caught)
     ts.save(output)
     sel = ts.params.get("selection", {})
     how = sel.get("method", "random") + (" + polish" if sel.get("params", {}).get("polish") else "")
@@ -737,6 +778,7 @@ def _info(ts_path: str, as_json: bool) -> None:
         f"version       tilesynth {ts.version}, content sha256 {data['content_sha256'][:16]}",
         "genes (row, col): "
         + ", ".join(f"{c}=({r0},{c0})" for c, (r0, c0) in zip(_colours(ts.layout), ts.genes.tolist())),
+        *_mask_lines(p),
         "",
     ]
     if layout_kind(ts.layout) == "edge":
@@ -752,6 +794,13 @@ def _info(ts_path: str, as_json: bool) -> None:
             f"{'(%d,%d)' % tuple(row['match_offset']):>15}  {row['D']:>12.4f}  {row['cut_cost']:>10.4f}"
         )
     print("\n".join(lines))
+
+
+def _mask_lines(p: dict) -> list[str]:
+    """``info``'s lines of the mask and the input warnings of a build (issue 14), none without them."""
+    from .diagnose import info_lines
+
+    return info_lines(p)
 
 
 def _describe(ts) -> list[str]:  # noqa: ANN001
@@ -884,6 +933,8 @@ def _run_command(args: argparse.Namespace) -> int:
             population=args.population,
             options=_scheme_kwargs(args, get_scheme(args.scheme)),
             material=_material_args(args),
+            mask=args.mask,
+            alpha=args.alpha,
         )
     elif args.command == "synth":
         _synth(

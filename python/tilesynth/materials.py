@@ -335,10 +335,13 @@ def _normalised(x: np.ndarray, w: float) -> np.ndarray | None:
 
 
 def feature_image(
-    albedo: np.ndarray, specs: list[tuple[MapSpec, np.ndarray]], albedo_weight: float = 1.0
+    albedo: np.ndarray,
+    specs: list[tuple[MapSpec, np.ndarray]],
+    albedo_weight: float = 1.0,
+    channels: int = FEATURE_CHANNELS,
 ) -> tuple[np.ndarray, dict[str, Any]]:
-    """The feature image a material is built on (module docstring, steps 1-2): float32 ``(H, W, k)`` in [0, 1]
-    and its record (channels, variance kept, the maps' weights)."""
+    """The feature image a material is built on (module docstring, steps 1-2): float32 ``(H, W, k)`` in [0, 1],
+    ``k <= channels``, and its record (channels, variance kept, the maps' weights)."""
     h, w = albedo.shape[:2]
     cols = []
     a = _normalised(albedo.reshape(h * w, -1).astype(np.float64), albedo_weight)
@@ -360,7 +363,7 @@ def feature_image(
     f = np.concatenate(cols, axis=1)
     total = float((f * f).sum())
     kept = 1.0
-    if f.shape[1] > FEATURE_CHANNELS:
+    if f.shape[1] > channels:
         # sums in numpy's own pairwise order, not BLAS (whose result may depend on its thread count): the same
         # bytes in every run and on any number of threads, as every tilesynth build
         d = f.shape[1]
@@ -369,7 +372,7 @@ def feature_image(
             for j in range(i, d):
                 cov[i, j] = cov[j, i] = float((f[:, i] * f[:, j]).sum())
         vals, vecs = np.linalg.eigh(cov)
-        order = np.argsort(vals)[::-1][:FEATURE_CHANNELS]
+        order = np.argsort(vals)[::-1][:channels]
         vecs = vecs[:, order]
         vecs *= np.where(vecs[np.abs(vecs).argmax(axis=0), np.arange(vecs.shape[1])] < 0, -1.0, 1.0)
         proj = np.zeros((f.shape[0], vecs.shape[1]))
@@ -407,14 +410,22 @@ def build_with_maps(
     from .stages.smoothing import smooth_tiles
     from .synthesis import is_smoothed
 
+    from .masking import build_mask
+
     albedo = as_image(exemplar, "exemplar")
     if np.may_share_memory(albedo, exemplar):
         albedo = albedo.copy()
+    # The mask (an alpha channel or mask=) is resolved on the albedo here, and goes to the builder as an
+    # ExemplarMask: the feature image's 4th channel is a feature, never an alpha channel.
+    albedo, emask = build_mask(albedo, kwargs.pop("mask", None), kwargs.pop("alpha", "auto"))
+    kwargs["mask"], kwargs["alpha"] = emask, "colour"
     specs = check_maps(albedo.shape, maps, map_kinds, map_weights, normal_y, map_suffixes)
     aw = _weight((map_weights or {}).get("albedo", 1.0), "albedo")
     joint = aw != 1.0 or any(s.weight > 0 for s, _ in specs)
     if joint:
-        feats, record = feature_image(albedo, specs, aw)
+        # with a mask the search adds a penalty channel, and the image index takes at most 4 channels
+        k = FEATURE_CHANNELS - (emask is not None)
+        feats, record = feature_image(albedo, specs, aw, channels=k)
     else:  # only weight-0 maps (labels): the colour-only build, plus the maps
         feats, record = albedo, {"feature_channels": int(albedo.shape[2]), "variance_kept": 1.0,
                                  "feature_scale": 1.0, "albedo_weight": aw}  # fmt: skip

@@ -59,6 +59,7 @@ import numpy as np
 
 from . import kernels
 from ._validate import finite_float
+from .diagnose import finish_build
 from .errors import ParameterError
 from .genes import (  # noqa: F401 - re-exported: the public names of the genes stage lived here
     LAMBDA,
@@ -71,6 +72,7 @@ from .genes import (  # noqa: F401 - re-exported: the public names of the genes 
     random_genes,
 )
 from .layouts import CornerPlan, corner_set, intermediate_tiles
+from .masking import active, masked_search, valid_fallback
 from .matching import (
     EQ2_EPS,
     MU,
@@ -136,6 +138,7 @@ def _choose_matches(
     opts: OmegaOptions,
     threads: int | None,
     report: Progress,
+    mask: Any = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Matching patches by ``opts.strategy`` (see :mod:`tilesynth.matching`): offsets ``(U, v, 2)``, their
     distances ``(U, v)`` and each tile's smallest distance ``(U,)`` (for E)."""
@@ -143,6 +146,10 @@ def _choose_matches(
     gradients, keep_border = opts.gradients, opts.keep_border
     U = inter.shape[0]
     maps, exact, best = _distance_search(ex, inter, inter_src, metric, threads)
+    valid = None if mask is None else mask.valid(n).ravel()  # issue 14: only windows clear of the mask
+    if valid is not None:
+        maps = [np.where(valid.reshape(m.shape), m, np.inf) for m in maps]
+        best = None  # the orders below come from the maps, restricted to valid windows
     cols = maps[0].shape[1]
     total = maps[0].size
     if total < n_variants:
@@ -164,6 +171,8 @@ def _choose_matches(
         best_D[:] = [float(m.min()) for m in maps]
     for u in range(U):
         dist_order = np.argsort(maps[u], axis=None, kind="stable")
+        if valid is not None:
+            dist_order = dist_order[valid[dist_order]]
         if strategy == "ssd":
             if best is not None:
                 if b_off.shape[1] < n_variants:
@@ -185,6 +194,8 @@ def _choose_matches(
                 threads=threads,
             )
             order = np.argsort(score, axis=None, kind="stable")
+            if valid is not None:
+                order = order[valid[order]]
         else:  # best-cut: the real cut for the k nearest candidates (per variant, away from earlier picks)
             kk = total if match_k is None or match_k < 0 else min(match_k, total)
             g_u = None if grads is None else grads[u]
@@ -298,16 +309,32 @@ def omega_options(
 
 
 def omega_evaluator(
-    ex: np.ndarray, n: int, plan: CornerPlan, opts: OmegaOptions, threads: int | None
+    ex: np.ndarray, n: int, plan: CornerPlan, opts: OmegaOptions, threads: int | None, mask: Any = None
 ) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
     """E of gene populations (:class:`~tilesynth.kernels.PopulationEvaluator`) over the intermediate tiles: one
-    per distinct corner tuple (the 32-set's variants share theirs), on 000's eq. 3 features for ``metric="eq3"``."""
+    per distinct corner tuple (the 32-set's variants share theirs), on 000's eq. 3 features for ``metric="eq3"``.
+    With a ``mask`` (:class:`tilesynth.masking.ExemplarMask`), D_j is the best match among the valid windows
+    (the penalty channel of :meth:`~tilesynth.masking.ExemplarMask.search_image`; the genes are valid)."""
     search = augmented(ex) if opts.metric == "eq3" else ex
+    unscale = 1.0
+    if mask is not None:
+        s = mask.search_scale(search, n)
+        search, unscale = mask.search_image(search, n, features=True), 1.0 / (s * s)
     uniq = np.unique(plan.tile_patches, axis=0)
     ev = kernels.PopulationEvaluator(
         search, n, uniq, plan.n_colours, lam=LAMBDA, normalise=opts.normalise, features=True
     )
-    return lambda g: ev.evaluate(g, threads)
+    if mask is None:
+        return lambda g: ev.evaluate(g, threads)
+
+    def masked(g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        # the D_j of the scaled search are exactly s² times the exemplar's; E from the unscaled D_j
+        _, D = ev.evaluate(g, threads)
+        D = np.asarray(D, dtype=np.float64) * unscale
+        d = D / (n * n) if opts.normalise else D
+        return LAMBDA * d.sum(axis=1) + (1.0 - LAMBDA) * d.var(axis=1), D
+
+    return masked
 
 
 def _matching_patches(
@@ -317,18 +344,37 @@ def _matching_patches(
     smallest distance ``(U,)`` (for E)."""
     n, nv = b.tile_size, plan.n_variants
     exclude = n // 4 if nv > 1 else 0
+    m = active(b.mask)  # issue 14: matching patches only from windows clear of the mask
     if opts.strategy != "ssd" or opts.metric != "color":
-        return _choose_matches(b.exemplar, inter, inter_src, n, nv, exclude, opts, b.threads, b.report)
+        out = _choose_matches(b.exemplar, inter, inter_src, n, nv, exclude, opts, b.threads, b.report, m)
+        if m is not None:
+            m.check_windows(out[0], n, "matching patches", n)
+        return out
+    diverse = opts.diversity is not None  # the diversity lever's search takes images (at most 4 channels)
+    search, tpl, unscale = (
+        (b.exemplar, inter, 1.0)
+        if m is None
+        else masked_search(m, b.exemplar, inter, n, features=not diverse)
+    )
     if opts.diversity is not None:  # issue 12: diverse matching patches (tilesynth.levers); E keeps the best
         from .levers import diverse_matches, self_offsets
 
-        best = kernels.best_matches(b.exemplar, inter, k=1, threads=b.threads)[1][:, 0]
+        best = kernels.best_matches(search, tpl, k=1, threads=b.threads)[1][:, 0]
         chosen, chosen_D = diverse_matches(
-            b.exemplar, inter, nv, opts.diversity, b.threads, exclude=self_offsets(inter_src)
+            search, tpl, nv, opts.diversity, b.threads, exclude=self_offsets(inter_src)
         )
+        if m is not None:
+            best, chosen_D = best * unscale, chosen_D * unscale
+            chosen, chosen_D = valid_fallback(m, chosen, chosen_D, search, tpl, exclude, b.threads, unscale)
         return chosen, chosen_D, best
     # the plain path: exact best (and second-best, far enough) SSD translations
-    offsets, ssd = kernels.best_matches(b.exemplar, inter, k=nv, exclude_radius=exclude, threads=b.threads)
+    if m is None:
+        offsets, ssd = kernels.best_matches(search, tpl, k=nv, exclude_radius=exclude, threads=b.threads)
+    else:
+        index = kernels.SsdIndex(search, b.threads, features=True)
+        offsets, ssd = index.best_matches(tpl, k=nv, exclude_radius=exclude, threads=b.threads)
+        ssd = ssd * unscale
+        m.check_windows(offsets, n, "matching patches", n)
     if offsets.shape[1] < nv:
         raise ParameterError(
             f"tile_size = {n}: the exemplar has too few distinct translations for {nv} matching "
@@ -398,6 +444,8 @@ def build_omega(
     cut_region: str | None = None,
     diversity: int | None = None,
     cut_bias: float | None = None,
+    mask: Any = None,
+    alpha: str = "auto",
 ) -> TileSet:
     """Build a set of ω-tiles from ``exemplar``.
 
@@ -455,6 +503,11 @@ def build_omega(
         (:func:`tilesynth.complete.default_complete_tile_size`) instead of half: the lookup, not the tile
         size, makes them non-periodic, and K⁴·V tiles of half the exemplar would be slow to build and big.
     The choice of these defaults was measured with ``benches/repetition.py`` (issue 12).
+    mask : pixels that must never be used (issue 14, :mod:`tilesynth.masking`): an ``(H, W)`` array (True or
+        >= 0.5 = masked) or the path of a mask image (white = masked); no sample patch, matching patch or cut
+        region takes a masked pixel.
+    alpha : "auto" (default: the alpha channel of a 2- or 4-channel exemplar that is not opaque everywhere is a
+        mask, alpha < 0.5 masked, and is dropped), "mask" (always) or "colour" (alpha matched as a channel).
 
     D_j is the distance (``metric``) between intermediate tile j and its matching patch; E is computed from the
     smallest distance of every intermediate tile over all translations, whatever ``match`` chose.
@@ -464,14 +517,15 @@ def build_omega(
     """
     b = common_options(
         exemplar, tileset=tileset, resolve_set=corner_set, tile_size=tile_size, seed=seed, threads=threads,
-        progress=progress, exemplar_info=exemplar_info,
+        progress=progress, exemplar_info=exemplar_info, mask=mask, alpha=alpha,
     )  # fmt: skip
     from .complete import complete_defaults  # issue 12: complete sets default to the measured levers
 
     complete = complete_defaults(b.definition, b.exemplar.shape, match, metric)
     if complete is not None:
-        if tile_size is None:
-            b = dataclasses.replace(b, tile_size=complete["tile_size"])
+        if tile_size is None:  # (with a mask: no larger than what fits, issue 14)
+            n_c = complete["tile_size"] if b.mask is None else min(complete["tile_size"], b.tile_size)
+            b = dataclasses.replace(b, tile_size=n_c)
         cut_region = complete["cut_region"] if cut_region is None else cut_region
         diversity = complete["diversity"] if diversity is None else diversity
     opts = omega_options(
@@ -488,9 +542,10 @@ def build_omega(
         )
     genes_arr, sel = choose_genes(
         genes, n=plan.n_colours, size=b.tile_size, shape=b.exemplar.shape, rng=b.rng,
-        evaluator=lambda: omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads), select=select,
-        polish=polish, generations=generations, population=population, select_params=select_params,
-        selection=selection, optimise=opts.normalise, record={"normalise": opts.normalise}, progress=b.progress,
+        evaluator=lambda: omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads, active(b.mask)),
+        select=select, polish=polish, generations=generations, population=population,
+        select_params=select_params, selection=selection, optimise=opts.normalise,
+        record={"normalise": opts.normalise}, progress=b.progress, mask=b.mask,
     )  # fmt: skip
     t_sel = time.perf_counter()
     b.report("intermediate tiles", 0, 1)
@@ -508,7 +563,7 @@ def build_omega(
         grad_from_patches=opts.grad_from_patches, keep_border=opts.keep_border, smooth=opts.smooth,
         cut_region=opts.cut_region, cut_bias=opts.cut_bias,
     )  # fmt: skip
-    return finish_tileset(
+    ts = finish_tileset(
         scheme="omega", definition=b.definition, exemplar=b.exemplar, tiles=tiles, source=source,
         cut_masks=masks, genes=genes_arr, tile_patches=plan.tile_patches, match_offsets=offsets,
         D=chosen_D[plan.inverse, plan.variants], cut_costs=costs, E=energy(best_D),
@@ -517,3 +572,4 @@ def build_omega(
                 **timing},
         started=b.started,
     )  # fmt: skip
+    return finish_build(ts, b)  # issue 14: the mask record and the input warnings

@@ -73,6 +73,8 @@ class BuildOptions:
     exemplar_info: dict[str, Any] | None
     started: float
     """:func:`time.perf_counter` at the entry (the build's ``total_s`` counts from here)."""
+    mask: Any = None
+    """The exemplar's :class:`~tilesynth.masking.ExemplarMask` (issue 14), None without one."""
 
     def report(self, stage: str, done: int, total: int) -> None:
         self.progress(stage, done, total)
@@ -93,19 +95,31 @@ def common_options(
     progress: Any = None,
     exemplar_info: Any = None,
     started: float | None = None,
+    mask: Any = None,
+    alpha: Any = "auto",
 ) -> BuildOptions:
-    """Validate the options every builder takes; ``resolve_set`` turns ``tileset`` into its definition."""
+    """Validate the options every builder takes; ``resolve_set`` turns ``tileset`` into its definition.
+
+    ``mask`` / ``alpha``: the exemplar's mask (:func:`tilesynth.masking.build_mask`); the exemplar loses its alpha
+    channel when that is read as a mask."""
     t0 = time.perf_counter() if started is None else started
     ex = as_image(exemplar, "exemplar")
     if np.may_share_memory(ex, exemplar):
         ex = ex.copy()  # the tile set keeps the exemplar: never alias the caller's array
     check_exemplar_size(ex.shape)
+    from .masking import build_mask  # issue 14: masks
+
+    ex, exemplar_mask = build_mask(ex, mask, alpha)
     defn = resolve_set(tileset)
     n = default_tile_size(ex.shape) if tile_size is None else check_tile_size(tile_size, ex.shape)
+    if tile_size is None and exemplar_mask is not None:
+        n = exemplar_mask.default_tile_size(n)
     recorded, rng = resolve_seed(seed)
     threads = threads_arg(threads)
     if progress is not None and not callable(progress):
         raise ParameterError(f"progress = {progress!r}: must be a callable (stage, done, total) or None")
     if exemplar_info is not None and not isinstance(exemplar_info, dict):
         raise ParameterError(f"exemplar_info = {exemplar_info!r}: must be a dict or None")
-    return BuildOptions(ex, defn, n, recorded, rng, threads, progress or _no_progress, exemplar_info, t0)
+    return BuildOptions(
+        ex, defn, n, recorded, rng, threads, progress or _no_progress, exemplar_info, t0, exemplar_mask
+    )

@@ -495,6 +495,10 @@ def _page(
         "<h2>Metrics</h2>",
     ]
     parts += _metrics_table(m, reference, wang)
+    from .diagnose import info_lines  # issue 14: the mask and the input warnings of the build
+
+    parts += [f'<p class="note">{esc(line.split(None, 1)[0])}: {esc(line.split(None, 1)[1])}</p>'
+              for line in info_lines(tileset.params)]  # fmt: skip
     parts += _figures(files, s, wang, reference)
     parts += [_img(f, f"Map {k[4:]}") for k, f in files.items() if k.startswith("map-")]  # issue 14: maps
     for note in notes:

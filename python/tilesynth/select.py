@@ -1201,6 +1201,8 @@ def choose_genes(
     optimise: bool = False,
     record: dict[str, Any] | None = None,
     progress: Progress | None = None,
+    mask: Any = None,
+    tile_size: int | None = None,
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """Given, random or selected genes (``n`` top-left corners of ``size`` squares) and how they were chosen.
 
@@ -1214,7 +1216,21 @@ def choose_genes(
       renamed ``objective_E`` / ``objective_D``, plus ``record``.
 
     ``optimise`` lets a scheme count one of its own options as a selection request (ω's ``normalise``).
+
+    ``mask`` (a :class:`tilesynth.masking.ExemplarMask`, issue 14): only windows clear of the mask are used
+    (random genes drawn over them, given genes checked, a selection run on the projection onto them; see
+    :mod:`tilesynth.masking`); ``tile_size`` (default ``size``) names the build's tile size in its errors.
     """
+    from .masking import active
+
+    m = active(mask)
+    if m is not None:
+        return _masked_genes(
+            m, genes, n=n, size=size, shape=shape, rng=rng, evaluator=evaluator, select=select, polish=polish,
+            generations=generations, population=population, select_params=select_params, selection=selection,
+            ga_defaults=ga_defaults, optimise=optimise, record=record, progress=progress,
+            tile_size=size if tile_size is None else tile_size,
+        )  # fmt: skip
     check_select(select)
     optimise = wants_selection(select, polish, select_params, extra=optimise)
     if genes is not None and (select is not None or optimise):
@@ -1254,6 +1270,24 @@ def choose_genes(
     info["objective_D"] = info.pop("D")
     info.pop("wall_time")  # wall time goes in the tile set's timing (selection_s), not in its content
     return res.genes, info
+
+
+def _masked_genes(m: Any, genes: Any, *, tile_size: int, **kw: Any) -> tuple[np.ndarray, dict[str, Any]]:
+    """:func:`choose_genes` with a mask: the same three paths, on the windows clear of the mask."""
+    size, n, rng = kw["size"], kw["n"], kw["rng"]
+    m.require(size, n, "sample patches", tile_size)
+    if genes is not None:
+        g, sel = choose_genes(genes, **kw)
+        m.check_genes(g, size)
+        return g, sel
+    evaluator = kw.pop("evaluator")
+    if not wants_selection(kw["select"], kw["polish"], kw["select_params"], extra=kw["optimise"]):
+        check_select(kw["select"])
+        sel = {"method": "random"} if kw["selection"] is None else dict(kw["selection"])
+        return m.random_genes(n, size, rng, tile_size), sel
+    ev = None if evaluator is None else (lambda: m.penalised(evaluator(), size))
+    g, sel = choose_genes(None, evaluator=ev, **kw)
+    return m.final_genes(g, size, rng), sel
 
 
 __all__ = [

@@ -118,8 +118,10 @@ import numpy as np
 
 from . import _core, kernels
 from ._validate import as_image, positive_int
+from .diagnose import finish_build
 from .errors import ParameterError
 from .genes import LAMBDA, energy
+from .masking import active, masked_search
 from .options import BuildOptions, Progress, SeedLike, common_options
 from .select import GA_DEFAULTS, Evaluate, choose_genes, wants_selection
 from .stages.compose import finish_tileset, offset_source, patch_gradients, patches_at
@@ -372,6 +374,8 @@ def build_wang(
     progress: Progress | None = None,
     selection: dict[str, Any] | None = None,
     exemplar_info: dict[str, Any] | None = None,
+    mask: Any = None,
+    alpha: str = "auto",
 ) -> TileSet:
     """Build Cohen et al.'s Wang tiles (or Burke's square variant) from ``exemplar``.
 
@@ -408,6 +412,8 @@ def build_wang(
     progress : callback ``(stage, done, total)``.
     selection : how given genes were chosen (recorded), default ``{"method": "given"}``.
     exemplar_info : extra facts about the exemplar to record.
+    mask, alpha : pixels never to use, as for :func:`tilesynth.build_omega`: the P x P squares of the samples
+        avoid the mask (issue 14).
 
     Returns
     -------
@@ -415,7 +421,7 @@ def build_wang(
     """
     b = common_options(
         exemplar, tileset=tileset, resolve_set=_resolve_set, tile_size=tile_size, seed=seed, threads=threads,
-        progress=progress, exemplar_info=exemplar_info,
+        progress=progress, exemplar_info=exemplar_info, mask=mask, alpha=alpha,
     )  # fmt: skip
     o = wang_options(b, overlap=overlap, corners=corners, samples=samples, cut=cut, omega=omega, eps=eps)
     tries = check_border_tries(border_tries)
@@ -425,7 +431,7 @@ def build_wang(
         genes, n=defn.n_samples, size=o.sample_size, shape=b.exemplar.shape, rng=b.rng,
         evaluator=lambda: wang_evaluator(b, o, tile_patches), select=select, polish=polish,
         generations=generations, population=population, select_params=select_params, selection=selection,
-        ga_defaults=GA_001, progress=b.progress,
+        ga_defaults=GA_001, progress=b.progress, mask=b.mask, tile_size=n,
     )  # fmt: skip
     genes_arr, sel = _border_draws(
         b, genes, select, polish, select_params, genes_arr, sel, o.sample_size, tries
@@ -444,7 +450,7 @@ def build_wang(
         "corners": o.corners, "cut": o.cut, "omega": o.omega, "eps": float(o.eps), "seed": b.seed,
         "selection": sel, "border_tries": tries,
     }  # fmt: skip
-    return finish_tileset(
+    ts = finish_tileset(
         scheme="wang", definition=defn, exemplar=b.exemplar, tiles=b.exemplar[source[..., 0], source[..., 1]],
         source=source, cut_masks=(labels == EAST) | (labels == WEST), genes=genes_arr, tile_patches=tile_patches,
         match_offsets=np.full((len(defn), 2), -1, np.int64), D=D, cut_costs=_sum4(stats[:, :, 5]),
@@ -452,6 +458,7 @@ def build_wang(
         timing={"selection_s": t_sel - b.started, "cutting_s": t_cut - t_sel}, started=b.started,
         labels=labels, cut_stats=stats,
     )  # fmt: skip
+    return finish_build(ts, b)  # issue 14: the mask record and the input warnings
 
 
 # --------------------------------------------------------------------------------------------------------------
@@ -475,13 +482,22 @@ class SwangEvaluator:
     """
 
     def __init__(
-        self, exemplar: np.ndarray, tile_size: int, tile_patches: np.ndarray, lam: float = LAMBDA
+        self,
+        exemplar: np.ndarray,
+        tile_size: int,
+        tile_patches: np.ndarray,
+        lam: float = LAMBDA,
+        mask: Any = None,
     ) -> None:
         self.exemplar = as_image(exemplar, "exemplar")
         self.tile_size = int(tile_size)
         self.tile_patches = np.asarray(tile_patches, dtype=np.int64)
         self.lam = float(lam)
-        self._index = kernels.SsdIndex(self.exemplar)
+        # issue 14: with a mask (tilesynth.masking.ExemplarMask), D_j is the best match among valid windows
+        self._mask = mask
+        self._scale = 1.0 if mask is None else mask.search_scale(self.exemplar, self.tile_size)
+        search = self.exemplar if mask is None else mask.search_image(self.exemplar, self.tile_size, True)
+        self._index = kernels.SsdIndex(search, features=mask is not None)
 
     def evaluate(self, genes: np.ndarray, threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(E[P], D[P, m])`` of ``genes`` ``(P, n, 2)``."""
@@ -490,8 +506,10 @@ class SwangEvaluator:
         stack = np.concatenate(
             [_initial_tiles(self.exemplar, g[i], self.tile_patches, self.tile_size)[0] for i in range(p)]
         )
+        if self._mask is not None:
+            stack = self._mask.templates(stack, self._scale)
         _, ssd = self._index.best_matches(stack, k=1, threads=threads)
-        D = ssd[:, 0].reshape(p, m)
+        D = ssd[:, 0].reshape(p, m) / (self._scale * self._scale)
         E = np.array([energy(row, self.lam) for row in D])
         return E, D
 
@@ -551,10 +569,18 @@ def _supplementary_candidates(
         )  # fmt: skip
         return o.given[:, None, :], ssd
     want = 1 if o.method == "ssd" else o.candidates
-    index = kernels.SsdIndex(ex, b.threads)
+    m = active(b.mask)  # issue 14: supplementary patches only from windows clear of the mask
+    search, tpl, unscale = (ex, I_tiles, 1.0) if m is None else masked_search(m, ex, I_tiles, n, True)
+    index = kernels.SsdIndex(search, b.threads, features=m is not None)
     offsets, ssd = index.best_matches(
-        I_tiles, k=want, exclude_radius=n // 4 if want > 1 else 0, threads=b.threads
+        tpl, k=want, exclude_radius=n // 4 if want > 1 else 0, threads=b.threads
     )
+    if m is not None:
+        ssd = ssd * unscale
+        if o.method == "cut":  # candidates touching the mask are dropped (the best valid ones come first)
+            keep = m.windows_ok(offsets, n).all(axis=0)
+            offsets, ssd = offsets[:, keep], ssd[:, keep]
+        m.check_windows(offsets, n, "supplementary patches", n)
     if offsets.shape[1] < want:
         raise ParameterError(
             f"candidates = {o.candidates}: the exemplar has only {offsets.shape[1]} translations N/4 apart"
@@ -608,6 +634,8 @@ def build_swang(
     progress: Progress | None = None,
     selection: dict[str, Any] | None = None,
     exemplar_info: dict[str, Any] | None = None,
+    mask: Any = None,
+    alpha: str = "auto",
 ) -> TileSet:
     """Build strict Wang tiles (Zhang and Kim, 004) from ``exemplar``.
 
@@ -630,7 +658,8 @@ def build_swang(
         assembled initial tile) in the Kwatra weight, as for ω-tiles.
     select, polish, generations, population, select_params : choose the four diamond samples by
         E = 0.8·ΣD_j + 0.2·Var(D_j) (:class:`SwangEvaluator`); the GA uses 000's settings as for ω-tiles.
-    progress, selection, exemplar_info : as for :func:`tilesynth.build_omega`.
+    progress, selection, exemplar_info, mask, alpha : as for :func:`tilesynth.build_omega` (the samples and the
+        supplementary patches avoid the mask).
 
     Returns
     -------
@@ -638,7 +667,7 @@ def build_swang(
     """
     b = common_options(
         exemplar, tileset=tileset, resolve_set=_resolve_set, tile_size=tile_size, seed=seed, threads=threads,
-        progress=progress, exemplar_info=exemplar_info,
+        progress=progress, exemplar_info=exemplar_info, mask=mask, alpha=alpha,
     )  # fmt: skip
     o = swang_options(b, supplementary=supplementary, candidates=candidates, gradients=gradients, eps=eps)
     tries = check_border_tries(border_tries)
@@ -646,9 +675,10 @@ def build_swang(
     k, tile_patches = len(defn), defn.sample_indices()
     genes_arr, sel = choose_genes(
         genes, n=defn.n_samples, size=n, shape=ex.shape, rng=b.rng,
-        evaluator=lambda: (lambda g, ev=SwangEvaluator(ex, n, tile_patches): ev.evaluate(g, b.threads)),  # noqa: B008 - one evaluator, built when selection starts
+        evaluator=lambda: (lambda g, ev=SwangEvaluator(ex, n, tile_patches, mask=active(b.mask)): ev.evaluate(g, b.threads)),  # noqa: B008, E501 - one evaluator, built when selection starts
         select=select, polish=polish, generations=generations, population=population,
         select_params=select_params, selection=selection, ga_defaults=GA_DEFAULTS, progress=b.progress,
+        mask=b.mask,
     )  # fmt: skip
     genes_arr, sel = _border_draws(b, genes, select, polish, select_params, genes_arr, sel, n, tries)
     t_sel = time.perf_counter()
@@ -671,10 +701,11 @@ def build_swang(
         "candidates": o.candidates if o.method == "cut" else None, "eps": float(o.eps), "gradients": o.gradients,
         "lambda": LAMBDA, "match": "ssd", "seed": b.seed, "selection": sel, "border_tries": tries,
     }  # fmt: skip
-    return finish_tileset(
+    ts = finish_tileset(
         scheme="swang", definition=defn, exemplar=ex, tiles=ex[source[..., 0], source[..., 1]], source=source,
         cut_masks=masks, genes=genes_arr, tile_patches=tile_patches, match_offsets=match, D=D, cut_costs=costs,
         E=energy(D), params=params, exemplar_info=b.exemplar_info,
         timing={"selection_s": t_sel - b.started, "matching_s": t_match - t_sel, "cutting_s": t_cut - t_match},
         started=b.started, labels=np.where(masks, SUPPLEMENTARY, I_lab),
     )  # fmt: skip
+    return finish_build(ts, b)  # issue 14: the mask record and the input warnings

@@ -26,9 +26,11 @@ import numpy as np
 
 from .. import kernels
 from .._validate import finite_float
+from ..diagnose import finish_build
 from ..errors import ParameterError
 from ..genes import LAMBDA, energy
 from ..layouts import CornerPlan, corner_set, intermediate_tiles
+from ..masking import active
 from ..options import Progress, SeedLike, common_options
 from ..select import choose_genes
 from ..stages.compose import cut_and_compose, finish_tileset, patches_at
@@ -59,6 +61,8 @@ def build_patch(
     generations: int | None = None,
     population: int | None = None,
     select_params: dict[str, Any] | None = None,
+    mask: Any = None,
+    alpha: str = "auto",
 ) -> TileSet:
     """Build a patch-baseline tile set from ``exemplar`` (see the module docstring).
 
@@ -66,6 +70,8 @@ def build_patch(
     ``genes`` (given sample patches) or random ones from ``seed``, ``threads``, ``eps``, ``gradients``,
     ``keep_border``, ``progress``, ``selection``, ``exemplar_info``. ``select`` may only be None or "random" (and
     ``polish``, ``generations``, ``population``, ``select_params`` unset): the scheme has no objective to select by.
+    ``mask``, ``alpha``: as for :func:`tilesynth.build_omega` (random crops are drawn among the windows clear of
+    the mask).
 
     Returns
     -------
@@ -74,7 +80,7 @@ def build_patch(
     """
     b = common_options(
         exemplar, tileset=tileset, resolve_set=corner_set, tile_size=tile_size, seed=seed, threads=threads,
-        progress=progress, exemplar_info=exemplar_info,
+        progress=progress, exemplar_info=exemplar_info, mask=mask, alpha=alpha,
     )  # fmt: skip
     eps = finite_float(eps, "eps", positive=True)
     if gradients not in ("patch", "tile"):
@@ -84,13 +90,18 @@ def build_patch(
     genes_arr, sel = choose_genes(
         genes, n=plan.n_colours, size=b.tile_size, shape=b.exemplar.shape, rng=b.rng, evaluator=None,
         select=select, polish=polish, generations=generations, population=population,
-        select_params=select_params, selection=selection, progress=b.progress,
+        select_params=select_params, selection=selection, progress=b.progress, mask=b.mask,
     )  # fmt: skip
     n, (h, w) = b.tile_size, b.exemplar.shape[:2]
     inter, inter_src = intermediate_tiles(b.exemplar, genes_arr, plan.unique, n)
     I_tiles, I_src = inter[plan.inverse], inter_src[plan.inverse]
     cols = w - n + 1
-    flat = b.rng.integers(0, (h - n + 1) * cols, size=plan.tile_patches.shape[0])
+    m = active(b.mask)
+    if m is None:
+        flat = b.rng.integers(0, (h - n + 1) * cols, size=plan.tile_patches.shape[0])
+    else:  # issue 14: random crops among the windows clear of the mask
+        valid = np.flatnonzero(m.valid(n))
+        flat = valid[b.rng.integers(0, valid.size, size=plan.tile_patches.shape[0])]
     crops = np.stack([flat // cols, flat % cols], axis=1).astype(np.int64)
     diff = I_tiles.astype(np.float64) - patches_at(b.exemplar, crops, n)
     D = (diff * diff).sum(axis=(1, 2, 3))
@@ -115,12 +126,13 @@ def build_patch(
         "seed": b.seed,
         "selection": sel,
     }
-    return finish_tileset(
+    ts = finish_tileset(
         scheme="patch", definition=b.definition, exemplar=b.exemplar, tiles=tiles, source=source,
         cut_masks=masks, genes=genes_arr, tile_patches=plan.tile_patches, match_offsets=crops, D=D,
         cut_costs=costs, E=energy(D), params=params, exemplar_info=b.exemplar_info, timing=timing,
         started=b.started,
     )  # fmt: skip
+    return finish_build(ts, b)  # issue 14: the mask record and the input warnings
 
 
 def _describe(ts: Any) -> list[str]:
