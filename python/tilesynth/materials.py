@@ -406,11 +406,10 @@ def build_with_maps(
     """A material build with the scheme builder ``build`` (``Scheme.build``): the body of
     :func:`tilesynth.build_material` (which looks the scheme up; this module does not import the registry)."""
     from ._validate import as_image
+    from .masking import build_mask
     from .stages.compose import exemplar_record
     from .stages.smoothing import smooth_tiles
     from .synthesis import is_smoothed
-
-    from .masking import build_mask
 
     albedo = as_image(exemplar, "exemplar")
     if np.may_share_memory(albedo, exemplar):
