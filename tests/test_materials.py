@@ -299,6 +299,8 @@ def test_report_shows_every_map_with_its_cut_seam(tmp_path):
     assert set(seams) == {"height", "normal"} and all(v is not None and v > 0 for v in seams.values())
 
 
+# The small Wang sets may warn of a cut-cost outlier (tilesynth.diagnose): not what this test is about.
+@pytest.mark.filterwarnings("ignore::tilesynth.InputWarning")
 @pytest.mark.parametrize("scheme, tileset", [("wang", "wang8"), ("swang", "wang8"), ("patch", "4")])
 def test_every_scheme_builds_materials(tmp_path, scheme, tileset):
     """Cohen's Wang tiles have no matching patch: their maps are copies (nothing to smooth along)."""
@@ -360,3 +362,34 @@ def test_synth_map_smooth_on_a_set_without_matching_patches_fails_before_writing
     r = _cli("synth", "w.tiles", "-o", "o.png", "--size", "32", "--map-smooth", "on", "-q", cwd=tmp_path)
     assert r.returncode == 2 and "height" in r.stderr and "matching patches" in r.stderr, r.stderr
     assert not (tmp_path / "o.png").exists()
+
+
+@pytest.mark.parametrize("how", ["mask", "alpha"])
+@pytest.mark.parametrize("tileset", ["4", "c2"])
+def test_masked_material_builds_never_use_a_masked_pixel(how, tileset):
+    """A material build with a mask (``mask=`` or the albedo's alpha): the mask is taken from the albedo, never
+    from the feature image (whose 4th channel is a feature), and no tile pixel comes from a masked pixel; the
+    complete sets' diversity search (at most 4 channels with the mask's penalty channel) works too."""
+    albedo, height, normal = _material(96, 96)
+    hole = np.zeros((96, 96), bool)
+    hole[30:50, 40:64] = True
+    kw: dict = {"tileset": tileset}
+    if how == "mask":
+        kw["mask"] = hole
+        img = albedo
+    else:
+        img = np.concatenate([albedo, np.where(hole, 0, 255).astype(np.uint8)[..., None]], axis=2)
+    t = _build(img, {"height": height, "normal": normal}, **kw)
+    assert t.exemplar.shape == (96, 96, 3)
+    assert t.params["material"]["joint"] and t.params["material"]["feature_channels"] == 3
+    assert t.params["mask"]["masked_pixels"] == int(hole.sum())
+    assert not hole[t.source[..., 0], t.source[..., 1]].any()
+    a = albedo.astype(np.float32) / np.float32(255)
+    assert np.array_equal(t.tiles, a[t.source[..., 0], t.source[..., 1]])
+
+
+def test_unmasked_material_build_keeps_four_feature_channels_as_features():
+    """Without a mask, the 4-channel feature image is not read as RGBA (its 4th channel is not an alpha)."""
+    albedo, height, normal = _material()
+    t = _build(albedo, {"height": height, "normal": normal})
+    assert t.params["material"]["feature_channels"] == 4 and "mask" not in t.params
