@@ -332,6 +332,8 @@ def _npy_header(shape, descr="|u1") -> bytes:
         (_npy_header((2**31, 2**31)), "not a readable .npy array"),  # was MemoryError (4 EiB)
         (_npy_header((100000, 100000)), "not a readable .npy array"),  # allocated 10 GB, then failed
         (_npy_header((2**40, 2**40, 3)), "not a readable .npy array"),  # numpy warned of an overflow
+        (_npy_header((2**31, 2**31), "<u2"), "not a readable .npy array"),  # 2^63 bytes: mmap's OverflowError
+        (_npy_header((2**61, 1), "<f4"), "not a readable .npy array"),  # the same, found by test_fuzz_api
         (
             b"\x93NUMPY\x01\x00\x10\x00{'descr': '|u1'\n",
             "not a readable .npy array",

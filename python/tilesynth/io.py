@@ -257,14 +257,15 @@ def read_npy(path: str | os.PathLike[str], where: str) -> np.ndarray:
 
     Memory-mapped first, so a header that declares more data than the file holds (100000 x 100000 in 128
     bytes) fails cheaply instead of allocating what it declares. numpy reports an empty file with
-    ``EOFError`` and some damaged headers with the ``tokenize.TokenError`` of its header parser.
+    ``EOFError``, some damaged headers with the ``tokenize.TokenError`` of its header parser, and a declared
+    size of 2^63 bytes or more (e.g. shape (2^61, 1) of float32) with mmap's ``OverflowError``.
     """
     import tokenize
 
     try:
         with np.errstate(over="ignore"):  # numpy's size of an absurd declared shape overflows, then raises
             return np.array(np.load(path, mmap_mode="r", allow_pickle=False))
-    except (OSError, ValueError, EOFError, SyntaxError, tokenize.TokenError) as exc:
+    except (OSError, ValueError, EOFError, SyntaxError, OverflowError, tokenize.TokenError) as exc:
         raise ParameterError(f"{where}: not a readable .npy array ({exc})") from None
 
 
