@@ -242,6 +242,29 @@ _POLISH = Obj(
     }
 )
 
+#: params.selection.cut: the re-ranking by the cut score and the cut polish (tilesynth.cutselect).
+_CUT_RERANK = Obj(
+    optional={
+        "score": Optional(Num(0.0)),
+        "eps": Num(0.0),
+        "rerank": _POS,
+        "chosen": _COUNT,
+        "scores": List(Optional(Num(0.0))),
+        "polish": Optional(
+            Obj(
+                optional={
+                    "score_before": Optional(Num(0.0)),
+                    "sweeps": _COUNT,
+                    "moves": _COUNT,
+                    "builds": _COUNT,
+                    "candidates": _COUNT,
+                    "converged": Bool(),
+                }
+            )
+        ),
+    }
+)
+
 #: params.selection: the method, its parameters (numbers and flags) and its result.
 SELECTION = Obj(
     optional={
@@ -263,6 +286,9 @@ SELECTION = Obj(
         "normalise": Bool(),
         "history": Optional(_HISTORY),
         "polish": Optional(_POLISH),
+        # issue 15: the objective and the cut re-ranking (tilesynth.cutselect)
+        "objective": Str(("cut", "sum-d", "E")),
+        "cut": Optional(_CUT_RERANK),
     },
 )
 
@@ -274,6 +300,17 @@ SMOOTH = Obj(
         "residual_max": Num(nan_ok=True),
         "tol": Num(0.0),
         "clipped": _COUNT,
+    },
+)
+
+#: params.quality: the cheap visible measures stored at build time (issue 15, :mod:`tilesynth.quality`);
+#: null where a value is not finite (a cut score of a non-finite cost) or does not exist (no cut seam).
+QUALITY = Obj(
+    optional={
+        "cut_score": Optional(Num(0.0)),
+        "cut_score_eps": Num(0.0),
+        "cut_seam": Optional(Num(0.0)),
+        "tile_coverage": Num(0.0, 1.0),
     },
 )
 
@@ -306,6 +343,8 @@ PARAMS = Obj(
         "cut_region": Str(("circle", "free")),
         "cut_bias": Num(0.0),
         "diversity": _POS,
+        # the cheap visible measures of the build (issue 15, tilesynth.quality.build_measures)
+        "quality": QUALITY,
     },
 )
 

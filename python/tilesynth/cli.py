@@ -148,10 +148,11 @@ def _add_build_parser(sub) -> None:  # noqa: ANN001
     b.add_argument(
         "--select",
         type=_method,
-        default="random",
+        default=None,
         metavar="METHOD",
-        help="how to choose the sample patches: random (default), best-of (best of 100 random sets), "
-        "ga (000's genetic algorithm) or ais (003's immune system), all minimising E",
+        help="how to choose the sample patches: random (one random set), best-of (best of 100 random sets), "
+        "ga (000's genetic algorithm) or ais (003's immune system), minimising --objective (default E); "
+        "default for omega: best of 32 random sets by ΣD, the best 4 re-ranked by the real cut cost",
     )
     b.add_argument(
         "--polish",
@@ -444,7 +445,7 @@ def _build(
     threads: int | None = None,
     quiet: bool = False,
     sheet: str | None = None,
-    select: str = "random",
+    select: str | None = None,
     polish: bool = False,
     generations: int | None = None,
     population: int | None = None,
@@ -675,6 +676,7 @@ def _info(ts_path: str, as_json: bool) -> None:
         *_selection_lines(sel, ts.timing.get("selection_s")),
         f"seed          {p.get('seed')}",
         *_describe(ts),
+        *_quality_lines(p),
         f"build time    {ts.timing.get('total_s', float('nan')):.3f} s"
         + "".join(f", {k[:-2]} {v:.3f}" for k, v in ts.timing.items() if k != "total_s"),
         f"version       tilesynth {ts.version}, content sha256 {data['content_sha256'][:16]}",
@@ -739,6 +741,12 @@ def _colours(layout: dict) -> list[str]:
     if layout_kind(layout) == "edge":
         return [*layout.get("horizontal", []), *layout.get("vertical", [])]
     return list(layout.get("colours", []))
+
+
+def _quality_lines(params: dict) -> list[str]:
+    from .quality import info_lines  # issue 15: the stored visible measures
+
+    return info_lines(params)
 
 
 def _selection_lines(sel: dict, seconds: float | None) -> list[str]:

@@ -626,8 +626,15 @@ def objective(tileset: Any) -> dict[str, Any]:
                 "sum": float(costs.sum()),
             },
             "selection": tileset.params.get("selection", {}).get("method"),
+            "cut_score": _cut_score(costs, int(tileset.tile_size)),
         }
     )
+
+
+def _cut_score(costs: np.ndarray, n: int) -> float:
+    from .quality import cut_score  # issue 15
+
+    return cut_score(costs, n)
 
 
 def cut_seam_score(tileset: Any) -> dict[str, Any] | None:
@@ -924,8 +931,22 @@ def _measure(
         out["histogram"] = objs["histogram"].to_dict()
     else:
         out["histogram"] = None
+    out["texture_stats"] = _texture_stats(img, exemplar)  # issue 15
     out["notes"] = notes
     return out, objs
+
+
+def _texture_stats(img: np.ndarray, exemplar: np.ndarray | None) -> dict[str, Any] | None:
+    """``{"distance"}`` of :func:`tilesynth.quality.texture_stats_distance`, None without an exemplar (or one
+    too small for its filters)."""
+    if exemplar is None:
+        return None
+    from .quality import texture_stats_distance
+
+    try:
+        return _finite({"distance": texture_stats_distance(img, exemplar)})
+    except ShapeError:
+        return None
 
 
 def tileset_metrics(

@@ -301,14 +301,14 @@ def omega_options(
 
 
 def omega_evaluator(
-    ex: np.ndarray, n: int, plan: CornerPlan, opts: OmegaOptions, threads: int | None
+    ex: np.ndarray, n: int, plan: CornerPlan, opts: OmegaOptions, threads: int | None, lam: float = LAMBDA
 ) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
     """E of gene populations (:class:`~tilesynth.kernels.PopulationEvaluator`) over the intermediate tiles: one
     per distinct corner tuple (the 32-set's variants share theirs), on 000's eq. 3 features for ``metric="eq3"``."""
     search = augmented(ex) if opts.metric == "eq3" else ex
     uniq = np.unique(plan.tile_patches, axis=0)
     ev = kernels.PopulationEvaluator(
-        search, n, uniq, plan.n_colours, lam=LAMBDA, normalise=opts.normalise, features=True
+        search, n, uniq, plan.n_colours, lam=lam, normalise=opts.normalise, features=True
     )
     return lambda g: ev.evaluate(g, threads)
 
@@ -389,6 +389,8 @@ def build_omega(
     cut_region: str | None = None,
     diversity: int | None = None,
     cut_bias: float | None = None,
+    objective: str | None = None,
+    rerank: int | None = None,
 ) -> TileSet:
     """Build a set of ω-tiles from ``exemplar``.
 
@@ -410,10 +412,16 @@ def build_omega(
     progress : optional callback ``(stage, done, total)``.
     selection : how given ``genes`` were chosen (stored in the tile set), default ``{"method": "given"}``.
     exemplar_info : extra facts about the exemplar to record (file name, bit depth).
-    select : choose the genes by optimising E (see :mod:`tilesynth.select`): "random" (one random vector, the
-        default without ``genes``), "best-of" (best of 100 random vectors), "ga" (000's genetic algorithm) or
-        "ais" (003's immune system). Not allowed together with ``genes``.
-    polish : follow the selection with the exact coordinate-descent polish (:func:`tilesynth.select.polish_genes`).
+    select : choose the genes (see :mod:`tilesynth.select`): "random" (one random vector), "best-of" (best of
+        100 random vectors), "ga" (000's genetic algorithm) or "ais" (003's immune system), by ``objective``.
+        None (the default without ``genes``): best-of 32 by ΣD, the best 4 re-ranked by the real cut score
+        (:mod:`tilesynth.cutselect`; measured with ``benches/selection.py``). Not allowed together with ``genes``.
+    objective : what the selection minimises: "cut" (the robust real cut score, :func:`tilesynth.quality.cut_score`,
+        ΣD as the cheap first stage and the best ``select_params["rerank"]`` candidates built and re-ranked; the
+        default of ``select=None``), "sum-d" (ΣD_j) or "E" (the papers' E; the default of a named ``select``).
+    rerank : candidates the "cut" objective builds and re-ranks (default 4).
+    polish : follow the selection with the exact coordinate-descent polish (:func:`tilesynth.select.polish_genes`);
+        with ``objective="cut"`` the cut polish (:func:`tilesynth.cutselect.cut_polish`).
     generations, population : N_g and the population size of "ga" / "ais" (count of "best-of"); None: the papers'.
     normalise : optimise 003's normalised objective (C_j divided by the N·N pixels of the tile) instead of the
         plain SSD; the stored E and D_j are always the plain ones, the selection's own E is in ``selection``.
@@ -471,13 +479,76 @@ def build_omega(
             "translation, ~50 M operations per 80x80 tile), too slow for a population search; select with "
             "metric 'color' or 'eq3', or use eq2 only for the matching patches of given or random genes"
         )
+    from .cutselect import TopK, cut_polish, resolve_objective, selection_record
+    from .cutselect import rerank as rerank_by_cut
+
+    if rerank is not None:
+        select_params = {**(select_params or {}), "rerank": rerank}
+    select, objective, select_params, n_rerank = resolve_objective(
+        select, objective, genes, polish, select_params, population
+    )
+    lam = LAMBDA if objective in (None, "E") else 1.0
+    top = TopK(max(n_rerank, 1))
     genes_arr, sel = choose_genes(
         genes, n=plan.n_colours, size=b.tile_size, shape=b.exemplar.shape, rng=b.rng,
-        evaluator=lambda: omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads), select=select,
-        polish=polish, generations=generations, population=population, select_params=select_params,
-        selection=selection, optimise=opts.normalise, record={"normalise": opts.normalise}, progress=b.progress,
+        evaluator=lambda: top.wrap(omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads, lam)),
+        select=select, polish=polish and objective != "cut", generations=generations, population=population,
+        select_params=select_params or None, selection=selection, optimise=opts.normalise,
+        record={"normalise": opts.normalise, **({"objective": objective} if objective else {})},
+        progress=b.progress,
     )  # fmt: skip
     t_sel = time.perf_counter()
+    if objective == "cut" and sel.get("method") not in ("given", "random"):  # issue 15: the cut objective
+        quiet = dataclasses.replace(b, progress=lambda *a: None)
+        cands = top.best()
+        i, scores, res = rerank_by_cut(
+            cands, lambda g: _stages(quiet, opts, plan, g, smooth=False), b.tile_size, b.report
+        )
+        genes_arr = cands[i]
+        sel["cut"] = selection_record(scores, i, b.tile_size)
+        if polish:
+            stage1 = omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads, 1.0)
+            genes_arr, score, res, info = cut_polish(
+                genes_arr, scores[i], res, stage1, lambda g: _stages(quiet, opts, plan, g, smooth=False),
+                b.exemplar.shape, b.tile_size, progress=b.report,
+            )  # fmt: skip
+            sel["cut"]["score"] = score if np.isfinite(score) else None
+            sel["cut"]["polish"] = info
+        if opts.smooth:
+            res = _stages(b, opts, plan, genes_arr, smooth=True)
+        t_sel = time.perf_counter()
+    else:
+        res = _stages(b, opts, plan, genes_arr, smooth=opts.smooth)
+    return finish_tileset(
+        scheme="omega", definition=b.definition, exemplar=b.exemplar, tiles=res.tiles, source=res.source,
+        cut_masks=res.masks, genes=genes_arr, tile_patches=plan.tile_patches, match_offsets=res.offsets,
+        D=res.D, cut_costs=res.costs, E=energy(res.best_D),
+        params=_omega_params(b, opts, plan, sel, res.smooth_info), exemplar_info=b.exemplar_info,
+        timing={"selection_s": t_sel - b.started, **res.timing},
+        started=b.started,
+    )  # fmt: skip
+
+
+@dataclass
+class _Stages:
+    """What the stages after the genes produce (:func:`_stages`)."""
+
+    tiles: np.ndarray
+    source: np.ndarray
+    masks: np.ndarray
+    costs: np.ndarray
+    offsets: np.ndarray
+    D: np.ndarray
+    best_D: np.ndarray
+    smooth_info: Any
+    timing: dict[str, float]
+
+
+def _stages(
+    b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, genes_arr: np.ndarray, *, smooth: bool
+) -> _Stages:
+    """Intermediate tiles, matching patches and the cut of one gene vector (the stages after the selection)."""
+    t0 = time.perf_counter()
     b.report("intermediate tiles", 0, 1)
     inter, inter_src = intermediate_tiles(b.exemplar, genes_arr, plan.unique, b.tile_size)
     t_inter = time.perf_counter()
@@ -490,15 +561,17 @@ def build_omega(
     offsets = chosen[plan.inverse, plan.variants]
     tiles, source, masks, costs, smooth_info, timing = cut_and_compose(
         b, inter[plan.inverse], inter_src[plan.inverse], offsets, eps=opts.eps,
-        grad_from_patches=opts.grad_from_patches, keep_border=opts.keep_border, smooth=opts.smooth,
+        grad_from_patches=opts.grad_from_patches, keep_border=opts.keep_border, smooth=smooth,
         cut_region=opts.cut_region, cut_bias=opts.cut_bias,
     )  # fmt: skip
-    return finish_tileset(
-        scheme="omega", definition=b.definition, exemplar=b.exemplar, tiles=tiles, source=source,
-        cut_masks=masks, genes=genes_arr, tile_patches=plan.tile_patches, match_offsets=offsets,
-        D=chosen_D[plan.inverse, plan.variants], cut_costs=costs, E=energy(best_D),
-        params=_omega_params(b, opts, plan, sel, smooth_info), exemplar_info=b.exemplar_info,
-        timing={"selection_s": t_sel - b.started, "intermediate_s": t_inter - t_sel, "matching_s": t_match - t_inter,
-                **timing},
-        started=b.started,
-    )  # fmt: skip
+    return _Stages(
+        tiles,
+        source,
+        masks,
+        costs,
+        offsets,
+        chosen_D[plan.inverse, plan.variants],
+        best_D,
+        smooth_info,
+        {"intermediate_s": t_inter - t0, "matching_s": t_match - t_inter, **timing},
+    )
