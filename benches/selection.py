@@ -422,7 +422,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--random", type=int, default=12, help="visible: random gene vectors per texture")
     p.add_argument("--size", type=int, default=512, help="visible: side of the synthesis")
     p.add_argument(
-        "--candidates", default=None, help="visible: comma-separated candidate names (default all)"
+        "--candidates", default=None, help="visible: semicolon-separated candidate names (default all)"
     )
     p.add_argument("--quick", action="store_true", help="one seed per measurement, projected cv2 baseline")
     p.add_argument(
@@ -448,7 +448,7 @@ def main(argv: list[str] | None = None) -> int:
         n = 1 if a.quick else (a.seeds or 3)
         report["visible"] = section_visible(
             a.textures, a.kinds.split(","), 4 if a.quick else a.random, list(range(1, n + 1)), a.size,
-            a.threads, candidates=None if a.candidates is None else a.candidates.split(","),
+            a.threads, candidates=None if a.candidates is None else a.candidates.split(";"),
         )  # fmt: skip
     if a.json:
         a.json.write_text(json.dumps(report, indent=1, default=float))

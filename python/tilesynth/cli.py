@@ -463,7 +463,7 @@ def _build(
     _check_output_dir(output)
     if sheet:
         _check_output_dir(sheet)
-    if select in ("random", "best-of") and generations is not None:
+    if select in (None, "random", "best-of") and generations is not None:
         raise ParameterError(f"--generations = {generations}: only used with --select ga or ais")
     if select == "random" and population is not None:
         raise ParameterError(f"--population = {population}: not used with --select random")

@@ -414,11 +414,12 @@ def build_omega(
     exemplar_info : extra facts about the exemplar to record (file name, bit depth).
     select : choose the genes (see :mod:`tilesynth.select`): "random" (one random vector), "best-of" (best of
         100 random vectors), "ga" (000's genetic algorithm) or "ais" (003's immune system), by ``objective``.
-        None (the default without ``genes``): best-of 32 by ΣD, the best 4 re-ranked by the real cut score
-        (:mod:`tilesynth.cutselect`; measured with ``benches/selection.py``). Not allowed together with ``genes``.
+        None (the default without ``genes``): for the papers' sets best-of 32 by ΣD, the best 4 re-ranked by the
+        real cut score; for complete sets (``c4``, ...) one random draw (:mod:`tilesynth.cutselect`, measured with
+        ``benches/selection.py``). Not allowed together with ``genes``.
     objective : what the selection minimises: "cut" (the robust real cut score, :func:`tilesynth.quality.cut_score`,
-        ΣD as the cheap first stage and the best ``select_params["rerank"]`` candidates built and re-ranked; the
-        default of ``select=None``), "sum-d" (ΣD_j) or "E" (the papers' E; the default of a named ``select``).
+        ΣD as the cheap first stage and the best ``rerank`` candidates built and re-ranked; the
+        default of ``select=None`` on the papers' sets), "sum-d" (ΣD_j) or "E" (the papers' E; the default of a named ``select``).
     rerank : candidates the "cut" objective builds and re-ranks (default 4).
     polish : follow the selection with the exact coordinate-descent polish (:func:`tilesynth.select.polish_genes`);
         with ``objective="cut"`` the cut polish (:func:`tilesynth.cutselect.cut_polish`).
@@ -485,7 +486,7 @@ def build_omega(
     if rerank is not None:
         select_params = {**(select_params or {}), "rerank": rerank}
     select, objective, select_params, n_rerank = resolve_objective(
-        select, objective, genes, polish, select_params, population
+        select, objective, genes, polish, select_params, population, complete=complete is not None
     )
     lam = LAMBDA if objective in (None, "E") else 1.0
     top = TopK(max(n_rerank, 1))
