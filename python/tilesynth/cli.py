@@ -744,7 +744,7 @@ def _colours(layout: dict) -> list[str]:
 
 
 def _quality_lines(params: dict) -> list[str]:
-    from .quality import info_lines  # issue 15: the stored visible measures
+    from .measures import info_lines  # issue 15: the stored visible measures
 
     return info_lines(params)
 
@@ -759,6 +759,8 @@ def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
     lines = [head + "".join(f", {k}={v}" for k, v in sorted(params.items()))]
     if "evaluations" in sel:
         obj = "normalised E" if sel.get("normalise") else "E"
+        if sel.get("objective") in ("cut", "sum-d"):  # issue 15: λ = 1, the first stage of the cut objective
+            obj = "normalised ΣD" if sel.get("normalise") else "ΣD"
         lines.append(
             f"              {sel['evaluations']} evaluations, {sel.get('generations', 0)} generation(s), "
             f"stopped by {sel.get('stop_reason', '?')}, {seconds or 0.0:.3f} s; "

@@ -83,7 +83,7 @@ def finish_tileset(
     """The :class:`TileSet` of a finished build: every array contiguous in its file dtype, the exemplar record,
     and ``timing`` completed with ``total_s`` (seconds since ``started``, a :func:`time.perf_counter` value)."""
     from .._version import __version__
-    from ..quality import build_measures  # issue 15: the cheap visible measures, stored in the manifest
+    from ..measures import build_measures  # issue 15: the cheap visible measures, stored in the manifest
 
     ts = TileSet(
         scheme=scheme,
