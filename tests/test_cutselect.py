@@ -174,3 +174,39 @@ def test_cli_objective_and_info(small_exemplar, tmp_path, capsys):
     )
     assert tilesynth.TileSet.load(out).params["selection"]["objective"] == "sum-d"
     assert main([*argv, "--objective", "bogus"]) == 2
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+from hypothesis.extra import numpy as hnp  # noqa: E402
+
+
+@given(
+    costs=hnp.arrays(np.float64, st.integers(0, 20), elements=st.floats(allow_nan=True, allow_infinity=True)),
+    n=st.integers(4, 512),
+)
+def test_cut_score_fuzz_never_crashes_and_never_nan_for_finite_costs(costs, n):
+    s = cut_score(costs, n)
+    if costs.size and np.isfinite(costs).all():  # negative costs count as 0: never below eps
+        assert np.isfinite(s) and s >= CUT_SCORE_EPS * n * (1 - 1e-12)
+    elif costs.size:
+        assert s == np.inf
+    else:
+        assert np.isnan(s)
+
+
+@settings(max_examples=15)
+@given(
+    img=hnp.arrays(
+        st.sampled_from([np.float32, np.uint8]),
+        st.tuples(st.integers(1, 24), st.integers(1, 24), st.sampled_from([1, 3, 4])),
+    ),
+)
+def test_texture_stats_fuzz_gives_a_number_or_a_named_error(img, small_exemplar):
+    try:
+        d = texture_stats_distance(
+            img, small_exemplar[..., : img.shape[2]] if img.shape[2] <= 3 else small_exemplar
+        )
+    except (ShapeError, ParameterError, TypeError):
+        return
+    assert np.isfinite(d) and d >= 0

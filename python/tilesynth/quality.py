@@ -130,6 +130,11 @@ def texture_stats_distance(image: Any, exemplar: Any) -> float:
     ex = as_image(exemplar, "exemplar").astype(np.float64)
     if img.shape[2] != ex.shape[2]:
         raise ShapeError(f"image has {img.shape[2]} channels, exemplar {ex.shape[2]}")
+    if min(img.shape[:2] + ex.shape[:2]) < TEXSTATS_SIZE:
+        raise ShapeError(
+            f"image {img.shape[1]}x{img.shape[0]}, exemplar {ex.shape[1]}x{ex.shape[0]}: the texture statistics "
+            f"need at least {TEXSTATS_SIZE}x{TEXSTATS_SIZE} pixels"
+        )
     out = []
     for f in TEXSTATS_SCALES:
         a, b = _down(img, f), _down(ex, f)
