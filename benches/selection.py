@@ -20,11 +20,17 @@ Two sections, each printed as Markdown (``--json`` also writes every figure):
    f over 100 random gene vectors), best-of-100 ("semi-random"), GA, AIS and AIS + polish, each also as a multiple
    of random, the mean over ``--seeds`` seeds, and 003's own random and AIS (40, 50) figures beside them.
 
+3. ``visible`` (issue 15) The gains of selections (the default cut re-ranking, best-of by ΣD and by E, the cut
+   polish, the GA) over the median of random gene vectors in what users see: the cut score and cut seam of the
+   tiles, and of a 512² synthesis the coherence energy, texture-statistics and histogram distances and the
+   coverage, per texture and set kind (n2, c4), as Markdown tables (``benches/selection-results.md``).
+
 Usage::
 
     python benches/selection.py                 # everything (a few minutes)
     python benches/selection.py --quick         # fewer seeds, projected cv2 baseline
     python benches/selection.py --only quality --seeds 5 --json sel.json
+    python benches/selection.py --only visible --kinds n2 --random 10 --seeds 3
 """
 
 from __future__ import annotations

@@ -19,7 +19,9 @@ cut polish.
 
 *Why not E by default:* Var(D) is anti-correlated with quality (−0.36 with coherence, −0.50 with cut cost on the
 16a set), and GA/AIS on E improve the visible measures by 4-11 % over the random median where the best of the
-same random draws by the real cut cost improves them by 10-13 % (``benches/selection.py``).
+same random draws by the real cut cost improves them by 10-13 % (the issue's measurement). Here
+(``benches/selection-results.md``, n2, six textures) the default gains +6 % cut seam, +5 % coherence, +8 %
+texture statistics over the random median, the cut polish +8 / +9 / +10 %, best-of by E +6 / +6 / +1 %.
 
 Re-ranking reads the candidates through :class:`TopK`, a wrapper of the population evaluator that remembers the
 best distinct gene vectors seen, so every method gets re-ranked without knowing about it: for best-of the K
@@ -61,11 +63,10 @@ DEFAULT_RERANK = 4
 
 COMPLETE_DEFAULT = "random"
 """The default selection of the complete sets (c4, c3x2, ...): one random draw. Measured with
-``benches/selection.py`` (c4, 128² exemplars, 32-px tiles): the cut re-ranking lowered the cut score by 5-7 % but
-the synthesis measures moved by less than the spread of random draws (coherence +4 to +9 %, texture statistics
-and histograms -57 to +14 %), for 4 x the build time (26 s instead of 6 s on a 512² exemplar); with 256 tiles
-hashed at random every patch is seen in many combinations, so the choice of the few patches matters less than for
-the papers' sets. ``objective="cut"`` (``--objective cut``) asks for the re-ranking on a complete set."""
+``benches/selection.py --only visible`` (c4, six 96²-144² textures, ``benches/selection-results.md``): the cut
+re-ranking raised coherence (+10.6 % mean) and the cut score (+10.5 %) but made the texture statistics (−22 %)
+and the histograms (−14 %) worse (it prefers flat, low-contrast patches), for 4 x the build time (26 s instead
+of 6 s on a 512² exemplar with 128-px tiles). ``objective="cut"`` (``--objective cut``) asks for it."""
 
 POLISH_CANDIDATES = 3
 """Positions per patch the cut polish builds (the best by ΣD among every valid position)."""
