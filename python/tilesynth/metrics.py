@@ -1106,6 +1106,12 @@ def _format_measures(m: dict[str, Any]) -> list[str]:
             f"histograms    {_num(hd['distance'], '.4f')}  (mean 1-D Wasserstein of colour channels and of "
             f"gradient magnitude at scales {hd['scales']})"
         )
+    tx = m.get("texture_stats")  # issue 15
+    if tx:
+        lines.append(
+            f"texture stats {_num(tx['distance'], '.4f')}  (relative distance of the Gram matrices of fixed random "
+            "filter responses to the exemplar's)"
+        )
     return lines
 
 
@@ -1126,7 +1132,7 @@ def _format_objective(m: dict[str, Any]) -> list[str]:
         )
         lines.append(
             f"cut costs     min {_num(c['min'])}, max {_num(c['max'])}, mean {_num(c['mean'])}, "
-            f"sum {_num(c['sum'])}"
+            f"sum {_num(c['sum'])}" + (f", cut score {_num(ob['cut_score'])}" if "cut_score" in ob else "")
         )
     cs = m.get("cut_seam")
     if cs:
