@@ -210,3 +210,16 @@ def test_texture_stats_fuzz_gives_a_number_or_a_named_error(img, small_exemplar)
     except (ShapeError, ParameterError, TypeError):
         return
     assert np.isfinite(d) and d >= 0
+
+
+def test_ga_population_is_re_ranked_by_the_cut_score(small_exemplar):
+    """objective="cut" with a named method: the best distinct individuals the GA evaluated (by ΣD) are built and
+    the cheapest cut kept; the first candidate is the GA's own best by ΣD."""
+    kw = dict(tileset="8", tile_size=24, seed=3, threads=1, select="ga", population=6, generations=3)
+    cut = tilesynth.build_omega(small_exemplar, objective="cut", rerank=3, **kw)
+    sumd = tilesynth.build_omega(small_exemplar, objective="sum-d", **kw)
+    rec = cut.params["selection"]["cut"]
+    assert cut.params["selection"]["method"] == "ga" and rec["rerank"] == 3
+    first = tilesynth.build_omega(small_exemplar, tileset="8", tile_size=24, genes=sumd.genes, threads=1)
+    assert rec["scores"][0] == pytest.approx(cut_score(first.cut_costs, 24), rel=1e-12)
+    assert rec["score"] == min(rec["scores"])
