@@ -152,12 +152,15 @@ def _add_build_parser(sub) -> None:  # noqa: ANN001
         metavar="METHOD",
         help="how to choose the sample patches: random (one random set), best-of (best of 100 random sets), "
         "ga (000's genetic algorithm) or ais (003's immune system), minimising --objective (default E); "
-        "default for omega: best of 32 random sets by ΣD, the best 4 re-ranked by the real cut cost",
+        "default for omega: one random set for complete sets (c4, ...), for the papers' sets the best of 32 "
+        "random sets by ΣD, the best 4 re-ranked by the real cut cost",
     )
     b.add_argument(
         "--polish",
         action="store_true",
-        help="after the selection, move one patch at a time to its best position until E stops falling",
+        help="after the selection, move one patch at a time to its best position until E stops falling "
+        "(--objective cut: the cut polish, each patch to the best of its 3 best positions by ΣD if the cut "
+        "score falls)",
     )
     b.add_argument("--generations", type=_pos, default=None, help="N_g of ga/ais (default 50)")
     b.add_argument(
