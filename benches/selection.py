@@ -20,11 +20,17 @@ Two sections, each printed as Markdown (``--json`` also writes every figure):
    f over 100 random gene vectors), best-of-100 ("semi-random"), GA, AIS and AIS + polish, each also as a multiple
    of random, the mean over ``--seeds`` seeds, and 003's own random and AIS (40, 50) figures beside them.
 
+3. ``visible`` (issue 15) The gains of selections (the default cut re-ranking, best-of by ΣD and by E, the cut
+   polish, the GA) over the median of random gene vectors in what users see: the cut score and cut seam of the
+   tiles, and of a 512² synthesis the coherence energy, texture-statistics and histogram distances and the
+   coverage, per texture and set kind (n2, c4), as Markdown tables (``benches/selection-results.md``).
+
 Usage::
 
     python benches/selection.py                 # everything (a few minutes)
     python benches/selection.py --quick         # fewer seeds, projected cv2 baseline
     python benches/selection.py --only quality --seeds 5 --json sel.json
+    python benches/selection.py --only visible --kinds n2 --random 10 --seeds 3
 """
 
 from __future__ import annotations
@@ -309,12 +315,121 @@ def section_quality(textures: Path, seeds: list[int], threads: int | None) -> di
     return out
 
 
+# ------------------------------------------------------------------------------------------- visible (issue 15)
+VISIBLE_TEXTURES = ("gravel.png", "beans.png", "caustics.png", "grapes.png", "tomatoes.png", "crackers.png")
+VISIBLE_MEASURES = (
+    ("cut score", "cut_score", -1),
+    ("cut seam", "cut_seam", -1),
+    ("coherence", "coherence", -1),
+    ("texture stats", "texstats", -1),
+    ("histogram", "histogram", -1),
+    ("coverage", "coverage", +1),
+)
+"""(label, key, sign): sign -1 = smaller is better, +1 = larger is better."""
+
+
+def visible_measures(tset: Any, size: int, threads: int | None) -> dict[str, float]:
+    """What users see of a tile set: the cut score and cut seam of its tiles, and of a ``size``² synthesis
+    (seed 1) the coherence energy, texture-statistics and histogram distances to the exemplar and the coverage."""
+    from tilesynth.metrics import coherence_energy, coverage, cut_seam_score, histogram_distance
+    from tilesynth.quality import cut_score, texture_stats_distance
+    from tilesynth.synthesis import source_map
+
+    img, imap = ts.synthesize(tset, size, size, seed=1, threads=threads)
+    src = source_map(tset, imap, size, size)
+    seam = cut_seam_score(tset)
+    return {
+        "cut_score": cut_score(tset.cut_costs, tset.tile_size),
+        "cut_seam": float("nan") if seam is None else float(seam["score"]),
+        "coherence": float(coherence_energy(img, tset.exemplar, threads=threads).energy),
+        "texstats": texture_stats_distance(img, tset.exemplar),
+        "histogram": histogram_distance(img, tset.exemplar).distance,
+        "coverage": coverage(src, tset.exemplar.shape).fraction,
+    }
+
+
+def _gain(value: float, median: float, sign: int) -> float:
+    """Gain in % over the random median (positive = better)."""
+    return 100.0 * (median - value) / median if sign < 0 else 100.0 * (value - median) / median
+
+
+VISIBLE_CANDIDATES: dict[str, dict[str, Any]] = {
+    "default (best-of 32, ΣD, cut re-rank 4)": {},
+    "best-of 32 by ΣD": {"select": "best-of", "population": 32, "objective": "sum-d"},
+    "best-of 32 by E": {"select": "best-of", "population": 32, "objective": "E"},
+    "best-of 32, cut re-rank 8": {"select": "best-of", "population": 32, "objective": "cut", "rerank": 8},
+    "default + cut polish": {"polish": True},
+    "GA on E": {"select": "ga"},
+}
+
+
+def section_visible(
+    textures: Path, kinds: list[str], n_random: int, seeds: list[int], size: int, threads: int | None,
+    names: tuple[str, ...] = VISIBLE_TEXTURES, candidates: list[str] | None = None,
+) -> dict[str, Any]:  # fmt: skip
+    """Gains of selections over the median of ``n_random`` random gene vectors, per measure and texture.
+
+    ``kinds``: "n2" (the papers' set: N2, 80-px tiles, circle cut) and/or "c4" (the default complete corner set:
+    256 tiles of a quarter of the exemplar, free cut, diversity 1). Each candidate runs with every seed of
+    ``seeds``; its measure is the median over them."""
+    out: dict[str, Any] = {}
+    cand_names = candidates or list(VISIBLE_CANDIDATES)
+    for kind in kinds:
+        base = {"tileset": "n2", "tile_size": N_TILE} if kind == "n2" else {"tileset": "c4"}
+        cands = [c for c in cand_names if not (kind == "c4" and ("polish" in c or "GA" in c))]
+        gains: dict[str, dict[str, dict[str, float]]] = {c: {} for c in cands}
+        times: dict[str, list[float]] = {c: [] for c in ["random", *cands]}
+        for name in names:
+            path = textures / name
+            if not path.exists():
+                print(f"(skipping {name}: not found)", file=sys.stderr)
+                continue
+            ex = load(path)
+            rand = []
+            for s in range(n_random):
+                t0 = time.process_time()
+                tset = ts.build_omega(ex, seed=1000 + s, threads=threads, select="random", **base)
+                times["random"].append(time.process_time() - t0)
+                rand.append(visible_measures(tset, size, threads))
+            med = {k: float(np.nanmedian([r[k] for r in rand])) for _, k, _ in VISIBLE_MEASURES}
+            out.setdefault(kind, {}).setdefault(name, {"random_median": med, "random": rand})
+            for c in cands:
+                ms = []
+                for s in seeds:
+                    t0 = time.process_time()
+                    tset = ts.build_omega(ex, seed=s, threads=threads, **base, **VISIBLE_CANDIDATES[c])
+                    times[c].append(time.process_time() - t0)
+                    ms.append(visible_measures(tset, size, threads))
+                val = {k: float(np.nanmedian([m[k] for m in ms])) for _, k, _ in VISIBLE_MEASURES}
+                gains[c][name] = {k: _gain(val[k], med[k], sg) for _, k, sg in VISIBLE_MEASURES}
+                out[kind][name][c] = {"values": ms, "median": val, "gain_pct": gains[c][name]}
+                print(f"  {kind} {name} {c}: " + ", ".join(f"{k} {v:+.1f}%" for k, v in gains[c][name].items()),
+                      file=sys.stderr, flush=True)  # fmt: skip
+        print(f"\n## Visible measures, set {kind}: gain in % over the median of {n_random} random gene vectors "
+              f"(positive = better; candidates: median over seeds {seeds}; {size}x{size} synthesis)\n")  # fmt: skip
+        for c in cands:
+            rows = [[t, *(f"{g[k]:+.1f}" for _, k, _ in VISIBLE_MEASURES)] for t, g in gains[c].items()]
+            mean_row = ["**mean**", *(f"**{np.mean([g[k] for g in gains[c].values()]):+.1f}**"
+                                      for _, k, _ in VISIBLE_MEASURES)]  # fmt: skip
+            print(f"\n### {c} (median CPU s per build: {np.median(times[c]):.2f}, random "
+                  f"{np.median(times['random']):.2f})\n")  # fmt: skip
+            print(md_table(["texture", *(lbl for lbl, _, _ in VISIBLE_MEASURES)], [*rows, mean_row]))
+        out.setdefault(kind, {})["_times_cpu_s"] = {c: float(np.median(v)) for c, v in times.items() if v}
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument(
         "--textures", type=Path, default=Path(os.environ.get("TILESYNTH_TEXTURES", DEFAULT_TEXTURES))
     )
-    p.add_argument("--only", choices=("speed", "quality"))
+    p.add_argument("--only", choices=("speed", "quality", "visible"))
+    p.add_argument("--kinds", default="n2,c4", help="visible: the set kinds, n2 and/or c4")
+    p.add_argument("--random", type=int, default=12, help="visible: random gene vectors per texture")
+    p.add_argument("--size", type=int, default=512, help="visible: side of the synthesis")
+    p.add_argument(
+        "--candidates", default=None, help="visible: semicolon-separated candidate names (default all)"
+    )
     p.add_argument("--quick", action="store_true", help="one seed per measurement, projected cv2 baseline")
     p.add_argument(
         "--seeds", type=int, default=None, help="seeds per measurement (default 5 speed, 3 quality)"
@@ -335,6 +450,12 @@ def main(argv: list[str] | None = None) -> int:
     if a.only in (None, "quality"):
         n = 1 if a.quick else (a.seeds or 3)
         report["quality"] = section_quality(a.textures, list(range(1, n + 1)), a.threads)
+    if a.only in (None, "visible"):
+        n = 1 if a.quick else (a.seeds or 3)
+        report["visible"] = section_visible(
+            a.textures, a.kinds.split(","), 4 if a.quick else a.random, list(range(1, n + 1)), a.size,
+            a.threads, candidates=None if a.candidates is None else a.candidates.split(";"),
+        )  # fmt: skip
     if a.json:
         a.json.write_text(json.dumps(report, indent=1, default=float))
     return 0

@@ -127,7 +127,7 @@ def test_cli_select_and_info(ex, tmp_path, capsys):
         (["--select", "annealing"], "--select"),
         (["--generations", "5"], "--generations"),
         (["--select", "ga", "--generations", "0"], "generations"),
-        (["--population", "4"], "--population"),
+        (["--select", "random", "--population", "4"], "--population"),
     ],
 )
 def test_cli_select_errors(args, words, ex, tmp_path, capsys):

@@ -42,6 +42,8 @@ def built_file(tmp_path_factory, exemplar_png):
                 "24",
                 "--seed",
                 "3",
+                "--select",
+                "random",
                 "--quiet",
             ]
         )

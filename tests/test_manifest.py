@@ -29,6 +29,8 @@ def sets(tmp_path_factory, small_exemplar) -> dict[str, Path]:
     tilesynth.save_image(ex, small_exemplar)
     runs = {
         "omega_ga": ["--select", "ga", "--generations", "3", "--population", "6", "--polish"],
+        # issue 15: the default selection (best-of by ΣD, cut re-ranking) with the cut polish
+        "omega_cut": ["--set", "8", "--population", "6", "--rerank", "2", "--polish"],
         "wang": ["--scheme", "wang"],
         "swang": ["--scheme", "swang", "--select", "ais", "--generations", "2", "--population", "6"],
     }

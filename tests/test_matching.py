@@ -50,7 +50,7 @@ def test_heuristic_regions():
 
 @pytest.mark.parametrize("strategy", ["circle", "midpoints"])
 def test_heuristics_choose_the_argmin_of_their_score(strategy, ex):
-    ts = tilesynth.build_omega(ex, tileset="8", tile_size=N, seed=2, match=strategy)
+    ts = tilesynth.build_omega(ex, tileset="8", tile_size=N, seed=2, match=strategy, select="random")
     assert ts.params["match"] == strategy
     inter, src = tilesynth.omega.intermediate_tiles(ex, ts.genes, ts.tile_patches, N)
     grads = patch_gradients(ex, src)
@@ -62,14 +62,16 @@ def test_heuristics_choose_the_argmin_of_their_score(strategy, ex):
         # D_j is the SSD of the chosen patch; E still uses each tile's smallest SSD
         d = ((inter[j].astype(np.float64) - ex[r : r + N, c : c + N]) ** 2).sum()
         assert ts.D[j] == pytest.approx(d, rel=1e-9)
-    plain = tilesynth.build_omega(ex, tileset="8", tile_size=N, seed=2)
+    plain = tilesynth.build_omega(ex, tileset="8", tile_size=N, seed=2, select="random")
     assert ts.E == pytest.approx(plain.E, rel=1e-12)
 
 
 def test_best_cut_all_is_the_exhaustive_cheapest_cut(ex):
     small = np.ascontiguousarray(ex[:28, :30])
     n = 12
-    ts = tilesynth.build_omega(small, tileset="4", tile_size=n, seed=1, match="best-cut", match_k="all")
+    ts = tilesynth.build_omega(
+        small, tileset="4", tile_size=n, seed=1, match="best-cut", match_k="all", select="random"
+    )
     inter, src = tilesynth.omega.intermediate_tiles(small, ts.genes, ts.tile_patches, n)
     grads = patch_gradients(small, src)
     cands = candidates(small, n)
@@ -81,7 +83,7 @@ def test_best_cut_all_is_the_exhaustive_cheapest_cut(ex):
             intermediate_grad=np.repeat(grads[j][None], len(cands), 0),
         )
         assert ts.cut_costs[j] == pytest.approx(costs.min(), rel=1e-12)
-    plain = tilesynth.build_omega(small, tileset="4", tile_size=n, seed=1)
+    plain = tilesynth.build_omega(small, tileset="4", tile_size=n, seed=1, select="random")
     assert (ts.cut_costs <= plain.cut_costs * (1 + 1e-12)).all()
     assert ts.params["match_k"] == "all"
 

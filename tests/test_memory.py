@@ -32,7 +32,7 @@ def hwm():
         return next(int(line.split()[1]) for line in fh if line.startswith("VmHWM:"))  # KiB
 base = hwm()
 t0 = time.perf_counter()
-tiles = ts.build_omega(ex, tileset="n2", tile_size=256, seed=1, **json.loads(sys.argv[1]))
+tiles = ts.build_omega(ex, tileset="n2", tile_size=256, seed=1, **{"select": "random", **json.loads(sys.argv[1])})
 peak = hwm()
 print(json.dumps({"peak_mib": peak / 1024, "before_mib": base / 1024, "tiles": tiles.n_tiles,
                   "seconds": time.perf_counter() - t0}))

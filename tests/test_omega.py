@@ -12,7 +12,9 @@ from tilesynth.omega import energy, intermediate_tiles
 
 @pytest.fixture(scope="module")
 def built(small_exemplar):
-    return tilesynth.build_omega(small_exemplar, tileset="16a", tile_size=32, seed=5, threads=2)
+    return tilesynth.build_omega(
+        small_exemplar, tileset="16a", tile_size=32, seed=5, threads=2, select="random"
+    )
 
 
 def test_shapes_and_params(built, small_exemplar):

@@ -24,7 +24,7 @@ def ga_set(small_exemplar):
 
 @pytest.fixture(scope="module")
 def random_set(small_exemplar):
-    return ts.build_omega(small_exemplar, tileset="16a", tile_size=24, seed=2)
+    return ts.build_omega(small_exemplar, tileset="16a", tile_size=24, seed=2, select="random")
 
 
 def png(path) -> np.ndarray:

@@ -242,6 +242,29 @@ _POLISH = Obj(
     }
 )
 
+#: params.selection.cut: the re-ranking by the cut score and the cut polish (tilesynth.cutselect).
+_CUT_RERANK = Obj(
+    optional={
+        "score": Optional(Num(0.0)),
+        "eps": Num(0.0),
+        "rerank": _POS,
+        "chosen": _COUNT,
+        "scores": List(Optional(Num(0.0))),
+        "polish": Optional(
+            Obj(
+                optional={
+                    "score_before": Optional(Num(0.0)),
+                    "sweeps": _COUNT,
+                    "moves": _COUNT,
+                    "builds": _COUNT,
+                    "candidates": _COUNT,
+                    "converged": Bool(),
+                }
+            )
+        ),
+    }
+)
+
 #: params.selection: the method, its parameters (numbers and flags) and its result.
 SELECTION = Obj(
     optional={
@@ -267,6 +290,9 @@ SELECTION = Obj(
         "border_tries": _POS,
         "border_seam_first": Num(nan_ok=True),
         "border_seam_predicted": Num(nan_ok=True),
+        # issue 15: the objective and the cut re-ranking (tilesynth.cutselect)
+        "objective": Str(("cut", "sum-d", "E")),
+        "cut": Optional(_CUT_RERANK),
     },
 )
 
@@ -306,6 +332,16 @@ MATERIAL = Obj(
         "joint": Bool(),
         "units": Str(),
     }
+)
+#: params.quality: the cheap visible measures stored at build time (issue 15, :mod:`tilesynth.quality`);
+#: null where a value is not finite (a cut score of a non-finite cost) or does not exist (no cut seam).
+QUALITY = Obj(
+    optional={
+        "cut_score": Optional(Num(0.0)),
+        "cut_score_eps": Num(0.0),
+        "cut_seam": Optional(Num(0.0)),
+        "tile_coverage": Num(0.0, 1.0),
+    },
 )
 
 PARAMS = Obj(
@@ -354,6 +390,8 @@ PARAMS = Obj(
         "warnings": List(
             Obj(optional={"code": Str(max_len=64), "message": Str(), "value": Num(), "threshold": Num()})
         ),
+        # the cheap visible measures of the build (issue 15, tilesynth.quality.build_measures)
+        "quality": QUALITY,
     },
 )
 

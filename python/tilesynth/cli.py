@@ -149,15 +149,19 @@ def _add_build_parser(sub) -> None:  # noqa: ANN001
     b.add_argument(
         "--select",
         type=_method,
-        default="random",
+        default=None,
         metavar="METHOD",
-        help="how to choose the sample patches: random (default), best-of (best of 100 random sets), "
-        "ga (000's genetic algorithm) or ais (003's immune system), all minimising E",
+        help="how to choose the sample patches: random (one random set), best-of (best of 100 random sets), "
+        "ga (000's genetic algorithm) or ais (003's immune system), minimising --objective (default E); "
+        "default for omega: one random set for complete sets (c4, ...), for the papers' sets the best of 32 "
+        "random sets by ΣD, the best 4 re-ranked by the real cut cost",
     )
     b.add_argument(
         "--polish",
         action="store_true",
-        help="after the selection, move one patch at a time to its best position until E stops falling",
+        help="after the selection, move one patch at a time to its best position until E stops falling "
+        "(--objective cut: the cut polish, each patch to the best of its 3 best positions by ΣD if the cut "
+        "score falls)",
     )
     b.add_argument("--generations", type=_pos, default=None, help="N_g of ga/ais (default 50)")
     b.add_argument(
@@ -484,7 +488,7 @@ def _build(
     threads: int | None = None,
     quiet: bool = False,
     sheet: str | None = None,
-    select: str = "random",
+    select: str | None = None,
     polish: bool = False,
     generations: int | None = None,
     population: int | None = None,
@@ -505,7 +509,7 @@ def _build(
     _check_output_dir(output)
     if sheet:
         _check_output_dir(sheet)
-    if select in ("random", "best-of") and generations is not None:
+    if select in (None, "random", "best-of") and generations is not None:
         raise ParameterError(f"--generations = {generations}: only used with --select ga or ais")
     if select == "random" and population is not None:
         raise ParameterError(f"--population = {population}: not used with --select random")
@@ -773,6 +777,7 @@ def _info(ts_path: str, as_json: bool) -> None:
         *_selection_lines(sel, ts.timing.get("selection_s")),
         f"seed          {p.get('seed')}",
         *_describe(ts),
+        *_quality_lines(p),
         f"build time    {ts.timing.get('total_s', float('nan')):.3f} s"
         + "".join(f", {k[:-2]} {v:.3f}" for k, v in ts.timing.items() if k != "total_s"),
         f"version       tilesynth {ts.version}, content sha256 {data['content_sha256'][:16]}",
@@ -847,6 +852,12 @@ def _colours(layout: dict) -> list[str]:
     return list(layout.get("colours", []))
 
 
+def _quality_lines(params: dict) -> list[str]:
+    from .measures import info_lines  # issue 15: the stored visible measures
+
+    return info_lines(params)
+
+
 def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
     """The selection method, its parameters, its result and its convergence history, for ``info``."""
     params = dict(sel.get("params", {}))
@@ -857,6 +868,8 @@ def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
     lines = [head + "".join(f", {k}={v}" for k, v in sorted(params.items()))]
     if "evaluations" in sel:
         obj = "normalised E" if sel.get("normalise") else "E"
+        if sel.get("objective") in ("cut", "sum-d"):  # issue 15: λ = 1, the first stage of the cut objective
+            obj = "normalised ΣD" if sel.get("normalise") else "ΣD"
         lines.append(
             f"              {sel['evaluations']} evaluations, {sel.get('generations', 0)} generation(s), "
             f"stopped by {sel.get('stop_reason', '?')}, {seconds or 0.0:.3f} s; "

@@ -626,8 +626,15 @@ def objective(tileset: Any) -> dict[str, Any]:
                 "sum": float(costs.sum()),
             },
             "selection": tileset.params.get("selection", {}).get("method"),
+            "cut_score": _cut_score(costs, int(tileset.tile_size)),
         }
     )
+
+
+def _cut_score(costs: np.ndarray, n: int) -> float:
+    from .quality import cut_score  # issue 15
+
+    return cut_score(costs, n)
 
 
 def cut_seam_score(tileset: Any) -> dict[str, Any] | None:
@@ -1011,8 +1018,22 @@ def _measure(
         out["histogram"] = objs["histogram"].to_dict()
     else:
         out["histogram"] = None
+    out["texture_stats"] = _texture_stats(img, exemplar)  # issue 15
     out["notes"] = notes
     return out, objs
+
+
+def _texture_stats(img: np.ndarray, exemplar: np.ndarray | None) -> dict[str, Any] | None:
+    """``{"distance"}`` of :func:`tilesynth.quality.texture_stats_distance`, None without an exemplar (or one
+    too small for its filters)."""
+    if exemplar is None:
+        return None
+    from .quality import texture_stats_distance
+
+    try:
+        return _finite({"distance": texture_stats_distance(img, exemplar)})
+    except ShapeError:
+        return None
 
 
 def tileset_metrics(
@@ -1178,6 +1199,12 @@ def _format_measures(m: dict[str, Any]) -> list[str]:
             f"histograms    {_num(hd['distance'], '.4f')}  (mean 1-D Wasserstein of colour channels and of "
             f"gradient magnitude at scales {hd['scales']})"
         )
+    tx = m.get("texture_stats")  # issue 15
+    if tx:
+        lines.append(
+            f"texture stats {_num(tx['distance'], '.4f')}  (relative distance of the Gram matrices of fixed random "
+            "filter responses to the exemplar's)"
+        )
     return lines
 
 
@@ -1198,7 +1225,7 @@ def _format_objective(m: dict[str, Any]) -> list[str]:
         )
         lines.append(
             f"cut costs     min {_num(c['min'])}, max {_num(c['max'])}, mean {_num(c['mean'])}, "
-            f"sum {_num(c['sum'])}"
+            f"sum {_num(c['sum'])}" + (f", cut score {_num(ob['cut_score'])}" if "cut_score" in ob else "")
         )
     cs = m.get("cut_seam")
     if cs:

@@ -309,7 +309,13 @@ def omega_options(
 
 
 def omega_evaluator(
-    ex: np.ndarray, n: int, plan: CornerPlan, opts: OmegaOptions, threads: int | None, mask: Any = None
+    ex: np.ndarray,
+    n: int,
+    plan: CornerPlan,
+    opts: OmegaOptions,
+    threads: int | None,
+    lam: float = LAMBDA,
+    mask: Any = None,
 ) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
     """E of gene populations (:class:`~tilesynth.kernels.PopulationEvaluator`) over the intermediate tiles: one
     per distinct corner tuple (the 32-set's variants share theirs), on 000's eq. 3 features for ``metric="eq3"``.
@@ -322,7 +328,7 @@ def omega_evaluator(
         search, unscale = mask.search_image(search, n, features=True), 1.0 / (s * s)
     uniq = np.unique(plan.tile_patches, axis=0)
     ev = kernels.PopulationEvaluator(
-        search, n, uniq, plan.n_colours, lam=LAMBDA, normalise=opts.normalise, features=True
+        search, n, uniq, plan.n_colours, lam=lam, normalise=opts.normalise, features=True
     )
     if mask is None:
         return lambda g: ev.evaluate(g, threads)
@@ -446,6 +452,8 @@ def build_omega(
     cut_bias: float | None = None,
     mask: Any = None,
     alpha: str = "auto",
+    objective: str | None = None,
+    rerank: int | None = None,
 ) -> TileSet:
     """Build a set of ω-tiles from ``exemplar``.
 
@@ -469,10 +477,17 @@ def build_omega(
     progress : optional callback ``(stage, done, total)``.
     selection : how given ``genes`` were chosen (stored in the tile set), default ``{"method": "given"}``.
     exemplar_info : extra facts about the exemplar to record (file name, bit depth).
-    select : choose the genes by optimising E (see :mod:`tilesynth.select`): "random" (one random vector, the
-        default without ``genes``), "best-of" (best of 100 random vectors), "ga" (000's genetic algorithm) or
-        "ais" (003's immune system). Not allowed together with ``genes``.
-    polish : follow the selection with the exact coordinate-descent polish (:func:`tilesynth.select.polish_genes`).
+    select : choose the genes (see :mod:`tilesynth.select`): "random" (one random vector), "best-of" (best of
+        100 random vectors), "ga" (000's genetic algorithm) or "ais" (003's immune system), by ``objective``.
+        None (the default without ``genes``): for the papers' sets best-of 32 by ΣD, the best 4 re-ranked by the
+        real cut score; for complete sets (``c4``, ...) one random draw (:mod:`tilesynth.cutselect`, measured with
+        ``benches/selection.py``). Not allowed together with ``genes``.
+    objective : what the selection minimises: "cut" (the robust real cut score, :func:`tilesynth.quality.cut_score`,
+        ΣD as the cheap first stage and the best ``rerank`` candidates built and re-ranked; the
+        default of ``select=None`` on the papers' sets), "sum-d" (ΣD_j) or "E" (the papers' E; the default of a named ``select``).
+    rerank : candidates the "cut" objective builds and re-ranks (default 4).
+    polish : follow the selection with the exact coordinate-descent polish (:func:`tilesynth.select.polish_genes`);
+        with ``objective="cut"`` the cut polish (:func:`tilesynth.cutselect.cut_polish`).
     generations, population : N_g and the population size of "ga" / "ais" (count of "best-of"); None: the papers'.
     normalise : optimise 003's normalised objective (C_j divided by the N·N pixels of the tile) instead of the
         plain SSD; the stored E and D_j are always the plain ones, the selection's own E is in ``selection``.
@@ -540,14 +555,88 @@ def build_omega(
             "translation, ~50 M operations per 80x80 tile), too slow for a population search; select with "
             "metric 'color' or 'eq3', or use eq2 only for the matching patches of given or random genes"
         )
+    from .cutselect import TopK, cut_polish, resolve_objective, selection_record
+    from .cutselect import rerank as rerank_by_cut
+
+    if rerank is not None:
+        select_params = {**(select_params or {}), "rerank": rerank}
+    select, objective, select_params, n_rerank = resolve_objective(
+        select, objective, genes, polish, select_params, population, complete=complete is not None
+    )
+    lam = LAMBDA if objective in (None, "E") else 1.0
+    top = TopK(max(n_rerank, 1))
     genes_arr, sel = choose_genes(
         genes, n=plan.n_colours, size=b.tile_size, shape=b.exemplar.shape, rng=b.rng,
-        evaluator=lambda: omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads, active(b.mask)),
-        select=select, polish=polish, generations=generations, population=population,
-        select_params=select_params, selection=selection, optimise=opts.normalise,
-        record={"normalise": opts.normalise}, progress=b.progress, mask=b.mask,
+        evaluator=lambda: top.wrap(
+            omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads, lam, mask=active(b.mask))
+        ),
+        select=select, polish=polish and objective != "cut", generations=generations, population=population,
+        select_params=select_params or None, selection=selection, optimise=opts.normalise,
+        record={"normalise": opts.normalise, **({"objective": objective} if objective else {})},
+        progress=b.progress, mask=b.mask,
     )  # fmt: skip
     t_sel = time.perf_counter()
+    if objective == "cut" and sel.get("method") not in ("given", "random"):  # issue 15: the cut objective
+        quiet = dataclasses.replace(b, progress=lambda *a: None)
+        cands = top.best()
+        m = active(b.mask)
+        if (
+            m is not None
+        ):  # issue 14: the evaluator saw the genes projected onto clear windows; keep distinct ones
+            cands = [
+                g for g in cands if m.windows_ok(g, b.tile_size).all() and len(np.unique(g, axis=0)) == len(g)
+            ]
+            cands = cands or [genes_arr]
+        i, scores, res = rerank_by_cut(
+            cands, lambda g: _stages(quiet, opts, plan, g, smooth=False), b.tile_size, b.report
+        )
+        genes_arr = cands[i]
+        sel["cut"] = selection_record(scores, i, b.tile_size)
+        if polish:
+            stage1 = omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads, 1.0, mask=m)
+            genes_arr, score, res, info = cut_polish(
+                genes_arr, scores[i], res, stage1, lambda g: _stages(quiet, opts, plan, g, smooth=False),
+                b.exemplar.shape, b.tile_size, progress=b.report,
+                allowed=None if m is None else m.valid(b.tile_size),
+            )  # fmt: skip
+            sel["cut"]["score"] = score if np.isfinite(score) else None
+            sel["cut"]["polish"] = info
+        if opts.smooth:
+            res = _stages(b, opts, plan, genes_arr, smooth=True)
+        t_sel = time.perf_counter()
+    else:
+        res = _stages(b, opts, plan, genes_arr, smooth=opts.smooth)
+    ts = finish_tileset(
+        scheme="omega", definition=b.definition, exemplar=b.exemplar, tiles=res.tiles, source=res.source,
+        cut_masks=res.masks, genes=genes_arr, tile_patches=plan.tile_patches, match_offsets=res.offsets,
+        D=res.D, cut_costs=res.costs, E=energy(res.best_D),
+        params=_omega_params(b, opts, plan, sel, res.smooth_info), exemplar_info=b.exemplar_info,
+        timing={"selection_s": t_sel - b.started, **res.timing},
+        started=b.started,
+    )  # fmt: skip
+    return finish_build(ts, b)  # issue 14: the mask record and the input warnings
+
+
+@dataclass
+class _Stages:
+    """What the stages after the genes produce (:func:`_stages`)."""
+
+    tiles: np.ndarray
+    source: np.ndarray
+    masks: np.ndarray
+    costs: np.ndarray
+    offsets: np.ndarray
+    D: np.ndarray
+    best_D: np.ndarray
+    smooth_info: Any
+    timing: dict[str, float]
+
+
+def _stages(
+    b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, genes_arr: np.ndarray, *, smooth: bool
+) -> _Stages:
+    """Intermediate tiles, matching patches and the cut of one gene vector (the stages after the selection)."""
+    t0 = time.perf_counter()
     b.report("intermediate tiles", 0, 1)
     inter, inter_src = intermediate_tiles(b.exemplar, genes_arr, plan.unique, b.tile_size)
     t_inter = time.perf_counter()
@@ -560,16 +649,17 @@ def build_omega(
     offsets = chosen[plan.inverse, plan.variants]
     tiles, source, masks, costs, smooth_info, timing = cut_and_compose(
         b, inter[plan.inverse], inter_src[plan.inverse], offsets, eps=opts.eps,
-        grad_from_patches=opts.grad_from_patches, keep_border=opts.keep_border, smooth=opts.smooth,
+        grad_from_patches=opts.grad_from_patches, keep_border=opts.keep_border, smooth=smooth,
         cut_region=opts.cut_region, cut_bias=opts.cut_bias,
     )  # fmt: skip
-    ts = finish_tileset(
-        scheme="omega", definition=b.definition, exemplar=b.exemplar, tiles=tiles, source=source,
-        cut_masks=masks, genes=genes_arr, tile_patches=plan.tile_patches, match_offsets=offsets,
-        D=chosen_D[plan.inverse, plan.variants], cut_costs=costs, E=energy(best_D),
-        params=_omega_params(b, opts, plan, sel, smooth_info), exemplar_info=b.exemplar_info,
-        timing={"selection_s": t_sel - b.started, "intermediate_s": t_inter - t_sel, "matching_s": t_match - t_inter,
-                **timing},
-        started=b.started,
-    )  # fmt: skip
-    return finish_build(ts, b)  # issue 14: the mask record and the input warnings
+    return _Stages(
+        tiles,
+        source,
+        masks,
+        costs,
+        offsets,
+        chosen_D[plan.inverse, plan.variants],
+        best_D,
+        smooth_info,
+        {"intermediate_s": t_inter - t0, "matching_s": t_match - t_inter, **timing},
+    )

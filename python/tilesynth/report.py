@@ -432,6 +432,29 @@ def _cut_seam_rows(cs: dict[str, Any]) -> list[tuple[str, str, str]]:
     ]
 
 
+def _texture_stats_rows(tx: dict[str, Any]) -> list[tuple[str, str, str]]:
+    return [
+        (
+            "texture statistics",
+            _fmt(tx["distance"], ".4f"),
+            "relative distance of the Gram matrices of fixed random filter responses to the exemplar's "
+            "(0 = the same statistics)",
+        )
+    ]
+
+
+def _cut_score_rows(ob: dict[str, Any]) -> list[tuple[str, str, str]]:
+    if "cut_score" not in ob:
+        return []
+    return [
+        (
+            "cut score",
+            _fmt(ob["cut_score"], ".4g"),
+            "geometric mean of the cut costs (+ 0.01·N), what the default selection minimises",
+        )
+    ]
+
+
 # the metric families in the order of the table, each with the rows it makes
 _ROW_MAKERS: tuple[tuple[str, Callable[[dict[str, Any]], list[tuple[str, str, str]]]], ...] = (
     ("seam", _seam_rows),
@@ -442,7 +465,9 @@ _ROW_MAKERS: tuple[tuple[str, Callable[[dict[str, Any]], list[tuple[str, str, st
     ("periodic_copies", _periodic_copy_rows),
     ("detail_repetition", _detail_rows),
     ("histogram", _histogram_rows),
+    ("texture_stats", _texture_stats_rows),
     ("objective", _objective_rows),
+    ("objective", _cut_score_rows),
     ("cut_seam", _cut_seam_rows),
 )
 

@@ -113,6 +113,21 @@ SCHEME = Scheme(
             cli_type=float,
         ),
         Option(
+            "objective",
+            "--objective",
+            "what --select minimises: cut (the real cut cost of the tiles, robust geometric mean, with ΣD as "
+            "the cheap first stage and the best --rerank candidates built; the default selection), sum-d (ΣD) "
+            "or E (the papers' objective; the default of a named --select)",
+            choices=("cut", "sum-d", "E"),
+        ),
+        Option(
+            "rerank",
+            "--rerank",
+            "--objective cut: how many of the best candidates by ΣD are built and re-ranked (default 4)",
+            cli_type=int,
+            metavar="K",
+        ),
+        Option(
             "diversity",
             "--diversity",
             "assign matching patches so that each exemplar region is used at most M times (less repetition); "

@@ -83,8 +83,9 @@ def finish_tileset(
     """The :class:`TileSet` of a finished build: every array contiguous in its file dtype, the exemplar record,
     and ``timing`` completed with ``total_s`` (seconds since ``started``, a :func:`time.perf_counter` value)."""
     from .._version import __version__
+    from ..measures import build_measures  # issue 15: the cheap visible measures, stored in the manifest
 
-    return TileSet(
+    ts = TileSet(
         scheme=scheme,
         layout=definition.to_dict(),
         tiles=np.ascontiguousarray(tiles, dtype=np.float32),
@@ -104,6 +105,8 @@ def finish_tileset(
         labels=None if labels is None else np.ascontiguousarray(labels, dtype=np.uint8),
         cut_stats=None if cut_stats is None else np.ascontiguousarray(cut_stats, dtype=np.float64),
     )
+    ts.params["quality"] = build_measures(ts)
+    return ts
 
 
 def cut_and_compose(
