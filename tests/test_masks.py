@@ -85,6 +85,8 @@ SCHEME_CASES = [
     ("omega", {"tileset": "32", "match": "best-cut", "match_k": 4}),
     ("omega", {"tileset": "8", "metric": "eq3", "select": "ga", "population": 8, "generations": 3}),
     ("omega", {"tileset": "4", "select": "ais", "population": 8, "generations": 2, "polish": True}),
+    # issue 15's cut objective: the re-ranked candidates and the cut polish only take clear windows
+    ("omega", {"tileset": "4", "objective": "cut", "polish": True, "population": 12, "rerank": 3}),
     ("patch", {}),
     ("wang", {}),
     ("wang", {"select": "ga", "population": 8, "generations": 2}),
