@@ -22,7 +22,7 @@ name or writing the same file): the error names the job (its number in the file 
     scheme = "omega"                  # omega | wang | swang (default omega)
     set = "16a"                       # default: 16a for omega, wang8 for wang / swang
     tile_size = 64                    # even; default half the exemplar's shorter side, at most 256
-    select = "ga"                     # random | best-of | ga | ais (default random)
+    select = "ga"                     # random | best-of | ga | ais (default: as tilesynth build)
     polish = true
     generations = 20                  # ga / ais
     population = 30                   # ga / ais / best-of
@@ -187,7 +187,7 @@ _BUILD_OPTIONS: dict[str, tuple[str, tuple | None, tuple[str, ...], Any]] = {
     "set": ("str", None, _ALL, None),
     "tile_size": ("int", None, _ALL, None),
     "seed": ("int", None, _ALL, DEFAULT_SEED),
-    "select": ("str", ("random", "best-of", "ga", "ais"), _ALL, "random"),
+    "select": ("str", ("random", "best-of", "ga", "ais"), _ALL, None),  # None: the default of `tilesynth build`
     "polish": ("bool", None, _ALL, False),
     "generations": ("int", None, _ALL, None),
     "population": ("int", None, _ALL, None),
@@ -426,13 +426,13 @@ def _effective(
 
     opts["set"] = opts["set"] or DEFAULT_SETS[scheme]
     _check_set(opts["set"], scheme, where)
-    if opts["select"] in ("random", "best-of") and opts["generations"] is not None:
+    if opts["select"] in (None, "random", "best-of") and opts["generations"] is not None:
         raise BatchError(f'{where}: field \'generations\': only used with select = "ga" or "ais"')
     if opts["select"] == "random" and opts["population"] is not None:
         raise BatchError(f"{where}: field 'population': not used with select = \"random\"")
     if scheme == "omega" and opts["match_k"] is not None and opts["match"] != "best-cut":
         raise BatchError(f"{where}: field 'match_k': only used with match = \"best-cut\"")
-    if scheme == "omega" and opts["metric"] == "eq2" and opts["select"] != "random":
+    if scheme == "omega" and opts["metric"] == "eq2" and opts["select"] not in (None, "random"):
         raise BatchError(
             f"{where}: field 'metric' = \"eq2\": computed by direct sums, not usable with select"
         )
