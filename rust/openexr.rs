@@ -16,7 +16,7 @@
 //! 20 s more compile time on these machines and a larger extension (about +1.9 MB unstripped for the png, zlib-rs
 //! and exr crates together); the crate is maintained by one main author (releases through 2025).
 
-use crate::error::{Result, TilesynthError};
+use crate::error::{probe_alloc, Result, TilesynthError};
 use ::exr::prelude::*;
 use std::io::Cursor;
 
@@ -74,6 +74,19 @@ pub fn read(data: &[u8], max_pixels: u64) -> Result<Decoded> {
     if w == 0 || h == 0 {
         return Err(bad(format!("the image is {w}x{h} pixels")));
     }
+    // The decoder allocates the declared size infallibly (one f32 or f16 column per channel), and the
+    // interleaved copy below as much again: check that both fit before decoding, so that a file whose
+    // declared size cannot be allocated is an error, not an abort.
+    let declared = (w as u128) * (h as u128) * (header.channels.list.len().max(1) as u128) * 8;
+    probe_alloc(
+        "data",
+        usize::try_from(declared).map_err(|_| bad("the declared size overflows"))?,
+    )
+    .map_err(|_| {
+        bad(format!(
+            "cannot allocate {declared} bytes for the declared {w}x{h} image"
+        ))
+    })?;
     let image = ::exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
