@@ -246,3 +246,28 @@ mod tests {
         assert!(write(&s, 64, 64, 2, false).is_err());
     }
 }
+
+#[cfg(test)]
+mod alloc_tests {
+    use super::{read, write};
+    use crate::error::HUGE_SIDE;
+
+    /// A file whose header declares a data window too large to allocate (2^24 x 2^24, under a pixel limit
+    /// raised out of the way) is an error before the decoder allocates it, not an abort.
+    #[test]
+    fn a_declared_image_that_cannot_be_allocated_is_an_error() {
+        let mut file = write(&[0.5f32; 4 * 4 * 3], 4, 4, 3, false).unwrap();
+        let key = b"dataWindow\0box2i\0";
+        let at = file
+            .windows(key.len())
+            .position(|w| w == key)
+            .expect("a dataWindow attribute")
+            + key.len()
+            + 4; // the attribute size
+        let max = (HUGE_SIDE as i32 - 1).to_le_bytes();
+        file[at + 8..at + 12].copy_from_slice(&max); // xMax
+        file[at + 12..at + 16].copy_from_slice(&max); // yMax
+        let e = read(&file, u64::MAX).unwrap_err().to_string();
+        assert!(e.contains("cannot allocate"), "{e}");
+    }
+}
