@@ -137,7 +137,9 @@ def test_sigint_during_a_build_takes_effect_within_seconds(tmp_path):
         "from tilesynth.cli import main\n"
         f"sys.exit(main(['build', {str(ex)!r}, '-o', {str(out)!r}, '--tile-size', '32', '--seed', '1', '-q']))\n"
     )
-    p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    p = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
     assert p.stdout.readline().strip() == "MATCHING"
     time.sleep(0.3)
     t0 = time.monotonic()
