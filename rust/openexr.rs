@@ -16,7 +16,7 @@
 //! 20 s more compile time on these machines and a larger extension (about +1.9 MB unstripped for the png, zlib-rs
 //! and exr crates together); the crate is maintained by one main author (releases through 2025).
 
-use crate::error::{probe_alloc, Result, TilesynthError};
+use crate::error::{probe_alloc, try_collect, Result, TilesynthError};
 use ::exr::prelude::*;
 use std::io::Cursor;
 
@@ -179,19 +179,24 @@ pub fn write(
         ));
     }
     let names = channel_names(channels);
+    // One column per channel, allocated fallibly (the image's size comes from the caller).
     let list: Vec<AnyChannel<FlatSamples>> = names
         .iter()
         .enumerate()
         .map(|(k, name)| {
             let column = samples.iter().skip(k).step_by(channels).copied();
             let data = if half {
-                FlatSamples::F16(column.map(f16::from_f32).collect())
+                FlatSamples::F16(try_collect(
+                    "image",
+                    n / channels,
+                    column.map(f16::from_f32),
+                )?)
             } else {
-                FlatSamples::F32(column.collect())
+                FlatSamples::F32(try_collect("image", n / channels, column)?)
             };
-            AnyChannel::new(name.as_str(), data)
+            Ok(AnyChannel::new(name.as_str(), data))
         })
-        .collect();
+        .collect::<Result<_>>()?;
     let encoding = Encoding {
         compression: ::exr::compression::Compression::ZIP16,
         ..Encoding::default()

@@ -63,7 +63,9 @@
 //! Every cut is a pure function of its inputs; batches run in parallel and are assembled in a fixed order,
 //! so results never depend on the number of threads.
 
-use crate::error::{fmt_shape, try_array, try_collect, try_vec, Result, TilesynthError};
+use crate::error::{
+    fmt_shape, try_array, try_collect, try_vec, try_with_capacity, Result, TilesynthError,
+};
 use crate::maxflow::grid_mincut;
 use crate::seams::kwatra_weights;
 use ndarray::{Array2, Array3, ArrayView2, ArrayView3, ArrayView4, Axis};
@@ -738,7 +740,7 @@ impl Solver<'_> {
         }
         let takes_b = if labels {
             let hh = h as usize;
-            let mut out = Vec::with_capacity(hh * hh);
+            let mut out = try_with_capacity("tile_size", hh * hh)?;
             for yc in 0..hh {
                 for col in 0..hh {
                     out.push(is_b(yc + m as usize, col));
@@ -850,7 +852,7 @@ fn positions(
         ));
     }
     let (rmax, cmax) = ((ex.h - p) as i64, (ex.w - p) as i64);
-    let mut out = Vec::with_capacity(pop * n);
+    let mut out = try_with_capacity("genes", pop * n)?;
     for i in 0..pop {
         for g in 0..n {
             let (r, c) = (genes[[i, g, 0]], genes[[i, g, 1]]);
