@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 WHEEL_FLAGS ?=
 .DEFAULT_GOAL := all
 
-.PHONY: all install wheel sdist test test-rust test-python lint lint-python stubtest bench bench-compare clean
+.PHONY: all install wheel sdist test test-rust test-python lint lint-python stubtest bench bench-compare publish-check clean
 
 all: lint test
 
@@ -36,7 +36,7 @@ test: test-rust test-python
 
 ## Rust tests with overflow checks and debug assertions on (the test-checked profile of Cargo.toml).
 test-rust:
-	cargo test --profile test-checked
+	cargo test -p tilesynth --profile test-checked
 
 test-python: wheel install
 	$(PY) -m pytest -q
@@ -63,6 +63,16 @@ bench:
 bench-compare: install
 	$(PY) -m pip install --quiet ".[bench]"
 	$(PY) benches/compare.py
+
+## Before an upload (README, "Publish"): pyproject.toml must name the project's public addresses ([project.urls],
+# none today: the address is not known yet and must not be invented), and twine must accept dist/*.
+publish-check: $(PY)
+	$(PY) -c "import sys; tl = __import__('tomllib' if sys.version_info >= (3, 11) else 'tomli'); \
+	urls = tl.load(open('pyproject.toml', 'rb'))['project'].get('urls') or {}; \
+	sys.exit(None if urls.get('Repository') else 'pyproject.toml: add [project.urls] with at least Repository (README, Publish, step 0) before uploading')"
+	test -n "$$(ls dist/tilesynth-* 2>/dev/null)" || { echo "dist/ is empty: run .ci/run (README, Publish, step 2)"; exit 1; }
+	$(PY) -m pip install --quiet twine
+	$(VENV)/bin/twine check dist/*
 
 clean:
 	cargo clean

@@ -14,7 +14,7 @@
 //! With `wrap = Some((tx, ty))` every vertex, edge and cell coordinate is reduced Euclidean-mod `(tx, ty)`
 //! before hashing, so the texture is periodic with a period of `(tx, ty)` cells.
 
-use crate::error::{Result, TilesynthError};
+use crate::error::{try_array, try_collect, Result, TilesynthError};
 use ndarray::Array2;
 use rayon::prelude::*;
 
@@ -196,12 +196,16 @@ pub fn index_map(
 ) -> Result<Array2<i32>> {
     scheme.validate()?;
     check_window(cx0, cy0, wrap)?;
-    let mut map = Array2::<i32>::zeros((rows, cols));
+    let mut map = try_array("rows", (rows, cols), 0i32)?;
     if rows == 0 || cols == 0 {
         return Ok(map);
     }
     let (px, py) = (wrap.map(|w| w.0), wrap.map(|w| w.1));
-    let xs: Vec<u32> = (0..=cols as i64).map(|j| reduce(cx0 + j, px)).collect();
+    let xs: Vec<u32> = try_collect(
+        "cols",
+        cols + 1,
+        (0..=cols as i64).map(|j| reduce(cx0 + j, px)),
+    )?;
     let slice = map.as_slice_mut().expect("standard layout");
     slice.par_chunks_mut(cols).enumerate().for_each(|(i, row)| {
         let y0 = reduce(cy0 + i as i64, py);
@@ -350,5 +354,25 @@ mod tests {
         assert!(e.to_string().contains("cx0"), "{e}");
         let e = index_map(Scheme::Corner { k: 2, v: 1 }, 0, 0, 0, 1, 1, Some((0, 2))).unwrap_err();
         assert!(e.to_string().contains("wrap"), "{e}");
+    }
+}
+
+#[cfg(test)]
+mod alloc_tests {
+    use super::{index_map, Scheme};
+    use crate::error::{assert_alloc_error, HUGE_SIDE};
+
+    /// A hashed index map too large to allocate is an error naming `rows`, not an abort.
+    #[test]
+    fn a_map_that_cannot_be_allocated_is_an_error() {
+        let scheme = Scheme::Corner { k: 2, v: 1 };
+        assert_alloc_error(
+            index_map(scheme, 1, 0, 0, HUGE_SIDE, HUGE_SIDE, None),
+            "rows",
+        );
+        assert_eq!(
+            index_map(scheme, 1, 0, 0, 2, 3, None).unwrap().dim(),
+            (2, 3)
+        );
     }
 }

@@ -26,7 +26,10 @@
 //! exemplar content across every border pixel; what remains of the cross seam is its last border pixel (a
 //! one-pixel stub, the same on both sides of the border). `keep_border = false` is the literal definition above.
 
-use crate::error::{fmt_shape, Result, TilesynthError};
+use crate::error::{
+    fmt_shape, try_array, try_collect, try_standard, try_to_owned, try_vec, try_with_capacity,
+    Result, TilesynthError,
+};
 use crate::maxflow::{GridNetwork, MAX_INDEX};
 use ndarray::{Array2, Array3, ArrayView2, ArrayView3, ArrayView4, Axis, Zip};
 use rayon::prelude::*;
@@ -112,8 +115,13 @@ pub fn omega_cut(
             fmt_shape(i.shape()),
         ));
     }
-    let (i, o) = (i.as_standard_layout(), o.as_standard_layout());
-    let grad = i_grad.map(|g| g.as_standard_layout().into_owned());
+    let (i, o) = (
+        try_standard("intermediate", i)?,
+        try_standard("matching", o)?,
+    );
+    let grad = i_grad
+        .map(|g| try_standard("intermediate_grad", g))
+        .transpose()?;
     let tile = Tile {
         n,
         c,
@@ -123,16 +131,16 @@ pub fn omega_cut(
             .as_ref()
             .map(|g| g.as_slice().expect("standard layout")),
         eps,
-        class: classes(n, keep_border),
+        class: try_classes(n, keep_border)?,
     };
     // The sink cross separates the free pixels (inside the circle, off the cross) into four quadrants that
     // share no edge: four independent networks, solved in parallel and merged in a fixed order.
     let quads: Vec<(f64, Vec<bool>)> = (0..4usize)
         .into_par_iter()
         .map(|q| tile.solve_quadrant(q / 2, q % 2))
-        .collect();
+        .collect::<Result<_>>()?;
     let mut cost = tile.constant_flow();
-    let mut takes_o: Vec<bool> = tile.class.iter().map(|&k| k == SINK).collect();
+    let mut takes_o = try_collect("intermediate", n * n, tile.class.iter().map(|&k| k == SINK))?;
     let m = n / 2 - 1;
     for (q, (flow, sink_side)) in quads.into_iter().enumerate() {
         cost += flow;
@@ -162,20 +170,30 @@ const SINK: u8 = 2;
 /// The class of every pixel of an `n x n` tile (row-major): outside the circle (or, with `keep_border`, on the
 /// border ring) a source, else on the central cross a sink, else free.
 fn classes(n: usize, keep_border: bool) -> Vec<u8> {
-    let inside = circle_mask(n);
+    try_classes(n, keep_border).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// [`classes`], allocated fallibly (the size is the caller's tile).
+fn try_classes(n: usize, keep_border: bool) -> Result<Vec<u8>> {
+    let c = (n as f64 - 1.0) / 2.0;
+    let r2 = (n as f64 / 2.0).powi(2);
     let (a, b) = (n / 2 - 1, n / 2);
-    inside
-        .indexed_iter()
-        .map(|((y, x), &v)| {
-            if !v || (keep_border && on_border(n, y, x)) {
+    try_collect(
+        "intermediate",
+        n * n,
+        (0..n * n).map(|p| {
+            let (y, x) = (p / n, p % n);
+            let (dy, dx) = (y as f64 - c, x as f64 - c);
+            let inside = dy * dy + dx * dx <= r2; // circle_mask(n)[(y, x)]
+            if !inside || (keep_border && on_border(n, y, x)) {
                 SOURCE
             } else if y == a || y == b || x == a || x == b {
                 SINK
             } else {
                 FREE_PX
             }
-        })
-        .collect()
+        }),
+    )
 }
 
 /// L2 norm over channels of `s − t`, in f64 (summed in channel order).
@@ -218,7 +236,7 @@ impl Tile<'_> {
     }
 
     /// The terms of the rectangle `[ry0, ry0 + rh) x [rx0, rx0 + rw)` (row-major, width `rw`).
-    fn terms(&self, ry0: usize, rx0: usize, rh: usize, rw: usize) -> Terms {
+    fn terms(&self, ry0: usize, rx0: usize, rh: usize, rw: usize) -> Result<Terms> {
         match self.c {
             1 => self.terms_c::<1>(ry0, rx0, rh, rw),
             3 => self.terms_c::<3>(ry0, rx0, rh, rw),
@@ -229,16 +247,22 @@ impl Tile<'_> {
 
     /// [`Tile::terms`] for `C` channels (`C = 0`: any count, `self.c`).
     #[inline(always)]
-    fn terms_c<const C: usize>(&self, ry0: usize, rx0: usize, rh: usize, rw: usize) -> Terms {
+    fn terms_c<const C: usize>(
+        &self,
+        ry0: usize,
+        rx0: usize,
+        rh: usize,
+        rw: usize,
+    ) -> Result<Terms> {
         let n = self.n;
         let c = if C == 0 { self.c } else { C };
         let len = rh * rw;
         let mut t = Terms {
-            diff: Vec::with_capacity(len),
-            gxa: Vec::with_capacity(len),
-            gxb: Vec::with_capacity(len),
-            gya: Vec::with_capacity(len),
-            gyb: Vec::with_capacity(len),
+            diff: try_with_capacity("intermediate", len)?,
+            gxa: try_with_capacity("intermediate", len)?,
+            gxb: try_with_capacity("intermediate", len)?,
+            gya: try_with_capacity("intermediate", len)?,
+            gyb: try_with_capacity("intermediate", len)?,
         };
         for y in ry0..ry0 + rh {
             for x in rx0..rx0 + rw {
@@ -271,22 +295,22 @@ impl Tile<'_> {
                 t.gyb.push(gyb);
             }
         }
-        t
+        Ok(t)
     }
 
     /// The min-cut of quadrant `(qy, qx)`: its free pixels, local `m x m` grid (`m = n/2 − 1`), edges to
     /// hard pixels folded into terminal links. Returns the flow and the local sink-side flags.
-    fn solve_quadrant(&self, qy: usize, qx: usize) -> (f64, Vec<bool>) {
+    fn solve_quadrant(&self, qy: usize, qx: usize) -> Result<(f64, Vec<bool>)> {
         let n = self.n;
         let m = n / 2 - 1;
         if m == 0 {
-            return (0.0, Vec::new());
+            return Ok((0.0, Vec::new()));
         }
         let (y0, x0) = (qy * (n / 2 + 1), qx * (n / 2 + 1));
         // The quadrant and the cross row / column next to it.
         let (ry0, rx0) = (y0 - qy, x0 - qx);
         let (rw, rh) = (m + 1, m + 1);
-        let t = self.terms(ry0, rx0, rh, rw);
+        let t = self.terms(ry0, rx0, rh, rw)?;
         let eps = self.eps;
         let wx = |r: usize| {
             let num = t.diff[r] + t.diff[r + 1];
@@ -298,7 +322,7 @@ impl Tile<'_> {
             let den = t.gya[r] + t.gya[r + rw] + t.gyb[r] + t.gyb[r + rw] + eps;
             num / den
         };
-        let mut net = GridNetwork::new(m, m);
+        let mut net = GridNetwork::new("intermediate", m, m)?;
         let class = &self.class;
         for ly in 0..m {
             let y = y0 + ly;
@@ -447,8 +471,8 @@ pub fn omega_cuts(
             )
         })
         .collect();
-    let mut masks = Array3::from_elem((k, n, m), false);
-    let mut costs = Vec::with_capacity(k);
+    let mut masks = try_array("intermediate", (k, n, m), false)?;
+    let mut costs = try_with_capacity("intermediate", k)?;
     for (t, cut) in cuts.into_iter().enumerate() {
         let cut = cut?;
         masks.index_axis_mut(Axis(0), t).assign(&cut.takes_o);
@@ -507,8 +531,8 @@ pub fn edge_weight_sums(
             "images must not contain NaN or infinity",
         ));
     }
-    let i = i.as_standard_layout();
-    let img = image.as_standard_layout();
+    let i = try_standard("template", i)?;
+    let img = try_standard("image", image)?;
     let (iv, xv) = (
         i.as_slice().expect("standard layout"),
         img.as_slice().expect("standard layout"),
@@ -524,8 +548,10 @@ pub fn edge_weight_sums(
             .sqrt()
     };
     // Gradient norms of the template (given, or its own forward differences) and of the image.
-    let grad_i: Vec<[f64; 2]> = (0..n * m)
-        .map(|p| {
+    let grad_i: Vec<[f64; 2]> = try_collect(
+        "template",
+        n * m,
+        (0..n * m).map(|p| {
             let (y, x) = (p / m, p % m);
             match &i_grad {
                 Some(g) => [g[(y, x, 0)], g[(y, x, 1)]],
@@ -542,10 +568,12 @@ pub fn edge_weight_sums(
                     },
                 ],
             }
-        })
-        .collect();
-    let grad_x: Vec<[f64; 2]> = (0..h * w)
-        .map(|p| {
+        }),
+    )?;
+    let grad_x: Vec<[f64; 2]> = try_collect(
+        "image",
+        h * w,
+        (0..h * w).map(|p| {
             let (y, x) = (p / w, p % w);
             [
                 if x + 1 < w {
@@ -559,11 +587,11 @@ pub fn edge_weight_sums(
                     0.0
                 },
             ]
-        })
-        .collect();
+        }),
+    )?;
     // The selected edges, as indices into the list of the pixels they touch (each pixel's ‖I − O‖ and
     // candidate gradients are computed once per translation, not once per edge end).
-    let mut slot = vec![usize::MAX; n * m];
+    let mut slot = try_vec("template", n * m, usize::MAX)?;
     let mut touched: Vec<usize> = Vec::new();
     let mut edges: Vec<(usize, usize, usize)> = Vec::new();
     let mut index_of = |p: usize, touched: &mut Vec<usize>| -> usize {
@@ -592,13 +620,14 @@ pub fn edge_weight_sums(
         .map(|&p| (p / m, p % m, grad_i[p], [p % m + 1 == m, p / m + 1 == n]))
         .collect();
     let (th, tw) = (h - n + 1, w - m + 1);
-    let rows: Vec<Vec<f64>> = (0..th)
-        .into_par_iter()
-        .map(|ty| {
-            let mut diff = vec![0.0f64; touched.len()];
-            let mut go = vec![[0.0f64; 2]; touched.len()];
-            (0..tw)
-                .map(|tx| {
+    let mut out = try_vec("image", th * tw, 0.0f64)?;
+    out.par_chunks_mut(tw)
+        .enumerate()
+        .try_for_each(|(ty, row)| -> Result<()> {
+            let mut diff = try_vec("template", touched.len(), 0.0f64)?;
+            let mut go = try_vec("template", touched.len(), [0.0f64; 2])?;
+            for (tx, out) in row.iter_mut().enumerate() {
+                *out = {
                     for (k, &(y, x, _, last)) in info.iter().enumerate() {
                         let g = (ty + y) * w + tx + x;
                         let p = touched[k];
@@ -617,11 +646,11 @@ pub fn edge_weight_sums(
                         sum += num / den;
                     }
                     sum
-                })
-                .collect()
-        })
-        .collect();
-    Ok(Array2::from_shape_vec((th, tw), rows.concat()).expect("th * tw sums"))
+                };
+            }
+            Ok(())
+        })?;
+    Ok(Array2::from_shape_vec((th, tw), out).expect("th * tw sums"))
 }
 
 /// The ω-tile: `o` where `takes_o`, else `i`.
@@ -639,7 +668,7 @@ pub fn compose(
             fmt_shape(takes_o.shape()),
         ));
     }
-    let mut out = i.to_owned();
+    let mut out = try_to_owned("intermediate", i)?;
     Zip::from(out.lanes_mut(Axis(2)))
         .and(o.lanes(Axis(2)))
         .and(&takes_o)
@@ -912,5 +941,19 @@ mod tests {
         assert!(e.to_string().contains("matching"), "{e}");
         let e = kwatra_weights(b.view(), b.view(), None, 0.0, None).unwrap_err();
         assert!(e.to_string().contains("eps"), "{e}");
+    }
+}
+
+#[cfg(test)]
+mod alloc_tests {
+    use super::try_classes;
+    use crate::error::{assert_alloc_error, HUGE_SIDE};
+
+    /// The per-tile arrays of the omega cut (pixel classes, then the Kwatra terms and the quadrant networks,
+    /// allocated the same way) that cannot be allocated are an error naming `intermediate`.
+    #[test]
+    fn tile_arrays_that_cannot_be_allocated_are_errors() {
+        assert_alloc_error(try_classes(HUGE_SIDE * 4, true), "intermediate");
+        assert_eq!(try_classes(8, true).unwrap(), super::classes(8, true));
     }
 }

@@ -16,7 +16,7 @@
 //! 20 s more compile time on these machines and a larger extension (about +1.9 MB unstripped for the png, zlib-rs
 //! and exr crates together); the crate is maintained by one main author (releases through 2025).
 
-use crate::error::{Result, TilesynthError};
+use crate::error::{probe_alloc, try_collect, Result, TilesynthError};
 use ::exr::prelude::*;
 use std::io::Cursor;
 
@@ -74,6 +74,19 @@ pub fn read(data: &[u8], max_pixels: u64) -> Result<Decoded> {
     if w == 0 || h == 0 {
         return Err(bad(format!("the image is {w}x{h} pixels")));
     }
+    // The decoder allocates the declared size infallibly (one f32 or f16 column per channel), and the
+    // interleaved copy below as much again: check that both fit before decoding, so that a file whose
+    // declared size cannot be allocated is an error, not an abort.
+    let declared = (w as u128) * (h as u128) * (header.channels.list.len().max(1) as u128) * 8;
+    probe_alloc(
+        "data",
+        usize::try_from(declared).map_err(|_| bad("the declared size overflows"))?,
+    )
+    .map_err(|_| {
+        bad(format!(
+            "cannot allocate {declared} bytes for the declared {w}x{h} image"
+        ))
+    })?;
     let image = ::exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
@@ -166,19 +179,24 @@ pub fn write(
         ));
     }
     let names = channel_names(channels);
+    // One column per channel, allocated fallibly (the image's size comes from the caller).
     let list: Vec<AnyChannel<FlatSamples>> = names
         .iter()
         .enumerate()
         .map(|(k, name)| {
             let column = samples.iter().skip(k).step_by(channels).copied();
             let data = if half {
-                FlatSamples::F16(column.map(f16::from_f32).collect())
+                FlatSamples::F16(try_collect(
+                    "image",
+                    n / channels,
+                    column.map(f16::from_f32),
+                )?)
             } else {
-                FlatSamples::F32(column.collect())
+                FlatSamples::F32(try_collect("image", n / channels, column)?)
             };
-            AnyChannel::new(name.as_str(), data)
+            Ok(AnyChannel::new(name.as_str(), data))
         })
-        .collect();
+        .collect::<Result<_>>()?;
     let encoding = Encoding {
         compression: ::exr::compression::Compression::ZIP16,
         ..Encoding::default()
@@ -231,5 +249,30 @@ mod tests {
         }
         assert!(read(b"not an exr", u64::MAX).is_err());
         assert!(write(&s, 64, 64, 2, false).is_err());
+    }
+}
+
+#[cfg(test)]
+mod alloc_tests {
+    use super::{read, write};
+    use crate::error::HUGE_SIDE;
+
+    /// A file whose header declares a data window too large to allocate (2^24 x 2^24, under a pixel limit
+    /// raised out of the way) is an error before the decoder allocates it, not an abort.
+    #[test]
+    fn a_declared_image_that_cannot_be_allocated_is_an_error() {
+        let mut file = write(&[0.5f32; 4 * 4 * 3], 4, 4, 3, false).unwrap();
+        let key = b"dataWindow\0box2i\0";
+        let at = file
+            .windows(key.len())
+            .position(|w| w == key)
+            .expect("a dataWindow attribute")
+            + key.len()
+            + 4; // the attribute size
+        let max = (HUGE_SIDE as i32 - 1).to_le_bytes();
+        file[at + 8..at + 12].copy_from_slice(&max); // xMax
+        file[at + 12..at + 16].copy_from_slice(&max); // yMax
+        let e = read(&file, u64::MAX).unwrap_err().to_string();
+        assert!(e.contains("cannot allocate"), "{e}");
     }
 }

@@ -17,7 +17,7 @@
 //! - [`unfilter`]: the scanline reconstruction of PNG §9 (kept for `_core.png_unfilter`; the decoder above
 //!   has its own).
 
-use crate::error::{Result, TilesynthError};
+use crate::error::{try_vec, try_with_capacity, Result, TilesynthError};
 use rayon::prelude::*;
 use std::io::Cursor;
 
@@ -270,7 +270,7 @@ pub fn encode(
         ));
     }
     let stream = zlib_stream(rows, row_bytes, bpp, compression)?;
-    let mut out = Vec::with_capacity(stream.len() + 128);
+    let mut out = try_with_capacity("image", stream.len() + 128)?;
     {
         let mut enc = ::png::Encoder::new(&mut out, width as u32, height as u32);
         enc.set_color(color);
@@ -599,8 +599,8 @@ pub fn unfilter(data: &[u8], rows: usize, row_bytes: usize, bpp: usize) -> Resul
             format!("expected rows x (row_bytes + 1) = {rows} x {stride} = {expected} bytes"),
         ));
     }
-    let mut out = vec![0u8; rows * row_bytes];
-    let zero = vec![0u8; row_bytes];
+    let mut out = try_vec("data", rows * row_bytes, 0u8)?;
+    let zero = try_vec("row_bytes", row_bytes, 0u8)?;
     for y in 0..rows {
         let line = &data[y * stride..(y + 1) * stride];
         let (kind, src) = (line[0], &line[1..]);
@@ -834,5 +834,53 @@ mod tests {
         assert!(encode(&[0; 2], 1, 1, 3, 8, Compression::Fast).is_err());
         assert!(encode(&[], 0, 1, 3, 8, Compression::Fast).is_err());
         assert!(Compression::parse("max").is_err());
+    }
+}
+
+#[cfg(test)]
+mod alloc_tests {
+    use super::decode;
+    use crate::error::HUGE_SIDE;
+
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut crc = !0u32;
+        for &b in bytes {
+            crc ^= b as u32;
+            for _ in 0..8 {
+                crc = if crc & 1 != 0 {
+                    (crc >> 1) ^ 0xEDB8_8320
+                } else {
+                    crc >> 1
+                };
+            }
+        }
+        !crc
+    }
+
+    fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
+        out.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        let start = out.len();
+        out.extend_from_slice(kind);
+        out.extend_from_slice(data);
+        let crc = crc32(&out[start..]);
+        out.extend_from_slice(&crc.to_be_bytes());
+    }
+
+    /// A valid PNG header declaring an image that cannot be allocated (2^24 x 2^24 RGBA, under a pixel
+    /// limit raised out of the way) is an error, not an abort: the decode buffer is reserved fallibly.
+    #[test]
+    fn a_declared_image_that_cannot_be_allocated_is_an_error() {
+        let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+        let side = (HUGE_SIDE as u32).to_be_bytes();
+        let ihdr = [&side[..], &side[..], &[8, 6, 0, 0, 0]].concat();
+        chunk(&mut png, b"IHDR", &ihdr);
+        chunk(
+            &mut png,
+            b"IDAT",
+            &[0x78, 0x01, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01],
+        );
+        chunk(&mut png, b"IEND", &[]);
+        let e = decode(&png, u64::MAX).unwrap_err().to_string();
+        assert!(e.contains("cannot allocate"), "{e}");
     }
 }

@@ -59,7 +59,10 @@
 //! Results are deterministic: every reduction has a fixed order, and tiles and channels are independent jobs, so
 //! the output is bit-identical at any thread count.
 
-use crate::error::{fmt_shape, Result, TilesynthError};
+use crate::error::{
+    fmt_shape, try_collect, try_standard, try_to_owned, try_vec, try_with_capacity, Result,
+    TilesynthError,
+};
 use ndarray::{Array3, Array4, ArrayView2, ArrayView3, ArrayView4, Axis};
 use rayon::prelude::*;
 
@@ -180,7 +183,7 @@ pub fn poisson_smooth(
     check_finite("dst", &dst)?;
     check_finite("src", &src)?;
     check_tol(tol)?;
-    let mut out = dst.as_standard_layout().into_owned();
+    let mut out = try_to_owned("dst", dst)?;
     let info = solve_tile(
         dst,
         src,
@@ -206,7 +209,7 @@ pub fn poisson_smooth_batch(
     check_finite("src", &src)?;
     check_tol(tol)?;
     // Every tile starts as its dst and is solved in place, in parallel.
-    let mut out = dst.as_standard_layout().into_owned();
+    let mut out = try_to_owned("dst", dst)?;
     let solved: Vec<Result<PoissonInfo>> = out
         .axis_iter_mut(Axis(0))
         .into_par_iter()
@@ -266,7 +269,7 @@ fn solve_tile(
         residual: vec![0.0; c],
         unknowns,
     };
-    let src = src.as_standard_layout();
+    let src = try_standard("src", src)?;
     let src_s = src.as_slice().expect("standard layout");
     if unknowns == 0 {
         return Ok(trivial);
@@ -276,8 +279,8 @@ fn solve_tile(
         out.copy_from_slice(src_s);
         return Ok(trivial);
     }
-    let grid = Grid::new(region);
-    let dst_s = dst.as_standard_layout();
+    let grid = Grid::new(region)?;
+    let dst_s = try_standard("dst", dst)?;
     let dst_s = dst_s.as_slice().expect("standard layout");
     let max_iter = max_iterations(n, m);
     let channels: Vec<Result<Channel>> = (0..c)
@@ -285,7 +288,7 @@ fn solve_tile(
         .map(|ch| grid.solve_channel(dst_s, src_s, c, ch, tol, max_iter, path))
         .collect();
     let mut iterations = 0;
-    let mut residual = Vec::with_capacity(c);
+    let mut residual = try_with_capacity("src", c)?;
     for (ch, res) in channels.into_iter().enumerate() {
         let res = res?;
         iterations = iterations.max(res.iterations);
@@ -414,12 +417,12 @@ impl Level {
         w: usize,
         active: &[bool],
         diag_of: impl Fn(usize, usize) -> f32,
-    ) -> Level {
+    ) -> Result<Level> {
         let lay = Layout::new(h, w);
-        let mut diag = vec![0.0f32; lay.len()];
-        let mut winv = vec![0.0f32; lay.len()];
-        let mut act = vec![0.0f32; lay.len()];
-        let mut span = vec![(0usize, 0usize); h];
+        let mut diag = try_vec("region", lay.len(), 0.0f32)?;
+        let mut winv = try_vec("region", lay.len(), 0.0f32)?;
+        let mut act = try_vec("region", lay.len(), 0.0f32)?;
+        let mut span = try_vec("region", h, (0usize, 0usize))?;
         for y in 0..h {
             let (mut lo, mut hi) = (usize::MAX, 0);
             for x in 0..w {
@@ -440,7 +443,7 @@ impl Level {
             }
         }
         let vspan: Vec<[(usize, usize); 2]> =
-            span.iter().map(|&(lo, hi)| vec_spans(lo, hi)).collect();
+            try_collect("region", h, span.iter().map(|&(lo, hi)| vec_spans(lo, hi)))?;
         let mut segs = [Vec::new(), Vec::new()];
         for (y, vs) in vspan.iter().enumerate() {
             for (colour, list) in segs.iter_mut().enumerate() {
@@ -462,7 +465,7 @@ impl Level {
                 }
             }
         }
-        Level {
+        Ok(Level {
             lay,
             diag,
             winv,
@@ -470,18 +473,18 @@ impl Level {
             span,
             vspan,
             segs,
-        }
+        })
     }
 
     /// The coarse level: point `(Y, X)` is fine point `(2Y, 2X)`, active iff that one is. `None` when the grid is
     /// too small to coarsen or the coarse grid would have no active point.
-    fn coarsen(&self) -> Option<Level> {
+    fn coarsen(&self) -> Result<Option<Level>> {
         let (h, w) = (self.lay.h, self.lay.w);
         if h < 5 || w < 5 {
-            return None;
+            return Ok(None);
         }
         let (hc, wc) = (h / 2 + 1, w / 2 + 1);
-        let mut active = vec![false; hc * wc];
+        let mut active = try_vec("region", hc * wc, false)?;
         let mut any = false;
         for yc in 1..hc - 1 {
             for xc in 1..wc - 1 {
@@ -492,6 +495,7 @@ impl Level {
             }
         }
         any.then(|| Level::from_active(hc, wc, &active, |_, _| 4.0))
+            .transpose()
     }
 }
 
@@ -740,7 +744,9 @@ struct Grid {
 }
 
 impl Grid {
-    fn new(region: ArrayView2<bool>) -> Grid {
+    /// Fallible: the levels' arrays are sized by the region's bounding box, and a refused allocation is an
+    /// error naming `region`.
+    fn new(region: ArrayView2<bool>) -> Result<Grid> {
         let (n, m) = region.dim();
         let (mut y0, mut y1, mut x0, mut x1) = (usize::MAX, 0, usize::MAX, 0);
         for (y, row) in region.outer_iter().enumerate() {
@@ -754,7 +760,7 @@ impl Grid {
             }
         }
         let (h, w) = (y1 - y0 + 3, x1 - x0 + 3);
-        let mut active = vec![false; h * w];
+        let mut active = try_vec("region", h * w, false)?;
         for gy in 1..h - 1 {
             let src = region.row(y0 + gy - 1);
             for (a, &v) in active[gy * w + 1..gy * w + w - 1]
@@ -772,8 +778,8 @@ impl Grid {
                 + usize::from(ix > 0)
                 + usize::from(ix + 1 < m)) as f32
         };
-        let mut levels = vec![Level::from_active(h, w, &active, degree)];
-        while let Some(coarse) = levels.last().expect("level 0").coarsen() {
+        let mut levels = vec![Level::from_active(h, w, &active, degree)?];
+        while let Some(coarse) = levels.last().expect("level 0").coarsen()? {
             levels.push(coarse);
         }
         let l0 = &levels[0];
@@ -785,14 +791,14 @@ impl Grid {
                 }
             }
         }
-        let diag64 = l0.diag.iter().map(|&d| d as f64).collect();
-        let act64 = l0.act.iter().map(|&a| a as f64).collect();
+        let diag64 = try_collect("region", l0.diag.len(), l0.diag.iter().map(|&d| d as f64))?;
+        let act64 = try_collect("region", l0.act.len(), l0.act.iter().map(|&a| a as f64))?;
         let segments = l0.segs[0]
             .iter()
             .chain(&l0.segs[1])
             .map(|s| (s.a, s.b))
             .collect();
-        Grid {
+        Ok(Grid {
             n,
             m,
             y0,
@@ -802,7 +808,7 @@ impl Grid {
             act64,
             active: list,
             segments,
-        }
+        })
     }
 
     /// `q = A p` (the masked 5-point operator of level 0) in f64 on the segments; returns `p · q`.
@@ -903,19 +909,19 @@ impl Grid {
     ) -> Result<Channel> {
         let len = self.levels[0].lay.len();
         // s = src on level 0 (0 outside the image), g = dst − src on the in-image pixels outside the region.
-        let mut s = Buf::take(len, false);
-        let mut g = Buf::take(len, false);
+        let mut s = Buf::take(len, false)?;
+        let mut g = Buf::take(len, false)?;
         self.gather(dst, src, c, ch, &mut s, &mut g);
         // p and q are 0 off the segments throughout (the stencils read p there).
-        let mut p = Buf::take(len, true);
-        let mut q = Buf::take(len, true);
+        let mut p = Buf::take(len, true)?;
+        let mut q = Buf::take(len, true)?;
         // r = b − A·src, the residual of the initial guess f = src: Σ_{q ∉ Ω} (dst_q − src_q); b = r + A·src.
-        let mut r = Buf::take(len, false);
+        let mut r = Buf::take(len, false)?;
         self.stencil64(v, &g, &mut r, false);
         drop(g);
         self.seg_mul_add(v, &self.act64, &s, None, &mut p);
         self.apply_dot(v, &p, &mut q);
-        let mut b = Buf::take(len, false);
+        let mut b = Buf::take(len, false)?;
         self.seg_add(v, &r, &q, false, &mut b);
         let bnorm = self.seg_dot(v, &b, &b).sqrt();
         if bnorm == 0.0 {
@@ -929,8 +935,8 @@ impl Grid {
                 residual: 0.0,
             });
         }
-        let mut ws = Workspace::new(&self.levels);
-        let mut e = Buf::take(len, false);
+        let mut ws = Workspace::new(&self.levels)?;
+        let mut e = Buf::take(len, false)?;
         for &(a, z) in &self.segments {
             e[a..z].fill(0.0);
         }
@@ -1227,21 +1233,27 @@ struct Workspace {
 }
 
 impl Workspace {
-    fn new(levels: &[Level]) -> Workspace {
+    fn new(levels: &[Level]) -> Result<Workspace> {
         let sizes: Vec<usize> = levels.iter().map(|l| l.lay.len()).collect();
         let wmax = levels.iter().map(|l| l.lay.w).max().unwrap_or(0);
         let nat = levels.get(1).map_or(0, |l| l.lay.h * l.lay.w) + NAT_SLACK;
-        Workspace {
-            u: sizes.iter().map(|&s| Buf::take(s, true)).collect(),
-            f: sizes.iter().map(|&s| Buf::take(s, false)).collect(),
+        Ok(Workspace {
+            u: sizes
+                .iter()
+                .map(|&s| Buf::take(s, true))
+                .collect::<Result<_>>()?,
+            f: sizes
+                .iter()
+                .map(|&s| Buf::take(s, false))
+                .collect::<Result<_>>()?,
             // The coarsest level needs no residual.
             res: sizes[..sizes.len() - 1]
                 .iter()
                 .map(|&s| Buf::take(s, true))
-                .collect(),
-            nat: Buf::take(nat, false),
-            tmp: vec![0.0; wmax + 4 * VEC],
-        }
+                .collect::<Result<_>>()?,
+            nat: Buf::take(nat, false)?,
+            tmp: try_vec("region", wmax + 4 * VEC, 0.0)?,
+        })
     }
 }
 
@@ -1276,7 +1288,10 @@ impl Pooled for f32 {
 
 impl<T: Pooled> Buf<T> {
     /// A buffer of `len` elements: all 0 with `zero`, else arbitrary (the caller writes before it reads).
-    fn take(len: usize, zero: bool) -> Buf<T> {
+    ///
+    /// Fallible: a fresh buffer is allocated with `try_reserve`, so a refused one is an error naming `region`
+    /// (the buffers are sized by the region's bounding box).
+    fn take(len: usize, zero: bool) -> Result<Buf<T>> {
         let found = T::with_pool(|pool| {
             // The smallest pooled buffer that is large enough.
             let best = pool
@@ -1294,9 +1309,9 @@ impl<T: Pooled> Buf<T> {
                 }
                 v.truncate(len);
                 v.resize(len, T::default());
-                Buf(v)
+                Ok(Buf(v))
             }
-            None => Buf(vec![T::default(); len]),
+            None => Ok(Buf(try_vec("region", len, T::default())?)),
         }
     }
 }
@@ -1668,5 +1683,30 @@ mod tests {
             e.to_string().starts_with("region has shape (2, 6, 5)"),
             "{e}"
         );
+    }
+}
+
+#[cfg(test)]
+mod alloc_tests {
+    use super::{Buf, Level};
+    use crate::error::{assert_alloc_error, HUGE_SIDE};
+
+    /// The solver's level arrays and scratch buffers, sized by the region's bounding box, are allocated
+    /// fallibly: a size that cannot be allocated is an error naming `region`.
+    #[test]
+    fn levels_and_buffers_that_cannot_be_allocated_are_errors() {
+        assert_alloc_error(
+            Level::from_active(HUGE_SIDE, HUGE_SIDE, &[], |_, _| 4.0).map(|l| l.lay.len()),
+            "region",
+        );
+        assert_alloc_error(
+            Buf::<f32>::take(HUGE_SIDE * HUGE_SIDE, true).map(|b| b.0.len()),
+            "region",
+        );
+        assert_alloc_error(
+            Buf::<f64>::take(HUGE_SIDE * HUGE_SIDE, false).map(|b| b.0.len()),
+            "region",
+        );
+        assert_eq!(Buf::<f32>::take(5, true).unwrap().0, vec![0.0; 5]);
     }
 }

@@ -54,7 +54,9 @@
 //! (individual, tile) items, each item's value a pure function of its four positions; `E` is summed in a
 //! fixed order. Outputs are bit-identical at any thread count and any cache size.
 
-use crate::error::{fmt_shape, Result, TilesynthError};
+use crate::error::{
+    fmt_shape, try_array, try_collect, try_vec, try_with_capacity, Result, TilesynthError,
+};
 #[cfg(any(test, feature = "oracles"))]
 use crate::ssd::ssd_map_brute;
 use crate::ssd::SsdIndex;
@@ -184,7 +186,7 @@ impl Problem {
                 fmt_shape(exemplar.shape()),
             ));
         }
-        let image: Vec<f32> = exemplar.iter().copied().collect();
+        let image: Vec<f32> = try_collect("exemplar", h * w * c, exemplar.iter().copied())?;
         if let Some(i) = image.iter().position(|v| !v.is_finite()) {
             return Err(TilesynthError::param(
                 "exemplar",
@@ -217,7 +219,7 @@ impl Problem {
                 fmt_shape(tile_patches.shape()),
             ));
         }
-        let mut tiles = Vec::with_capacity(m);
+        let mut tiles = try_with_capacity("tile_patches", m)?;
         for j in 0..m {
             let mut t = [0usize; 4];
             for (q, slot) in t.iter_mut().enumerate() {
@@ -236,7 +238,7 @@ impl Problem {
         if !(0.0..=1.0).contains(&lambda) {
             return Err(TilesynthError::param("lam", lambda, "must lie in [0, 1]"));
         }
-        let image64 = image.iter().map(|&v| v as f64).collect();
+        let image64 = try_collect("exemplar", image.len(), image.iter().map(|&v| v as f64))?;
         Ok(Problem {
             h,
             w,
@@ -271,7 +273,7 @@ impl Problem {
             ));
         }
         let (rmax, cmax) = (self.h - self.n, self.w - self.n);
-        let mut out = Vec::with_capacity(p * n);
+        let mut out = try_with_capacity("genes", p * n)?;
         for i in 0..p {
             for g in 0..n {
                 let (r, c) = (genes[[i, g, 0]], genes[[i, g, 1]]);
@@ -614,7 +616,7 @@ impl PopulationEvaluator {
         // Distinct tiles (four positions) of the call, in order of first appearance.
         let mut uniq: Vec<Tuple> = Vec::new();
         let mut seen: HashMap<Tuple, usize> = HashMap::new();
-        let mut item_uniq = Vec::with_capacity(np * m);
+        let mut item_uniq = try_with_capacity("genes", np * m)?;
         for i in 0..np {
             let g = &pos[i * n..(i + 1) * n];
             for t in &prob.tiles {
@@ -632,7 +634,7 @@ impl PopulationEvaluator {
         // first generation needs ~4 n P maps: > 1 GB at 512² with 128-px tiles when all were held at once).
         let entry_bytes = self.entry_bytes();
         let batch_maps = (self.cache_limit() / 4 / entry_bytes).max(4);
-        let mut mins = vec![0.0f64; uniq.len()];
+        let mut mins = try_vec("genes", uniq.len(), 0.0f64)?;
         let mut start = 0;
         while start < uniq.len() {
             let mut keys: Vec<Key> = Vec::new();
@@ -657,7 +659,10 @@ impl PopulationEvaluator {
             start = end;
         }
 
-        let d = Array2::from_shape_fn((np, m), |(i, j)| prob.scale(mins[item_uniq[i * m + j]]));
+        let mut d = try_array("genes", (np, m), 0.0f64)?;
+        for ((i, j), v) in d.indexed_iter_mut() {
+            *v = prob.scale(mins[item_uniq[i * m + j]]);
+        }
         Ok((prob.energies(&d), d))
     }
 
@@ -706,14 +711,17 @@ impl PopulationEvaluator {
         }
         drop(computed);
         let (th, tw) = self.prob.window();
-        tiles.par_iter().zip(out.par_iter_mut()).for_each_init(
-            || (vec![0.0f64; th * tw], Vec::new()),
-            |(buf, cands), (t, o)| {
+        // One window-sized sum buffer per worker, allocated fallibly (an error, not an abort, when the
+        // exemplar's window does not fit in the memory left).
+        tiles.par_iter().zip(out.par_iter_mut()).try_for_each_init(
+            || try_vec("exemplar", th * tw, 0.0f64).map(|b| (b, Vec::new())),
+            |scratch, (t, o)| {
+                let (buf, cands) = scratch.as_mut().map_err(|e| e.clone())?;
                 let maps = [0usize, 1, 2, 3].map(|q| &*have[&(t[q].0, t[q].1, q as u8)]);
                 *o = self.tile_min(t, maps, buf, cands);
+                Ok(())
             },
-        );
-        Ok(())
+        )
     }
 
     /// Hits, misses and size of the partial-map cache.
@@ -1221,5 +1229,25 @@ mod tests {
             .unwrap_err(),
             "genes"
         ));
+    }
+}
+
+#[cfg(test)]
+mod alloc_tests {
+    use super::PopulationEvaluator;
+    use crate::error::{assert_alloc_error, HUGE_SIDE};
+    use ndarray::{Array2, Array3};
+
+    /// An exemplar whose copies cannot be allocated (a broadcast view: no memory behind it) is an error
+    /// naming `exemplar`, not an abort.
+    #[test]
+    fn an_exemplar_that_cannot_be_copied_is_an_error() {
+        let one = Array3::from_elem((1, 1, 1), 0.5f32);
+        let big = one.broadcast((HUGE_SIDE, HUGE_SIDE, 3)).unwrap();
+        let tp = Array2::from_shape_vec((1, 4), vec![0i64, 1, 2, 3]).unwrap();
+        assert_alloc_error(
+            PopulationEvaluator::new(big, 8, tp.view(), 4, 0.8, false, 0).map(|e| e.n_tiles()),
+            "exemplar",
+        );
     }
 }

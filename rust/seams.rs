@@ -5,7 +5,7 @@
 //! `w(s,t) = (‖A(s)−B(s)‖ + ‖A(t)−B(t)‖) / (‖g_A(s)‖ + ‖g_A(t)‖ + ‖g_B(s)‖ + ‖g_B(t)‖ + eps)`, ‖·‖ the L2 norm over
 //! channels, `g(p)` the forward difference from `p` to its next pixel in the direction s→t (0 past the edge).
 
-use crate::error::{fmt_shape, Result, TilesynthError};
+use crate::error::{fmt_shape, try_array, try_collect, try_standard, Result, TilesynthError};
 use ndarray::{Array2, ArrayView2, ArrayView3, Axis};
 
 /// Default epsilon in the denominator of the Kwatra weight (it guards flat regions where all four gradients
@@ -96,7 +96,7 @@ pub fn kwatra_weights(
             ));
         }
     }
-    let (a, b) = (a.as_standard_layout(), b.as_standard_layout());
+    let (a, b) = (try_standard("a", a)?, try_standard("b", b)?);
     let (a, b) = (
         a.as_slice().expect("standard layout"),
         b.as_slice().expect("standard layout"),
@@ -114,29 +114,31 @@ pub fn kwatra_weights(
             .sum::<f64>()
             .sqrt()
     };
-    let diff: Vec<f64> = (0..h * w).map(|p| dist(a, p, b, p)).collect();
+    let diff: Vec<f64> = try_collect("a", h * w, (0..h * w).map(|p| dist(a, p, b, p)))?;
     let mut out = Vec::with_capacity(2);
     for (axis, (dy, dx)) in [(0usize, 1usize), (1, 0)].into_iter().enumerate() {
         let step = dy * w + dx;
         // ‖img(p + step) − img(p)‖, 0 where p + step leaves the image.
-        let grad = |img: &[f32]| -> Vec<f64> {
-            (0..h * w)
-                .map(|p| {
+        let grad = |img: &[f32]| -> Result<Vec<f64>> {
+            try_collect(
+                "a",
+                h * w,
+                (0..h * w).map(|p| {
                     let (y, x) = (p / w, p % w);
                     if y + dy >= h || x + dx >= w {
                         0.0
                     } else {
                         dist(img, p + step, img, p)
                     }
-                })
-                .collect()
+                }),
+            )
         };
         let ga = match &a_grad {
-            Some(g) => g.index_axis(Axis(2), axis).iter().copied().collect(),
-            None => grad(a),
+            Some(g) => try_collect("a_grad", h * w, g.index_axis(Axis(2), axis).iter().copied())?,
+            None => grad(a)?,
         };
-        let gb = grad(b);
-        let wmap = Array2::from_shape_fn((h, w), |(y, x)| {
+        let gb = grad(b)?;
+        let weight = |y: usize, x: usize| -> f64 {
             let (ty, tx) = (y + dy, x + dx);
             if ty >= h || tx >= w {
                 return 0.0;
@@ -150,7 +152,11 @@ pub fn kwatra_weights(
             let num = diff[s] + diff[t];
             let den = ga[s] + ga[t] + gb[s] + gb[t] + eps;
             num / den
-        });
+        };
+        let mut wmap = try_array("a", (h, w), 0.0f64)?;
+        for ((y, x), v) in wmap.indexed_iter_mut() {
+            *v = weight(y, x);
+        }
         out.push(wmap);
     }
     let wy = out.pop().expect("two maps");

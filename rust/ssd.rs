@@ -52,7 +52,9 @@
 //! fixed blocks of rows or columns; every transform and every sum is computed the same way whatever
 //! thread runs it, so outputs are bit-identical at any number of threads.
 
-use crate::error::{checked_len, fmt_shape, probe_alloc, try_vec, Result, TilesynthError};
+use crate::error::{
+    checked_len, fmt_shape, probe_alloc, try_collect, try_standard, try_vec, Result, TilesynthError,
+};
 use ndarray::{Array2, Array3, ArrayView2, ArrayView3, ArrayView4, Axis};
 use rayon::prelude::*;
 use realfft::{ComplexToReal, RealFftPlanner};
@@ -247,10 +249,12 @@ impl SsdIndex {
 
         // S = sum_c I_c^2, the plane means and the norms of the centred planes (local accumulators per
         // plane, so that the loops stay in registers).
-        let s: Vec<f64> = data
-            .chunks_exact(c)
-            .map(|px| px.iter().map(|&v| (v as f64) * (v as f64)).sum())
-            .collect();
+        let s: Vec<f64> = try_collect(
+            "image",
+            h * w,
+            data.chunks_exact(c)
+                .map(|px| px.iter().map(|&v| (v as f64) * (v as f64)).sum()),
+        )?;
         // Per plane: copy into a buffer, then 8-lane sums (a fixed order, vectorisable).
         let mut buf = try_vec("image", checked_len("image", &[h, w])?, 0.0f64)?;
         let mut means = Vec::with_capacity(c + 1);
@@ -398,7 +402,22 @@ impl SsdIndex {
     /// Fallible: before the spectra exist, their size (one half spectrum per plane pair, plus the full
     /// transform of the pair being built) is reserved and released, so an image whose spectra cannot be
     /// allocated gives an error instead of aborting the process.
+    ///
+    /// Every call also probes the buffers of one map computation (the half spectrum and the pair transform
+    /// of the template planes, the map itself and the walk's order, each image-sized), which are allocated
+    /// infallibly deeper down: an image whose maps cannot be computed in the memory left is an error here,
+    /// not an abort in the middle of a kernel.
     fn ensure<T: Real>(&self, masked: bool) -> Result<()> {
+        let per_call = checked_len(
+            "image",
+            &[
+                self.h,
+                self.w / 2 + 1 + self.w,
+                std::mem::size_of::<Complex<T>>(),
+            ],
+        )?
+        .saturating_add(checked_len("image", &[self.h, self.w, 16])?);
+        probe_alloc("image", per_call)?;
         if T::spec_cell(self).get().is_none() || (masked && T::tail_cell(self).get().is_none()) {
             let wc = self.w / 2 + 1;
             let planes = self.c.div_ceil(2) + 1;
@@ -430,6 +449,7 @@ impl SsdIndex {
     ) -> Result<Array2<f32>> {
         let t = self.prepare_template("template", template)?;
         let m = prepare_mask(mask, t.h, t.w)?;
+        self.ensure::<f32>(m.is_some())?;
         let map = self.fft_map_f32(&t, m.as_deref());
         let dim = self.map_dim(t.h, t.w);
         Ok(Array2::from_shape_vec(dim, map).expect("map length matches its shape"))
@@ -444,6 +464,7 @@ impl SsdIndex {
     ) -> Result<(Array2<f64>, f64)> {
         let t = self.prepare_template("template", template)?;
         let m = prepare_mask(mask, t.h, t.w)?;
+        self.ensure::<f64>(m.is_some())?;
         let (map, bound) = self.fft_map_f64(&t, m.as_deref());
         let dim = self.map_dim(t.h, t.w);
         Ok((
@@ -471,6 +492,9 @@ impl SsdIndex {
     ) -> Result<Vec<Match>> {
         let t = self.prepare_template("template", template)?;
         let m = prepare_mask(mask, t.h, t.w)?;
+        if k > 0 {
+            self.ensure::<f64>(m.is_some())?;
+        }
         Ok(self.best_prepared(&t, m.as_deref(), k, exclude_radius))
     }
 
@@ -486,6 +510,9 @@ impl SsdIndex {
     ) -> Result<Vec<Match>> {
         let t = self.prepare_template("template", template)?;
         let m = prepare_mask(mask, t.h, t.w)?;
+        if k > 0 {
+            self.ensure::<f64>(m.is_some())?;
+        }
         Ok(self.best_prepared_sorting(&t, m.as_deref(), k, exclude_radius))
     }
 
@@ -1276,37 +1303,35 @@ pub fn weighted_ssd_map(
     }
     let img = contiguous_finite("image", image)?;
     let tpl = contiguous_finite("template", template)?;
-    let ig = image_grad.as_standard_layout();
-    let tg = template_grad.as_standard_layout();
+    let ig = try_standard("image_grad", image_grad)?;
+    let tg = try_standard("template_grad", template_grad)?;
     let (ig, tg) = (
         ig.as_slice().expect("standard layout"),
         tg.as_slice().expect("standard layout"),
     );
     let (th, tw) = (hh - h + 1, ww - w + 1);
-    let rows: Vec<Vec<f64>> = (0..th)
-        .into_par_iter()
-        .map(|ty| {
-            (0..tw)
-                .map(|tx| {
-                    let mut s = 0.0f64;
-                    for py in 0..h {
-                        let irow = (ty + py) * ww + tx;
-                        for px in 0..w {
-                            let (ip, tp) = (irow + px, py * w + px);
-                            let mut d2 = 0.0f64;
-                            for ch in 0..c {
-                                let d = tpl[tp * c + ch] as f64 - img[ip * c + ch] as f64;
-                                d2 += d * d;
-                            }
-                            s += d2 / (mu * (tg[tp] + ig[ip]) + eps);
+    let mut out = try_vec("image", th * tw, 0.0f64)?;
+    out.par_chunks_mut(tw).enumerate().for_each(|(ty, row)| {
+        for (tx, o) in row.iter_mut().enumerate() {
+            *o = {
+                let mut s = 0.0f64;
+                for py in 0..h {
+                    let irow = (ty + py) * ww + tx;
+                    for px in 0..w {
+                        let (ip, tp) = (irow + px, py * w + px);
+                        let mut d2 = 0.0f64;
+                        for ch in 0..c {
+                            let d = tpl[tp * c + ch] as f64 - img[ip * c + ch] as f64;
+                            d2 += d * d;
                         }
+                        s += d2 / (mu * (tg[tp] + ig[ip]) + eps);
                     }
-                    s
-                })
-                .collect()
-        })
-        .collect();
-    Ok(Array2::from_shape_vec((th, tw), rows.concat()).expect("th * tw values"))
+                }
+                s
+            };
+        }
+    });
+    Ok(Array2::from_shape_vec((th, tw), out).expect("th * tw values"))
 }
 
 // ----------------------------------------------------------------------------------------------------------
@@ -1385,7 +1410,7 @@ fn check_finite(name: &'static str, v: &[f32]) -> Result<()> {
 fn contiguous_finite<'a>(name: &'static str, a: ArrayView3<'a, f32>) -> Result<Cow<'a, [f32]>> {
     let v: Cow<'a, [f32]> = match a.to_slice() {
         Some(s) => Cow::Borrowed(s),
-        None => Cow::Owned(a.iter().copied().collect()),
+        None => Cow::Owned(try_collect(name, a.len(), a.iter().copied())?),
     };
     check_finite(name, &v)?;
     Ok(v)
@@ -2235,5 +2260,20 @@ mod tests {
             let e = idx.ssd_at(t.view(), Some(m.view()), y, x).unwrap();
             assert!((a.1[[y, x]] as f64 - e).abs() <= 1e-4 * max);
         }
+    }
+}
+
+#[cfg(test)]
+mod alloc_tests {
+    use super::SsdIndex;
+    use crate::error::{assert_alloc_error, HUGE_SIDE};
+    use ndarray::Array3;
+
+    /// An image whose contiguous copy and index cannot be allocated is an error naming `image`.
+    #[test]
+    fn an_image_that_cannot_be_indexed_is_an_error() {
+        let one = Array3::from_elem((1, 1, 1), 0.5f32);
+        let big = one.broadcast((HUGE_SIDE, HUGE_SIDE, 3)).unwrap();
+        assert_alloc_error(SsdIndex::new(big).map(|i| i.shape()), "image");
     }
 }

@@ -63,7 +63,9 @@
 //! Every cut is a pure function of its inputs; batches run in parallel and are assembled in a fixed order,
 //! so results never depend on the number of threads.
 
-use crate::error::{fmt_shape, Result, TilesynthError};
+use crate::error::{
+    fmt_shape, try_array, try_collect, try_vec, try_with_capacity, Result, TilesynthError,
+};
 use crate::maxflow::grid_mincut;
 use crate::seams::kwatra_weights;
 use ndarray::{Array2, Array3, ArrayView2, ArrayView3, ArrayView4, Axis};
@@ -200,7 +202,7 @@ impl Exemplar {
                 fmt_shape(ex.shape()),
             ));
         }
-        let data: Vec<f32> = ex.iter().copied().collect();
+        let data: Vec<f32> = try_collect("exemplar", h * w * c, ex.iter().copied())?;
         if let Some(i) = data.iter().position(|v| !v.is_finite()) {
             return Err(TilesynthError::param(
                 "exemplar",
@@ -208,7 +210,7 @@ impl Exemplar {
                 format!("all values must be finite (found at flat index {i})"),
             ));
         }
-        let lum = data.chunks_exact(c).map(luminance).collect();
+        let lum = try_collect("exemplar", h * w, data.chunks_exact(c).map(luminance))?;
         Ok(Exemplar { data, lum, h, w, c })
     }
 
@@ -648,10 +650,10 @@ impl Solver<'_> {
         let (n, h, m) = (geo.n, geo.h, geo.margin);
         let c = self.ex.c;
         let side = (h + m) as usize;
-        let mut class = vec![OUT; side * side];
-        let mut a_img = Array3::<f32>::zeros((side, side, c));
-        let mut b_img = Array3::<f32>::zeros((side, side, c));
-        let mut ey = vec![0.0f64; side * side];
+        let mut class = try_vec("tile_size", side * side, OUT)?;
+        let mut a_img = try_array("tile_size", (side, side, c), 0.0f32)?;
+        let mut b_img = try_array("tile_size", (side, side, c), 0.0f32)?;
+        let mut ey = try_vec("tile_size", side * side, 0.0f64)?;
         let mut d_overlap = 0.0f64;
         let mut n_overlap = 0usize;
         let pinned = geo.corners == Corners::Pinned;
@@ -738,7 +740,7 @@ impl Solver<'_> {
         }
         let takes_b = if labels {
             let hh = h as usize;
-            let mut out = Vec::with_capacity(hh * hh);
+            let mut out = try_with_capacity("tile_size", hh * hh)?;
             for yc in 0..hh {
                 for col in 0..hh {
                     out.push(is_b(yc + m as usize, col));
@@ -850,7 +852,7 @@ fn positions(
         ));
     }
     let (rmax, cmax) = ((ex.h - p) as i64, (ex.w - p) as i64);
-    let mut out = Vec::with_capacity(pop * n);
+    let mut out = try_with_capacity("genes", pop * n)?;
     for i in 0..pop {
         for g in 0..n {
             let (r, c) = (genes[[i, g, 0]], genes[[i, g, 1]]);
@@ -921,8 +923,8 @@ pub fn wang_tiles(
     let k = layout.tiles.len();
     let n = params.tile_size;
     let h = n / 2;
-    let mut labels = Array3::<u8>::zeros((k, n, n));
-    let mut stats = Array3::<f64>::zeros((k, 4, N_STATS));
+    let mut labels = try_array("tile_size", (k, n, n), 0u8)?;
+    let mut stats = try_array("tile_size", (k, 4, N_STATS), 0.0f64)?;
     for (t, idx) in layout.tile_cuts.iter().enumerate() {
         for (q, &ci) in idx.iter().enumerate() {
             let cut = &cuts[ci];
@@ -1027,7 +1029,7 @@ impl WangEvaluator {
             .collect();
         let vals: Vec<f64> = vals.into_iter().collect::<Result<_>>()?;
         let m = self.layout.tiles.len();
-        let mut d = Array2::<f64>::zeros((pop, m));
+        let mut d = try_array("genes", (pop, m), 0.0f64)?;
         for i in 0..pop {
             for (t, idx) in self.layout.tile_cuts.iter().enumerate() {
                 let mut sum = 0.0;
@@ -1106,7 +1108,7 @@ pub fn swang_cuts(
             Ok((cut.sink_side, cut.flow))
         })
         .collect();
-    let mut masks = Array3::from_elem((k, n, n), false);
+    let mut masks = try_array("initial", (k, n, n), false)?;
     let mut costs = Vec::with_capacity(k);
     for (t, cut) in cuts.into_iter().enumerate() {
         let (mask, flow) = cut?;
@@ -1385,5 +1387,21 @@ mod tests {
         let (same, zero) = swang_cuts(a4.view(), a4.view(), 1e-6, None).unwrap();
         assert_eq!(zero[0], 0.0);
         assert_eq!(same.dim(), (1, n, n));
+    }
+}
+
+#[cfg(test)]
+mod alloc_tests {
+    use super::Exemplar;
+    use crate::error::{assert_alloc_error, HUGE_SIDE};
+    use ndarray::Array3;
+
+    /// An exemplar whose copy cannot be allocated is an error naming `exemplar` (the Wang builder and the
+    /// evaluator start with this copy; the per-cut and output arrays are allocated the same way).
+    #[test]
+    fn an_exemplar_that_cannot_be_copied_is_an_error() {
+        let one = Array3::from_elem((1, 1, 1), 0.5f32);
+        let big = one.broadcast((HUGE_SIDE, HUGE_SIDE, 3)).unwrap();
+        assert_alloc_error(Exemplar::new(big).map(|e| e.h), "exemplar");
     }
 }

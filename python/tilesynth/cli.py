@@ -1027,6 +1027,15 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERRUPTED
     except SystemExit as exc:  # --help / --version
         return int(exc.code or 0)
+    except (
+        MemoryError
+    ) as exc:  # numpy refused an array (the Rust core raises ParameterError): too large an input
+        print(
+            f"tilesynth: error: out of memory: {exc or 'an allocation was refused'} (use a smaller input, "
+            "tile size or output, or run where more memory is available)",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
     except Exception as exc:  # noqa: BLE001 - the documented last resort
         if os.environ.get("TILESYNTH_DEBUG"):
             raise

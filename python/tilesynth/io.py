@@ -44,6 +44,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import os
+import stat
 import struct
 import tempfile
 import warnings
@@ -459,23 +460,45 @@ def _orient(orientation: int, arr: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(op(arr)) if op else arr
 
 
+def _write_target(path: str | os.PathLike[str]) -> Path:
+    """The file an output ``path`` names: ``path`` itself, or for a symbolic link the file it points to (so that
+    writing through a link updates the linked file and keeps the link, as ``open(path, "w")`` would, instead of
+    replacing the link by a file)."""
+    target = Path(path)
+    return Path(os.path.realpath(target)) if target.is_symlink() else target
+
+
 def check_writable(path: str | os.PathLike[str], label: str = "output") -> Path:
     """Raise :class:`ParameterError` (naming ``label``) unless ``path`` can be written as a file: its directory
-    exists and it is not a directory. Returns the directory."""
-    target = Path(path)
+    exists, it is not a directory, and if it exists it is a regular file. Returns the directory.
+
+    Not a regular file (issue 16: ``build in.png -o /dev/full`` replaced the device node with a ZIP when run as
+    root): outputs are written to a temporary file renamed over the target, which would replace a device, FIFO
+    or socket instead of writing into it, so they are refused with the reason."""
+    shown = Path(path)
+    target = _write_target(path)
     parent = target.parent if str(target.parent) else Path(".")
     if not parent.is_dir():
-        raise ParameterError(f"{label} = {str(target)!r}: directory {str(parent)!r} does not exist")
+        raise ParameterError(f"{label} = {str(shown)!r}: directory {str(parent)!r} does not exist")
     if target.is_dir():
-        raise ParameterError(f"{label} = {str(target)!r}: is a directory, expected a file name")
+        raise ParameterError(f"{label} = {str(shown)!r}: is a directory, expected a file name")
+    try:
+        mode = target.stat().st_mode
+    except OSError:
+        return parent  # does not exist yet (or cannot be examined: the write reports it)
+    if not stat.S_ISREG(mode):
+        raise ParameterError(
+            f"{label} = {str(shown)!r}: is not a regular file (a device, FIFO or socket); tilesynth writes a "
+            "temporary file and renames it over the output, which would replace it: name a file"
+        )
     return parent
 
 
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path next to ``path``; on success move it into place, on any error remove it."""
-    target = Path(path)
-    parent = check_writable(target)
+    parent = check_writable(path)
+    target = _write_target(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=parent)
     os.close(fd)
     tmp_path = Path(tmp)

@@ -77,6 +77,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import lzma
 import os
 import re
 import zipfile
@@ -271,7 +272,8 @@ class TileSet:
         if os.path.isdir(p):
             raise TileSetFormatError(f"tileset = {p!r}: is a directory, expected a .tiles file")
         if not os.path.isfile(p):
-            raise TileSetFormatError(f"tileset = {p!r}: no such file")
+            what = "not a regular file (a device, FIFO or socket)" if os.path.exists(p) else "no such file"
+            raise TileSetFormatError(f"tileset = {p!r}: {what}")
         try:
             with zipfile.ZipFile(p) as zf:
                 infos = {i.filename: i for i in zf.infolist()}
@@ -327,10 +329,13 @@ class TileSet:
             KeyError,
             EOFError,
             zlib.error,
+            lzma.LZMAError,
             NotImplementedError,
             RuntimeError,
         ) as exc:
-            # RuntimeError: an encrypted member; NotImplementedError: an unknown compression method
+            # RuntimeError: an encrypted member; NotImplementedError: an unknown compression method;
+            # LZMAError: a member that claims LZMA compression and is not (bz2 and deflate damage is OSError /
+            # zlib.error)
             raise TileSetFormatError(
                 f"tileset = {p!r}: not a tilesynth tile set ({type(exc).__name__}: {exc})"
             ) from None

@@ -8,8 +8,8 @@
 //! The reduced network is solved by the one BK solver of [`super`].
 
 use super::{Network, Topology, MAX_INDEX};
-use crate::error::{fmt_shape, Result, TilesynthError};
-use ndarray::{Array2, ArrayView2, CowArray, Ix2};
+use crate::error::{fmt_shape, try_collect, try_standard, try_vec, Result, TilesynthError};
+use ndarray::{Array2, ArrayView2};
 
 /// The minimum cut of a pixel grid, as returned by [`grid_mincut`].
 #[derive(Debug, Clone, PartialEq)]
@@ -89,12 +89,14 @@ pub fn grid_mincut(
         ));
     }
 
-    let wx = contiguous(wx);
-    let wy = contiguous(wy);
-    let src_hard = contiguous(source_hard);
-    let snk_hard = contiguous(sink_hard);
-    let src_cap = source_cap.map(contiguous);
-    let snk_cap = sink_cap.map(contiguous);
+    let wx = try_standard("wx", wx)?;
+    let wy = try_standard("wy", wy)?;
+    let src_hard = try_standard("source_hard", source_hard)?;
+    let snk_hard = try_standard("sink_hard", sink_hard)?;
+    let src_cap = source_cap
+        .map(|c| try_standard("source_cap", c))
+        .transpose()?;
+    let snk_cap = sink_cap.map(|c| try_standard("sink_cap", c)).transpose()?;
     let wx = wx.as_slice().expect("standard layout");
     let wy = wy.as_slice().expect("standard layout");
     let src_hard = src_hard.as_slice().expect("standard layout");
@@ -106,17 +108,19 @@ pub fn grid_mincut(
         .as_ref()
         .map(|c| c.as_slice().expect("standard layout"));
 
-    let mut net = build(h, w, wx, wy, src_hard, snk_hard, src_cap, snk_cap);
-    let sol = net.solve();
-    let sink_side = (0..h * w)
-        .map(|p| {
+    let mut net = build(h, w, wx, wy, src_hard, snk_hard, src_cap, snk_cap)?;
+    let sol = net.solve("wx")?;
+    let sink_side = try_collect(
+        "wx",
+        h * w,
+        (0..h * w).map(|p| {
             if src_hard[p] || snk_hard[p] {
                 snk_hard[p]
             } else {
                 sol.sink_side[p]
             }
-        })
-        .collect();
+        }),
+    )?;
     Ok(GridCut {
         sink_side: Array2::from_shape_vec((h, w), sink_side).expect("h * w labels"),
         flow: sol.flow,
@@ -188,23 +192,28 @@ impl Topology for GridTopo {
 #[derive(Debug, Clone)]
 pub(crate) struct GridNetwork {
     net: Network<GridTopo>,
+    /// The caller's parameter the size comes from, named by allocation errors.
+    name: &'static str,
 }
 
 impl GridNetwork {
     /// An `h x w` grid without arcs or terminal links. The caller guarantees `4 h w <= MAX_INDEX`.
-    pub(crate) fn new(h: usize, w: usize) -> GridNetwork {
+    /// Fallible: an error naming `name` (the caller's parameter the size comes from) if the arrays (41
+    /// bytes per node) cannot be allocated.
+    pub(crate) fn new(name: &'static str, h: usize, w: usize) -> Result<GridNetwork> {
         let np = h * w;
-        GridNetwork {
+        Ok(GridNetwork {
             net: Network {
                 topo: GridTopo {
                     w: w as u32,
-                    dirs: vec![0u8; np],
+                    dirs: try_vec(name, np, 0u8)?,
                 },
-                rcap: vec![0.0f64; 4 * np],
-                tr: vec![0.0f64; np],
+                rcap: try_vec(name, 4 * np, 0.0f64)?,
+                tr: try_vec(name, np, 0.0f64)?,
                 flow: 0.0,
             },
-        }
+            name,
+        })
     }
 
     /// The edge `p`–`p + 1` with capacity `c > 0` in both directions (`p + 1` in the same row).
@@ -235,9 +244,9 @@ impl GridNetwork {
 
     /// Solves the network: the flow value and the sink-side flag of every node (labelling rule of
     /// [`super`]).
-    pub(crate) fn solve(mut self) -> (f64, Vec<bool>) {
-        let sol = self.net.solve();
-        (sol.flow, sol.sink_side)
+    pub(crate) fn solve(mut self) -> Result<(f64, Vec<bool>)> {
+        let sol = self.net.solve(self.name)?;
+        Ok((sol.flow, sol.sink_side))
     }
 }
 
@@ -252,12 +261,12 @@ fn build(
     snk_hard: &[bool],
     src_cap: Option<&[f64]>,
     snk_cap: Option<&[f64]>,
-) -> Network<GridTopo> {
+) -> Result<Network<GridTopo>> {
     let np = h * w;
     let mut flow = 0.0f64;
-    let mut rcap = vec![0.0f64; 4 * np];
-    let mut dirs = vec![0u8; np];
-    let mut tr = vec![0.0f64; np];
+    let mut rcap = try_vec("wx", 4 * np, 0.0f64)?;
+    let mut dirs = try_vec("wx", np, 0u8)?;
+    let mut tr = try_vec("wx", np, 0.0f64)?;
     for y in 0..h {
         for x in 0..w {
             let p = y * w + x;
@@ -335,12 +344,12 @@ fn build(
             tr[p] = cs - ck;
         }
     }
-    Network {
+    Ok(Network {
         topo: GridTopo { w: w as u32, dirs },
         rcap,
         tr,
         flow,
-    }
+    })
 }
 
 /// The cost of the cut given by `labels` (`true` = sink side): the capacities of the grid edges between
@@ -446,15 +455,6 @@ fn check_caps(name: &'static str, a: ArrayView2<f64>, rows: usize, cols: usize) 
         }
     }
     Ok(())
-}
-
-/// The view itself when it is C-contiguous, else a C-contiguous copy.
-fn contiguous<T: Clone>(a: ArrayView2<'_, T>) -> CowArray<'_, T, Ix2> {
-    if a.is_standard_layout() {
-        CowArray::from(a)
-    } else {
-        CowArray::from(a.as_standard_layout().into_owned())
-    }
 }
 
 #[cfg(test)]

@@ -37,6 +37,7 @@ mod grid;
 pub(crate) use grid::GridNetwork;
 pub use grid::{grid_cut_cost, grid_mincut, GridCut};
 
+use crate::error::{alloc_error, try_collect, try_vec, Result};
 use std::collections::VecDeque;
 
 /// `parent` value of a node in no tree.
@@ -118,28 +119,37 @@ pub(crate) struct Solution {
 impl<T: Topology> Network<T> {
     /// Runs the BK algorithm on the residual network (which is left in its final residual state) and
     /// returns the flow value and the minimum cut.
-    pub(crate) fn solve(&mut self) -> Solution {
+    ///
+    /// Fallible: the search state (about 30 bytes per node) is allocated with `try_reserve`, so a network
+    /// too large for the memory left is an error naming `name` (the caller's parameter), not an abort.
+    pub(crate) fn solve(&mut self, name: &'static str) -> Result<Solution> {
         let n = self.tr.len();
+        let mut active = VecDeque::new();
+        active
+            .try_reserve_exact(n)
+            .map_err(|_| alloc_error::<u32>(name, n))?;
         let mut bk = Bk {
-            parent: vec![FREE; n],
-            stamp: vec![(0, 0); n],
-            flags: vec![0; n],
-            active: VecDeque::with_capacity(n),
+            parent: try_vec(name, n, FREE)?,
+            stamp: try_vec(name, n, (0, 0))?,
+            flags: try_vec(name, n, 0)?,
+            active,
             orphans: VecDeque::new(),
-            path: vec![(0, 0); n],
+            path: try_vec(name, n, (0, 0))?,
             time: 0,
             flow: self.flow,
             net: self,
         };
         bk.run();
         let flow = bk.flow;
-        let sink_side = bk
-            .parent
-            .iter()
-            .zip(&bk.flags)
-            .map(|(&p, &f)| p == FREE || f & IN_T != 0)
-            .collect();
-        Solution { flow, sink_side }
+        let sink_side = try_collect(
+            name,
+            n,
+            bk.parent
+                .iter()
+                .zip(&bk.flags)
+                .map(|(&p, &f)| p == FREE || f & IN_T != 0),
+        )?;
+        Ok(Solution { flow, sink_side })
     }
 }
 
@@ -495,13 +505,22 @@ impl Graph {
 
     /// Computes the maximum flow from source to sink and the minimum cut, returning the flow value. The
     /// value is `f64::INFINITY` only when every cut is infinite (a node tied to both terminals).
+    ///
+    /// # Panics
+    /// If the solver's arrays cannot be allocated (see [`Graph::try_maxflow`]).
     pub fn maxflow(&mut self) -> f64 {
+        self.try_maxflow().unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// [`Graph::maxflow`] with its arrays (about 50 bytes per node and arc) allocated fallibly: a graph too
+    /// large for the memory left is an error naming `nodes` or `arcs` instead of an abort.
+    pub fn try_maxflow(&mut self) -> Result<f64> {
         let n = self.n_nodes();
         // Edge e gives the arcs 2e (u -> v) and 2e + 1 (v -> u); CSR by counting sort over the tails.
         let kept = |&&(u, v, c, r): &&(u32, u32, f64, f64)| u != v && (c > 0.0 || r > 0.0);
         let m = 2 * self.edges.iter().filter(kept).count();
         assert!(m <= MAX_INDEX, "too many arcs: {m}");
-        let mut first = vec![0u32; n + 1];
+        let mut first = try_vec("nodes", n + 1, 0u32)?;
         for &(u, v, _, _) in self.edges.iter().filter(kept) {
             first[u as usize + 1] += 1;
             first[v as usize + 1] += 1;
@@ -509,10 +528,10 @@ impl Graph {
         for i in 0..n {
             first[i + 1] += first[i];
         }
-        let mut fill = first[..n].to_vec();
-        let mut adj = vec![0u32; m];
-        let mut head = vec![0u32; m];
-        let mut rcap = vec![0.0f64; m];
+        let mut fill = try_collect("nodes", n, first[..n].iter().copied())?;
+        let mut adj = try_vec("arcs", m, 0u32)?;
+        let mut head = try_vec("arcs", m, 0u32)?;
+        let mut rcap = try_vec("arcs", m, 0.0f64)?;
         for (e, &(u, v, c, r)) in self.edges.iter().filter(kept).enumerate() {
             let a = 2 * e as u32;
             head[a as usize] = v;
@@ -526,7 +545,7 @@ impl Graph {
         }
         // Terminal links: push the common part of both links directly.
         let mut flow = 0.0;
-        let mut tr = vec![0.0f64; n];
+        let mut tr = try_vec("nodes", n, 0.0f64)?;
         for ((t, &cs), &ck) in tr.iter_mut().zip(&self.source_cap).zip(&self.sink_cap) {
             if cs == f64::INFINITY && ck == f64::INFINITY {
                 flow = f64::INFINITY;
@@ -541,9 +560,9 @@ impl Graph {
             tr,
             flow,
         };
-        let sol = net.solve();
+        let sol = net.solve("nodes")?;
         self.sink_side = sol.sink_side;
-        sol.flow
+        Ok(sol.flow)
     }
 
     /// After [`Graph::maxflow`]: whether node `u` is on the sink side of the minimum cut (see the labelling
@@ -760,5 +779,20 @@ pub(crate) mod tests {
     #[should_panic]
     fn negative_capacity_panics() {
         Graph::new(2).add_edge(0, 1, -1.0, 0.0);
+    }
+}
+
+#[cfg(test)]
+mod alloc_tests {
+    use super::GridNetwork;
+    use crate::error::{assert_alloc_error, HUGE_SIDE};
+
+    /// A grid network too large for any address space is an error naming the caller's parameter, not an
+    /// abort (the omega cut builds its quadrant networks with this constructor; grid_mincut's `build` and
+    /// the BK state of `Network::solve` use the same fallible allocations).
+    #[test]
+    fn a_network_that_cannot_be_allocated_is_an_error() {
+        assert_alloc_error(GridNetwork::new("wx", HUGE_SIDE, HUGE_SIDE), "wx");
+        assert!(GridNetwork::new("wx", 3, 4).is_ok());
     }
 }

@@ -78,11 +78,13 @@ impl Simd for Portable {
 
     #[inline(always)]
     unsafe fn ld32u(self, s: &[f32], i: usize) -> [f32; LANES] {
+        debug_assert!(i + LANES <= s.len(), "simd access out of bounds");
         // SAFETY: the caller guarantees i + LANES <= s.len().
         unsafe { *(s.as_ptr().add(i) as *const [f32; LANES]) }
     }
     #[inline(always)]
     unsafe fn st32u(self, s: &mut [f32], i: usize, v: [f32; LANES]) {
+        debug_assert!(i + LANES <= s.len(), "simd access out of bounds");
         // SAFETY: as for ld32u.
         unsafe { *(s.as_mut_ptr().add(i) as *mut [f32; LANES]) = v }
     }
@@ -105,11 +107,13 @@ impl Simd for Portable {
 
     #[inline(always)]
     unsafe fn ld64u(self, s: &[f64], i: usize) -> [f64; LANES] {
+        debug_assert!(i + LANES <= s.len(), "simd access out of bounds");
         // SAFETY: the caller guarantees i + LANES <= s.len().
         unsafe { *(s.as_ptr().add(i) as *const [f64; LANES]) }
     }
     #[inline(always)]
     unsafe fn st64u(self, s: &mut [f64], i: usize, v: [f64; LANES]) {
+        debug_assert!(i + LANES <= s.len(), "simd access out of bounds");
         // SAFETY: as for ld64u.
         unsafe { *(s.as_mut_ptr().add(i) as *mut [f64; LANES]) = v }
     }
@@ -186,10 +190,12 @@ mod avx2 {
 
         #[inline(always)]
         unsafe fn ld32u(self, s: &[f32], i: usize) -> __m256 {
+            debug_assert!(i + LANES <= s.len(), "simd access out of bounds");
             unsafe { _mm256_loadu_ps(s.as_ptr().add(i)) }
         }
         #[inline(always)]
         unsafe fn st32u(self, s: &mut [f32], i: usize, v: __m256) {
+            debug_assert!(i + LANES <= s.len(), "simd access out of bounds");
             unsafe { _mm256_storeu_ps(s.as_mut_ptr().add(i), v) }
         }
         #[inline(always)]
@@ -211,6 +217,7 @@ mod avx2 {
 
         #[inline(always)]
         unsafe fn ld64u(self, s: &[f64], i: usize) -> (__m256d, __m256d) {
+            debug_assert!(i + LANES <= s.len(), "simd access out of bounds");
             unsafe {
                 let p = s.as_ptr().add(i);
                 (_mm256_loadu_pd(p), _mm256_loadu_pd(p.add(4)))
@@ -218,6 +225,7 @@ mod avx2 {
         }
         #[inline(always)]
         unsafe fn st64u(self, s: &mut [f64], i: usize, v: (__m256d, __m256d)) {
+            debug_assert!(i + LANES <= s.len(), "simd access out of bounds");
             unsafe {
                 let p = s.as_mut_ptr().add(i);
                 _mm256_storeu_pd(p, v.0);
