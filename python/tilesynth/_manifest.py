@@ -267,6 +267,7 @@ SELECTION = Obj(
         "border_tries": _POS,
         "border_seam_first": Num(nan_ok=True),
         "border_seam_predicted": Num(nan_ok=True),
+        "border_criterion": Str(("log", "min")),  # ω and patch (tilesynth.omegaborders)
     },
 )
 
@@ -310,7 +311,7 @@ PARAMS = Obj(
         "cut_region": Str(("circle", "free")),
         "cut_bias": Num(0.0),
         "diversity": _POS,
-        "border_tries": _POS,  # the Wang schemes (issue 14)
+        "border_tries": _POS,  # the Wang, ω and patch schemes (issue 14)
     },
 )
 

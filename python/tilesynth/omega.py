@@ -81,11 +81,13 @@ from .matching import (
     pick_distinct,
     strategy_edges,
 )
+from .omegaborders import DEFAULT_BORDER_TRIES, corner_border_draws
 from .options import BuildOptions, Progress, SeedLike, common_options
 from .select import choose_genes, wants_selection
 from .stages.compose import cut_and_compose, finish_tileset, patch_gradients
 from .stages.smoothing import POISSON_TOL, smooth_tiles  # noqa: F401 - re-exported
 from .tilefile import TileSet
+from .wangborders import check_border_tries
 
 
 def _distance_search(
@@ -389,6 +391,7 @@ def build_omega(
     cut_region: str | None = None,
     diversity: int | None = None,
     cut_bias: float | None = None,
+    border_tries: int = DEFAULT_BORDER_TRIES,
 ) -> TileSet:
     """Build a set of ω-tiles from ``exemplar``.
 
@@ -440,6 +443,9 @@ def build_omega(
         (:func:`tilesynth.complete.default_complete_tile_size`) instead of half: the lookup, not the tile
         size, makes them non-periodic, and K⁴·V tiles of half the exemplar would be slow to build and big.
     The choice of these defaults was measured with ``benches/repetition.py`` (issue 12).
+    border_tries : with random genes (no ``genes``, no selection), the number of random gene vectors drawn, the
+        one whose tile borders fall on exemplar lines most like the texture's own steps kept (predicted border
+        seam closest to 1, :mod:`tilesynth.omegaborders`). Default 32; 1 is the single random draw of before.
 
     D_j is the distance (``metric``) between intermediate tile j and its matching patch; E is computed from the
     smallest distance of every intermediate tile over all translations, whatever ``match`` chose.
@@ -464,6 +470,7 @@ def build_omega(
         smooth=smooth, normalise=normalise, cut_region="circle" if cut_region is None else cut_region,
         cut_bias=cut_bias, diversity=diversity,
     )  # fmt: skip
+    tries = check_border_tries(border_tries)
     plan = CornerPlan.of(b.definition)
     if opts.metric == "eq2" and wants_selection(select, polish, select_params, extra=normalise):
         raise ParameterError(
@@ -476,6 +483,10 @@ def build_omega(
         evaluator=lambda: omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads), select=select,
         polish=polish, generations=generations, population=population, select_params=select_params,
         selection=selection, optimise=opts.normalise, record={"normalise": opts.normalise}, progress=b.progress,
+    )  # fmt: skip
+    genes_arr, sel = corner_border_draws(  # issue 14: border-aware random draws (tilesynth.omegaborders)
+        b.exemplar, b.tile_size, b.rng, genes_arr, sel, tries,
+        genes is None and not wants_selection(select, polish, select_params, extra=normalise),
     )  # fmt: skip
     t_sel = time.perf_counter()
     b.report("intermediate tiles", 0, 1)
@@ -497,7 +508,8 @@ def build_omega(
         scheme="omega", definition=b.definition, exemplar=b.exemplar, tiles=tiles, source=source,
         cut_masks=masks, genes=genes_arr, tile_patches=plan.tile_patches, match_offsets=offsets,
         D=chosen_D[plan.inverse, plan.variants], cut_costs=costs, E=energy(best_D),
-        params=_omega_params(b, opts, plan, sel, smooth_info), exemplar_info=b.exemplar_info,
+        params={**_omega_params(b, opts, plan, sel, smooth_info), **({"border_tries": tries} if "border_tries" in sel else {})},
+        exemplar_info=b.exemplar_info,
         timing={"selection_s": t_sel - b.started, "intermediate_s": t_inter - t_sel, "matching_s": t_match - t_inter,
                 **timing},
         started=b.started,

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .base import Option
+from .base import Option, positive_int_text
 
 GRADIENTS = Option(
     "gradients",
@@ -20,3 +20,12 @@ LITERAL_BORDER = Option(
     store_true=True,
     flag_value=lambda literal: not literal,
 )
+
+CORNER_BORDER_TRIES = Option(
+    "border_tries",
+    "--border-tries",
+    "random sample-patch sets drawn, the one whose tile borders fall on exemplar lines most like the texture's "
+    "own steps kept (default 32; 1: a single random draw; tilesynth.omegaborders)",
+    cli_type=positive_int_text,
+)
+"""``border_tries`` of the corner schemes (ω and its patch baseline draw the same sample patches)."""
