@@ -26,15 +26,27 @@ def digest(a: np.ndarray) -> str:
     return hashlib.sha256(np.ascontiguousarray(a).tobytes()).hexdigest()[:24]
 
 
+# Issue 14 made ω's default draw border-aware (32 random gene vectors, tilesynth.omegaborders). On this
+# exemplar and seed the first draw is the one kept (its predicted border seam, 0.81, is the closest to the
+# target 0.8), so the tiles and outputs of GOLDEN (the defaults) did not change; GOLDEN_ONE_DRAW builds the old
+# default by name (border_tries=1, the single random draw) and must keep these digests whatever the default.
+GOLDEN_ONE_DRAW = {
+    "16a": ("f5211b4c119fa520391a5852", "f5e2e60b6f773c7e5ad52ac6"),
+    "32": ("ca3eeabbc9434580a9a7e192", "1c03f497c969cdcd621b4f07"),
+}
+
+
 @pytest.mark.parametrize("name", sorted(GOLDEN))
 @pytest.mark.parametrize("threads", [1, 2])
-def test_golden(name, threads, small_exemplar):
-    ts = tilesynth.build_omega(small_exemplar, tileset=name, tile_size=32, seed=2026, threads=threads)
+@pytest.mark.parametrize("one_draw", [False, True])
+def test_golden(name, threads, one_draw, small_exemplar):
+    kw = {"border_tries": 1} if one_draw else {}
+    ts = tilesynth.build_omega(small_exemplar, tileset=name, tile_size=32, seed=2026, threads=threads, **kw)
     img, imap = tilesynth.synthesize(ts, 200, 150, seed=7, dtype=np.uint8, threads=threads)
     got = (digest(ts.tiles), digest(img))
     if os.environ.get("TILESYNTH_PRINT_GOLDEN"):
-        print(f'\n    "{name}": ("{got[0]}", "{got[1]}"),')
-    assert got == GOLDEN[name]
+        print(f'\n    "{name}" (one draw: {one_draw}): ("{got[0]}", "{got[1]}"),')
+    assert got == (GOLDEN_ONE_DRAW if one_draw else GOLDEN)[name]
 
 
 # Selection (GA, AIS, best-of): the chosen genes, the tiles, a synthesis and the whole saved file

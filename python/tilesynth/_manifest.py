@@ -267,7 +267,7 @@ SELECTION = Obj(
         "border_tries": _POS,
         "border_seam_first": Num(nan_ok=True),
         "border_seam_predicted": Num(nan_ok=True),
-        "border_criterion": Str(("log", "min")),  # ω and patch (tilesynth.omegaborders)
+        "border_criterion": Str(("cap", "log", "min")),  # ω and patch (tilesynth.omegaborders)
     },
 )
 

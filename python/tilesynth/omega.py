@@ -444,8 +444,9 @@ def build_omega(
         size, makes them non-periodic, and K⁴·V tiles of half the exemplar would be slow to build and big.
     The choice of these defaults was measured with ``benches/repetition.py`` (issue 12).
     border_tries : with random genes (no ``genes``, no selection), the number of random gene vectors drawn, the
-        one whose tile borders fall on exemplar lines most like the texture's own steps kept (predicted border
-        seam closest to 1, :mod:`tilesynth.omegaborders`). Default 32; 1 is the single random draw of before.
+        one whose predicted border seam is closest to 0.8 without exceeding 1 kept (tile borders like the
+        texture's own steps, neither seams nor quiet lines; :mod:`tilesynth.omegaborders`). Default 32; 1 is the
+        single random draw of before (byte-identical to the old default).
 
     D_j is the distance (``metric``) between intermediate tile j and its matching patch; E is computed from the
     smallest distance of every intermediate tile over all translations, whatever ``match`` chose.

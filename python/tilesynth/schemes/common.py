@@ -24,8 +24,8 @@ LITERAL_BORDER = Option(
 CORNER_BORDER_TRIES = Option(
     "border_tries",
     "--border-tries",
-    "random sample-patch sets drawn, the one whose tile borders fall on exemplar lines most like the texture's "
-    "own steps kept (default 32; 1: a single random draw; tilesynth.omegaborders)",
+    "random sample-patch sets drawn, the one whose tile borders are predicted to look most like the texture's "
+    "own steps kept (border seam closest to 0.8, at most 1; default 32; 1: a single random draw)",
     cli_type=positive_int_text,
 )
 """``border_tries`` of the corner schemes (ω and its patch baseline draw the same sample patches)."""
