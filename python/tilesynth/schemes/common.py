@@ -24,8 +24,10 @@ LITERAL_BORDER = Option(
 CORNER_BORDER_TRIES = Option(
     "border_tries",
     "--border-tries",
-    "random sample-patch sets drawn, the one whose tile borders are predicted to look most like the texture's "
-    "own steps kept (border seam closest to 0.8, at most 1; default 32; 1: a single random draw)",
+    "random sample sets drawn, the one whose tile borders fall best kept (Wang schemes: on the quietest exemplar "
+    "lines; omega and patch: predicted border seam closest to 0.8, at most 1); default 32; 1: a single random draw",
     cli_type=positive_int_text,
 )
-"""``border_tries`` of the corner schemes (ω and its patch baseline draw the same sample patches)."""
+"""``border_tries`` of the corner schemes (ω and its patch baseline draw the same sample patches). The CLI shows
+one help text for a flag that several schemes share (the first registered scheme's, ω's), so this one also says
+what the Wang schemes do with it."""
