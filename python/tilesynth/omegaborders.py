@@ -21,7 +21,8 @@ side midpoints; S_pred ignores that):
 
 with I_x, I_y the exemplar's mean squared step along x and y (as for the Wang schemes,
 :mod:`tilesynth.wangborders`, whose step arrays this module shares; the tiles' cuts raise the measured interior
-mean, so S_pred is a little above the measured S). Every colour counts equally: the hashed lookup of the
+mean, so S_pred is a little above the measured S: measured / predicted 0.94 (ω) and 0.96 (patch) in the median
+over the rows of ``benches/seams.py --corner``, Pearson r 0.95 and 0.90 against the measured score). Every colour counts equally: the hashed lookup of the
 complete sets and the stochastic tilers of the papers' sets give every vertex colour about equally often.
 
 **Border-aware draws** (``border_tries``, the default of ω and patch, issue 14): of ``border_tries`` random gene
