@@ -85,6 +85,53 @@ def variants() -> list[tuple[str, str, dict[str, Any]]]:
     return out
 
 
+def corner_variants() -> list[tuple[str, str, dict[str, Any]]]:
+    """``--corner``: ω c4 and patch 16a with 1, 16 (ω only) and 32 border-aware draws ranked by the criteria of
+    :mod:`tilesynth.omegaborders` ("min": smallest S_pred; "log": smallest |log S_pred|; "cap": closest to
+    0.8 among S_pred <= 1), and the
+    Wang-8 default with the "log" and "cap" criteria as a figure. Each row is built from explicit genes drawn here from
+    ``default_rng(1)`` (the first draw is the same for every count and criterion), so the rows differ only by
+    the draw the criterion kept."""
+    out: list[tuple[str, str, dict[str, Any]]] = []
+    for scheme, tset in (("omega", "c4"), ("patch", "16a")):
+        out.append((f"{scheme} {tset} 1 try", scheme, {"tileset": tset, "_tries": 1, "_crit": "min"}))
+        counts = ((16, "min"), (32, "min")) if scheme == "omega" else ((32, "min"),)
+        for k, crit in (*counts, (32, "log"), (32, "cap")):
+            out.append((f"{scheme} {tset} {k} {crit}", scheme, {"tileset": tset, "_tries": k, "_crit": crit}))
+    for crit in ("log", "cap"):
+        out.append((f"wang wang8 32 {crit}", "wang", {"tileset": "wang8", "_tries": 32, "_crit": crit}))
+    return out
+
+
+def corner_genes(ex: np.ndarray, scheme: str, kw: dict[str, Any]) -> dict[str, Any]:
+    """The builder kwargs of a :func:`corner_variants` row: explicit genes chosen by its criterion."""
+    from tilesynth import omegaborders, wangborders
+    from tilesynth.complete import default_complete_tile_size
+    from tilesynth.genes import default_tile_size, random_genes
+
+    kw = dict(kw)
+    tries, crit = kw.pop("_tries"), kw.pop("_crit")
+    rng = np.random.default_rng(1)
+    if scheme == "wang":  # the default's sample size and colours, then the log criterion on its S_pred
+        d = ts.build(ex, scheme="wang", seed=1, border_tries=1, **kw)
+        n, p, nh = d.tile_size, d.params["sample_size"], len(d.definition.horizontal)
+        first = random_genes(ex.shape, len(d.genes), p, rng)
+        x = ex.astype(np.float64)
+        steps = wangborders._steps(x)
+        g, _ = wangborders.best_of_draws(
+            ex.shape, first, p, rng, tries,
+            lambda g: wangborders._predict(steps, x, g, nh, n, p),
+            lambda v: omegaborders._rank(v, crit),
+        )  # fmt: skip
+        return {**kw, "genes": g}
+    # the default tile size of the scheme's set (a quarter of the exemplar for complete sets) and its colours
+    n = (default_complete_tile_size if kw["tileset"].startswith("c") else default_tile_size)(ex.shape)
+    colours = len(ts.get_tileset(kw["tileset"]).colours)
+    first = random_genes(ex.shape, colours, n, rng)
+    g, _ = omegaborders.border_aware_corner_genes(ex, first, n, rng, tries, crit)
+    return {**kw, "genes": g, "tile_size": n}
+
+
 def load(textures: Path, name: str, crop: int) -> np.ndarray:
     img, _ = ts.load_image(textures / name)
     h, w = img.shape[:2]
@@ -108,6 +155,8 @@ def discontinuous_share(tiles: ts.TileSet, imap: np.ndarray, width: int, height:
 def measure(
     ex: np.ndarray, scheme: str, kw: dict[str, Any], size: int, threads: int | None
 ) -> dict[str, Any]:
+    if "_tries" in kw:
+        kw = corner_genes(ex, scheme, kw)
     t0 = time.process_time()
     tiles = ts.build(ex, scheme=scheme, seed=1, threads=threads, **kw)
     t1 = time.process_time()
@@ -122,8 +171,22 @@ def measure(
         "cut": None if cut is None else cut["score"],
         "disc": discontinuous_share(tiles, imap, size, size),
         "corners": tiles.params.get("corners"),
+        "predicted": _predicted(ex, tiles),
+        "copies": metrics.periodic_copies(img).fraction,
+        "autocorr": metrics.detail_repetition(img).peak,
+        "hist": metrics.histogram_distance(img, ex).distance,
+        "coverage": metrics.coverage(ts.source_map(tiles, imap, size, size), ex.shape).fraction,
         "build_cpu_s": t1 - t0,
     }
+
+
+def _predicted(ex: np.ndarray, tiles: ts.TileSet) -> float | None:
+    """S_pred of a corner set's genes (:func:`tilesynth.omegaborders.predicted_corner_border_seam`)."""
+    if tiles.scheme not in ("omega", "patch"):
+        return None
+    from tilesynth.omegaborders import predicted_corner_border_seam
+
+    return predicted_corner_border_seam(ex, tiles.genes, tiles.tile_size)
 
 
 def fmt(v: float | None, spec: str = ".3f") -> str:
@@ -205,6 +268,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--size", type=int, default=1024)
     ap.add_argument("--crop", type=int, default=256)
     ap.add_argument("--threads", type=int, default=None)
+    ap.add_argument(
+        "--corner", action="store_true", help="the border-aware draws of ω and patch (corner_variants)"
+    )
     ap.add_argument("--only", default=None, help="measure only the variants whose label contains this text")
     ap.add_argument("--texture", action="append", default=None, help="only these texture files (repeatable)")
     ap.add_argument("--json", type=Path, default=None)
@@ -222,7 +288,11 @@ def main(argv: list[str] | None = None) -> int:
         if args.markdown:
             args.markdown.write_text(md, encoding="utf-8")
         return 0
-    todo = [v for v in variants() if args.only is None or args.only in v[0]]
+    todo = [
+        v
+        for v in (corner_variants() if args.corner else variants())
+        if args.only is None or args.only in v[0]
+    ]
     texs = [t for t in TEXTURES if args.texture is None or t[0] in args.texture]
     rows = []
     for name, cls in texs:
@@ -233,7 +303,9 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(r)
             print(
                 f"{name:26s} {label:36s} N={r['tile_size']:3d} border {r['border']:.3f} cut {fmt(r['cut'])} "
-                f"disc {100 * r['disc']:.2f} % ({r['build_cpu_s']:.1f} s CPU)",
+                f"disc {100 * r['disc']:.2f} % pred {fmt(r['predicted'])} copies {r['copies']:.3f} "
+                f"ac {fmt(r['autocorr'])} hist {r['hist']:.4f} cov {r['coverage']:.3f} "
+                f"({r['build_cpu_s']:.1f} s CPU)",
                 file=sys.stderr,
                 flush=True,
             )

@@ -229,6 +229,7 @@ def build_omega(d: st.DrawFn):
             ["none"] * 4
             + ["exemplar", "tileset", "tile_size", "seed", "threads", "gradients", "eps", "select", "genes"]
             + ["mask", "alpha"]
+            + ["border_tries"]
         )
     )
     ex = d(exemplars()) if broken == "exemplar" else good_exemplar(d)
@@ -285,6 +286,7 @@ def build_omega(d: st.DrawFn):
         )
     elif broken == "alpha":
         kw["alpha"] = d(st.sampled_from(["auto", "mask", "colour", "color", "", None, 1]))
+    kw.update(border_tries_kwargs(d, broken == "border_tries"))
     return ts.build_omega, (ex,), kw, ()
 
 
@@ -722,8 +724,32 @@ def predicted_border_seam_call(d: st.DrawFn):
     return predicted_border_seam, (ex, genes, nh, n, p), {}, ()
 
 
+@st.composite
+def predicted_corner_border_seam_call(d: st.DrawFn):
+    """tilesynth.omegaborders.predicted_corner_border_seam: valid genes of a small exemplar, or one argument
+    careless."""
+    from tilesynth.omegaborders import predicted_corner_border_seam
+
+    broken = d(st.sampled_from(["none", "none", "exemplar", "genes", "tile_size"]))
+    ex = d(exemplars()) if broken == "exemplar" else good_exemplar(d)
+    n = d(st.sampled_from([4, 6, 8]))
+    k = d(st.integers(1, 5))
+    rng = np.random.default_rng(d(st.integers(0, 999)))
+    shape = np.shape(ex)
+    rows = max(shape[0] - n + 1, 1) if len(shape) >= 2 else 1
+    cols = max(shape[1] - n + 1, 1) if len(shape) >= 2 else 1
+    genes = np.stack([rng.integers(0, rows, k), rng.integers(0, cols, k)], axis=1).astype(np.int64)
+    if broken == "genes":
+        genes = d(
+            arrays(2, I64, (None, 2), max_side=8, lo=-1, hi=20) | st.sampled_from([None, "x", [[1, 2]]])
+        )
+    elif broken == "tile_size":
+        n = d(sizes(-2, 12))
+    return predicted_corner_border_seam, (ex, genes, n), {}, ()
+
+
 def border_tries_kwargs(d: st.DrawFn, broken: bool) -> dict:
-    """``border_tries`` of the Wang schemes (issue 14): often left out, else valid, or carelessly drawn."""
+    """``border_tries`` of the Wang, ω and patch schemes (issue 14): often left out, else valid, or carelessly drawn."""
     if broken:
         return {"border_tries": d(st.sampled_from([0, -1, 1.5, True, "8", None, 4097, 2**70, np.int64(0)]))}
     return d(st.sampled_from([{}, {}, {"border_tries": 1}, {"border_tries": d(st.integers(1, 40))}]))
@@ -795,7 +821,7 @@ def build_swang(d: st.DrawFn):
 def build_patch(d: st.DrawFn):
     """The patch baseline: valid calls (any SPEC 7 seed) or one careless argument; any select but random is refused."""
     broken = d(st.sampled_from(["none"] * 4 + ["exemplar", "tileset", "tile_size", "seed", "threads", "gradients",
-                                               "eps", "select", "genes"]))  # fmt: skip
+                                               "eps", "select", "genes", "border_tries"]))  # fmt: skip
     ex = d(exemplars()) if broken == "exemplar" else good_exemplar(d)
     seed = d(st.integers(0, 2**64))
     kw: dict = {
@@ -823,6 +849,7 @@ def build_patch(d: st.DrawFn):
         for key in ("select", "generations", "population"):
             kw.pop(key, None)
         kw["genes"] = d(arrays(2, I64, (None, 2), max_side=6, lo=-1, hi=24))
+    kw.update(border_tries_kwargs(d, broken == "border_tries"))
     return ts.build_patch, (ex,), kw, ()
 
 
@@ -1421,6 +1448,7 @@ API = {
     "build_material": build_material,
     "synthesize_maps": synthesize_maps,
     "inner_seam_score": inner_seam_call,
+    "predicted_corner_border_seam": predicted_corner_border_seam_call,
 }
 
 NOT_FUZZED = {

@@ -15,12 +15,18 @@ from tilesynth.errors import ParameterError, ShapeError
 
 @pytest.fixture(scope="module")
 def omega16(small_exemplar):
-    return ts.build_omega(small_exemplar, tileset="16a", tile_size=24, seed=3, select="random")
+    # one random draw (border_tries=1): a valid tiling of typical sample patches, whose border score is about 1;
+    # the default border-aware draw (issue 14) aims the borders at 0.8 on purpose
+    return ts.build_omega(
+        small_exemplar, tileset="16a", tile_size=24, seed=3, select="random", border_tries=1
+    )
 
 
 @pytest.fixture(scope="module")
 def omega_n2(small_exemplar):
-    return ts.build_omega(small_exemplar, tileset="n2", tile_size=24, seed=3, select="random")
+    # one random draw (border_tries=1): a valid tiling of typical sample patches, whose border score is about 1;
+    # the default border-aware draw (issue 14) aims the borders at 0.8 on purpose
+    return ts.build_omega(small_exemplar, tileset="n2", tile_size=24, seed=3, select="random", border_tries=1)
 
 
 # ------------------------------------------------------------------------------------------------ seam score

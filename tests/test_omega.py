@@ -23,7 +23,10 @@ def test_shapes_and_params(built, small_exemplar):
     assert built.cut_masks.shape == (16, 32, 32)
     assert built.genes.shape == (4, 2)
     assert built.params["seed"] == 5 and built.params["set"] == "16a" and built.params["tile_size"] == 32
-    assert built.params["selection"] == {"method": "random"}
+    # the default draw is border-aware (issue 14, tilesynth.omegaborders); the record says so
+    sel = built.params["selection"]
+    assert sel["method"] == "random" and sel["border_tries"] == 32 and sel["border_criterion"] == "cap"
+    assert built.params["border_tries"] == 32
     assert len({tuple(g) for g in built.genes.tolist()}) == 4
     assert (built.genes >= 0).all() and (built.genes <= 96 - 32).all()
 

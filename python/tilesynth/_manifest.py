@@ -293,6 +293,7 @@ SELECTION = Obj(
         # issue 15: the objective and the cut re-ranking (tilesynth.cutselect)
         "objective": Str(("cut", "sum-d", "E")),
         "cut": Optional(_CUT_RERANK),
+        "border_criterion": Str(("cap", "log", "min")),  # ω and patch (tilesynth.omegaborders)
     },
 )
 

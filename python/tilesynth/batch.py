@@ -55,7 +55,7 @@ Build options (preset or job): ``scheme``, ``set``, ``tile_size``, ``select``, `
 ``population``, ``seed``; ω only: ``normalise``, ``match`` (ssd | circle | midpoints | best-cut), ``match_k`` (int
 or "all", best-cut only), ``metric`` (color | eq2 | eq3), ``smooth``, ``literal_border``; ω and swang:
 ``gradients`` (patch | tile); wang only: ``cut`` (dp | graph), ``overlap``, ``corners`` (free | pinned),
-``samples`` (diamond | square); swang only: ``supplementary`` (ssd | cut); wang and swang: ``border_tries``
+``samples`` (diamond | square); swang only: ``supplementary`` (ssd | cut); wang, swang and omega: ``border_tries``
 (int >= 1). They mean what the ``tilesynth build``
 options of the same name mean, and a batch build is byte-identical to ``tilesynth build`` with the same options
 and seed (the ``.tiles`` file differs only in its ``timing.json`` member). An option the scheme does not use is
@@ -187,7 +187,12 @@ _BUILD_OPTIONS: dict[str, tuple[str, tuple | None, tuple[str, ...], Any]] = {
     "set": ("str", None, _ALL, None),
     "tile_size": ("int", None, _ALL, None),
     "seed": ("int", None, _ALL, DEFAULT_SEED),
-    "select": ("str", ("random", "best-of", "ga", "ais"), _ALL, None),  # None: the default of `tilesynth build`
+    "select": (
+        "str",
+        ("random", "best-of", "ga", "ais"),
+        _ALL,
+        None,
+    ),  # None: the default of `tilesynth build`
     "polish": ("bool", None, _ALL, False),
     "generations": ("int", None, _ALL, None),
     "population": ("int", None, _ALL, None),
@@ -203,7 +208,7 @@ _BUILD_OPTIONS: dict[str, tuple[str, tuple | None, tuple[str, ...], Any]] = {
     "corners": ("str", ("free", "pinned"), ("wang",), None),
     "samples": ("str", ("diamond", "square"), ("wang",), "diamond"),
     "supplementary": ("str", ("ssd", "cut"), ("swang",), "ssd"),
-    "border_tries": ("int", None, ("wang", "swang"), None),
+    "border_tries": ("int", None, ("wang", "swang", "omega"), None),
 }
 _OUTPUT_OPTIONS = ("sheet", "previews", "report", "map_kinds", "export")
 _PRESET_KEYS = (*_BUILD_OPTIONS, *_OUTPUT_OPTIONS)
@@ -985,7 +990,7 @@ def _build_tileset(spec: dict[str, Any], image: Any, bits: Any, threads: int | N
         extra = dict(cut=o["cut"], overlap=o["overlap"], corners=o["corners"], samples=o["samples"])
     else:
         extra = dict(gradients=o["gradients"], supplementary=o["supplementary"])
-    if scheme in ("wang", "swang") and o["border_tries"] is not None:
+    if scheme in ("wang", "swang", "omega") and o["border_tries"] is not None:
         extra["border_tries"] = o["border_tries"]
     return build(image, scheme=scheme, **common, **extra)
 

@@ -83,11 +83,13 @@ from .matching import (
     pick_distinct,
     strategy_edges,
 )
+from .omegaborders import DEFAULT_BORDER_TRIES, corner_border_draws
 from .options import BuildOptions, Progress, SeedLike, common_options
 from .select import choose_genes, wants_selection
 from .stages.compose import cut_and_compose, finish_tileset, patch_gradients
 from .stages.smoothing import POISSON_TOL, smooth_tiles  # noqa: F401 - re-exported
 from .tilefile import TileSet
+from .wangborders import check_border_tries
 
 
 def _distance_search(
@@ -454,6 +456,7 @@ def build_omega(
     alpha: str = "auto",
     objective: str | None = None,
     rerank: int | None = None,
+    border_tries: int = DEFAULT_BORDER_TRIES,
 ) -> TileSet:
     """Build a set of ω-tiles from ``exemplar``.
 
@@ -523,6 +526,11 @@ def build_omega(
         region takes a masked pixel.
     alpha : "auto" (default: the alpha channel of a 2- or 4-channel exemplar that is not opaque everywhere is a
         mask, alpha < 0.5 masked, and is dropped), "mask" (always) or "colour" (alpha matched as a channel).
+    border_tries : with random genes (no ``genes``, no selection), the number of random gene vectors drawn, the
+        one whose predicted border seam is closest to 0.8 without exceeding 1 kept (tile borders like the
+        texture's own steps, neither seams nor quiet lines; :mod:`tilesynth.omegaborders`). Default 32; 1 is the
+        single random draw of before (byte-identical to the old default). With a mask the draws are off (the
+        single mask-aware draw is kept).
 
     D_j is the distance (``metric``) between intermediate tile j and its matching patch; E is computed from the
     smallest distance of every intermediate tile over all translations, whatever ``match`` chose.
@@ -548,6 +556,7 @@ def build_omega(
         smooth=smooth, normalise=normalise, cut_region="circle" if cut_region is None else cut_region,
         cut_bias=cut_bias, diversity=diversity,
     )  # fmt: skip
+    tries = check_border_tries(border_tries)
     plan = CornerPlan.of(b.definition)
     if opts.metric == "eq2" and wants_selection(select, polish, select_params, extra=normalise):
         raise ParameterError(
@@ -574,6 +583,12 @@ def build_omega(
         select_params=select_params or None, selection=selection, optimise=opts.normalise,
         record={"normalise": opts.normalise, **({"objective": objective} if objective else {})},
         progress=b.progress, mask=b.mask,
+    )  # fmt: skip
+    genes_arr, sel = corner_border_draws(  # issue 14: border-aware random draws (tilesynth.omegaborders)
+        b.exemplar, b.tile_size, b.rng, genes_arr, sel, tries,
+        genes is None
+        and not wants_selection(select, polish, select_params, extra=normalise)
+        and active(b.mask) is None,  # the draws are not mask-aware: a masked build keeps its one clear draw
     )  # fmt: skip
     t_sel = time.perf_counter()
     if objective == "cut" and sel.get("method") not in ("given", "random"):  # issue 15: the cut objective
@@ -610,7 +625,9 @@ def build_omega(
         scheme="omega", definition=b.definition, exemplar=b.exemplar, tiles=res.tiles, source=res.source,
         cut_masks=res.masks, genes=genes_arr, tile_patches=plan.tile_patches, match_offsets=res.offsets,
         D=res.D, cut_costs=res.costs, E=energy(res.best_D),
-        params=_omega_params(b, opts, plan, sel, res.smooth_info), exemplar_info=b.exemplar_info,
+        params={**_omega_params(b, opts, plan, sel, res.smooth_info),
+                **({"border_tries": tries} if "border_tries" in sel else {})},
+        exemplar_info=b.exemplar_info,
         timing={"selection_s": t_sel - b.started, **res.timing},
         started=b.started,
     )  # fmt: skip

@@ -335,6 +335,8 @@ def _border_draws(
     only when the genes were one random draw; ``tries`` = 1 keeps that draw (and records nothing)."""
     if genes is not None or tries == 1 or wants_selection(select, polish, select_params):
         return genes_arr, sel
+    if active(b.mask) is not None:  # the draws are not mask-aware: a masked build keeps its one clear draw
+        return genes_arr, sel
     g, rec = border_aware_genes(
         b.exemplar, genes_arr, len(b.definition.horizontal), b.tile_size, sample_size, b.rng, tries
     )

@@ -36,6 +36,7 @@ single random draw. The selection methods (``select="ga"``, ...) optimise their 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -155,11 +156,27 @@ def border_aware_genes(
     tries = check_border_tries(tries)
     ex = np.asarray(exemplar, dtype=np.float64)
     steps = _steps(ex)
-    cands = [np.asarray(first)] + [
-        random_genes(ex.shape, len(first), sample_size, rng) for _ in range(int(tries) - 1)
-    ]
-    scores = [_predict(steps, ex, g, n_horizontal, tile_size, sample_size) for g in cands]
-    best = int(np.argmin(scores))
+    return best_of_draws(
+        ex.shape, np.asarray(first), sample_size, rng, tries,
+        lambda g: _predict(steps, ex, g, n_horizontal, tile_size, sample_size), lambda s: s,
+    )  # fmt: skip
+
+
+def best_of_draws(
+    shape: tuple[int, ...],
+    first: np.ndarray,
+    sample_size: int,
+    rng: np.random.Generator,
+    tries: int,
+    predict: Callable[[np.ndarray], float],
+    rank: Callable[[float], float],
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """Of ``first`` and ``tries − 1`` more :func:`random_genes` draws from ``rng`` (``sample_size`` squares in
+    an exemplar of ``shape``), the one whose ``rank(predict(genes))`` is smallest (the first of equals), and
+    the record of :func:`border_aware_genes`. Shared with :mod:`tilesynth.omegaborders`."""
+    cands = [first] + [random_genes(shape, len(first), sample_size, rng) for _ in range(int(tries) - 1)]
+    scores = [predict(g) for g in cands]
+    best = int(np.argmin([rank(s) for s in scores]))
     return cands[best], {
         "border_tries": int(tries),
         "border_seam_first": float(scores[0]),

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .base import Option
+from .base import Option, positive_int_text
 
 GRADIENTS = Option(
     "gradients",
@@ -20,3 +20,14 @@ LITERAL_BORDER = Option(
     store_true=True,
     flag_value=lambda literal: not literal,
 )
+
+CORNER_BORDER_TRIES = Option(
+    "border_tries",
+    "--border-tries",
+    "random sample sets drawn, the one whose tile borders fall best kept (Wang schemes: on the quietest exemplar "
+    "lines; omega and patch: predicted border seam closest to 0.8, at most 1); default 32; 1: a single random draw",
+    cli_type=positive_int_text,
+)
+"""``border_tries`` of the corner schemes (ω and its patch baseline draw the same sample patches). The CLI shows
+one help text for a flag that several schemes share (the first registered scheme's, ω's), so this one also says
+what the Wang schemes do with it."""

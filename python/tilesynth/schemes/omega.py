@@ -6,7 +6,7 @@ from typing import Any
 
 from ..omega import build_omega
 from .base import Option, Scheme, lambda_energy_line, nonneg_int_text
-from .common import GRADIENTS, LITERAL_BORDER
+from .common import CORNER_BORDER_TRIES, GRADIENTS, LITERAL_BORDER
 
 
 def smoothing_line(sm: dict) -> str:
@@ -135,6 +135,7 @@ SCHEME = Scheme(
             cli_type=nonneg_int_text,
             metavar="M",
         ),
+        CORNER_BORDER_TRIES,
     ),
     describe=_describe,
 )

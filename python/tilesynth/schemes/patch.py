@@ -31,12 +31,14 @@ from ..errors import ParameterError
 from ..genes import LAMBDA, energy
 from ..layouts import CornerPlan, corner_set, intermediate_tiles
 from ..masking import active
+from ..omegaborders import DEFAULT_BORDER_TRIES, corner_border_draws
 from ..options import Progress, SeedLike, common_options
 from ..select import choose_genes
 from ..stages.compose import cut_and_compose, finish_tileset, patches_at
 from ..tilefile import TileSet
+from ..wangborders import check_border_tries
 from .base import Scheme, lambda_energy_line
-from .common import GRADIENTS, LITERAL_BORDER
+from .common import CORNER_BORDER_TRIES, GRADIENTS, LITERAL_BORDER
 
 __all__ = ["SCHEME", "build_patch"]
 
@@ -63,6 +65,7 @@ def build_patch(
     select_params: dict[str, Any] | None = None,
     mask: Any = None,
     alpha: str = "auto",
+    border_tries: int = DEFAULT_BORDER_TRIES,
 ) -> TileSet:
     """Build a patch-baseline tile set from ``exemplar`` (see the module docstring).
 
@@ -86,11 +89,16 @@ def build_patch(
     if gradients not in ("patch", "tile"):
         raise ParameterError(f"gradients = {gradients!r}: must be 'patch' or 'tile'")
     keep_border = bool(keep_border)
+    tries = check_border_tries(border_tries)
     plan = CornerPlan.of(b.definition)
     genes_arr, sel = choose_genes(
         genes, n=plan.n_colours, size=b.tile_size, shape=b.exemplar.shape, rng=b.rng, evaluator=None,
         select=select, polish=polish, generations=generations, population=population,
         select_params=select_params, selection=selection, progress=b.progress, mask=b.mask,
+    )  # fmt: skip
+    genes_arr, sel = corner_border_draws(  # issue 14: border-aware random draws, as ω's
+        b.exemplar, b.tile_size, b.rng, genes_arr, sel, tries,
+        genes is None and active(b.mask) is None,  # not mask-aware: a masked build keeps its one clear draw
     )  # fmt: skip
     n, (h, w) = b.tile_size, b.exemplar.shape[:2]
     inter, inter_src = intermediate_tiles(b.exemplar, genes_arr, plan.unique, n)
@@ -125,6 +133,7 @@ def build_patch(
         "crops": "random",
         "seed": b.seed,
         "selection": sel,
+        **({"border_tries": tries} if "border_tries" in sel else {}),
     }
     ts = finish_tileset(
         scheme="patch", definition=b.definition, exemplar=b.exemplar, tiles=tiles, source=source,
@@ -149,7 +158,7 @@ SCHEME = Scheme(
     layout="corner",
     default_set="16a",
     builder=build_patch,
-    options=(GRADIENTS, LITERAL_BORDER),
+    options=(GRADIENTS, LITERAL_BORDER, CORNER_BORDER_TRIES),
     describe=_describe,
     selects=False,
 )

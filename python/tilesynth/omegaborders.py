@@ -1,0 +1,163 @@
+r"""Where the tile borders of corner tiles (ω, patch) fall in the exemplar: the predicted border seam of a gene vector.
+
+A corner tile ⟨TL, BL, TR, BR⟩ starts from its intermediate tile, the N x N centre of the 2N x 2N block of its
+corner colours' sample patches (:mod:`tilesynth.omega`). Around every vertex of a tiling, the four tiles that
+meet there show the four quarters of the vertex colour's N x N patch, *whole and in place*: the patch is centred
+on the vertex. So the tile borders through a vertex of colour k run along the **middle column pair** (patch
+columns h − 1, h; h = N/2) and the **middle row pair** (rows h − 1, h) of k's patch, half a patch on either side
+of the vertex.
+
+The default cuts never reach the border: ``keep_border=True`` ties the one-pixel border ring to the
+intermediate tile for the inscribed-circle cut region, and the free cut region (:mod:`tilesynth.levers`) ties a
+ring of 2 pixels and the corner discs to it. Every pixel pair across a tile border is therefore a pair of
+neighbouring exemplar pixels on one of those lines (benches/seams.py measures 0.0 % discontinuous border pairs
+for ω and patch), and the border seam score of a tiling (:func:`tilesynth.metrics.seam_score`) is decided by the
+genes alone, before any matching or cut (``keep_border=False`` lets the matching patch reach the border near the
+side midpoints; S_pred ignores that):
+
+    S_pred = (B_x + B_y) / (I_x + I_y),
+    B_x = mean over the colours of the mean squared step across the patch's middle column pair (N rows),
+    B_y = mean over the colours of the mean squared step across its middle row pair (N columns),
+
+with I_x, I_y the exemplar's mean squared step along x and y (as for the Wang schemes,
+:mod:`tilesynth.wangborders`, whose step arrays this module shares; the tiles' cuts raise the measured interior
+mean, so S_pred is a little above the measured S: measured / predicted 0.94 (ω) and 0.96 (patch) in the median
+over the rows of ``benches/seams.py --corner``, Pearson r 0.95 and 0.90 against the measured score). Every colour counts equally: the hashed lookup of the
+complete sets and the stochastic tilers of the papers' sets give every vertex colour about equally often.
+
+**Border-aware draws** (``border_tries``, the default of ω and patch, issue 14): of ``border_tries`` random gene
+vectors from the build's generator (the first is the single draw of ``border_tries=1``), the one whose S_pred
+is closest to 0.8 on a log scale among those with S_pred <= 1 is kept (criterion ``"cap"``; the smallest S_pred
+when no draw is at or below 1). Why not the smallest S_pred, as the Wang schemes do: a border grid far flatter
+than its surroundings (every vertex cross on flat mortar or a tile face) is itself a lattice of quiet lines, and
+the smallest of 32 draws also tends to take the exemplar's quietest, least typical patches. Why not the closest
+to 1 (``"log"``, smallest ``|log S_pred|``): the tiling's mix of colours scatters the measured score around
+S_pred, so a target of 1 leaves some tilings above it (a synthetic brick wall in ``tests/test_omega_seams.py``:
+1.07). The figures behind the choice are in ``benches/seams-results.md`` (``benches/seams.py --corner``). The
+patch baseline draws the same sample patches with the same seed, so it stays ω's baseline. Cost: a few array
+reductions per try, nothing next to the matching.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ._validate import as_image
+from .errors import ParameterError
+from .genes import check_genes, check_tile_size
+from .wangborders import _steps, best_of_draws, check_border_tries
+
+__all__ = [
+    "CRITERIA",
+    "DEFAULT_BORDER_TRIES",
+    "DEFAULT_CRITERION",
+    "border_aware_corner_genes",
+    "check_criterion",
+    "corner_border_draws",
+    "predicted_corner_border_seam",
+]
+
+DEFAULT_BORDER_TRIES = 32
+"""Random gene vectors drawn by the ω and patch defaults (see benches/seams-results.md)."""
+
+CRITERIA = ("cap", "log", "min")
+"""How a draw is ranked: ``"min"`` smallest S_pred; ``"log"`` smallest ``|log S_pred|`` (closest to 1);
+``"cap"`` (the default) closest to :data:`CAP_TARGET` on a log scale among the draws with S_pred <= 1 (the
+smallest S_pred when there is none)."""
+
+DEFAULT_CRITERION = "cap"
+
+CAP_TARGET = 0.8
+"""The target of the ``"cap"`` criterion."""
+
+
+def predicted_corner_border_seam(exemplar: np.ndarray, genes: np.ndarray, tile_size: int) -> float:
+    """S_pred of ``genes`` (``(n, 2)`` top-left corners of the ``tile_size`` sample patches, one per corner
+    colour) for a corner tile set (ω, patch) with tiles of ``tile_size`` (see the module docstring).
+
+    Raises ParameterError / ShapeError for a tile size that is odd, below the minimum or larger than the
+    exemplar, or genes that are not n >= 1 distinct positions of patches inside the exemplar.
+    """
+    img = as_image(exemplar, "exemplar")
+    n = check_tile_size(tile_size, img.shape)
+    g = np.asarray(genes)
+    if g.ndim != 2 or g.shape[0] < 1:
+        raise ParameterError(f"genes of shape {g.shape}: need (n, 2) top-left corners, n >= 1")
+    g = check_genes(g, g.shape[0], img.shape, n)
+    ex = img.astype(np.float64)
+    return _predict(_steps(ex), g, n)
+
+
+def _predict(steps: tuple[np.ndarray, np.ndarray, float, float], genes: np.ndarray, n: int) -> float:
+    dx2, dy2, ix, iy = steps
+    h = n // 2
+    g = genes.astype(np.int64)
+    bx = float(np.mean([dx2[r : r + n, c + h - 1].mean() for r, c in g]))  # pair (c+h-1, c+h), N rows
+    by = float(np.mean([dy2[r + h - 1, c : c + n].mean() for r, c in g]))  # pair (r+h-1, r+h), N columns
+    den = ix + iy
+    return (bx + by) / den if den > 0 else 1.0
+
+
+def _rank(s: float, criterion: str) -> float:
+    if criterion == "min":
+        return s
+    if s <= 0:
+        return math.inf
+    if criterion == "log":
+        return abs(math.log(s))
+    return abs(math.log(s / CAP_TARGET)) if s <= 1.0 else 1e6 + s  # "cap": above 1 only as a last resort
+
+
+def check_criterion(criterion: Any) -> str:
+    """``criterion`` as one of :data:`CRITERIA`, or ParameterError naming it."""
+    if criterion not in CRITERIA:
+        raise ParameterError(f"border criterion = {criterion!r}: must be one of {', '.join(CRITERIA)}")
+    return str(criterion)
+
+
+def border_aware_corner_genes(
+    exemplar: np.ndarray,
+    first: np.ndarray,
+    tile_size: int,
+    rng: np.random.Generator,
+    tries: int,
+    criterion: str = DEFAULT_CRITERION,
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """Of ``first`` (the build's random draw) and ``tries − 1`` more random draws from ``rng``, the gene vector
+    whose :func:`predicted_corner_border_seam` ranks best by ``criterion``, and what to record
+    (``border_tries``, ``border_criterion``, the predicted score of the first draw and of the kept one)."""
+    tries = check_border_tries(tries)
+    criterion = check_criterion(criterion)
+    ex = np.asarray(exemplar, dtype=np.float64)
+    steps = _steps(ex)
+    genes, rec = best_of_draws(
+        ex.shape,
+        np.asarray(first),
+        tile_size,
+        rng,
+        tries,
+        lambda g: _predict(steps, g, tile_size),
+        lambda s: _rank(s, criterion),
+    )
+    return genes, {**rec, "border_criterion": criterion}
+
+
+def corner_border_draws(
+    exemplar: np.ndarray,
+    tile_size: int,
+    rng: np.random.Generator,
+    genes_arr: np.ndarray,
+    sel: dict[str, Any],
+    tries: int,
+    random_draw: bool,
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """The border-aware draw of the ω and patch builders: only when the genes were one random draw
+    (``random_draw``: no given genes, no selection); ``tries`` = 1 keeps that draw and records nothing, so a
+    ``border_tries=1`` build is byte-identical to the single draw of before."""
+    if not random_draw or tries == 1:
+        return genes_arr, sel
+    g, rec = border_aware_corner_genes(exemplar, genes_arr, tile_size, rng, tries)
+    return g, {**sel, **rec}
