@@ -140,7 +140,10 @@ def test_explicit_methods_keep_the_papers_objective(small_exemplar):
 
 
 def test_random_select_is_one_draw_and_measures_are_stored(small_exemplar, tmp_path):
-    ts = tilesynth.build_omega(small_exemplar, tileset="8", tile_size=24, seed=5, select="random")
+    # border_tries=1: the single draw (the default random draw is border-aware, tilesynth.omegaborders)
+    ts = tilesynth.build_omega(
+        small_exemplar, tileset="8", tile_size=24, seed=5, select="random", border_tries=1
+    )
     assert ts.params["selection"] == {"method": "random"}
     q = ts.params["quality"]
     assert q["cut_score"] == pytest.approx(cut_score(ts.cut_costs, 24))
