@@ -69,6 +69,16 @@ fn copy_window<'py>(
                         return Err(errors::layout_error("out", "array must be C-contiguous"));
                     }
                     let a = a.as_array();
+                    if o.len() == 0 {
+                        // numpy may give an empty array zero strides, which a mutable view refuses (a
+                        // debug assertion of the numpy crate); an owned empty array of the same shape gets
+                        // the same shape checks and writes nothing either way.
+                        let sh = o.shape();
+                        let mut empty = ndarray::Array3::<$t>::zeros((sh[0], sh[1], sh[2]));
+                        return run(py, threads, || {
+                            synth::tile_copy_window_into(a, map, offset, empty.view_mut())
+                        });
+                    }
                     let o = o.as_array_mut();
                     return run(py, threads, || {
                         synth::tile_copy_window_into(a, map, offset, o)
