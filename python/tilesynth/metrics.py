@@ -91,6 +91,7 @@ import numpy as np
 
 from ._validate import as_image, positive_int
 from .errors import ParameterError, ShapeError
+from .quality import _fast_len as _fft_size  # smallest 2^a·3^b·5^c >= n (fast FFT lengths)
 
 DEFAULT_PATCH = 8
 """Side p of the coherence patches."""
@@ -487,22 +488,6 @@ class Repetition:
                 "max_offset": list(self.max_offset),
             }
         )
-
-
-def _fft_size(n: int) -> int:
-    """Smallest 2^a·3^b·5^c >= n (fast FFT lengths)."""
-    best = 1 << max(0, (n - 1).bit_length())
-    f5 = 1
-    while f5 < best:
-        f3 = f5
-        while f3 < best:
-            v = f3
-            while v < n:
-                v *= 2
-            best = min(best, v)
-            f3 *= 3
-        f5 *= 5
-    return best
 
 
 def _box_sums(sat: np.ndarray, r0: np.ndarray, r1: np.ndarray, c0: np.ndarray, c1: np.ndarray) -> np.ndarray:
