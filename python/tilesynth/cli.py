@@ -727,10 +727,12 @@ def _synth_write_maps(
 ) -> None:
     """Synthesize every ``--with`` map through the cuts and layout of the colour, and write it."""
     from .io import atomic_open, save_image
+    from .materials import requantise_with_map
     from .synthesis import synthesize_map
 
     for k, (mp, arr, target) in enumerate(maps):
         prog("maps", k, len(maps))
+        arr = requantise_with_map(Path(mp).stem, arr)  # issue 14: normal maps' copies at unit length too
         out_map = synthesize_map(ts, arr, imap, size[0], size[1], threads=threads, smooth=smooth_maps)
         if smooth_maps:  # issue 14: a normal map (by its name) renormalised where smoothed
             from .materials import renormalise_with_map

@@ -60,8 +60,11 @@ green channel is negated (``max − g`` for unsigned encodings: exact for 8- and
 (values in [0, 1] encode ``2·v − 1``; every PNG) unless it has negative values (a float map of signed vectors).
 Inputs whose vectors are far from unit length are refused (:data:`NORMAL_TOLERANCE`): they are not normal maps
 (a height map given as ``normal``, a map in the wrong encoding). After smoothing, every smoothed vector is
-renormalised to unit length (then re-encoded; an 8-bit output can then be off by its quantisation, at most about
-0.007).
+renormalised to unit length, and every vector of every output (copies too) is re-encoded by
+:func:`tilesynth.normal_codes.encode_unit`: decoded as ``v = code / 255 · 2 − 1`` (16-bit: ``/ 65535``), each
+8- or 16-bit pixel gets the code nearest its vector among the floor / ceiling combinations whose decoded length is
+within 0.0049 of 1, so 100 % of output vectors are within 1 ± 0.005 (plain rounding leaves 0.1-0.8 % outside,
+up to 0.007) while the direction moves no more than rounding may.
 """
 
 from __future__ import annotations
@@ -464,26 +467,21 @@ def convert_normal_y(a: np.ndarray, encoding: str) -> np.ndarray:
 def _renormalise(tiles: np.ndarray, where: np.ndarray, encoding: str) -> np.ndarray:
     """``tiles`` (K, N, N, 3) with the vectors at ``where`` (K, N, N) set to unit length (re-encoded in the
     tiles' own sample type)."""
-    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(tiles.dtype)
-    v = _decoded_normals(tiles[where], encoding)
-    v /= np.maximum(np.sqrt((v * v).sum(axis=-1, keepdims=True)), 1e-12)
-    if encoding == "unorm":
-        v = (v + 1.0) * 0.5
+    from .normal_codes import encode_unit
+
     out = tiles.copy()
-    if scale:
-        out[where] = np.clip(np.rint(v * scale), 0, scale).astype(tiles.dtype)
-    else:
-        out[where] = v.astype(np.float32)
+    out[where] = encode_unit(_decoded_normals(tiles[where], encoding), tiles.dtype, encoding)
     return out
 
 
 def renormalise_image(a: np.ndarray, encoding: str) -> np.ndarray:
-    """A normal image ``(..., 3)`` (any leading shape) with every vector longer than 0.5 set to unit length,
-    re-encoded in its own sample type (for filtered normals: mip levels, resampled atlases). Shorter vectors
-    (empty atlas cells, averaged-out normals) are left as they are."""
+    """A normal image ``(..., 3)`` (any leading shape) with every vector set to unit length and re-encoded in
+    its own sample type (:func:`tilesynth.normal_codes.encode_unit`; for smoothed and filtered normals: map
+    atlases, mip levels, resampled atlases). Vectors shorter than 1e-3 (empty float cells) have no direction and
+    are left as they are."""
     flat = np.ascontiguousarray(a).reshape(-1, 1, a.shape[-1])
     length = normal_lengths(flat[:, 0], encoding)
-    return _renormalise(flat, length > 0.5, encoding).reshape(a.shape)
+    return _renormalise(flat, length > 1e-3, encoding).reshape(a.shape)
 
 
 #: The kinds whose maps are Poisson-smoothed inside the cuts by default, even when the albedo is not.
@@ -523,11 +521,10 @@ def map_atlas(
 
     src = tileset.source
     atlas = np.ascontiguousarray(arr[src[..., 0], src[..., 1]])
-    if not smooths(tileset, spec, smooth):
-        return atlas
-    atlas = _smooth_map_atlas(tileset, arr, atlas, threads)
-    if spec.kind == "normal":
-        atlas = _renormalise(atlas, np.asarray(tileset.cut_masks, bool), spec.encoding or "unorm")
+    if smooths(tileset, spec, smooth):
+        atlas = _smooth_map_atlas(tileset, arr, atlas, threads)
+    if spec.kind == "normal":  # every vector, copies too: unit length after decoding (normal_codes)
+        atlas = renormalise_image(atlas, spec.encoding or "unorm")
     return atlas
 
 
@@ -636,6 +633,25 @@ def report_maps(
     return out
 
 
+def _with_normal_encoding(name: str, a: np.ndarray) -> str | None:
+    """The encoding of a ``synth --with`` map if its name says it is a normal map and it is one, else None."""
+    if infer_kind(name) != "normal" or a.ndim != 3 or a.shape[2] != 3:
+        return None
+    try:
+        return _check_normal(name, a)
+    except ParameterError:
+        return None  # not unit vectors: not ours to change
+
+
+def requantise_with_map(name: str, aligned: np.ndarray) -> np.ndarray:
+    """For ``synth --with``: a map whose name says it is a normal map (:func:`infer_kind`), with 3 channels and
+    unit vectors, with every vector re-encoded at unit length (:mod:`tilesynth.normal_codes`) before it is sent
+    through the cuts, so that its copied pixels are within 1 ± 0.005 too; any other map is returned as it is."""
+    a = np.asarray(aligned)
+    encoding = _with_normal_encoding(name, a)
+    return a if encoding is None else renormalise_image(a, encoding)
+
+
 def renormalise_with_map(
     tileset: Any, name: str, aligned: np.ndarray, out: np.ndarray, index_map: np.ndarray
 ) -> np.ndarray:
@@ -645,12 +661,9 @@ def renormalise_with_map(
     from . import kernels
 
     a = np.asarray(aligned)
-    if infer_kind(name) != "normal" or a.ndim != 3 or a.shape[2] != 3 or out.shape[2] != 3:
+    encoding = _with_normal_encoding(name, a)
+    if encoding is None or out.shape[2] != 3:
         return out
-    try:
-        encoding = _check_normal(name, a)
-    except ParameterError:
-        return out  # not unit vectors: not ours to change
     masks = np.ascontiguousarray(np.asarray(tileset.cut_masks, np.uint8)[..., None])
     inside = np.empty((*out.shape[:2], 1), np.uint8)
     kernels.tile_copy(masks, kernels._index_map(index_map), inside)
