@@ -35,6 +35,7 @@ import statistics
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -78,10 +79,103 @@ def _cpu(fn):  # noqa: ANN001, ANN202
     return out, time.process_time() - t0
 
 
-def _unit_share(t: ts.TileSet, size: int = 512, seed: int = 7, smooth: bool | None = None) -> float:
+def _score(t: ts.TileSet, x: np.ndarray) -> float:
+    return cut_seam_score(SimpleNamespace(tiles=x, cut_masks=t.cut_masks))["score"]
+
+
+def _specs(t: ts.TileSet) -> dict[str, materials.MapSpec]:
+    return {d["name"]: materials.MapSpec.from_dict(d) for d in t.map_specs}
+
+
+def _perez_atlas(t: ts.TileSet, spec: materials.MapSpec) -> np.ndarray:
+    """**Before** (main at 6153131): the map Poisson-smoothed inside the cut only, the colour's smoothing
+    (Pérez, Dirichlet boundary = the intermediate tile next to the cut), normals renormalised by rounding."""
+    from tilesynth.synthesis import _smooth_map_atlas
+
+    arr = t.maps[spec.name]
+    atlas = _smooth_map_atlas(t, arr, np.ascontiguousarray(arr[t.source[..., 0], t.source[..., 1]]), None)
+    if spec.kind == "normal":  # renormalised and rounded where smoothed (inside the cut), copies elsewhere
+        inside = np.asarray(t.cut_masks, bool)
+        v = materials._decoded_normals(atlas[inside], "unorm")
+        v /= np.linalg.norm(v, axis=-1, keepdims=True)
+        atlas = atlas.copy()
+        atlas[inside] = np.rint((v + 1) * 0.5 * 255).astype(np.uint8)
+    return atlas
+
+
+def _reference(t: ts.TileSet, spec: materials.MapSpec, fused: np.ndarray) -> float:
+    """The no-seam reference: the mean squared step the two patches themselves have at the cut's pixel pairs (each
+    side's patch continued one pixel across, averaged, as the fusion's guidance) over the same denominator as the
+    score. What a perfectly hidden seam would score where the cut runs (the cut prefers high-gradient places)."""
+    x = materials._float_atlas(t, spec, t.maps[spec.name])
+    h, w = x.shape[:2]
+    m = np.asarray(t.cut_masks, np.int8)
+    src = t.source.astype(np.int64)
+    num = den = 0.0
+    cut = pairs = 0
+    for ax, d in ((1, (1, 0)), (2, (0, 1))):
+        across = np.diff(m, axis=ax) != 0
+        k, i, j = np.nonzero(across)
+        p = src[k, i, j]
+        q = src[k, i + d[0], j + d[1]]
+        sp = x[np.minimum(p[:, 0] + d[0], h - 1), np.minimum(p[:, 1] + d[1], w - 1)] - x[p[:, 0], p[:, 1]]
+        sq = x[q[:, 0], q[:, 1]] - x[np.maximum(q[:, 0] - d[0], 0), np.maximum(q[:, 1] - d[1], 0)]
+        num += float((((sp + sq) * 0.5) ** 2).sum())
+        cut += int(across.sum())
+        f = materials._float_atlas(t, spec, fused)
+        den += float((np.diff(f, axis=ax) ** 2).sum())
+        pairs += int(np.diff(f, axis=ax)[..., 0].size)
+    return (num / cut) / (den / pairs)
+
+
+def _albedo_perez(t: ts.TileSet) -> float:
+    """The albedo's cut seam after the colour's Poisson smoothing (what ``--smooth`` gives) on this set."""
+    from tilesynth.stages.smoothing import smooth_tiles
+
+    n = t.tile_size
+    a = t.exemplar.astype(np.float32) / (np.float32(255) if t.exemplar.dtype == np.uint8 else np.float32(1))
+    matching = np.stack([a[r : r + n, c : c + n] for r, c in np.asarray(t.match_offsets)])
+    tiles, _ = smooth_tiles(np.asarray(t.tiles, np.float32), matching, t.cut_masks)
+    return _score(t, tiles)
+
+
+def _map_scores(t: ts.TileSet) -> dict[str, dict[str, float]]:
+    out = {}
+    for name, spec in _specs(t).items():
+        fused = materials.map_atlas(t, spec, t.maps[name])
+        out[name] = {
+            "copies": _score(
+                t, materials._float_atlas(t, spec, materials.map_atlas(t, spec, t.maps[name], False))
+            ),
+            "before": _score(t, materials._float_atlas(t, spec, _perez_atlas(t, spec))),
+            "after": _score(t, materials._float_atlas(t, spec, fused)),
+            "reference": _reference(t, spec, fused),
+        }
+    return out
+
+
+def _unit_share(a: np.ndarray) -> float:
+    return float((np.abs(materials.normal_lengths(a) - 1.0) <= 0.005).mean())
+
+
+def _normal_shares(t: ts.TileSet, size: int = 512, seed: int = 7) -> dict[str, float]:
+    """Share of output normals within 1 ± 0.005: before (copies keep the input's codes; smoothed pixels rounded)
+    and after (every vector re-encoded, ``normal_codes``)."""
+    from tilesynth import kernels
+
     _, imap = ts.synthesize(t, size, size, seed=seed)
-    nrm = materials.synthesize_maps(t, imap, size, size, smooth=smooth)["normal"]
-    return float((np.abs(materials.normal_lengths(nrm) - 1.0) <= 0.005).mean())
+    spec = _specs(t)["normal"]
+    out = {}
+    for label, atlas in (
+        ("copies_before", np.ascontiguousarray(t.maps["normal"][t.source[..., 0], t.source[..., 1]])),
+        ("smoothed_before", _perez_atlas(t, spec)),
+    ):
+        img = np.empty((size, size, 3), np.uint8)
+        kernels.tile_copy(atlas, imap, img)
+        out[label] = _unit_share(img)
+    out["copies_after"] = _unit_share(materials.synthesize_maps(t, imap, size, size, smooth=False)["normal"])
+    out["smoothed_after"] = _unit_share(materials.synthesize_maps(t, imap, size, size)["normal"])
+    return out
 
 
 def _with_maps(t: ts.TileSet, maps: dict[str, np.ndarray]) -> ts.TileSet:
@@ -104,107 +198,137 @@ def measure(name: str, albedo: np.ndarray, maps: dict, seed: int, repeat: int) -
         colour_t.append(c)
         joint_t.append(j)
     colour_m = _with_maps(colour, maps)
-    smooth_c = _with_maps(ts.build(albedo, tileset=SET, seed=seed, smooth=True), maps)
     return {
         "name": name,
         "shape": albedo.shape,
         "tile_size": joint.tile_size,
         "tiles": joint.n_tiles,
         "kept": joint.params["material"]["variance_kept"],
+        "weights": {d["name"]: d["weight"] for d in joint.map_specs},
         "albedo": (cut_seam_score(colour)["score"], cut_seam_score(joint)["score"]),
-        "colour_copies": materials.map_cut_seams(colour_m, smooth=False),
-        "joint_copies": materials.map_cut_seams(joint, smooth=False),
-        "colour_smoothed": materials.map_cut_seams(colour_m),
-        "joint_smoothed": materials.map_cut_seams(joint),
-        "unit_plain": _unit_share(joint, smooth=False),
-        "unit_smooth": _unit_share(joint),
-        "unit_smooth_with": _raw_unit_share(smooth_c, maps["normal"]),
+        "albedo_perez": (_albedo_perez(colour), _albedo_perez(joint)),
+        "colour": _map_scores(colour_m),
+        "joint": _map_scores(joint),
+        "normals": _normal_shares(joint),
         "cpu_colour": statistics.median(colour_t),
         "cpu_joint": statistics.median(joint_t),
     }
 
 
-def _raw_unit_share(t: ts.TileSet, normal: np.ndarray, size: int = 512, seed: int = 7) -> float:
-    """The unit share of a smoothed ``synth --with`` normal map (smoothed per channel, not renormalised)."""
-    _, imap = ts.synthesize(t, size, size, seed=seed)
-    out = ts.synthesize_map(t, normal, imap, size, size)
-    return float((np.abs(materials.normal_lengths(out) - 1.0) <= 0.005).mean())
-
-
 def table(rows: list[dict], repeat: int) -> str:
     f = "{:.2f}".format
+    maps = ("height", "normal", "roughness")
     lines = [
         "# Material builds: colour-only + `--with` maps against the joint build (`benches/materials.py`)",
         "",
         "**Derived materials, not real PBR sets**: height, normal and roughness are computed from each photo of",
         "`../shared/textures` plus independent random structure (see the bench's docstring); no permissively",
-        "licensed PBR set was reachable from this machine (PyPI `bd-materials`: no images; `materialxmaterials`:",
-        "rendered previews only). Look at `docs/figures/material-rock.png` (`--figure`): rows colour-only + copies,",
-        "joint + copies, joint as `synth` writes it (scalar/normal maps smoothed inside the cuts).",
+        "licensed PBR set was reachable from this machine (see the bench's docstring for what was tried). Look at",
+        "`docs/figures/material-rock.png` (`--figure`).",
         "",
-        f"Default build (`{SET}`, seed 1, centre crops). Cut seam score of each map (1 = the cuts are as invisible "
-        "as any pair of neighbouring pixels): colour-only build → joint build. *copies*: the maps copied through "
-        "the cuts (`synth --with` on a set built without `--smooth`, or `--map-smooth off`); *smoothed*: "
-        "Poisson-smoothed inside the cuts (the default for the scalar and normal maps of a material set). CPU time: "
-        f"medians of {repeat} interleaved runs, process CPU time of all threads (the machine was shared with "
-        "other jobs).",
+        f"Default build (`{SET}`, seed 1, 192² centre crops, default map weights "
+        f"{', '.join(f'{k} {v:g}' for k, v in rows[0]['weights'].items())}). Cut seam score (1 = the cuts are as "
+        "invisible as any pair of neighbouring pixels of the tiles). CPU time: medians of "
+        f"{repeat} interleaved runs, process CPU time of all threads (the machine was shared with other jobs).",
         "",
-        "| material | tiles | albedo | height copies | normal copies | roughness copies | height smoothed "
-        "| normal smoothed | roughness smoothed | variance kept | CPU colour s | CPU joint s | ratio |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "## The albedo and the build cost",
+        "",
+        "*copies*: the tiles as built (the default: no smoothing); *`--smooth`*: after the colour's Poisson "
+        "smoothing inside the cuts. Colour-only build → joint build. The albedo's *copies* figure is the one to set "
+        "beside the maps' *copies*, its *`--smooth`* figure beside their smoothed ones.",
+        "",
+        "| material | tiles | albedo copies | albedo `--smooth` | variance kept | CPU colour s | CPU joint s | ratio |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        cc, jc, cs, js = r["colour_copies"], r["joint_copies"], r["colour_smoothed"], r["joint_smoothed"]
-        cells = [f"{f(cc[k])} → {f(jc[k])}" for k in ("height", "normal", "roughness")]
-        cells += [f"{f(cs[k])} → {f(js[k])}" for k in ("height", "normal", "roughness")]
         lines.append(
             f"| {r['name']} {r['shape'][1]}x{r['shape'][0]} | {r['tiles']} x {r['tile_size']}² | "
-            f"{f(r['albedo'][0])} → {f(r['albedo'][1])} | " + " | ".join(cells) + f" | {r['kept']:.3f} | "
-            f"{r['cpu_colour']:.2f} | {r['cpu_joint']:.2f} | **{r['cpu_joint'] / r['cpu_colour']:.2f}** |"
+            f"{f(r['albedo'][0])} → {f(r['albedo'][1])} | {f(r['albedo_perez'][0])} → {f(r['albedo_perez'][1])} | "
+            f"{r['kept']:.3f} | {r['cpu_colour']:.2f} | {r['cpu_joint']:.2f} | "
+            f"**{r['cpu_joint'] / r['cpu_colour']:.2f}** |"
         )
     lines += [
         "",
-        "Normals within 1 ± 0.005 of unit length (512² output of the joint build): copies / smoothed and "
-        "renormalised (default) / for comparison, a colour-only `--smooth` set with the normal map sent through "
-        "`tilesynth.synthesize_map` (smoothed per channel, not renormalised; `synth --with` now renormalises a map "
-        "named like a normal map):",
+        "## The maps: before (Poisson inside the cut) and after (seam-free fusion over the tile interior)",
         "",
-        "| material | copies | smoothed, renormalised | `synthesize_map` on a `--smooth` set |",
-        "|---|---|---|---|",
+        "Same run, same tile sets. *copies*: copied through the cuts (`--map-smooth off`); *before*: smoothed as on "
+        "main at 6153131 (the colour's Pérez smoothing inside the cut, the intermediate tile next to it fixed); "
+        "*after*: the default now (`tilesynth.stages.fusion`: gradient-domain fusion of every seam over the tile "
+        "interior, border ring kept); *reference*: what a perfectly hidden seam scores where the cut runs (the two "
+        "patches' own steps at the cut's pixel pairs). Joint build; the colour-only build's *after* for comparison.",
+        "",
+        "| material | map | copies | before | **after** | reference | colour-only: copies | colour-only: after |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        lines.append(
-            f"| {r['name']} | {100 * r['unit_plain']:.2f} % | {100 * r['unit_smooth']:.2f} % | "
-            f"{100 * r['unit_smooth_with']:.2f} % |"
-        )
-    med = statistics.median(r["cpu_joint"] / r["cpu_colour"] for r in rows)
-    worst_h = max(r["joint_smoothed"]["height"] for r in rows)
-    worst_n = max(r["joint_smoothed"]["normal"] for r in rows)
+        for k in maps:
+            j, c = r["joint"][k], r["colour"][k]
+            lines.append(
+                f"| {r['name']} | {k} | {f(j['copies'])} | {f(j['before'])} | **{f(j['after'])}** | "
+                f"{f(j['reference'])} | {f(c['copies'])} | {f(c['after'])} |"
+            )
     lines += [
         "",
-        f"Targets: height and normal cut seams ≤ 1.3 in the joint build: **not met** (worst, smoothed: height "
-        f"{worst_h:.2f}, normal {worst_n:.2f}; copies are far above); 4-map build ≤ 1.5x the colour-only build "
-        f"(median ratio {med:.2f}); 99.9 % of normals within 1 ± 0.005 (8-bit normal maps: the copies keep the "
-        "input's own quantisation, up to about 0.007).",
+        "## Normals within 1 ± 0.005 of unit length (512² output of the joint build, 8-bit normal maps)",
+        "",
+        "*before*: copies keep the input's own 8-bit codes, smoothed pixels renormalised and rounded; *after*: every "
+        "vector re-encoded by `tilesynth.normal_codes.encode_unit` (decoding `v = code / 255 · 2 − 1`).",
+        "",
+        "| material | copies before | copies after | smoothed before | smoothed after |",
+        "|---|---|---|---|---|",
+    ]
+    for r in rows:
+        n = r["normals"]
+        lines.append(
+            f"| {r['name']} | {100 * n['copies_before']:.2f} % | {100 * n['copies_after']:.2f} % | "
+            f"{100 * n['smoothed_before']:.2f} % | {100 * n['smoothed_after']:.2f} % |"
+        )
+    med = statistics.median(r["cpu_joint"] / r["cpu_colour"] for r in rows)
+    worst = {k: max(r["joint"][k]["after"] for r in rows) for k in maps}
+    worst_before = {k: max(r["joint"][k]["before"] for r in rows) for k in maps}
+    unit = min(min(r["normals"]["copies_after"], r["normals"]["smoothed_after"]) for r in rows)
+    ok = all(v <= 1.3 for v in worst.values())
+    lines += [
+        "",
+        f"Targets: cut seams of every map ≤ 1.3 in the joint build: **{'met' if ok else 'not met'}** (worst after: "
+        + ", ".join(f"{k} {worst[k]:.2f}" for k in maps)
+        + "; before: "
+        + ", ".join(f"{k} {worst_before[k]:.2f}" for k in maps)
+        + f"); 4-map build ≤ 1.5x the colour-only build (median ratio {med:.2f}, worst "
+        f"{max(r['cpu_joint'] / r['cpu_colour'] for r in rows):.2f}); 99.9 % of normals within 1 ± 0.005 "
+        f"(lowest after: {100 * unit:.2f} %).",
         "",
     ]
     return "\n".join(lines)
 
 
-def figure(path: str, albedo: np.ndarray, maps: dict, seed: int, size: int = 320) -> None:
+def figure(path: str, albedo: np.ndarray, maps: dict, seed: int, size: int = 256) -> None:
     """Albedo, normal and height of ``size``² syntheses side by side, one row per build: colour-only with the
-    maps copied through its cuts (``synth --with``), the joint build with copies (``--map-smooth off``), and the
-    joint build as ``synth`` writes it (scalar and normal maps smoothed inside the cuts)."""
+    maps copied through its cuts (``synth --with``); colour-only with the maps fused (``synth`` on a set built with
+    weight-0 maps); the joint build with the maps smoothed as before (Pérez inside the cut, main at 6153131); the
+    joint build as ``synth`` writes it now (seam-free fusion)."""
+    from tilesynth import kernels
+
     colour = _with_maps(ts.build(albedo, tileset=SET, seed=seed), maps)
     joint = ts.build(albedo, tileset=SET, seed=seed, maps=maps)
     rows = []
-    for t, smooth in ((colour, False), (joint, False), (joint, None)):
+    for t, how in ((colour, "copies"), (colour, "after"), (joint, "before"), (joint, "after")):
         img, imap = ts.synthesize(t, size, size, seed=7, dtype=np.uint8)
-        m = materials.synthesize_maps(t, imap, size, size, smooth=smooth)
+        if how == "before":
+            m = {}
+            for name in ("normal", "height"):
+                atlas = _perez_atlas(t, _specs(t)[name])
+                m[name] = np.empty((size, size, atlas.shape[3]), atlas.dtype)
+                kernels.tile_copy(atlas, imap, m[name])
+        else:
+            m = materials.synthesize_maps(t, imap, size, size, smooth=how != "copies")
         h8 = np.repeat((m["height"] >> 8).astype(np.uint8), 3, axis=2)
         rows.append(np.concatenate([img[..., :3], m["normal"], h8], axis=1))
     gap = np.full((6, rows[0].shape[1], 3), 255, np.uint8)
-    ts.save_image(path, np.concatenate([rows[0], gap, rows[1], gap, rows[2]], axis=0))
+    out = [rows[0]]
+    for r in rows[1:]:
+        out += [gap, r]
+    ts.save_image(path, np.concatenate(out, axis=0))
 
 
 def main(argv: list[str] | None = None) -> int:

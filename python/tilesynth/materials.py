@@ -27,9 +27,19 @@ maps={...})``, ``tilesynth build EX --map height=H.png``) chooses them on every 
 4. **Maps travel with the set.** Every map is stored in the tile set (``map_<name>.npy`` in its own sample type,
    with its kind and weight in ``manifest.json`` ``maps``), and :func:`synthesize_maps` lays each out through the
    same provenance and cuts as the colour (``synth``, ``export`` and ``report`` write all of them). Scalar and
-   normal maps are Poisson-smoothed inside the cut regions by default (:func:`smooths`: a smooth map shows the
-   level offset of two patches as a cliff that no cut avoids); ``smooth=False`` / ``--map-smooth off`` gives
-   pure copies.
+   normal maps are fused across every seam of the tile in the gradient domain by default (:func:`smooths`,
+   :mod:`tilesynth.stages.fusion`: a smooth map shows the level offset of two patches as a cliff that no cut
+   avoids; the fusion spreads it over the tile interior, the border ring kept); ``smooth=False`` /
+   ``--map-smooth off`` gives pure copies.
+
+**Default weights** (0.5 for scalar and normal maps, :data:`DEFAULT_WEIGHTS`). Measured on the bench's 4 derived
+materials with 2 seeds each (``benches/materials.py``): with the fusion, the maps' cut seams are 0.85-1.34 whatever
+the weight (0, 0.25, 0.5, 1), since the cut no longer has to hide a level offset; the albedo's cut seam (copies)
+grows with the maps' weight (weight 1: 5.0-10.5, 0.5: 4.4-9.6, colour-only 4.1-8.2), and at weight 1 the cut
+follows the normal map's edges so closely (the Kwatra weight divides by the feature gradients) that the normal's
+score rose to 1.48-1.57 on the brick material, though its seam itself is fused away (the *reference* column: the
+patches' own steps there). 0.5 keeps the maps in the joint matching and cut at about a third of the features'
+variance and costs the albedo less.
 
 **Map kinds** (:data:`KINDS`), inferred from the name (:func:`infer_kind`) unless given:
 
@@ -37,8 +47,8 @@ maps={...})``, ``tilesynth build EX --map height=H.png``) chooses them on every 
 kind       meaning                                                default weight  in synthesis
 =========  =====================================================  ==============  ====================================
 colour     sRGB colour (albedo, base colour, emissive)            1               copied; smoothed with the colour
-scalar     linear data (height, roughness, metallic, AO, ...)     1               smoothed inside the cuts
-normal     tangent-space normal, 3 channels, Y up or down         1               smoothed inside the cuts, renormalised
+scalar     linear data (height, roughness, metallic, AO, ...)     0.5             fused across the seams
+normal     tangent-space normal, 3 channels, Y up or down         0.5             fused, renormalised, unit codes
 label      mask, material ID, segmentation (any integer value)    0               exact copies, never smoothed
 =========  =====================================================  ==============  ====================================
 
@@ -49,10 +59,12 @@ categories, not distances); a positive ``map_weights`` entry makes them count nu
 
 **What is left in smooth maps.** The ω construction keeps the tile border ring of the intermediate tile, whose
 central cross (where two sample patches meet) reaches the border at the four side midpoints; a few pixels of that
-cross are outside every cut region and stay as they are (in every scheme with a kept border). In an albedo they
-are invisible; in a smooth height map they show as a small dot at each tile side midpoint (seen on the rock
-figure, ``docs/figures/material-rock.png``). Removing them would change border pixels that the neighbouring tile
-shares, so they are left.
+cross are outside every cut region (in every scheme with a kept border). The fusion of scalar and normal maps
+treats them as seams like the cut, so inside the tile they are fused too; what is left is the cross's one pixel
+pair on the border ring itself (the ring is shared with the neighbouring tile and kept bit for bit), about which
+the fused interior bends back within a few pixels. With the colour's Pérez smoothing (``synth --with`` on a
+``--smooth`` set, and the albedo) they stay as they are: invisible in an albedo, a small dot at each tile side
+midpoint in a smooth height map.
 
 **Normal maps.** ``normal_y`` records the Y convention of the input normals: ``"up"`` (OpenGL, green up, the
 default) or ``"down"`` (DirectX). Outputs can be converted (:func:`convert_normal_y`, ``synth --normal-y``): the
@@ -107,7 +119,7 @@ KIND_ALIASES: dict[str, str] = {
 }
 #: The weight of a map of each kind when ``map_weights`` does not name it (its share of the distance relative to
 #: the albedo's, which is 1).
-DEFAULT_WEIGHTS: dict[str, float] = {"colour": 1.0, "scalar": 1.0, "normal": 1.0, "label": 0.0}
+DEFAULT_WEIGHTS: dict[str, float] = {"colour": 1.0, "scalar": 0.5, "normal": 0.5, "label": 0.0}
 #: Channels of the feature image the scheme is built on (see the module docstring, step 2).
 FEATURE_CHANNELS = 4
 #: A normal map is refused when more than :data:`NORMAL_BAD_SHARE` of its vectors have a length outside
@@ -489,14 +501,15 @@ SMOOTH_KINDS: tuple[str, ...] = ("scalar", "normal")
 
 
 def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
-    """Whether map ``spec`` of ``tileset`` is Poisson-smoothed inside the cuts: never for labels; for
-    ``smooth=None`` (the default) when the colour tiles were smoothed, and for every scalar and normal map
-    (:data:`SMOOTH_KINDS`) of a set with matching patches. Why the maps without the albedo: the cuts of the joint
-    build make the maps agree along the cut as well as the matching allows, but a smooth map (a height field)
-    still shows the *level* offset between the two patches as a cliff along the curve (measured:
-    ``benches/materials.py``, cut seam 8-15 without smoothing, 1.5-2.5 with it), while the albedo, whose pixel
-    steps are large, hides the same offset; the gradient-domain fill removes the offset and keeps every border
-    pixel, so tilings stay seamless. ``smooth=False`` gives pure copies."""
+    """Whether map ``spec`` of ``tileset`` is smoothed (scalar and normal maps: fused across their seams,
+    :func:`fuse_map_atlas`; colour maps: the colour's Poisson smoothing): never for labels; for ``smooth=None``
+    (the default) when the colour tiles were smoothed, and for every scalar and normal map (:data:`SMOOTH_KINDS`)
+    of a set with matching patches. Why the maps without the albedo: the cuts of the joint build make the maps
+    agree along the cut as well as the matching allows, but a smooth map (a height field) still shows the *level*
+    offset between the two patches as a cliff along the curve (measured: ``benches/materials.py``, cut seam 4-15
+    as copies), while the albedo, whose pixel steps are large, hides the same offset; the gradient-domain fusion
+    removes the offset (cut seam 0.85-1.34) and keeps every border pixel, so tilings stay seamless.
+    ``smooth=False`` gives pure copies."""
     from .synthesis import is_smoothed
 
     if spec.kind == "label":
@@ -512,6 +525,26 @@ def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
     return bool(smooth)
 
 
+def fuse_map_atlas(tileset: Any, arr: np.ndarray, atlas: np.ndarray) -> np.ndarray:
+    """The tiles ``atlas`` of map ``arr`` fused across their seams in the gradient domain over the whole tile
+    interior (:mod:`tilesynth.stages.fusion`; the tile border ring kept bit for bit), in the map's own sample
+    type. The continued steps across a seam only read exemplar pixels the tile set uses somewhere (so never a
+    masked one)."""
+    from .stages.fusion import fuse_tiles
+    from .synthesis import check_smoothable
+
+    check_smoothable(arr)
+    src = tileset.source
+    used = np.zeros(arr.shape[:2], bool)
+    used[src[..., 0], src[..., 1]] = True
+    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(arr.dtype)
+    f = arr.astype(np.float64) / (scale or 1.0)
+    fused = fuse_tiles(f, atlas.astype(np.float64) / (scale or 1.0), src, used)
+    if scale:
+        return np.ascontiguousarray(np.rint(np.clip(fused, 0.0, 1.0) * scale).astype(arr.dtype))
+    return np.ascontiguousarray(fused, dtype=np.float32)
+
+
 def map_atlas(
     tileset: Any, spec: MapSpec, arr: np.ndarray, smooth: bool | None = None, threads: int | None = None
 ) -> np.ndarray:
@@ -522,7 +555,10 @@ def map_atlas(
     src = tileset.source
     atlas = np.ascontiguousarray(arr[src[..., 0], src[..., 1]])
     if smooths(tileset, spec, smooth):
-        atlas = _smooth_map_atlas(tileset, arr, atlas, threads)
+        if spec.kind in SMOOTH_KINDS:
+            atlas = fuse_map_atlas(tileset, arr, atlas)
+        else:  # colour maps follow the colour's own smoothing
+            atlas = _smooth_map_atlas(tileset, arr, atlas, threads)
     if spec.kind == "normal":  # every vector, copies too: unit length after decoding (normal_codes)
         atlas = renormalise_image(atlas, spec.encoding or "unorm")
     return atlas

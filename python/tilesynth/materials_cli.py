@@ -47,7 +47,8 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
         default=[],
         metavar="NAME=W",
         help="share of a --map (or 'albedo') in the matching distance and cut weights, relative to the albedo's "
-        "1 after each map is normalised by its standard deviation (default 1; labels 0); repeatable",
+        "1 after each map is normalised by its standard deviation (default 0.5 for scalar and normal maps, 1 for "
+        "colour maps, 0 for labels); repeatable",
     )
     parser.add_argument(
         "--normal-y",
