@@ -69,6 +69,12 @@ lookup = "auto"|"hash"|"index_map", seed = 0, index_seed = 0, normal_y = "+y"|"-
 export NAME.tiles -o NAME-export/`` with ``--with`` for every map of the job (``maps = false``: the colour only);
 the options mean what the options of :func:`tilesynth.engine.export` of the same name mean (defaults the same).
 
+Material builds and masks (issue 14, :mod:`tilesynth.batch_materials`): a ``maps`` entry given as a table
+``{ file = "...", kind = "normal", weight = 0.5 }`` is a map of the material (``tilesynth build --map``; ``kind``
+and ``weight`` optional), a string stays a map sent through the cuts afterwards (``--with``); the preset or job
+keys ``mask`` (a file, ``{stem}`` filled in), ``alpha`` (auto | mask | colour) and ``normal_y`` (up | down) are the
+``build`` options of the same names.
+
 Outputs of job ``NAME`` (relative to ``output_dir``): ``NAME.tiles``, ``NAME-sheet.png``, ``NAME-preview.png``
 (``NAME-preview2.png``, ... for more previews) and ``NAME-preview-<map>.png`` (``.npy`` for float maps),
 ``NAME-report/``, ``NAME-export/`` (the engine export: atlases, index, ``manifest.json``, shaders, the viewer),
@@ -151,6 +157,9 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, TextIO
 
+from .batch_materials import params as _material_params  # issue 14: material maps, mask, alpha
+from .batch_materials import parse_material_keys as _material_keys
+from .batch_materials import split_maps as _split_maps
 from .errors import ParameterError, TilesynthError
 
 __all__ = [
@@ -211,7 +220,8 @@ _BUILD_OPTIONS: dict[str, tuple[str, tuple | None, tuple[str, ...], Any]] = {
     "border_tries": ("int", None, ("wang", "swang", "omega"), None),
 }
 _OUTPUT_OPTIONS = ("sheet", "previews", "report", "map_kinds", "export")
-_PRESET_KEYS = (*_BUILD_OPTIONS, *_OUTPUT_OPTIONS)
+_MATERIAL_KEYS = ("mask", "alpha", "normal_y")  # issue 14: tilesynth.batch_materials
+_PRESET_KEYS = (*_BUILD_OPTIONS, *_OUTPUT_OPTIONS, *_MATERIAL_KEYS)
 _JOB_KEYS = ("exemplar", "name", "preset", "maps", "exclude", *_PRESET_KEYS)
 _TOP_KEYS = ("version", "output_dir", "log", "presets", "jobs")
 _PREVIEW_KEYS = ("size", "seed", "bits", "maps")
@@ -243,6 +253,11 @@ class Job:
     stamp: Path
     where: str  # "job 3 ('textures/*.png' -> gravel)" for messages
     export: dict[str, Any] | None = None  # the engine export options, None for no export
+    # issue 14 (tilesynth.batch_materials): material maps {name: {path, kind, weight}}, mask, alpha, normal_y
+    material: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
+    mask: Path | None = None
+    alpha: str | None = None
+    normal_y: str | None = None
 
     def params(self) -> dict[str, Any]:
         """The effective parameters that define the outputs (hashed into the key; no paths, no threads)."""
@@ -256,6 +271,7 @@ class Job:
             "report": self.report,
             "export": self.export,
             "outputs": {k: os.path.relpath(v, out_dir) for k, v in sorted(self.outputs.items())},
+            **_material_params(self.material, self.mask, self.alpha, self.normal_y),
         }
 
 
@@ -466,6 +482,10 @@ def _expand_job(
     )
     sheet, previews, report, export, kinds = _output_options(preset, own, options, where, where_p)
     maps_raw = _typed(body.get("maps", {}), dict, f"{where}: field 'maps'")
+    try:  # issue 14: table entries are material maps
+        maps_raw, material_raw = _split_maps(maps_raw, where)
+    except ParameterError as exc:
+        raise BatchError(str(exc)) from None
     exclude = _typed(body.get("exclude", []), list, f"{where}: field 'exclude'")
     for e in exclude:
         _typed(e, str, f"{where}: field 'exclude' entry")
@@ -483,12 +503,16 @@ def _expand_job(
         wj = f"{where} -> {name!r}" if is_glob else where
         _check_name(name, f"{wj}: field 'name'")
         maps = _job_maps(maps_raw, stem, base, kinds, wj)
+        try:
+            mat = _material_keys({**preset, **own}, material_raw, kinds, stem, base, wj)
+        except ParameterError as exc:
+            raise BatchError(str(exc)) from None
         if export is not None and export["maps"] and "albedo" in maps:
             raise BatchError(
                 f"{wj}: field 'maps' entry 'albedo': the engine export names the colour atlas 'albedo'; "
                 "rename the map (or set export.maps = false)"
             )
-        outputs = _outputs(out_dir, name, sheet, previews, report, maps, export)
+        outputs = _outputs(out_dir, name, sheet, previews, report, maps, export, mat["material"])
         jobs.append(
             Job(
                 k,
@@ -503,6 +527,7 @@ def _expand_job(
                 out_dir / (name + STAMP_SUFFIX),
                 wj,
                 export,
+                **mat,
             )
         )
     return jobs
@@ -715,6 +740,7 @@ def _outputs(
     report: dict[str, Any] | None,
     maps: dict[str, tuple[Path, str]],
     export: dict[str, Any] | None = None,
+    material: dict[str, dict[str, Any]] | None = None,
 ) -> dict[str, Path]:
     o = {"tiles": out_dir / f"{name}.tiles"}
     if sheet:
@@ -725,6 +751,9 @@ def _outputs(
         if pv["maps"]:
             for mname, (mp, _) in maps.items():
                 o[f"{role}-{mname}"] = out_dir / f"{name}-{role}-{mname}{_map_suffix(mp)}"
+            for mname, m in (material or {}).items():  # issue 14: the material set's stored maps
+                suffix = ".exr" if m["path"].suffix.lower() == ".exr" else _map_suffix(m["path"])
+                o[f"{role}-{mname}"] = out_dir / f"{name}-{role}-{mname}{suffix}"
     if report is not None:
         o["report"] = out_dir / f"{name}-report"
     if export is not None:
@@ -787,6 +816,9 @@ def job_key(job: Job) -> tuple[str, dict[str, Any]]:
 
     inputs = {"exemplar": _file_sha256(job.exemplar)}
     inputs.update({f"map:{k}": _file_sha256(p) for k, (p, _) in sorted(job.maps.items())})
+    inputs.update({f"material:{k}": _file_sha256(m["path"]) for k, m in sorted(job.material.items())})
+    if job.mask is not None:
+        inputs["mask"] = _file_sha256(job.mask)
     params_sha = hashlib.sha256(json.dumps(job.params(), sort_keys=True).encode()).hexdigest()
     parts = {"inputs": inputs, "params_sha256": params_sha, "tilesynth_version": __version__}
     key = hashlib.sha256(json.dumps(parts, sort_keys=True).encode()).hexdigest()
@@ -992,7 +1024,9 @@ def _build_tileset(spec: dict[str, Any], image: Any, bits: Any, threads: int | N
         extra = dict(gradients=o["gradients"], supplementary=o["supplementary"])
     if scheme in ("wang", "swang", "omega") and o["border_tries"] is not None:
         extra["border_tries"] = o["border_tries"]
-    return build(image, scheme=scheme, **common, **extra)
+    from .batch_materials import build_keywords  # issue 14: material maps, mask, alpha
+
+    return build(image, scheme=scheme, **common, **extra, **build_keywords(spec))
 
 
 def _write_previews(
@@ -1022,6 +1056,9 @@ def _write_previews(
         save_image(staged[role], img)
         del img
         if pv["maps"]:
+            from .batch_materials import write_previews as material_previews  # issue 14
+
+            material_previews(ts, staged, role, imap, (w, h), threads)
             for mname, (arr, kind) in maps.items():
                 smooth = smoothed if kind == "auto" else kind == "smooth"
                 if smooth:
@@ -1490,6 +1527,10 @@ def _spec(job: Job, key: str, parts: dict[str, Any], run_id: str) -> dict[str, A
         "previews": [dict(p) for p in job.previews],
         "report": job.report,
         "export": job.export,
+        "material": {k: {**m, "path": str(m["path"])} for k, m in job.material.items()},
+        "mask": None if job.mask is None else str(job.mask),
+        "alpha": job.alpha,
+        "normal_y": job.normal_y,
         "outputs": {k: str(v) for k, v in job.outputs.items()},
         "stamp": str(job.stamp),
         "key": key,

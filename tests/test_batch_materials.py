@@ -1,0 +1,152 @@
+"""Batch keys of material builds (issue 14, :mod:`tilesynth.batch_materials`): ``maps`` table entries with kind and
+weight, ``mask``, ``alpha``, ``normal_y``; a batch material build equals ``tilesynth build`` with the same options; every bad value is refused
+before any work, naming the job and the field."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_materials import _material
+
+import tilesynth as ts
+from tilesynth import batch
+from tilesynth.batch import BatchError, build_many, load_library
+from tilesynth.cli import main as cli_main
+
+LIB = """
+output_dir = "out"
+
+[presets.mat]
+tile_size = 16
+set = "4"
+sheet = false
+previews = [{{ size = "48x40", seed = 3 }}]
+{preset_extra}
+
+[[jobs]]
+exemplar = "rock.png"
+preset = "mat"
+seed = 2
+{job_extra}
+maps.normal = {{ file = "rock-normal.png", kind = "normal", weight = 0.75 }}
+maps.height = {{ file = "rock-height.png" }}
+maps.ao = "rock-height.png"
+"""
+
+
+@pytest.fixture
+def mat_dir(tmp_path: Path) -> Path:
+    albedo, height, normal = _material()
+    ts.save_image(tmp_path / "rock.png", albedo)
+    ts.save_image(tmp_path / "rock-height.png", height)
+    ts.save_image(tmp_path / "rock-normal.png", normal)
+    mask = np.zeros((64, 64), np.uint8)
+    mask[5:12, 40:50] = 255
+    ts.save_image(tmp_path / "rock-mask.png", mask)
+    return tmp_path
+
+
+def _write(d: Path, job_extra: str = "", preset_extra: str = "") -> Path:
+    f = d / "lib.toml"
+    f.write_text(LIB.format(job_extra=job_extra, preset_extra=preset_extra), encoding="utf-8")
+    return f
+
+
+def test_material_job_equals_the_cli_build_and_writes_every_map(mat_dir: Path) -> None:
+    f = _write(
+        mat_dir, job_extra='mask = "rock-mask.png"\nnormal_y = "down"', preset_extra='alpha = "colour"'
+    )
+    lib = load_library(f)
+    (job,) = lib.jobs
+    assert set(job.material) == {"normal", "height"} and set(job.maps) == {"ao"}
+    assert job.material["normal"]["weight"] == 0.75 and job.material["height"]["kind"] == "scalar"
+    assert job.material["height"]["weight"] == ts.materials.DEFAULT_WEIGHTS["scalar"]
+    assert (
+        job.mask == (mat_dir / "rock-mask.png").resolve() and job.alpha == "colour" and job.normal_y == "down"
+    )
+    assert {"preview-normal", "preview-height", "preview-ao"} <= set(job.outputs)
+    res = build_many(f, "serial", quiet=True)
+    assert res.n_failed == 0, res.records
+    got = ts.load(mat_dir / "out" / "rock.tiles")
+    d = str(mat_dir) + "/"
+    argv = ["build", d + "rock.png", "-o", d + "cli.tiles", "--set", "4", "--tile-size", "16", "--seed", "2",
+            "--map", "normal:normal=" + d + "rock-normal.png", "--map", "height=" + d + "rock-height.png",
+            "--map-weight", "normal=0.75", "--normal-y", "down", "--mask", d + "rock-mask.png", "--alpha", "colour",
+            "-q"]  # fmt: skip
+    assert cli_main(argv) == 0
+    ref = ts.load(mat_dir / "cli.tiles")  # the same build as `tilesynth build` with the same options
+    assert got.content_digest() == ref.content_digest()
+    assert got.map_specs == ref.map_specs and got.params["mask"] == ref.params["mask"]
+    imap = ts.synthesize(got, 48, 40, seed=3)[1]
+    maps = ts.synthesize_maps(got, imap, 48, 40)
+    for name in ("normal", "height"):
+        out = ts.load_raster(mat_dir / "out" / f"rock-preview-{name}.png")
+        assert np.array_equal(out, maps[name]), name
+    assert (mat_dir / "out" / "rock-preview-ao.png").is_file()
+    # the mask's content is part of the key: a changed mask rebuilds the job, an unchanged one skips it
+    assert build_many(f, "serial", quiet=True).records[0]["status"] == "skipped"
+    m = ts.load_raster(mat_dir / "rock-mask.png")
+    m[30:33, 30:33] = 255
+    ts.save_image(mat_dir / "rock-mask.png", m)
+    assert build_many(f, "serial", quiet=True).records[0]["status"] == "built"
+
+
+def test_jobs_without_the_new_keys_keep_their_parameters(mat_dir: Path) -> None:
+    f = mat_dir / "plain.toml"
+    f.write_text('[[jobs]]\nexemplar = "rock.png"\nmaps = { ao = "rock-height.png" }\n', encoding="utf-8")
+    (job,) = load_library(f).jobs
+    params = job.params()
+    assert not {"material_maps", "mask", "alpha", "normal_y"} & set(params)  # old stamps' keys unchanged
+
+
+@pytest.mark.parametrize(
+    "job_extra, words",
+    [
+        ('maps.x = { file = "rock-height.png", kind = "bump" }', ["'x'", "unknown map kind", "bump"]),
+        ('maps.x = { file = "rock-height.png", weight = -1 }', ["'x'", "weight", "-1"]),
+        ('maps.x = { file = "rock-height.png", weight = "2" }', ["'x'", "weight"]),
+        ('maps.x = { file = "rock-height.png", wieght = 2 }', ["'x'", "unknown key", "wieght"]),
+        ('maps.x = { kind = "scalar" }', ["'x'", "'file'"]),
+        ('maps.x = { file = "nope.png" }', ["'x'", "no such file", "nope.png"]),
+        ('maps.albedo = { file = "rock-height.png" }', ["'albedo'"]),
+        ('maps.Height = { file = "rock-height.png" }', ["duplicate", "Height"]),
+        ('normal_y = "sideways"', ["normal_y", "sideways"]),
+        ('alpha = "opaque"', ["alpha", "opaque"]),
+        ('mask = "missing-mask.png"', ["mask", "no such file"]),
+        ("mask = 3", ["mask", "file path"]),
+        ('map_kinds = { height = "copy" }', ["map_kinds", "height", "material map"]),
+    ],
+)
+def test_bad_material_keys_are_refused_before_any_work(
+    mat_dir: Path, job_extra: str, words: list[str]
+) -> None:
+    f = _write(mat_dir, job_extra=job_extra)
+    with pytest.raises(BatchError) as e:
+        load_library(f)
+    msg = str(e.value)
+    assert "job 1" in msg
+    for w in words:
+        assert w.lower() in msg.lower(), (w, msg)
+    assert not (mat_dir / "out").exists()
+
+
+def test_normal_y_needs_a_normal_material_map(mat_dir: Path) -> None:
+    f = mat_dir / "n.toml"
+    f.write_text(
+        '[[jobs]]\nexemplar = "rock.png"\nnormal_y = "down"\nmaps.height = { file = "rock-height.png" }\n',
+        encoding="utf-8",
+    )
+    with pytest.raises(BatchError, match="normal_y"):
+        load_library(f)
+
+
+def test_a_misaligned_material_map_fails_its_job_with_the_map_named(mat_dir: Path) -> None:
+    ts.save_image(mat_dir / "small.png", np.zeros((32, 64), np.uint8))
+    f = _write(mat_dir, job_extra='maps.rough = { file = "small.png", kind = "scalar" }')
+    res = build_many(f, "serial", quiet=True)
+    (rec,) = res.records
+    assert rec["status"] == "failed" and "rough" in rec["error"] and "pixel-aligned" in rec["error"], rec
+    assert not (mat_dir / "out" / "rock.tiles").exists()
+    assert batch.BatchResult  # the result type stays public
