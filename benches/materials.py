@@ -11,9 +11,15 @@ For each material and both builds (same seed, the default set ``c4`` of ``tilesy
 * the build cost: CPU time (``time.process_time``, all threads) of the 4-map build over the colour-only build of
   the same exemplar, runs interleaved, medians of ``--repeat``.
 
-**The materials are derived, not real PBR sets.** No permissively licensed PBR set (albedo + normal + height)
-was found in what this machine can reach (PyPI wheels ``bd-materials`` and ``materialxmaterials`` were inspected:
-the first has none, the second only rendered previews). So each material is made from a photo of
+**Real PBR materials** (``--pbr DIR``): the PyPI wheel of ``pypbr`` 0.1.0b5 (MIT licence, © 2024 Giuseppe
+Vecchio, ``LICENSE`` in the wheel) ships two 1024² materials as test data, ``tests/data/rocks`` and
+``tests/data/tiles`` (basecolor, normal 8-bit, height 16-bit, roughness, ...); the wheel names no other source or
+licence for the images, so they are taken as covered by the package's MIT licence. They are not copied into this
+repository; get them with ``pip download --no-deps pypbr==0.1.0b5`` and unzip ``tests/data`` from the wheel, then
+``python benches/materials.py --pbr DATA/rocks --pbr DATA/tiles``. (Also inspected, without usable images:
+``bd-materials``, ``materialxmaterials``, ``materialx``, ``panda3d-assetcoop``.)
+
+**The other materials are derived, not real PBR sets.** Each is made from a photo of
 ``../shared/textures`` (BSD-3-Clause ones by default): the albedo is the photo; the **height** is 0.6 x its
 detrended, blurred luminance (σ 1.5 minus σ 24) plus 0.4 x an independent smooth random field (blurred noise, σ 6,
 own seed), so the height is *not* a function of the colour; the **normal** (OpenGL, Y up) comes from the height's
@@ -25,7 +31,8 @@ Usage::
 
     python benches/materials.py                          # writes benches/materials-results.md
     python benches/materials.py --textures rust --repeat 1 --out /tmp/m.md
-    python benches/materials.py --figure docs/figures/material-rock.png   # the rock figure (issue 14, item 5)
+    python benches/materials.py --pbr DATA/rocks --pbr DATA/tiles         # real materials first (see below)
+    python benches/materials.py --pbr DATA/rocks --figure docs/figures/material-rock.png   # the rock figure
 """
 
 from __future__ import annotations
@@ -71,6 +78,24 @@ def derive_material(albedo: np.ndarray, seed: int = 0) -> dict[str, np.ndarray]:
         "height": np.round(height * 65535).astype(np.uint16),
         "roughness": np.round(rough * 255).astype(np.uint8),
     }
+
+
+def _crop(a: np.ndarray, size: int) -> np.ndarray:
+    h, w = a.shape[:2]
+    c = min(size, h, w)
+    return np.ascontiguousarray(a[(h - c) // 2 : (h - c) // 2 + c, (w - c) // 2 : (w - c) // 2 + c])
+
+
+def load_pbr(directory: str, crop: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """A real PBR material (module docstring): the albedo and its normal (8-bit), height (16-bit) and roughness
+    maps, centre-cropped to ``crop``."""
+    d = Path(directory)
+    albedo = _crop(ts.load_raster(d / "basecolor.png"), crop)[..., :3]
+    maps = {k: _crop(ts.load_raster(d / f"{k}.png"), crop) for k in ("normal", "height", "roughness")}
+    # pypbr's rocks normal map is not unit length (36 % of its vectors outside 1 ± 0.1, which tilesynth refuses
+    # as "not a unit normal map"): renormalised first, as a user would after that message
+    maps["normal"] = materials.renormalise_image(maps["normal"], "unorm")
+    return albedo, maps
 
 
 def _cpu(fn):  # noqa: ANN001, ANN202
@@ -139,11 +164,39 @@ def _albedo_perez(t: ts.TileSet) -> float:
     return _score(t, tiles)
 
 
-def _map_scores(t: ts.TileSet) -> dict[str, dict[str, float]]:
+def _kink(t: ts.TileSet, spec: materials.MapSpec, atlas: np.ndarray, imap: np.ndarray, size: int) -> float:
+    """The tile-border kink of a map laid out by ``imap``: the mean absolute second difference (along x and y) at
+    the pixels on either side of every tile border over its mean elsewhere. A smooth map whose tiles were
+    corrected inside a fixed border ring bends there: a faint grid line in shading, which neither the border
+    seam score (steps) nor the cut seam sees."""
+    from tilesynth import kernels
+
+    img = np.empty((size, size, atlas.shape[3]), atlas.dtype)
+    kernels.tile_copy(np.ascontiguousarray(atlas), imap, img)
+    x = materials._float_atlas(t, spec, img[None])[0]
+    n = t.tile_size
+    idx = np.arange(1, size - 1)
+    near = (idx % n == 0) | (idx % n == n - 1)
+    num = den = 0.0
+    for ax in (0, 1):
+        d2 = np.abs(np.diff(x, n=2, axis=ax)).sum(axis=-1)
+        d2 = d2 if ax == 0 else d2.T
+        num += float(d2[near].mean())
+        den += float(d2[~near].mean())
+    return num / den
+
+
+def _map_scores(t: ts.TileSet, size: int = 384) -> dict[str, dict[str, float]]:
     out = {}
+    _, imap = ts.synthesize(t, size, size, seed=7)
     for name, spec in _specs(t).items():
         fused = materials.map_atlas(t, spec, t.maps[name])
+        copies = materials.map_atlas(t, spec, t.maps[name], False)
+        perez = _perez_atlas(t, spec)
         out[name] = {
+            "kink_copies": _kink(t, spec, copies, imap, size),
+            "kink_before": _kink(t, spec, perez, imap, size),
+            "kink_after": _kink(t, spec, fused, imap, size),
             "copies": _score(
                 t, materials._float_atlas(t, spec, materials.map_atlas(t, spec, t.maps[name], False))
             ),
@@ -221,12 +274,12 @@ def table(rows: list[dict], repeat: int) -> str:
     lines = [
         "# Material builds: colour-only + `--with` maps against the joint build (`benches/materials.py`)",
         "",
-        "**Derived materials, not real PBR sets**: height, normal and roughness are computed from each photo of",
-        "`../shared/textures` plus independent random structure (see the bench's docstring); no permissively",
-        "licensed PBR set was reachable from this machine (see the bench's docstring for what was tried). Look at",
-        "`docs/figures/material-rock.png` (`--figure`).",
+        "Rows `pbr:*` are **real PBR materials** (`--pbr`: pypbr 0.1.0b5's test data `rocks` and `tiles`, MIT, see",
+        "the bench's docstring; their normal maps renormalised on loading, so their *copies before* column is at",
+        "100 %). The other rows are **derived materials, not real PBR sets**: height, normal and roughness computed",
+        "from each photo of `../shared/textures` plus independent random structure (see the bench's docstring).",
         "",
-        f"Default build (`{SET}`, seed 1, 192² centre crops, default map weights "
+        f"Default build (`{SET}`, seed 1, centre crops: 256² of the PBR materials, 192² of the photos, default map weights "
         f"{', '.join(f'{k} {v:g}' for k, v in rows[0]['weights'].items())}). Cut seam score (1 = the cuts are as "
         "invisible as any pair of neighbouring pixels of the tiles). CPU time: medians of "
         f"{repeat} interleaved runs, process CPU time of all threads (the machine was shared with other jobs).",
@@ -255,17 +308,22 @@ def table(rows: list[dict], repeat: int) -> str:
         "main at 6153131 (the colour's Pérez smoothing inside the cut, the intermediate tile next to it fixed); "
         "*after*: the default now (`tilesynth.stages.fusion`: gradient-domain fusion of every seam over the tile "
         "interior, border ring kept); *reference*: what a perfectly hidden seam scores where the cut runs (the two "
-        "patches' own steps at the cut's pixel pairs). Joint build; the colour-only build's *after* for comparison.",
+        "patches' own steps at the cut's pixel pairs). Joint build; the colour-only build's *after* for comparison. "
+        "*Border kink*: the mean absolute second difference at the pixels beside every tile border over its mean "
+        "elsewhere, on a 384² synthesis (1: the borders bend no more than the texture; the price of correcting "
+        "each tile inside a fixed border ring).",
         "",
-        "| material | map | copies | before | **after** | reference | colour-only: copies | colour-only: after |",
-        "|---|---|---|---|---|---|---|---|",
+        "| material | map | copies | before | **after** | reference | colour-only: copies | colour-only: after "
+        "| border kink: copies / before / after |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         for k in maps:
             j, c = r["joint"][k], r["colour"][k]
             lines.append(
                 f"| {r['name']} | {k} | {f(j['copies'])} | {f(j['before'])} | **{f(j['after'])}** | "
-                f"{f(j['reference'])} | {f(c['copies'])} | {f(c['after'])} |"
+                f"{f(j['reference'])} | {f(c['copies'])} | {f(c['after'])} | {f(j['kink_copies'])} / "
+                f"{f(j['kink_before'])} / {f(j['kink_after'])} |"
             )
     lines += [
         "",
@@ -302,7 +360,7 @@ def table(rows: list[dict], repeat: int) -> str:
     return "\n".join(lines)
 
 
-def figure(path: str, albedo: np.ndarray, maps: dict, seed: int, size: int = 256) -> None:
+def figure(path: str, albedo: np.ndarray, maps: dict, seed: int, size: int = 200) -> None:
     """Albedo, normal and height of ``size``² syntheses side by side, one row per build: colour-only with the
     maps copied through its cuts (``synth --with``); colour-only with the maps fused (``synth`` on a set built with
     weight-0 maps); the joint build with the maps smoothed as before (Pérez inside the cut, main at 6153131); the
@@ -341,15 +399,29 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--out", default=str(Path(__file__).with_name("materials-results.md")))
-    ap.add_argument("--figure", default=None, help="write the rock figure of the first texture here and stop")
+    ap.add_argument(
+        "--pbr",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="a real PBR material: a directory with basecolor.png, normal.png, height.png, roughness.png (see "
+        "the module docstring: pypbr's rocks and tiles); measured first, and used for --figure; repeatable",
+    )
+    ap.add_argument(
+        "--pbr-crop", type=int, default=256, help="centre crop of each PBR material (default 256)"
+    )
+    ap.add_argument(
+        "--figure", default=None, help="write the rock figure of the first material here and stop"
+    )
     args = ap.parse_args(argv)
     rows = []
-    for name in args.textures.split(","):
-        ex, _ = ts.load_image(Path(args.dir) / f"{name}.png")
-        h, w = ex.shape[:2]
-        c = min(args.crop, h, w)
-        ex = np.ascontiguousarray(ex[(h - c) // 2 : (h - c) // 2 + c, (w - c) // 2 : (w - c) // 2 + c, :3])
-        maps = derive_material(ex, seed=args.seed)
+    inputs = [(f"pbr:{Path(d).name}", *load_pbr(d, args.pbr_crop)) for d in args.pbr]
+    inputs += [(name, None, None) for name in args.textures.split(",") if name]
+    for name, ex, maps in inputs:
+        if ex is None:
+            ex, _ = ts.load_image(Path(args.dir) / f"{name}.png")
+            ex = _crop(ex, args.crop)[..., :3]
+            maps = derive_material(ex, seed=args.seed)
         if args.figure:
             figure(args.figure, ex, maps, args.seed)
             print(f"wrote {args.figure}")
