@@ -496,7 +496,8 @@ def renormalise_image(a: np.ndarray, encoding: str) -> np.ndarray:
     return _renormalise(flat, length > 1e-3, encoding).reshape(a.shape)
 
 
-#: The kinds whose maps are Poisson-smoothed inside the cuts by default, even when the albedo is not.
+#: The kinds whose maps are smoothed (fused across the seams, :func:`fuse_map_atlas`) by default, even when the
+#: albedo is not.
 SMOOTH_KINDS: tuple[str, ...] = ("scalar", "normal")
 
 

@@ -189,7 +189,12 @@ def write_map_outputs(
                 np.save(fh, arr, allow_pickle=False)
         else:
             save_image(target, arr)
-        how = ", Poisson-smoothed inside the cuts" if smoothed[name] else ", pure copies"
+        fused = smoothed[name] and kinds[name] in ("scalar", "normal")
+        how = (
+            (", fused across the seams" if fused else ", Poisson-smoothed inside the cuts")
+            if smoothed[name]
+            else ", pure copies"
+        )
         prog.message(f"wrote {target}: map {name} ({kinds[name]}, {arr.dtype}) through the same cuts{how}")
     prog("material maps", 1, 1)
 
