@@ -33,6 +33,7 @@ Usage::
     python benches/materials.py --textures rust --repeat 1 --out /tmp/m.md
     python benches/materials.py --pbr DATA/rocks --pbr DATA/tiles         # real materials first (see below)
     python benches/materials.py --pbr DATA/rocks --figure docs/figures/material-rock.png   # the rock figure
+    python benches/materials.py --pbr DATA/tiles --shaded docs/figures/material-tiles-shaded.png
 """
 
 from __future__ import annotations
@@ -389,6 +390,31 @@ def figure(path: str, albedo: np.ndarray, maps: dict, seed: int, size: int = 200
     ts.save_image(path, np.concatenate(out, axis=0))
 
 
+def shaded(
+    path: str, albedo: np.ndarray, maps: dict, seed: int, size: int = 320, relief: float = 60.0
+) -> None:
+    """The joint build's height, ``size``² of a synthesis, lit from the upper left with the relief exaggerated
+    (``relief``): copies, before (Pérez inside the cut) and after (fusion), side by side."""
+    from PIL import Image
+
+    from tilesynth import kernels
+
+    t = ts.build(albedo, tileset=SET, seed=seed, maps=maps)
+    _, imap = ts.synthesize(t, size, size, seed=7)
+    spec = _specs(t)["height"]
+    panels = []
+    for atlas in (materials.map_atlas(t, spec, t.maps["height"], False), _perez_atlas(t, spec),
+                  materials.map_atlas(t, spec, t.maps["height"])):  # fmt: skip
+        out = np.empty((size, size, 1), atlas.dtype)
+        kernels.tile_copy(np.ascontiguousarray(atlas), imap, out)
+        gy, gx = np.gradient(materials._float_atlas(t, spec, out[None])[0][..., 0] * relief)
+        n = np.dstack([-gx, -gy, np.ones_like(gx)])
+        n /= np.linalg.norm(n, axis=2, keepdims=True)
+        light = np.array([0.5, 0.5, 0.7]) / np.linalg.norm([0.5, 0.5, 0.7])
+        panels += [np.clip((n @ light) * 255, 0, 255).astype(np.uint8), np.full((size, 4), 255, np.uint8)]
+    Image.fromarray(np.concatenate(panels[:-1], axis=1)).save(path, optimize=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--textures", default=",".join(TEXTURES))
@@ -413,6 +439,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--figure", default=None, help="write the rock figure of the first material here and stop"
     )
+    ap.add_argument(
+        "--shaded", default=None, help="write the shaded height figure of the first material and stop"
+    )
     args = ap.parse_args(argv)
     rows = []
     inputs = [(f"pbr:{Path(d).name}", *load_pbr(d, args.pbr_crop)) for d in args.pbr]
@@ -422,6 +451,10 @@ def main(argv: list[str] | None = None) -> int:
             ex, _ = ts.load_image(Path(args.dir) / f"{name}.png")
             ex = _crop(ex, args.crop)[..., :3]
             maps = derive_material(ex, seed=args.seed)
+        if args.shaded:
+            shaded(args.shaded, ex, maps, args.seed)
+            print(f"wrote {args.shaded}")
+            return 0
         if args.figure:
             figure(args.figure, ex, maps, args.seed)
             print(f"wrote {args.figure}")
