@@ -230,6 +230,7 @@ def build_omega(d: st.DrawFn):
             + ["exemplar", "tileset", "tile_size", "seed", "threads", "gradients", "eps", "select", "genes"]
             + ["mask", "alpha"]
             + ["border_tries"]
+            + ["augment"]
         )
     )
     ex = d(exemplars()) if broken == "exemplar" else good_exemplar(d)
@@ -287,6 +288,10 @@ def build_omega(d: st.DrawFn):
     elif broken == "alpha":
         kw["alpha"] = d(st.sampled_from(["auto", "mask", "colour", "color", "", None, 1]))
     kw.update(border_tries_kwargs(d, broken == "border_tries"))
+    if broken == "augment":  # issue 12: flip / rotate augmentation, carelessly drawn
+        kw["augment"] = d(st.sampled_from(["mirror", "", None, 1, "All", ["flip"]]))
+    elif d(st.booleans()):
+        kw["augment"] = d(st.sampled_from(["none", "flip", "rotate", "all"]))
     return ts.build_omega, (ex,), kw, ()
 
 
