@@ -59,7 +59,7 @@ SCHEME = Scheme(
     title="ω-tiles",
     summary="ω-tiles (002; default)",
     layout="corner",
-    default_set="c4",  # issue 12: measured with benches/repetition.py (complete set, hashed lookup)
+    default_set="c5",  # issue 12: measured with benches/repetition.py (complete set, hashed lookup; c4 before)
     builder=build_omega,
     options=(
         GRADIENTS,
