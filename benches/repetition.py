@@ -24,7 +24,13 @@ border seam score and inner-lattice seam score (:func:`tilesynth.metrics.inner_s
 1-4 px inside the tile borders; tile sets: tile size N; others: n/a), build CPU seconds. One Markdown table, then means per
 method. ``--quick``: 4 textures, 512² outputs. The machine is shared: CPU times are indicative only.
 
-Usage: ``python benches/repetition.py [--quick] [--size 1024] [--textures a.png,b.png] [--out table.md]``
+Second round (after the border-aware draw, :data:`ROUND2`): ``<set> default`` = the library's defaults of
+complete sets (free cut, diversity 1, border-aware best-of-32 corner draw, default N), and levers on top of them
+(``c4x2``, ``c5``, ``augment`` flip / rotate / all, diversity 2); ``exemplar`` = the exemplar's own copies and
+autocorrelation peak (lags up to half the exemplar). ``--methods "c4 default;hex;exemplar"`` runs a selection
+(semicolon-separated names of :func:`method_table` and :data:`BASELINES`).
+
+Usage: ``python benches/repetition.py [--quick] [--size 1024] [--textures a,b] [--methods M1;M2] [--out table.md]``
 """
 
 from __future__ import annotations
@@ -74,6 +80,35 @@ LEVERS = [
     ("c4", "ring+div1", {"cut_region": "ring", "diversity": 1}),
     ("c4", "free+div1", {"cut_region": "free", "diversity": 1}),
 ]
+# the levers of the second round (issue 12 after the border-aware draw): every one on top of the library's
+# defaults of complete sets (free cut, diversity 1, border-aware best-of-32 draw, default N)
+ROUND2 = [
+    ("c4", "default", {}),
+    ("c4x2", "default", {}),
+    ("c5", "default", {}),
+    ("c4", "aug-flip", {"augment": "flip"}),
+    ("c4", "aug-rotate", {"augment": "rotate"}),
+    ("c4", "aug-all", {"augment": "all"}),
+    ("c4x2", "aug-all", {"augment": "all"}),
+    ("c4", "div2", {"diversity": 2}),
+]
+BASELINES = ["periodic", "hex", "quilt", "exemplar"]
+"""``exemplar``: the exemplar itself (its own detail-layer autocorrelation peak and copies: how far the target
+is achievable on a periodic texture; lags up to half the exemplar)."""
+
+
+def method_table(n: int) -> dict[str, tuple[str, int | None, dict]]:
+    """Every tile-set method of the bench by name: ``name -> (set, tile size or None, build kwargs)``."""
+    plain = {"cut_region": "circle", "diversity": 0}  # the plain ω construction (complete sets default to
+    # the levers since issue 12)
+    out: dict[str, tuple[str, int | None, dict]] = {"16a (default N)": ("16a", None, {})}
+    out.update({s: (s, n, plain) for s in SETS})
+    out.update({f"{s} {lab}": (s, n, kw) for s, lab, kw in LEVERS})
+    out.update({f"{s} {lab}": (s, None, kw) for s, lab, kw in ROUND2})
+    return out
+
+
+DEFAULT_METHODS = ["16a (default N)", *SETS, *(f"{s} {lab}" for s, lab, _ in LEVERS), *BASELINES[:3]]
 
 
 # ------------------------------------------------------------------------------------------ baselines
@@ -235,21 +270,18 @@ def measure(img: np.ndarray, ex: np.ndarray, src: np.ndarray | None, tile: int |
     return row
 
 
-def run(textures: list[str], size: int, seed: int, quilt_on: bool, out_png: Path | None) -> list[dict]:
+def run(textures: list[str], size: int, seed: int, methods: list[str], out_png: Path | None) -> list[dict]:
     rows = []
     for name in textures:
         ex = load_image(TEXTURES / f"{name}.png")[0]
         h, w = ex.shape[:2]
         n = default_complete_tile_size(ex.shape)
         print(f"{name}: {w}x{h}, N = {n}", file=sys.stderr, flush=True)
-        plain = {"cut_region": "circle", "diversity": 0}  # the plain ω construction (complete sets default to
-        # the levers since issue 12)
-        methods = (
-            [("16a (default N)", "16a", None, {})]
-            + [(s, s, n, plain) for s in SETS]
-            + [(f"{s} {lab}", s, n, kw) for s, lab, kw in LEVERS]
-        )
-        for label, set_name, tile, kw in methods:
+        table_n = method_table(n)
+        for label in methods:
+            if label in BASELINES:
+                continue
+            set_name, tile, kw = table_n[label]
             t = time.process_time()
             tset = ts.build_omega(ex, tileset=set_name, tile_size=tile, seed=seed, **kw)
             build = time.process_time() - t
@@ -269,21 +301,25 @@ def run(textures: list[str], size: int, seed: int, quilt_on: bool, out_png: Path
                 tag = label.replace(" ", "_").replace("(", "").replace(")", "")
                 ts.save_image(out_png / f"{name}-{tag}-{tset.tile_size}.png", img[:512, :512])
             print(f"  {r['method']}: {r}", file=sys.stderr, flush=True)
-        img, src = periodic(ex, size)
-        rows.append({**measure(img, ex, src, None), "texture": name, "method": "periodic", "build_s": 0.0})
-        t = time.process_time()
-        img, src = hex_tiling(ex, size, edge=n * 4 / 3, seed=seed)
-        rows.append(
-            {
-                **measure(img, ex, src, None),
-                "texture": name,
-                "method": "hex",
-                "build_s": time.process_time() - t,
-            }
-        )
-        if out_png is not None and name == textures[0]:
-            ts.save_image(out_png / f"{name}-hex.png", img[:512, :512])
-        if quilt_on:
+        if "periodic" in methods:
+            img, src = periodic(ex, size)
+            rows.append(
+                {**measure(img, ex, src, None), "texture": name, "method": "periodic", "build_s": 0.0}
+            )
+        if "hex" in methods:
+            t = time.process_time()
+            img, src = hex_tiling(ex, size, edge=n * 4 / 3, seed=seed)
+            rows.append(
+                {
+                    **measure(img, ex, src, None),
+                    "texture": name,
+                    "method": "hex",
+                    "build_s": time.process_time() - t,
+                }
+            )
+            if out_png is not None and name == textures[0]:
+                ts.save_image(out_png / f"{name}-hex.png", img[:512, :512])
+        if "quilt" in methods:
             t = time.process_time()
             img, src = quilt(ex, size, block=max(16, n // 2), seed=seed)
             rows.append(
@@ -296,6 +332,20 @@ def run(textures: list[str], size: int, seed: int, quilt_on: bool, out_png: Path
             )
             if out_png is not None and name == textures[0]:
                 ts.save_image(out_png / f"{name}-quilt.png", img[:512, :512])
+        if "exemplar" in methods:  # the exemplar's own repetition (no coverage, no seams)
+            rows.append(
+                {
+                    "copies": periodic_copies(ex).fraction,
+                    "autocorr": detail_repetition(ex).peak,
+                    "coverage": None,
+                    "hist": None,
+                    "seam": None,
+                    "inner": None,
+                    "texture": name,
+                    "method": "exemplar",
+                    "build_s": 0.0,
+                }
+            )
         print("  baselines done", file=sys.stderr, flush=True)
     return rows
 
@@ -349,6 +399,11 @@ def main() -> None:
     ap.add_argument("--textures", default=None, help="comma-separated texture names (without .png)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--no-quilt", action="store_true", help="skip the image-quilting baseline (slowest)")
+    ap.add_argument(
+        "--methods",
+        default=None,
+        help="semicolon-separated method names (default: the first round's; see method_table, BASELINES)",
+    )
     ap.add_argument("--png", default=None, help="directory for 512² crops of the first texture's outputs")
     ap.add_argument("--out", default=None, help="also write the table to this Markdown file")
     a = ap.parse_args()
@@ -358,7 +413,14 @@ def main() -> None:
     if png:
         png.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    rows = run(textures, size, a.seed, not a.no_quilt, png)
+    methods = a.methods.split(";") if a.methods else list(DEFAULT_METHODS)
+    if a.no_quilt and "quilt" in methods:
+        methods.remove("quilt")
+    known = set(method_table(8)) | set(BASELINES)
+    bad = [m for m in methods if m not in known]
+    if bad:
+        ap.error(f"unknown methods {bad}; known: {sorted(known)}")
+    rows = run(textures, size, a.seed, methods, png)
     text = (
         table(rows) + f"\n\n{len(textures)} textures, {size}² outputs, seed {a.seed}, "
         f"{time.perf_counter() - t0:.0f} s wall (shared 2-core machine: times indicative).\n"

@@ -230,6 +230,7 @@ def build_omega(d: st.DrawFn):
             + ["exemplar", "tileset", "tile_size", "seed", "threads", "gradients", "eps", "select", "genes"]
             + ["mask", "alpha"]
             + ["border_tries"]
+            + ["augment"]
         )
     )
     ex = d(exemplars()) if broken == "exemplar" else good_exemplar(d)
@@ -287,6 +288,10 @@ def build_omega(d: st.DrawFn):
     elif broken == "alpha":
         kw["alpha"] = d(st.sampled_from(["auto", "mask", "colour", "color", "", None, 1]))
     kw.update(border_tries_kwargs(d, broken == "border_tries"))
+    if broken == "augment":  # issue 12: flip / rotate augmentation, carelessly drawn
+        kw["augment"] = d(st.sampled_from(["mirror", "", None, 1, "All", ["flip"]]))
+    elif d(st.booleans()):
+        kw["augment"] = d(st.sampled_from(["none", "flip", "rotate", "all"]))
     return ts.build_omega, (ex,), kw, ()
 
 
@@ -553,7 +558,12 @@ def wang_tileset(d: st.DrawFn):
         ]
     name = d(st.sampled_from(["w", "", None, 3]))
     if d(st.booleans()):
-        return ts.WangTileSet, (name, h, v, tiles), {}, ()
+        extra = (
+            {"variants": d(st.sampled_from([(), (0,), (1, 0), (-1,), "0", None, (True,)]))}
+            if one_in(d, 4)
+            else {}
+        )
+        return ts.WangTileSet, (name, h, v, tiles), extra, ()
     desc: Any = {
         "kind": d(st.sampled_from(["wang", "wang", "wang", "corner", None])),
         "name": name,
@@ -561,6 +571,12 @@ def wang_tileset(d: st.DrawFn):
         "vertical": v,
         "tiles": tiles,
     }
+    if one_in(d, 4):  # issue 12: edge sets with variants, sometimes carelessly drawn
+        desc["variants"] = d(
+            st.sampled_from(
+                [list(range(len(tiles))) if isinstance(tiles, list) else [0], [0], [-1], "01", None, [True]]
+            )
+        )
     if one_in(d, 4):
         for key in d(st.lists(st.sampled_from(sorted(desc)), min_size=1, max_size=2)):
             desc.pop(key, None)
@@ -590,6 +606,10 @@ def get_wang_tileset(d: st.DrawFn):
                 "",
                 "wang" + "1" * 400,
                 "wang" + "9" * 5000,
+                "wc2x2",  # issue 12: complete edge sets with variants
+                "wc2-3x2",
+                "wc2x0",
+                "wc2x99999",
             ]
         )
         | st.text(max_size=8)
@@ -661,7 +681,9 @@ def build_wang(d: st.DrawFn):
         kw["corners"] = d(st.sampled_from([None, "free", "pinned"]))
     if broken == "tileset":
         kw["tileset"] = d(
-            st.sampled_from(["wang9", "wang0", "", "8", "16a", 8, None, ["wang8"], "wang" + "1" * 400])
+            st.sampled_from(
+                ["wang9", "wang0", "", "8", "16a", 8, None, ["wang8"], "wang" + "1" * 400, "wc2x2"]
+            )
             | st.text(max_size=5)
             | st.just(ts.get_wang_tileset("wang8"))
         )
@@ -787,7 +809,9 @@ def build_swang(d: st.DrawFn):
         "gradients": d(st.sampled_from(["patch", "tile"])),
     }
     if broken == "tileset":
-        kw["tileset"] = d(st.sampled_from(["wang9", "", "16a", 8, None, ["wang8"]]) | st.text(max_size=5))
+        kw["tileset"] = d(
+            st.sampled_from(["wang9", "", "16a", 8, None, ["wang8"], "wc2x2"]) | st.text(max_size=5)
+        )
     elif broken == "tile_size":
         kw["tile_size"] = d(sizes(-2, 26))
     elif broken == "supplementary":

@@ -98,7 +98,7 @@ SCHEME_CASES = [
 @pytest.mark.parametrize(("scheme", "kw"), SCHEME_CASES)
 def test_bark_z_never_copied(bark_z, scheme, kw):
     bark, z = bark_z
-    size = 24 if kw.get("tileset", "c4" if scheme == "omega" else "") != "c4" else 16
+    size = 24 if kw.get("tileset", "c5" if scheme == "omega" else "") != "c5" else 16
     t = _quiet_build(bark, scheme=scheme, mask=z, seed=3, tile_size=size, **kw)
     assert _masked_hits(t, z) == 0
     assert t.params["mask"]["masked_pixels"] == int(z.sum())

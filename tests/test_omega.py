@@ -144,9 +144,13 @@ def test_genes_interface(small_exemplar):
     np.testing.assert_array_equal(ts.genes, genes)
     assert ts.params["selection"] == {"method": "given"}
     with pytest.raises(tilesynth.ParameterError, match=r"genes\[3\]"):
-        tilesynth.build_omega(small_exemplar, tile_size=32, genes=np.array([[0, 0], [1, 1], [2, 2], [65, 0]]))
+        tilesynth.build_omega(
+            small_exemplar, tileset="c4", tile_size=32, genes=np.array([[0, 0], [1, 1], [2, 2], [65, 0]])
+        )
     with pytest.raises(tilesynth.ParameterError, match="distinct"):
-        tilesynth.build_omega(small_exemplar, tile_size=32, genes=np.array([[0, 0], [1, 1], [1, 1], [3, 0]]))
+        tilesynth.build_omega(
+            small_exemplar, tileset="c4", tile_size=32, genes=np.array([[0, 0], [1, 1], [1, 1], [3, 0]])
+        )
     with pytest.raises(tilesynth.ParameterError, match="genes"):
         tilesynth.build_omega(small_exemplar, tile_size=32, genes=np.zeros((3, 2), int))
 

@@ -22,7 +22,7 @@ def test_registry_names_and_defaults():
     assert SCHEMES == ("omega", "wang", "swang", "patch")
     assert [s.name for s in REGISTRY] == list(SCHEMES)
     assert tilesynth.schemes.DEFAULT_SETS == {
-        "omega": "c4",  # issue 12: the CLI's measured default (build_omega's own default stays 16a)
+        "omega": "c5",  # issue 12: the CLI's measured default (c4 before the second lever round)
         "wang": "wang8",
         "swang": "wang8",
         "patch": "16a",

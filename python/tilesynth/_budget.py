@@ -63,6 +63,8 @@ def check_build_memory(exemplar: Any, default_set: str, layout: str, kwargs: dic
     except Exception:  # noqa: BLE001 - a bad name is the builder's to report, with its own message
         return
     n = min(256, min(h, w) // 2) if n is None else n
+    if n > min(h, w):  # a tile larger than the exemplar is the builder's error to report (it names the size)
+        return
     need, limit = build_bytes(h, w, c, n, k), memory_limit(kwargs.get("max_bytes"))
     if need > limit:
         raise ParameterError(

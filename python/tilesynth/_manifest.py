@@ -374,6 +374,8 @@ PARAMS = Obj(
         "cut_region": Str(("circle", "free", "ring")),
         "cut_bias": Num(0.0),
         "diversity": _POS,
+        "augment": Str(("none", "flip", "rotate", "all")),  # issue 12: tilesynth.augment
+        "match_transforms": List(Int(0, 7)),
         "border_tries": _POS,  # the Wang schemes (issue 14)
         "material": MATERIAL,  # issue 14
         # issue 14: the exemplar's mask and the input warnings of the build (tilesynth.masking, .diagnose)

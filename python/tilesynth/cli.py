@@ -91,8 +91,8 @@ SET_HELP = (
     "n2 (38 tiles) or nK for any K >= 1; append x2, x3 or x4 (e.g. 16bx2, n2x2) for 2-4 omega-tiles per "
     "intermediate tile, i.e. at least that many choices at every tiling step; complete sets c<K> and "
     "c<K>x<V> (every corner tuple over K colours, hashed lookup: non-periodic, random access, --wrap; "
-    "default c4, measured in benches/repetition.py); with --scheme wang or swang the edge-coloured wang8 "
-    "(default, 2+2 colours), wang18 (3+3 colours) or the complete wc<K>, wc<Kh>-<Kv>"
+    "default c5, measured in benches/repetition.py); with --scheme wang or swang the edge-coloured wang8 "
+    "(default, 2+2 colours), wang18 (3+3 colours) or the complete wc<K>, wc<Kh>-<Kv> (swang: wc<K>x<V>)"
 )
 
 
@@ -273,7 +273,7 @@ def _add_demo_parser(sub) -> None:  # noqa: ANN001
         default="tilesynth-demo",
         help="directory for the results (default ./tilesynth-demo)",
     )
-    d.add_argument("--set", default="c4", type=_set_name, metavar="SET", help=SET_HELP)
+    d.add_argument("--set", default="c5", type=_set_name, metavar="SET", help=SET_HELP)
     d.add_argument("--size", type=_size, default=(1024, 1024), help="texture size (default 1024x1024)")
     d.add_argument("--seed", type=_nonneg, default=1, help="seed (default 1)")
     d.add_argument("--threads", type=_pos, default=None, help="worker threads")

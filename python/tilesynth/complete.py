@@ -16,11 +16,17 @@ Names (accepted by :func:`tilesynth.get_tileset` and ``tilesynth build --set``):
     near-copies (:func:`tilesynth.omega.build_omega`). The lookup picks a variant per cell.
 ``wc<K>`` and ``wc<Kh>-<Kv>`` (``wc2``, ``wc3``, ``wc2-3``)
     Wang tiles (``--scheme wang`` / ``swang``): every ⟨N, E, S, W⟩ over Kh horizontal-edge and Kv
-    vertical-edge colours, Kh²·Kv² tiles (``wc<K>``: Kh = Kv = K). Edge sets have one tile per tuple (the
-    Wang set definition has no variants).
+    vertical-edge colours, Kh²·Kv² tiles (``wc<K>``: Kh = Kv = K).
+``wc<K>x<V>`` and ``wc<Kh>-<Kv>x<V>`` (``wc2x2``, ``wc2-3x3``)
+    the same with V variants per tuple (Kh²·Kv²·V tiles), strict Wang tiles only (``--scheme swang``): variant
+    v takes the (v+1)-th best supplementary patch of the tuple's initial tile, each more than N/4 pixels
+    (Chebyshev) from the others (with ``supplementary="cut"``: the (v+1)-th cheapest closed cut among the
+    candidates), so the variants differ in the middle of the tile and share its edges. Cohen's Wang tiles
+    (``--scheme wang``) are made from their four edge samples alone, so their variants would be copies: refused.
+    The lookup picks a variant per cell.
 
 Tiles are stored in the index order of ``HASH-SPEC.md`` (colour numbers in the order of the set's alphabet):
-corner ``index = (((TL·K + BL)·K + TR)·K + BR)·V + v``, edge ``index = (((N·Kv + E)·Kh + S)·Kv + W)``, so the
+corner ``index = (((TL·K + BL)·K + TR)·K + BR)·V + v``, edge ``index = (((N·Kv + E)·Kh + S)·Kv + W)·V + v``, so the
 lookup needs no table. :func:`lookup_scheme` recognises a complete set by its tiles (not by its name), so a
 loaded or custom-defined set in that order is hashed too.
 
@@ -59,7 +65,7 @@ COMPLETE_COLOURS: tuple[str, ...] = ("R", "G", "B", "Y", "C", "M")
 """The first corner colours of a complete set (then ``P6``, ``P7``, ...)."""
 
 CORNER_NAME = re.compile(r"c([1-9][0-9]*)(?:x([1-9][0-9]*))?")
-EDGE_NAME = re.compile(r"wc([1-9][0-9]*)(?:-([1-9][0-9]*))?")
+EDGE_NAME = re.compile(r"wc([1-9][0-9]*)(?:-([1-9][0-9]*))?(?:x([1-9][0-9]*))?")
 
 
 def corner_colours(k: int) -> tuple[str, ...]:

@@ -193,11 +193,30 @@ def diverse_matches(
     cracked mud, 16 on lettuce), but only repeats the shared vertex content the matching patch is meant to
     replace. N/4 is the distance at which variants count as different (:mod:`tilesynth.complete`). When every
     candidate of a tile is excluded the rule falls back to all of them."""
+    chosen, chosen_d, _ = diverse_matches_augmented(ex, inter, n_variants, max_uses, threads, exclude)
+    return chosen, chosen_d
+
+
+def diverse_matches_augmented(
+    ex: np.ndarray,
+    inter: np.ndarray,
+    n_variants: int,
+    max_uses: int,
+    threads: int | None = None,
+    exclude: np.ndarray | None = None,
+    transforms: tuple[int, ...] = (0,),
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`diverse_matches` over the candidates of every orientation in ``transforms`` (issue 12,
+    ``augment``, :mod:`tilesynth.augment`): also returns the chosen transform numbers ``(U, V)``. A region's
+    uses are counted per orientation, and self-matches are excluded only untransformed (see
+    :mod:`tilesynth.augment`). ``transforms=(0,)`` is :func:`diverse_matches` exactly."""
+    from .augment import candidates
+
     if not isinstance(max_uses, (int, np.integer)) or isinstance(max_uses, bool) or max_uses < 1:
         raise ParameterError(f"diversity = {max_uses!r}: must be a positive int (uses per exemplar region)")
     n = inter.shape[1]
     k = max(DIVERSE_CANDIDATES, n_variants)
-    offsets, ssd = kernels.best_matches(ex, inter, k=k, exclude_radius=n // 4, threads=threads)
+    offsets, ssd, tids = candidates(ex, inter, k, n // 4, tuple(transforms), threads)
     if offsets.shape[1] < n_variants:
         raise ParameterError(
             f"tile_size = {n}: the exemplar has too few distinct translations for {n_variants} matching patches"
@@ -205,19 +224,26 @@ def diverse_matches(
     u = inter.shape[0]
     chosen = np.zeros((u, n_variants, 2), np.int64)
     chosen_d = np.zeros((u, n_variants))
+    chosen_t = np.zeros((u, n_variants), np.int64)
     used = np.zeros((u * n_variants, 2), np.int64)  # the offsets assigned so far: used[:m]
+    used_t = np.zeros(u * n_variants, np.int64)  # and their orientations
     m = 0
     radius = n // 2
     for v in range(n_variants):
         for t in np.argsort(ssd[:, min(v, ssd.shape[1] - 1)], kind="stable"):
-            cand = offsets[t]  # (J, 2), nearest first
-            free = ~(cand[:, None, :] == chosen[t, None, :v, :]).all(axis=2).any(axis=1)  # not a variant yet
-            if exclude is not None:  # no self-match (docstring)
+            cand, ct = offsets[t], tids[t]  # (J, 2), (J,), nearest first
+            same = (cand[:, None, :] == chosen[t, None, :v, :]).all(axis=2) & (
+                ct[:, None] == chosen_t[t, None, :v]
+            )
+            free = ~same.any(axis=1)  # not a variant yet
+            if exclude is not None:  # no self-match (docstring), untransformed only
                 own = (np.abs(cand[:, None, :] - exclude[t][None, :, :]).max(axis=2) <= n // 4).any(axis=1)
+                own &= ct == 0
                 if (free & ~own).any():
                     free &= ~own
-            # uses of each candidate's region: assigned offsets within `radius` (Chebyshev), all at once
-            uses = (np.abs(cand[:, None, :] - used[None, :m, :]).max(axis=2) <= radius).sum(axis=1)
+            # uses of each candidate's region (in its orientation): assigned offsets within `radius` (Chebyshev)
+            near = np.abs(cand[:, None, :] - used[None, :m, :]).max(axis=2) <= radius
+            uses = (near & (ct[:, None] == used_t[None, :m])).sum(axis=1)
             ok = free & (uses < max_uses)
             # the first candidate under the bound, else the first of the least used
             best = (
@@ -228,6 +254,7 @@ def diverse_matches(
             assert free[best]
             chosen[t, v] = cand[best]
             chosen_d[t, v] = ssd[t, best]
-            used[m] = cand[best]
+            chosen_t[t, v] = ct[best]
+            used[m], used_t[m] = cand[best], ct[best]
             m += 1
-    return chosen, chosen_d
+    return chosen, chosen_d, chosen_t

@@ -348,7 +348,8 @@ def synthesize_hashed(
 def lookup_scheme(defn: Any) -> LookupScheme | None:
     """The hashed-lookup scheme of a tile-set definition if it is complete and in the spec's index order
     (whatever its name), else None (the scan-line tiler's sets)."""
-    if hasattr(defn, "colours") and hasattr(defn, "variants"):  # a corner set (duck-typed: no import)
+    if hasattr(defn, "colours") and hasattr(defn, "variants") and not hasattr(defn, "horizontal"):  # a corner
+        # set (duck-typed: no import; edge sets have variants too since issue 12)
         k = len(defn.colours)
         n = len(defn)
         if k < 1 or n % (k**4) != 0:
@@ -362,13 +363,16 @@ def lookup_scheme(defn: Any) -> LookupScheme | None:
         return scheme
     if hasattr(defn, "horizontal") and hasattr(defn, "vertical"):  # an edge set
         kh, kv = len(defn.horizontal), len(defn.vertical)
-        if len(defn) != kh * kh * kv * kv:
+        n = len(defn)
+        if n % (kh * kh * kv * kv) != 0:
             return None
+        v = n // (kh * kh * kv * kv)
+        variants = getattr(defn, "variants", None) or (0,) * n  # issue 12: edge sets with variants
         hi = {c: i for i, c in enumerate(defn.horizontal)}
         vi = {c: i for i, c in enumerate(defn.vertical)}
-        scheme = LookupScheme("edge", (kh, kv), 1)
-        for j, (n_, e, s, w) in enumerate(defn.tiles):
-            if scheme.index((hi[n_], vi[e], hi[s], vi[w])) != j:
+        scheme = LookupScheme("edge", (kh, kv), v)
+        for j, ((n_, e, s, w), var) in enumerate(zip(defn.tiles, variants)):
+            if var != j % v or scheme.index((hi[n_], vi[e], hi[s], vi[w]), var) != j:
                 return None
         return scheme
     return None

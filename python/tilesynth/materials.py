@@ -449,8 +449,9 @@ def build_with_maps(
         src = ts.source
         tiles = albedo[src[..., 0], src[..., 1]]
         if is_smoothed(ts):
-            n = ts.tile_size
-            matching = np.stack([albedo[r : r + n, c : c + n] for r, c in np.asarray(ts.match_offsets)])
+            from .augment import matching_patches  # issue 12: transformed matching patches (augment)
+
+            matching = matching_patches(albedo, ts)
             tiles, _ = smooth_tiles(tiles, matching, ts.cut_masks, threads=kwargs.get("threads"))
         ts.tiles = np.ascontiguousarray(tiles, dtype=np.float32)
         ts.exemplar = albedo

@@ -307,9 +307,10 @@ def _smooth_map_atlas(tileset: TileSet, a: np.ndarray, atlas: np.ndarray, thread
     """The map's tiles Poisson-smoothed inside the same regions as the colour tiles (see :func:`synthesize_map`)."""
     check_smoothable(a)
     scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(a.dtype)
-    n = tileset.tile_size
     f = a.astype(np.float32) / np.float32(scale) if scale else a
-    matching = np.stack([f[r : r + n, c : c + n] for r, c in np.asarray(tileset.match_offsets)])
+    from .augment import matching_patches  # issue 12: transformed matching patches (augment)
+
+    matching = matching_patches(f, tileset)
     composed = atlas.astype(np.float32) / np.float32(scale) if scale else atlas
     tiles, _ = smooth_tiles(composed, matching, tileset.cut_masks, threads=threads, clip=scale is not None)
     if scale:

@@ -428,6 +428,12 @@ def build_wang(
     o = wang_options(b, overlap=overlap, corners=corners, samples=samples, cut=cut, omega=omega, eps=eps)
     tries = check_border_tries(border_tries)
     defn, n = b.definition, b.tile_size
+    if defn.n_variants > 1:  # issue 12: a Cohen tile is its four edge samples: its variants would be copies
+        raise ParameterError(
+            f"tileset = {defn.name!r} has {defn.n_variants} variants per edge tuple: Cohen's Wang tiles are made "
+            "from their four edge samples alone, so variants would be identical; use --scheme swang (strict "
+            "Wang tiles, whose variants take different supplementary patches) or a set without variants"
+        )
     tile_patches = defn.sample_indices()
     genes_arr, sel = choose_genes(
         genes, n=defn.n_samples, size=o.sample_size, shape=b.exemplar.shape, rng=b.rng,
@@ -560,9 +566,10 @@ def swang_options(
 
 
 def _supplementary_candidates(
-    b: BuildOptions, o: SwangOptions, I_tiles: np.ndarray
+    b: BuildOptions, o: SwangOptions, I_tiles: np.ndarray, n_variants: int = 1
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Candidate supplementary patches ``(K, c, 2)`` of every initial tile and their SSD ``(K, c)``."""
+    """Candidate supplementary patches ``(K, c, 2)`` of every initial tile and their SSD ``(K, c)``; at least
+    ``n_variants`` of them, N/4 apart (issue 12: the variants of an edge tuple take different ones)."""
     ex, n = b.exemplar, b.tile_size
     if o.given is not None:
         ssd = np.array(
@@ -571,6 +578,11 @@ def _supplementary_candidates(
         )  # fmt: skip
         return o.given[:, None, :], ssd
     want = 1 if o.method == "ssd" else o.candidates
+    if o.method == "cut" and want < n_variants:
+        raise ParameterError(
+            f"candidates = {o.candidates}: fewer than the {n_variants} variants per edge tuple of the set"
+        )
+    want = max(want, n_variants)
     m = active(b.mask)  # issue 14: supplementary patches only from windows clear of the mask
     search, tpl, unscale = (ex, I_tiles, 1.0) if m is None else masked_search(m, ex, I_tiles, n, True)
     index = kernels.SsdIndex(search, b.threads, features=m is not None)
@@ -591,10 +603,16 @@ def _supplementary_candidates(
 
 
 def _closed_cuts(
-    b: BuildOptions, o: SwangOptions, I_tiles: np.ndarray, I_src: np.ndarray, offsets: np.ndarray
+    b: BuildOptions,
+    o: SwangOptions,
+    I_tiles: np.ndarray,
+    I_src: np.ndarray,
+    offsets: np.ndarray,
+    rank: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The closed cut of every tile against each candidate; per tile the cheapest (ties: the better SSD).
-    Returns ``(choice (K,), masks (K, N, N), costs (K,))``."""
+    """The closed cut of every tile against each candidate; per tile the cheapest (ties: the better SSD), or
+    with ``rank`` ``(K,)`` the ``rank[j]``-th cheapest (issue 12: variant v of an edge tuple takes its
+    (v+1)-th cheapest candidate). Returns ``(choice (K,), masks (K, N, N), costs (K,))``."""
     ex, n, k = b.exemplar, b.tile_size, I_tiles.shape[0]
     grad = patch_gradients(ex, I_src) if o.gradients == "patch" else None
     n_cand = offsets.shape[1]
@@ -610,7 +628,10 @@ def _closed_cuts(
         initial_grad=None if grad is None else np.ascontiguousarray(grad[reps]),
     )  # fmt: skip
     all_costs = all_costs.reshape(k, n_cand)
-    choice = np.argmin(all_costs, axis=1)  # ties: the better SSD
+    if rank is None:
+        choice = np.argmin(all_costs, axis=1)  # ties: the better SSD
+    else:
+        choice = np.argsort(all_costs, axis=1, kind="stable")[np.arange(k), rank]
     return choice, all_masks.reshape(k, n_cand, n, n)[np.arange(k), choice], all_costs[np.arange(k), choice]
 
 
@@ -688,11 +709,19 @@ def build_swang(
     I_tiles, I_src, I_lab = _initial_tiles(ex, genes_arr, tile_patches, n)
     b.report("initial tiles", 1, 1)
     b.report("supplementary patches", 0, 1)
-    offsets, ssd = _supplementary_candidates(b, o, I_tiles)
+    variants = np.asarray(defn.variants, np.int64)  # issue 12: wc<K>x<V>, variants of one edge tuple
+    nv = int(variants.max()) + 1
+    offsets, ssd = _supplementary_candidates(b, o, I_tiles, nv)
+    rank = None
+    if nv > 1 and o.method == "ssd":  # variant v: the (v+1)-th best SSD translation, N/4 from the others
+        rows = np.arange(k)
+        offsets, ssd = offsets[rows, variants][:, None], ssd[rows, variants][:, None]
+    elif nv > 1 and o.method == "cut":  # variant v: the (v+1)-th cheapest closed cut among the candidates
+        rank = variants
     t_match = time.perf_counter()
     b.report("supplementary patches", 1, 1)
     b.report("cuts", 0, 1)
-    choice, masks, costs = _closed_cuts(b, o, I_tiles, I_src, offsets)
+    choice, masks, costs = _closed_cuts(b, o, I_tiles, I_src, offsets, rank)
     t_cut = time.perf_counter()
     b.report("cuts", 1, 1)
     match = offsets[np.arange(k), choice].astype(np.int64)

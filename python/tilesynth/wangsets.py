@@ -42,12 +42,12 @@ from __future__ import annotations
 import functools
 import re
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from .complete import EDGE_NAME, check_complete_size
+from .complete import EDGE_NAME, MAX_COMPLETE_TILES, check_complete_size
 
 __all__ = [
     "HORIZONTAL_COLOURS",
@@ -93,18 +93,24 @@ class WangTileSet:
         alphabets are separate.
     tiles : sequence of 4-sequences of str
         One ⟨N, E, S, W⟩ tuple per tile (a 4-letter string is accepted when colours are single letters).
+    variants : sequence of int, optional
+        Variant number of every tile (default all 0): tiles may share an edge tuple when their variants differ
+        (issue 12: the complete edge sets ``wc<K>x<V>``, whose variants have different content and are chosen
+        per cell by the hashed lookup). Serialised only when some variant is not 0.
 
     Raises
     ------
     ValueError
         If an alphabet is empty or has repeated colours, a tile does not have four edges or uses a colour
-        outside its alphabet, the set is empty, or two tiles are equal.
+        outside its alphabet, the set is empty, two tiles are equal (same tuple and variant), or ``variants``
+        has the wrong length or a negative entry.
     """
 
     name: str
     horizontal: tuple[str, ...]
     vertical: tuple[str, ...]
     tiles: tuple[EdgeTuple, ...]
+    variants: tuple[int, ...] = field(default=())
 
     def __post_init__(self) -> None:
         h = _names(self.horizontal, "horizontal colours")
@@ -128,8 +134,20 @@ class WangTileSet:
             tiles.append((n, e, s, w))
         if not tiles:
             raise ValueError("a tile set needs at least one tile")
-        if len(set(tiles)) != len(tiles):
-            raise ValueError("tiles must be distinct")
+        raw = self.variants
+        if isinstance(raw, (str, bytes)) or not isinstance(raw, Iterable):
+            raise ValueError(f"variants must be a sequence of ints, got {raw!r}")
+        raw = tuple(raw)
+        if any(isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) for v in raw):
+            raise ValueError(f"variants must be ints, got {raw!r}")
+        variants = tuple(int(v) for v in raw) if raw else (0,) * len(tiles)
+        if len(variants) != len(tiles):
+            raise ValueError(f"variants has {len(variants)} entries but there are {len(tiles)} tiles")
+        if any(v < 0 for v in variants):
+            raise ValueError("variants must be non-negative")
+        if len(set(zip(tiles, variants))) != len(tiles):
+            raise ValueError("tiles must be distinct (tiles sharing an edge tuple need different variants)")
+        object.__setattr__(self, "variants", variants)
         object.__setattr__(self, "name", str(self.name))
         object.__setattr__(self, "horizontal", h)
         object.__setattr__(self, "vertical", v)
@@ -155,9 +173,15 @@ class WangTileSet:
         return self.tiles[index]
 
     def tile_label(self, index: int) -> str:
-        """Label such as ``"<N=R,E=Y,S=G,W=C>"``."""
+        """Label such as ``"<N=R,E=Y,S=G,W=C>"`` (``"<N=R,E=Y,S=G,W=C>'1"`` for variant 1)."""
         n, e, s, w = self.tiles[index]
-        return f"<N={n},E={e},S={s},W={w}>"
+        v = self.variants[index]
+        return f"<N={n},E={e},S={s},W={w}>" + (f"'{v}" if v else "")
+
+    @property
+    def n_variants(self) -> int:
+        """Largest variant number + 1 (1 for a set without variants)."""
+        return max(self.variants) + 1
 
     # --------------------------------------------------------------- side keys
     def left_key(self, index: int) -> str:
@@ -191,14 +215,18 @@ class WangTileSet:
     # ----------------------------------------------------------- serialisation
     def to_dict(self) -> dict[str, Any]:
         """JSON-able description: ``{"kind": "wang", "name", "horizontal", "vertical", "tiles": [[N, E, S, W],
-        ...]}``."""
-        return {
+        ...]}``, plus ``"variants": [int, ...]`` when some variant is not 0 (so sets without variants keep
+        their old description and digests)."""
+        out: dict[str, Any] = {
             "kind": "wang",
             "name": self.name,
             "horizontal": list(self.horizontal),
             "vertical": list(self.vertical),
             "tiles": [list(t) for t in self.tiles],
         }
+        if any(self.variants):
+            out["variants"] = list(self.variants)
+        return out
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> WangTileSet:
@@ -218,11 +246,15 @@ class WangTileSet:
             if isinstance(t, bytes) or not isinstance(t, Sequence):
                 raise ValueError(f"bad tile entry {t!r}: expected [N, E, S, W]")
             tiles.append(tuple(str(c) for c in t))
+        variants = data.get("variants", ()) or ()
+        if isinstance(variants, (str, bytes)) or not isinstance(variants, Sequence):
+            raise ValueError("'variants' must be a list of ints")
         return cls(
             name=str(data["name"]),
             horizontal=_names(data["horizontal"], "horizontal colours"),
             vertical=_names(data["vertical"], "vertical colours"),
             tiles=tuple(tiles),  # type: ignore[arg-type]
+            variants=tuple(variants),
         )
 
 
@@ -286,24 +318,29 @@ def _named_set(name: str) -> WangTileSet:
 
 # ------------------------------------------------------------------ complete sets (issue 12, tilesynth.complete)
 @functools.cache
-def complete_edge_set(kh: int, kv: int):
-    """The complete Wang set over ``kh`` horizontal and ``kv`` vertical edge colours, in the spec's order."""
-    name = f"wc{kh}" if kh == kv else f"wc{kh}-{kv}"
+def complete_edge_set(kh: int, kv: int, v: int = 1):
+    """The complete Wang set over ``kh`` horizontal and ``kv`` vertical edge colours with ``v`` variants per
+    tuple, in the spec's order: ``index = (((N·Kv + E)·Kh + S)·Kv + W)·V + variant``."""
+    name = (f"wc{kh}" if kh == kv else f"wc{kh}-{kv}") + (f"x{v}" if v > 1 else "")
     limit = len(HORIZONTAL_COLOURS)
     if not (2 <= kh <= limit and 2 <= kv <= limit):
         raise ValueError(f"tile set {name!r}: a complete edge set needs 2 .. {limit} colours per direction")
-    check_complete_size(name, kh * kh * kv * kv, "Kh^2 * Kv^2")
+    if v < 1:
+        raise ValueError(f"tile set {name!r}: at least 1 variant per tuple")
+    check_complete_size(name, kh * kh * kv * kv * v, "Kh^2 * Kv^2 * V")
     h, vv = HORIZONTAL_COLOURS[:kh], VERTICAL_COLOURS[:kv]
-    tiles = [
+    tuples = [
         (h[n], vv[e], h[s], vv[w]) for n in range(kh) for e in range(kv) for s in range(kh) for w in range(kv)
     ]
-    return WangTileSet(name=name, horizontal=h, vertical=vv, tiles=tuple(tiles))
+    tiles = [t for t in tuples for _ in range(v)]
+    variants = tuple(j for _ in tuples for j in range(v)) if v > 1 else ()
+    return WangTileSet(name=name, horizontal=h, vertical=vv, tiles=tuple(tiles), variants=variants)
 
 
 def is_complete_wang_name(name: Any) -> bool:
-    """True for ``wc<K>`` / ``wc<Kh>-<Kv>`` with a valid size."""
+    """True for ``wc<K>`` / ``wc<Kh>-<Kv>`` / ``wc<K>x<V>`` / ``wc<Kh>-<Kv>x<V>`` with a valid size."""
     m = EDGE_NAME.fullmatch(str(name))
-    if m is None or len(m.group(1)) > 2 or len(m.group(2) or "") > 2:
+    if m is None or len(m.group(1)) > 2 or len(m.group(2) or "") > 2 or len(m.group(3) or "") > 4:
         return False
     try:
         complete_wang_tileset(name)
@@ -319,6 +356,8 @@ def complete_wang_tileset(name: Any):
         return None
     if len(m.group(1)) > 2 or len(m.group(2) or "") > 2:
         raise ValueError(f"tile set {name!r}: at most 8 colours per direction")
+    if len(m.group(3) or "") > 4:
+        raise ValueError(f"tile set {name!r}: more than {MAX_COMPLETE_TILES} tiles (MAX_COMPLETE_TILES)")
     kh = int(m.group(1))
     kv = int(m.group(2)) if m.group(2) else kh
-    return complete_edge_set(kh, kv)
+    return complete_edge_set(kh, kv, int(m.group(3)) if m.group(3) else 1)

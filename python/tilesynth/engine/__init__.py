@@ -100,15 +100,15 @@ def hash_layout(definition: Any) -> dict[str, int] | None:
         if n % (kh * kh * kv * kv):
             return None
         v = n // (kh * kh * kv * kv)
-        if v != 1:  # Wang tiles are distinct tuples: no variants
-            return None
+        variants = getattr(definition, "variants", None) or (0,) * n  # issue 12: wc<K>x<V>
         for t in range(n):
-            rest, w = divmod(t, kv)
+            rest, var = divmod(t, v)
+            rest, w = divmod(rest, kv)
             rest, s = divmod(rest, kh)
             nn, e = divmod(rest, kv)
-            if tuple(definition.tiles[t]) != (hz[nn], vt[e], hz[s], vt[w]):
+            if tuple(definition.tiles[t]) != (hz[nn], vt[e], hz[s], vt[w]) or int(variants[t]) != var:
                 return None
-        return {"kind": "edge", "Kh": kh, "Kv": kv, "V": 1}
+        return {"kind": "edge", "Kh": kh, "Kv": kv, "V": v}
     return None
 
 

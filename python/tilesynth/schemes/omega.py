@@ -31,6 +31,11 @@ def _describe(ts: Any) -> list[str]:
         + ("" if p.get("keep_border", False) else ", literal border (002's cut may reach the tile border)")
     )
     sm = p.get("smooth")
+    aug = p.get("augment")
+    if aug not in (None, "none"):  # issue 12: how many tiles took a transformed matching patch
+        t = p.get("match_transforms") or []
+        moved = sum(1 for v in t if v != 0)
+        match += f", augment {aug} ({moved} of {len(t)} matching patches transformed)"
     return [
         match,
         *([smoothing_line(sm)] if isinstance(sm, dict) else []),
@@ -54,7 +59,7 @@ SCHEME = Scheme(
     title="ω-tiles",
     summary="ω-tiles (002; default)",
     layout="corner",
-    default_set="c4",  # issue 12: measured with benches/repetition.py (complete set, hashed lookup)
+    default_set="c5",  # issue 12: measured with benches/repetition.py (complete set, hashed lookup; c4 before)
     builder=build_omega,
     options=(
         GRADIENTS,
@@ -136,6 +141,14 @@ SCHEME = Scheme(
             metavar="M",
         ),
         CORNER_BORDER_TRIES,
+        Option(
+            "augment",
+            "--augment",
+            "matching patches may also be mirrored / rotated exemplar windows (for isotropic textures; issue 12, "
+            "tilesynth.augment): none (default), flip (4 mirrors), rotate (4 rotations), all (8); costs one "
+            "matching search per orientation; only with --match ssd --metric color and no mask",
+            choices=("none", "flip", "rotate", "all"),
+        ),
     ),
     describe=_describe,
 )

@@ -121,18 +121,25 @@ def cut_and_compose(
     smooth: bool,
     cut_region: str = "circle",
     cut_bias: float | None = None,
+    transforms: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any] | None, dict[str, float]]:
     """The ω cut of each intermediate tile against the patch at ``offsets`` (``(K, 2)``), then the composed (or
     Poisson-smoothed) tiles and their provenance; the corner schemes' shared cut stage (ω, patch).
 
     ``cut_region="free"`` (or ``"ring"``) cuts in the free region of :func:`tilesynth.levers.free_cuts` (area
-    reward ``cut_bias``, None: its default) instead of the inscribed circle.
+    reward ``cut_bias``, None: its default) instead of the inscribed circle. ``transforms`` ``(K,)``: the
+    matching patch of tile j is its window transformed by ``transforms[j]`` (:mod:`tilesynth.augment`).
 
     Returns ``(tiles, source, masks, costs, smooth_info, timing)``.
     """
     ex, n, k = b.exemplar, b.tile_size, I_tiles.shape[0]
     t0 = time.perf_counter()
     O_tiles = patches_at(ex, offsets, n)
+    o_src = offset_source(offsets, n)
+    if transforms is not None:  # issue 12: augmented matching patches
+        from ..augment import transform_tiles
+
+        O_tiles, o_src = transform_tiles(O_tiles, transforms), transform_tiles(o_src, transforms)
     b.report("cutting curves", 0, k)
     grad = patch_gradients(ex, I_src) if grad_from_patches else None
     if cut_region in ("free", "ring"):  # issue 12: the free cut regions
@@ -152,6 +159,6 @@ def cut_and_compose(
         b.report("poisson smoothing", k, k)
     else:
         tiles = np.where(masks[..., None], O_tiles, I_tiles).astype(np.float32)
-    source = np.where(masks[..., None], offset_source(offsets, n), I_src).astype(np.int32)
+    source = np.where(masks[..., None], o_src, I_src).astype(np.int32)
     timing = {"cutting_s": t1 - t0, **({"smoothing_s": time.perf_counter() - t1} if smooth else {})}
     return tiles, source, masks, costs, smooth_info, timing

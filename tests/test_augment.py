@@ -1,0 +1,188 @@
+"""Flip / rotate augmentation of the matching candidates (issue 12, item 6; tilesynth.augment)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from importlib import resources
+
+import numpy as np
+import pytest
+
+import tilesynth as ts
+from tilesynth import kernels
+from tilesynth.augment import (
+    AUGMENT_MODES,
+    best_augmented,
+    candidates,
+    check_augment,
+    inverse_transform,
+    matching_patches,
+    transform,
+    transform_tiles,
+    transformed_source,
+)
+from tilesynth.errors import ParameterError
+from tilesynth.io import load_image
+from tilesynth.levers import diverse_matches, diverse_matches_augmented
+
+
+@pytest.fixture(scope="module")
+def lettuce():
+    return load_image(resources.files("tilesynth") / "data" / "lettuce-leaves.png")[0][:160, :160]
+
+
+def test_transforms_are_the_eight_symmetries_of_the_square():
+    a = np.arange(5 * 5 * 2).reshape(5, 5, 2)
+    outs = [transform(a, t) for t in range(8)]
+    assert len({o.tobytes() for o in outs}) == 8  # all different on a generic array
+    np.testing.assert_array_equal(outs[0], a)
+    np.testing.assert_array_equal(outs[1], np.rot90(a))  # anticlockwise
+    np.testing.assert_array_equal(outs[4], a[:, ::-1])  # left-right mirror
+    np.testing.assert_array_equal(outs[6], a[::-1])  # up-down mirror
+    np.testing.assert_array_equal(outs[2], a[::-1, ::-1])
+    for t in range(8):
+        np.testing.assert_array_equal(transform(transform(a, t), inverse_transform(t)), a)
+    # every mode is a group: closed under composition
+    for mode, group in AUGMENT_MODES.items():
+        for s in group:
+            for t in group:
+                c = transform(transform(a, s), t)
+                assert any(np.array_equal(c, transform(a, u)) for u in group), (mode, s, t)
+
+
+def test_transform_tiles_and_source_agree_with_the_pixels():
+    rng = np.random.default_rng(0)
+    ex = rng.random((30, 30, 3)).astype(np.float32)
+    offsets = np.array([[0, 0], [3, 7], [10, 2]])
+    tr = np.array([1, 4, 7])
+    n = 12
+    src = transformed_source(offsets, tr, n)
+    patches = transform_tiles(np.stack([ex[r : r + n, c : c + n] for r, c in offsets]), tr)
+    np.testing.assert_array_equal(ex[src[..., 0], src[..., 1]], patches)
+    with pytest.raises(ParameterError, match="transforms has 2 entries"):
+        transform_tiles(patches, tr[:2])
+
+
+@pytest.mark.parametrize("bad", ["x", "", None, 1, "All", ["flip"]])
+def test_check_augment_refuses(bad):
+    with pytest.raises(ParameterError, match="augment"):
+        check_augment(bad)
+
+
+def test_candidates_without_augmentation_are_best_matches(lettuce):
+    inter = np.stack([lettuce[5:37, 9:41], lettuce[60:92, 70:102]])
+    off, ssd = kernels.best_matches(lettuce, inter, k=5, exclude_radius=8)
+    o2, s2, t2 = candidates(lettuce, inter, 5, 8, (0,))
+    np.testing.assert_array_equal(off, o2)
+    np.testing.assert_array_equal(ssd, s2)
+    assert (t2 == 0).all()
+
+
+def test_augmented_match_is_the_brute_force_best_over_orientations():
+    # oracle: every window in every orientation, SSD computed directly
+    rng = np.random.default_rng(3)
+    ex = rng.random((20, 20, 3)).astype(np.float32)
+    n = 8
+    inter = transform(ex[4:12, 9:17], 5)[None].copy()  # a rotated-mirrored window: found exactly with "all"
+    off, ssd, tid, best0 = best_augmented(ex, inter, 1, AUGMENT_MODES["all"])
+    brute = min(
+        (float(((transform(ex[r : r + n, c : c + n], t).astype(np.float64) - inter[0]) ** 2).sum()), t, r, c)
+        for t in range(8)
+        for r in range(20 - n + 1)
+        for c in range(20 - n + 1)
+    )
+    assert ssd[0, 0] == pytest.approx(brute[0], abs=1e-9) and brute[0] == pytest.approx(0.0, abs=1e-9)
+    assert (int(tid[0, 0]), *map(int, off[0, 0])) == (5, 4, 9)
+    plain = kernels.best_matches(ex, inter, k=1)[1][0, 0]
+    assert best0[0] == pytest.approx(plain)  # E keeps the untransformed best
+    assert plain > 0.1  # and the plain search does not find it
+
+
+def test_diverse_augmented_counts_uses_per_orientation(lettuce):
+    inter = np.stack([lettuce[r : r + 32, c : c + 32] for r, c in [(0, 0), (40, 40), (80, 10), (10, 90)]])
+    a, d = diverse_matches(lettuce, inter, 1, 1)
+    a2, d2, t2 = diverse_matches_augmented(lettuce, inter, 1, 1)
+    np.testing.assert_array_equal(a, a2)
+    np.testing.assert_array_equal(d, d2)
+    assert (t2 == 0).all()
+    off, dist, tid = diverse_matches_augmented(lettuce, inter, 2, 1, transforms=AUGMENT_MODES["all"])
+    flat = [(tuple(o), int(t)) for o, t in zip(off.reshape(-1, 2), tid.reshape(-1))]
+    assert len(set(flat)) == len(flat)  # no (window, orientation) used twice
+    for i, (o, t) in enumerate(flat):  # m = 1: pairwise more than N/2 apart within an orientation (8 picks
+        for o2, t2_ in flat[i + 1 :]:  # among 8 x 32 candidates: the bound never runs out here)
+            if t == t2_:
+                assert max(abs(o[0] - o2[0]), abs(o[1] - o2[1])) > 16
+    assert (dist >= 0).all()
+
+
+@pytest.mark.parametrize("mode", ["flip", "rotate", "all"])
+def test_build_with_augment(lettuce, mode):
+    s = ts.build_omega(lettuce, tileset="c2", tile_size=40, seed=5, augment=mode)
+    t = np.asarray(s.params["match_transforms"])
+    assert s.params["augment"] == mode and t.shape == (s.n_tiles,)
+    assert set(t.tolist()) <= set(AUGMENT_MODES[mode]) and (t != 0).any()
+    np.testing.assert_array_equal(s.tiles, lettuce[s.source[..., 0], s.source[..., 1]])
+    o = matching_patches(lettuce, s)  # the recorded transforms rebuild the matching patches
+    m = s.cut_masks
+    np.testing.assert_array_equal(s.tiles[m], o[m])
+    # a tiling is still seamless across tile borders: borders are the intermediate tiles'
+    plain = ts.build_omega(lettuce, tileset="c2", tile_size=40, seed=5)
+    ring = ~np.pad(np.ones((36, 36), bool), 2)
+    np.testing.assert_array_equal(s.source[:, ring], plain.source[:, ring])
+
+
+def test_augment_none_is_byte_identical(lettuce):
+    a = ts.build_omega(lettuce, tileset="c2", tile_size=40, seed=5)
+    b = ts.build_omega(lettuce, tileset="c2", tile_size=40, seed=5, augment="none")
+    assert a.content_digest() == b.content_digest()
+    assert "augment" not in b.params and "match_transforms" not in b.params
+
+
+def test_augment_saved_loaded_and_shown(lettuce, tmp_path):
+    s = ts.build_omega(lettuce, tileset="c2", tile_size=40, seed=5, augment="all", smooth=True)
+    p = tmp_path / "a.tiles"
+    s.save(p)
+    back = ts.load(p)
+    assert back.params["match_transforms"] == s.params["match_transforms"]
+    out = subprocess.run(
+        [sys.executable, "-m", "tilesynth", "info", str(p)], capture_output=True, text=True, check=True
+    ).stdout
+    moved = sum(1 for v in s.params["match_transforms"] if v)
+    assert f"augment all ({moved} of 16 matching patches transformed)" in out
+    # map smoothing reads the transformed matching patches: the exemplar as its own map reproduces the tiles
+    img, imap = ts.synthesize(s, 80, 80, seed=2)
+    m = ts.synthesize_map(s, lettuce, imap, 80, 80, smooth=True)
+    np.testing.assert_allclose(np.clip(m, 0, 1), img, atol=1e-5)  # the colour tiles are clipped to [0, 1]
+
+
+def test_augment_refused_combinations(lettuce):
+    with pytest.raises(ParameterError, match="augment"):
+        ts.build_omega(lettuce, tileset="c2", tile_size=40, seed=1, augment="mirror")
+    with pytest.raises(ParameterError, match="augment = 'flip': only with match='ssd'"):
+        ts.build_omega(lettuce, tileset="c2", tile_size=40, seed=1, augment="flip", match="circle")
+    with pytest.raises(ParameterError, match="augment = 'flip': only with match='ssd'"):
+        ts.build_omega(lettuce, tileset="c2", tile_size=40, seed=1, augment="flip", metric="eq3")
+    mask = np.zeros(lettuce.shape[:2], bool)
+    mask[:10, :10] = True
+    with pytest.raises(ParameterError, match="with a mask"):
+        ts.build_omega(lettuce, tileset="c2", tile_size=40, seed=1, augment="flip", mask=mask)
+
+
+def test_cli_augment(tmp_path):
+    ex = resources.files("tilesynth") / "data" / "lettuce-leaves.png"
+    small = tmp_path / "ex.png"
+    ts.save_image(small, load_image(ex)[0][:160, :160])
+    out = tmp_path / "a.tiles"
+    r = subprocess.run(
+        [sys.executable, "-m", "tilesynth", "build", str(small), "-o", str(out), "--set", "c2",
+         "--tile-size", "40", "--seed", "1", "--augment", "flip"],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert ts.load(out).params["augment"] == "flip"
+    r = subprocess.run(
+        [sys.executable, "-m", "tilesynth", "build", str(small), "-o", str(out), "--augment", "mirror"],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    assert r.returncode == 2 and "--augment" in r.stderr
