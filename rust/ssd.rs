@@ -1634,6 +1634,7 @@ fn rows_pair<T: Real>(
 /// into `out` (`out.len() / hh` columns, laid out one after the other).
 /// Column `j` starts at `j * stride` (`stride >= hh`; a stride that is not a large power of two keeps the
 /// columns of a block in different cache sets, which the transposing stores need).
+#[allow(clippy::too_many_arguments)]
 #[inline]
 fn gather_cols<T: Real>(
     zr: &[Complex<T>],
