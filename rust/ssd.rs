@@ -616,27 +616,27 @@ impl SsdIndex {
     /// [`SsdIndex::fft_map`]) exceeds `F32_REL_EST` of the map's largest value: then (flat images, maps
     /// that are nearly zero everywhere) the map is recomputed with `f64` transforms.
     fn fft_map_f32(&self, t: &Tmpl, mask: Option<&[bool]>) -> Vec<f32> {
-        let (map, _, est) = self.fft_map::<f32, f32>(t, mask, |v| v as f32);
+        let (map, _, est) = self.fft_map::<f32, f32, _>(t, mask, |v| v as f32);
         let max = map.iter().fold(0.0f32, |a, &v| a.max(v)) as f64;
         if est <= F32_REL_EST * max {
             return map;
         }
-        self.fft_map::<f64, f32>(t, mask, |v| v as f32).0
+        self.fft_map::<f64, f32, _>(t, mask, |v| v as f32).0
     }
 
     fn fft_map_f64(&self, t: &Tmpl, mask: Option<&[bool]>) -> (Vec<f64>, f64) {
-        let (map, bound, _) = self.fft_map::<f64, f64>(t, mask, |v| v);
+        let (map, bound, _) = self.fft_map::<f64, f64, _>(t, mask, |v| v);
         (map, bound)
     }
 
     /// The FFT map with transforms in `T` (row-major, clamped at 0, converted by `cvt`), the rigorous
     /// bound on its absolute error, and a typical (not rigorous) size of the transform rounding error,
     /// `2 eps sqrt(levels) ||x||_2 ||y'||_2`, used to choose the precision of maps.
-    fn fft_map<T: Real, O: Copy + Default + Send + Sync>(
+    fn fft_map<T: Real, O: Copy + Default + Send + Sync, F: Fn(f64) -> O + Copy + Send + Sync>(
         &self,
         t: &Tmpl,
         mask: Option<&[bool]>,
-        cvt: fn(f64) -> O,
+        cvt: F,
     ) -> (Vec<O>, f64, f64) {
         let (hh, ww, c) = (self.h, self.w, self.c);
         let wc = ww / 2 + 1;
@@ -655,7 +655,7 @@ impl SsdIndex {
         // lane-parallel sums (fixed order, vectorisable): sq = sum m T^2, l1 = sum m |T|, over all channels.
         let (sum_t2, l1) =
             match mask {
-                None => lane_sums(data.iter().map(|&v| v as f64)),
+                None => lane_sums_f32(data),
                 Some(m) => lane_sums(data.chunks_exact(c).zip(m).flat_map(|(px, &on)| {
                     px.iter().map(move |&v| if on { v as f64 } else { 0.0 })
                 })),
@@ -692,9 +692,11 @@ impl SsdIndex {
             let (head, rest) = out.split_at_mut(tw);
             rest.fill(T::zero());
             match mask {
+                // Plain strided indexing: this loop runs for every template row and plane, and the
+                // chunk iterator it replaces was not always inlined.
                 None => {
-                    for (b, px) in head.iter_mut().zip(row.chunks_exact(c)) {
-                        *b = T::of(-2.0 * px[q] as f64);
+                    for (x, b) in head.iter_mut().enumerate() {
+                        *b = T::of(-2.0 * row[x * c + q] as f64);
                     }
                 }
                 Some(m) => {
@@ -710,41 +712,94 @@ impl SsdIndex {
             }
         };
 
-        // Forward transforms of the template groups and the product with the image spectra, accumulated
-        // over groups in a fixed order into the half spectrum g ([kx][ky], kx < W/2 + 1).
-        let mut g = vec![zero; wc * hh];
-        let mut zc = vec![zero; ww * hh];
-        for k in 0..np.div_ceil(2) {
-            let qa = 2 * k;
-            let img = match tail {
-                Some(tl) if k >= c / 2 => tl,
-                _ => &spec.chunks[k],
-            };
-            match img {
-                Chunk::Pair { u, v } => {
-                    debug_assert!(qa + 1 < np);
-                    fwd_pair(plans, hh, ww, th, par, &tfill, qa, qa + 1, &mut zc);
-                    accumulate_pair(&mut g, &zc, u, v, hh, ww, par);
-                }
-                Chunk::Lone(x) => {
-                    debug_assert!(qa + 1 == np);
-                    let xc = &mut zc[..wc * hh];
-                    fwd_real(plans, hh, ww, th, par, &tfill, qa, xc);
-                    accumulate_lone(&mut g, xc, x, hh, par);
-                }
-            }
-        }
-        drop(zc);
-
-        // Inverse column transforms, then a real inverse transform of each valid row, plus the constants.
+        // Row transforms of every template group (only its `th` rows), kept whole (they are small: `th x W`).
+        // Then, per block of columns `kx < W/2 + 1`, everything else while the block is in cache: the column
+        // transforms of the block (for a pair also those of the mirrored columns `W − kx`, which the pair's
+        // products need), the products with the image spectra accumulated over the groups in a fixed order,
+        // and the inverse column transforms. Same operations in the same order as transforming each group
+        // whole and accumulating image-sized arrays, so the same values, with a fraction of the memory
+        // traffic (one pass over the image spectra; no `W x H` intermediate per group).
+        let groups: Vec<(Vec<Complex<T>>, &Chunk<T>)> = (0..np.div_ceil(2))
+            .map(|k| {
+                let qa = 2 * k;
+                let img = match tail {
+                    Some(tl) if k >= c / 2 => tl,
+                    _ => &spec.chunks[k],
+                };
+                let rows = match img {
+                    Chunk::Pair { .. } => {
+                        debug_assert!(qa + 1 < np);
+                        rows_pair(plans, ww, th, par, &tfill, qa, qa + 1)
+                    }
+                    Chunk::Lone(_) => {
+                        debug_assert!(qa + 1 == np);
+                        rows_real(plans, ww, th, par, &tfill, qa)
+                    }
+                };
+                (rows, img)
+            })
+            .collect();
         let scratch_len = plans.scratch;
+        // Column stride of the block buffers: `hh` rounded up to 8, plus 8 (never a multiple of a large power
+        // of two, see [`gather_cols`]).
+        let st = hh.next_multiple_of(8) + 8;
+        let mut g = vec![zero; wc * hh];
         for_each_block(
             &mut g,
             COL_BLOCK * hh,
             par,
-            || vec![zero; scratch_len],
-            |s, _, blk| plans.inv_h.process_with_scratch(blk, s),
+            || {
+                (
+                    vec![zero; COL_BLOCK * st],
+                    vec![zero; COL_BLOCK * st],
+                    vec![zero; scratch_len],
+                )
+            },
+            |(za, zb, s), bi, blk| {
+                let kx0 = bi * COL_BLOCK;
+                let nb = blk.len() / hh;
+                for (zr, img) in &groups {
+                    match img {
+                        Chunk::Pair { u, v } => {
+                            gather_cols(zr, ww, th, hh, st, nb, |j| kx0 + j, za);
+                            gather_cols(zr, ww, th, hh, st, nb, |j| mirror(kx0 + j, ww), zb);
+                            for j in 0..nb {
+                                plans
+                                    .fwd_h
+                                    .process_with_scratch(&mut za[j * st..j * st + hh], s);
+                                plans
+                                    .fwd_h
+                                    .process_with_scratch(&mut zb[j * st..j * st + hh], s);
+                            }
+                            for (j, gk) in blk.chunks_exact_mut(hh).enumerate() {
+                                let o = (kx0 + j) * hh;
+                                accumulate_pair_col(
+                                    gk,
+                                    &za[j * st..j * st + hh],
+                                    &zb[j * st..j * st + hh],
+                                    &u[o..o + hh],
+                                    &v[o..o + hh],
+                                );
+                            }
+                        }
+                        Chunk::Lone(x) => {
+                            split_real_cols(zr, ww, th, hh, st, nb, kx0, za);
+                            for (j, gk) in blk.chunks_exact_mut(hh).enumerate() {
+                                plans
+                                    .fwd_h
+                                    .process_with_scratch(&mut za[j * st..j * st + hh], s);
+                                let o = (kx0 + j) * hh;
+                                accumulate_lone_block(gk, &za[j * st..j * st + hh], &x[o..o + hh]);
+                            }
+                        }
+                    }
+                }
+                plans.inv_h.process_with_scratch(blk, s);
+            },
         );
+        drop(groups);
+
+        // A real inverse transform of each valid row, plus the constants.
         let scale = 1.0 / (hh as f64 * ww as f64);
         let base = sum_t2 + kconst;
         let w_even = ww % 2 == 0;
@@ -1428,6 +1483,27 @@ fn lane_sums(it: impl Iterator<Item = f64>) -> (f64, f64) {
     (fold(sq), fold(ab))
 }
 
+/// [`lane_sums`] of a slice (the same sums in the same order, by chunks of 8 lanes, which vectorises).
+fn lane_sums_f32(v: &[f32]) -> (f64, f64) {
+    let mut sq = [0.0f64; 8];
+    let mut ab = [0.0f64; 8];
+    let mut chunks = v.chunks_exact(8);
+    for ch in &mut chunks {
+        for l in 0..8 {
+            let x = ch[l] as f64;
+            sq[l] += x * x;
+            ab[l] += x.abs();
+        }
+    }
+    for (l, &x) in chunks.remainder().iter().enumerate() {
+        let x = x as f64;
+        sq[l] += x * x;
+        ab[l] += x.abs();
+    }
+    let fold = |x: [f64; 8]| ((x[0] + x[4]) + (x[2] + x[6])) + ((x[1] + x[5]) + (x[3] + x[7]));
+    (fold(sq), fold(ab))
+}
+
 /// For `d = v - shift`: `(sum d, sum |d|, sum d^2, max |d|)` with 8 interleaved partial sums (a fixed
 /// order, so deterministic, and vectorisable).
 fn lane_stats(v: &[f64], shift: f64) -> (f64, f64, f64, f64) {
@@ -1501,6 +1577,32 @@ fn fwd_pair<T: Real>(
     cols: &mut [Complex<T>],
 ) {
     let zero = Complex::<T>::zero();
+    let zr = rows_pair(p, ww, rows, par, fill, qa, qb);
+    for_each_block(
+        &mut cols[..ww * hh],
+        COL_BLOCK * hh,
+        par,
+        || vec![zero; p.scratch],
+        |scratch, bi, blk| {
+            let kx0 = bi * COL_BLOCK;
+            gather_cols(&zr, ww, rows, hh, hh, blk.len() / hh, |j| kx0 + j, blk);
+            p.fwd_h.process_with_scratch(blk, scratch);
+        },
+    );
+}
+
+/// The row transforms of [`fwd_pair`]: `rows x W`, row `y` the FFT of `a + ib` on row `y` of planes
+/// `qa`, `qb`.
+fn rows_pair<T: Real>(
+    p: &Plans<T>,
+    ww: usize,
+    rows: usize,
+    par: bool,
+    fill: &Fill<T>,
+    qa: usize,
+    qb: usize,
+) -> Vec<Complex<T>> {
+    let zero = Complex::<T>::zero();
     let mut zr = vec![zero; rows * ww];
     for_each_block(
         &mut zr,
@@ -1525,27 +1627,46 @@ fn fwd_pair<T: Real>(
             p.fwd_w.process_with_scratch(blk, scratch);
         },
     );
-    for_each_block(
-        &mut cols[..ww * hh],
-        COL_BLOCK * hh,
-        par,
-        || vec![zero; p.scratch],
-        |scratch, bi, blk| {
-            let kx0 = bi * COL_BLOCK;
-            let nb = blk.len() / hh;
-            for y in 0..rows {
-                for (j, &v) in zr[y * ww + kx0..][..nb].iter().enumerate() {
-                    blk[j * hh + y] = v;
-                }
-            }
-            if rows < hh {
-                for col in blk.chunks_exact_mut(hh) {
-                    col[rows..].fill(zero);
-                }
-            }
-            p.fwd_h.process_with_scratch(blk, scratch);
-        },
-    );
+    zr
+}
+
+/// Columns `col_of(0), col_of(1), ...` of the `rows x W` row transforms `zr`, zero-padded to length `hh`,
+/// into `out` (`out.len() / hh` columns, laid out one after the other).
+/// Column `j` starts at `j * stride` (`stride >= hh`; a stride that is not a large power of two keeps the
+/// columns of a block in different cache sets, which the transposing stores need).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn gather_cols<T: Real>(
+    zr: &[Complex<T>],
+    ww: usize,
+    rows: usize,
+    hh: usize,
+    stride: usize,
+    nb: usize,
+    col_of: impl Fn(usize) -> usize,
+    out: &mut [Complex<T>],
+) {
+    for y in 0..rows {
+        let row = &zr[y * ww..(y + 1) * ww];
+        for j in 0..nb {
+            out[j * stride + y] = row[col_of(j)];
+        }
+    }
+    if rows < hh {
+        for j in 0..nb {
+            out[j * stride + rows..j * stride + hh].fill(Complex::zero());
+        }
+    }
+}
+
+/// The column `-kx` (mod `ww`) of column `kx`.
+#[inline(always)]
+fn mirror(kx: usize, ww: usize) -> usize {
+    if kx == 0 {
+        0
+    } else {
+        ww - kx
+    }
 }
 
 /// Half spectrum (`kx < W/2 + 1`, all `ky`, laid out `[kx][ky]`) of the real plane `q` (rows `>= rows`
@@ -1563,6 +1684,31 @@ fn fwd_real<T: Real>(
 ) {
     let zero = Complex::<T>::zero();
     let wc = ww / 2 + 1;
+    let zr = rows_real(p, ww, rows, par, fill, q);
+    for_each_block(
+        &mut cols[..wc * hh],
+        COL_BLOCK * hh,
+        par,
+        || vec![zero; p.scratch],
+        |scratch, bi, blk| {
+            let nb = blk.len() / hh;
+            split_real_cols(&zr, ww, rows, hh, hh, nb, bi * COL_BLOCK, blk);
+            p.fwd_h.process_with_scratch(blk, scratch);
+        },
+    );
+}
+
+/// The row transforms of [`fwd_real`]: `ceil(rows / 2) x W`, row `j` the FFT of rows `2j` (real part)
+/// and `2j + 1` (imaginary part, zero past `rows`) of plane `q`.
+fn rows_real<T: Real>(
+    p: &Plans<T>,
+    ww: usize,
+    rows: usize,
+    par: bool,
+    fill: &Fill<T>,
+    q: usize,
+) -> Vec<Complex<T>> {
+    let zero = Complex::<T>::zero();
     let pairs = rows.div_ceil(2);
     let mut zr = vec![zero; pairs * ww];
     for_each_block(
@@ -1592,50 +1738,55 @@ fn fwd_real<T: Real>(
             p.fwd_w.process_with_scratch(blk, scratch);
         },
     );
-    let half = T::of(0.5);
-    for_each_block(
-        &mut cols[..wc * hh],
-        COL_BLOCK * hh,
-        par,
-        || vec![zero; p.scratch],
-        |scratch, bi, blk| {
-            let kx0 = bi * COL_BLOCK;
-            let nb = blk.len() / hh;
-            for jr in 0..pairs {
-                let z = &zr[jr * ww..(jr + 1) * ww];
-                let y = 2 * jr;
-                let odd = y + 1 < rows;
-                for j in 0..nb {
-                    let kx = kx0 + j;
-                    let a = z[kx];
-                    let b = z[(ww - kx) % ww].conj();
-                    // Even row: (a + b) / 2; odd row: (a - b) / 2i.
-                    blk[j * hh + y] = Complex::new((a.re + b.re) * half, (a.im + b.im) * half);
-                    if odd {
-                        blk[j * hh + y + 1] =
-                            Complex::new((a.im - b.im) * half, (b.re - a.re) * half);
-                    }
-                }
-            }
-            if rows < hh {
-                for col in blk.chunks_exact_mut(hh) {
-                    col[rows..].fill(zero);
-                }
-            }
-            p.fwd_h.process_with_scratch(blk, scratch);
-        },
-    );
+    zr
 }
 
-/// `g[k] += conj(Z[k]) U[k] + Z[-k] V[k]` over the half spectrum (`Z`: all `W` columns).
-fn accumulate_pair<T: Real>(
-    g: &mut [Complex<T>],
-    zc: &[Complex<T>],
-    u: &[Complex<T>],
-    v: &[Complex<T>],
-    hh: usize,
+/// Columns `kx0 ..` (`out.len() / hh` of them) of the row spectra of the real plane, split from the paired
+/// row transforms `zr` of [`rows_real`] by Hermitian symmetry and zero-padded to length `hh`.
+/// Column `j` starts at `j * stride` (see [`gather_cols`]).
+#[allow(clippy::too_many_arguments)]
+fn split_real_cols<T: Real>(
+    zr: &[Complex<T>],
     ww: usize,
-    par: bool,
+    rows: usize,
+    hh: usize,
+    stride: usize,
+    nb: usize,
+    kx0: usize,
+    out: &mut [Complex<T>],
+) {
+    let half = T::of(0.5);
+    for jr in 0..rows.div_ceil(2) {
+        let z = &zr[jr * ww..(jr + 1) * ww];
+        let y = 2 * jr;
+        let odd = y + 1 < rows;
+        for j in 0..nb {
+            let kx = kx0 + j;
+            let a = z[kx];
+            let b = z[mirror(kx, ww)].conj();
+            // Even row: (a + b) / 2; odd row: (a - b) / 2i.
+            out[j * stride + y] = Complex::new((a.re + b.re) * half, (a.im + b.im) * half);
+            if odd {
+                out[j * stride + y + 1] = Complex::new((a.im - b.im) * half, (b.re - a.re) * half);
+            }
+        }
+    }
+    if rows < hh {
+        for j in 0..nb {
+            out[j * stride + rows..j * stride + hh].fill(Complex::zero());
+        }
+    }
+}
+
+/// One column `kx` of the half spectrum: `g[ky] += conj(Z[kx, ky]) U[ky] + Z[-kx, -ky] V[ky]`, with `z1`
+/// the column `kx` of `Z` and `z2` its column `-kx` (both in `ky` order).
+#[inline]
+fn accumulate_pair_col<T: Real>(
+    gk: &mut [Complex<T>],
+    z1: &[Complex<T>],
+    z2: &[Complex<T>],
+    uu: &[Complex<T>],
+    vv: &[Complex<T>],
 ) {
     #[inline(always)]
     fn step<T: Real>(
@@ -1648,55 +1799,25 @@ fn accumulate_pair<T: Real>(
         g.re = g.re + (z1.re * u.re + z1.im * u.im) + (z2.re * v.re - z2.im * v.im);
         g.im = g.im + (z1.re * u.im - z1.im * u.re) + (z2.re * v.im + z2.im * v.re);
     }
-    for_each_block(
-        g,
-        COL_BLOCK * hh,
-        par,
-        || (),
-        |_, bi, blk| {
-            for (j, gk) in blk.chunks_exact_mut(hh).enumerate() {
-                let kx = bi * COL_BLOCK + j;
-                let z1 = &zc[kx * hh..(kx + 1) * hh];
-                let z2 = &zc[((ww - kx) % ww) * hh..][..hh];
-                let uu = &u[kx * hh..(kx + 1) * hh];
-                let vv = &v[kx * hh..(kx + 1) * hh];
-                step(&mut gk[0], z1[0], z2[0], uu[0], vv[0]);
-                for ((((gv, &a), &b), &uv), &vv) in gk[1..]
-                    .iter_mut()
-                    .zip(&z1[1..])
-                    .zip(z2[1..].iter().rev())
-                    .zip(&uu[1..])
-                    .zip(&vv[1..])
-                {
-                    step(gv, a, b, uv, vv);
-                }
-            }
-        },
-    );
+    step(&mut gk[0], z1[0], z2[0], uu[0], vv[0]);
+    for ((((gv, &a), &b), &uv), &vv) in gk[1..]
+        .iter_mut()
+        .zip(&z1[1..])
+        .zip(z2[1..].iter().rev())
+        .zip(&uu[1..])
+        .zip(&vv[1..])
+    {
+        step(gv, a, b, uv, vv);
+    }
 }
 
-/// `g[k] += conj(X[k]) I[k]` over the half spectrum.
-fn accumulate_lone<T: Real>(
-    g: &mut [Complex<T>],
-    xc: &[Complex<T>],
-    img: &[Complex<T>],
-    hh: usize,
-    par: bool,
-) {
-    for_each_block(
-        g,
-        COL_BLOCK * hh,
-        par,
-        || (),
-        |_, bi, blk| {
-            let o = bi * COL_BLOCK * hh;
-            let (x, i) = (&xc[o..o + blk.len()], &img[o..o + blk.len()]);
-            for ((gv, &a), &b) in blk.iter_mut().zip(x).zip(i) {
-                gv.re = gv.re + (a.re * b.re + a.im * b.im);
-                gv.im = gv.im + (a.re * b.im - a.im * b.re);
-            }
-        },
-    );
+/// `g[k] += conj(X[k]) I[k]` elementwise.
+#[inline]
+fn accumulate_lone_block<T: Real>(g: &mut [Complex<T>], x: &[Complex<T>], img: &[Complex<T>]) {
+    for ((gv, &a), &b) in g.iter_mut().zip(x).zip(img) {
+        gv.re = gv.re + (a.re * b.re + a.im * b.im);
+        gv.im = gv.im + (a.re * b.im - a.im * b.re);
+    }
 }
 
 #[cfg(test)]
