@@ -1,5 +1,6 @@
 //! Bindings of the hashed lookup (`rust/hash.rs`, `HASH-SPEC.md`); the windowed tile copy is in `synth.rs`.
 
+use super::convert::aligned;
 use super::errors::{guard, to_pyerr};
 use super::run;
 use crate::error::TilesynthError;
@@ -59,6 +60,8 @@ fn ts_hash<'py>(
 ) -> PyResult<Bound<'py, PyArray1<u32>>> {
     guard("ts_hash", || {
         let seed = seed_arg(seed)?;
+        aligned("x", &x)?;
+        aligned("y", &y)?;
         let (x, y) = (x.as_array(), y.as_array());
         if x.len() != y.len() {
             return Err(to_pyerr(TilesynthError::shape(
