@@ -1,5 +1,10 @@
 """Soundness of the bindings against callers that rust-numpy's borrow checking cannot see (issue 16's crash hunt).
 
+* **The SIGSEGV "inside hashed_index_map"** (found again by ``test_fuzz_api.py --hypothesis-seed=114`` and 118):
+  ``size = (0, 2**63 - 1)`` has no cells, so it passed the cell limit, but numpy refuses to make an array of that
+  shape and rust-numpy 0.30's ``into_pyarray`` sets the base object of the null array it gets back. Each side
+  is now bounded, and a shape numpy cannot make is refused before ``into_pyarray``.
+
 * **Aliasing through different base objects.** rust-numpy refuses a mutable borrow of an array that shares its
   base object with a borrowed input, but two arrays made from one buffer through different objects (two
   memoryviews of one bytearray, an mmap) have different bases. ``tile_copy`` (the only binding that writes into a
@@ -37,6 +42,29 @@ from tilesynth.errors import ParameterError
 def _views(nbytes: int) -> tuple[bytearray, memoryview, memoryview]:
     buf = bytearray(nbytes)
     return buf, memoryview(buf), memoryview(buf)
+
+
+# ------------------------------------------------------------------------------------------- the SIGSEGV
+@pytest.mark.parametrize(
+    "call",
+    [
+        "_core.hashed_index_map('edge', [2, 3], 1, 175356, (1513710, 370), (0, 2**63 - 1), None, None)",
+        "_core.hashed_index_map('corner', [2], 1, 0, (0, 0), (2**62, 0), None, None)",
+        "ts.hashed_index_map(ts.LookupScheme('corner', (3,), 2), 0, (0, 2**63 - 1))",
+        "ts.hashed_index_map(ts.LookupScheme('edge', (2, 3)), 5, (2**40, 0))",
+    ],
+)
+def test_an_empty_map_with_a_huge_side_is_an_error_not_a_segfault(call: str):
+    """Run in a child process: before the fix the call killed the interpreter with SIGSEGV."""
+    code = f"import tilesynth as ts\nfrom tilesynth import _core\ntry:\n    {call}\nexcept ValueError as e:\n    print('refused', e)\n"
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, (r.returncode, r.stderr[-1500:])
+    assert "refused" in r.stdout and "size" in r.stdout, r.stdout
+
+
+def test_small_empty_maps_still_work():
+    assert ts.hashed_index_map(ts.LookupScheme("corner", (3,), 2), 0, (0, 5)).shape == (5, 0)
+    assert _core.hashed_index_map("corner", [2], 1, 0, (0, 0), (7, 0), None, None).shape == (0, 7)
 
 
 # ------------------------------------------------------------------------------------------- aliasing

@@ -239,8 +239,11 @@ def index_map(
     seed = hash_seed(seed)
     cols, rows = _pair(size, "size")
     cols, rows = _int(cols, "size", 0), _int(rows, "size", 0)
-    if cols * rows > MAX_MAP_CELLS:
-        raise ParameterError(f"size = ({cols}, {rows}): more than {MAX_MAP_CELLS} cells in one index map")
+    if cols * rows > MAX_MAP_CELLS or max(cols, rows) > MAX_MAP_CELLS:
+        # each side too: (0, 2**63 - 1) has no cells, but numpy cannot make that shape (issue 16's SIGSEGV)
+        raise ParameterError(
+            f"size = ({cols}, {rows}): more than {MAX_MAP_CELLS} cells in one index map, or a side longer than that"
+        )
     cx, cy = _pair(origin, "origin")
     cx, cy = _int(cx, "origin", _I32_MIN, _I32_MAX), _int(cy, "origin", _I32_MIN, _I32_MAX)
     return _core.hashed_index_map(

@@ -2,6 +2,7 @@
 //! contiguous explicitly; the core never copies silently).
 
 use super::errors::layout_error;
+use crate::error::TilesynthError;
 use numpy::{Element, PyReadonlyArray, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
@@ -37,5 +38,27 @@ pub fn aligned<'py, T: Element, D: ndarray::Dimension>(
             name,
             "array data must be aligned for its dtype (numpy.require(a, requirements='CA') makes an aligned copy)",
         ))
+    }
+}
+
+/// Fails with `ParameterError` naming `name` unless numpy can make an array of `shape` with `itemsize`-byte
+/// elements: the product of the non-zero sides times the item size must fit an `isize` (numpy's rule, zero
+/// sides included: it refuses `(2^62, 0)` of int32). Call before `into_pyarray` on a shape that comes from
+/// the caller's numbers: rust-numpy 0.30 does not check numpy's refusal there and dereferences the null
+/// array it gets back (a SIGSEGV, not an exception).
+pub fn numpy_shape(name: &'static str, shape: &[usize], itemsize: usize) -> PyResult<()> {
+    let fits = shape
+        .iter()
+        .filter(|&&d| d != 0)
+        .try_fold(itemsize.max(1), |acc, &d| acc.checked_mul(d))
+        .is_some_and(|n| n <= isize::MAX as usize);
+    if fits {
+        Ok(())
+    } else {
+        Err(super::errors::to_pyerr(TilesynthError::param(
+            name,
+            crate::error::fmt_shape(shape),
+            "too large for a numpy array (the non-zero sides times the item size exceed 2^63 bytes)",
+        )))
     }
 }
