@@ -33,6 +33,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import tilesynth as ts
 from tilesynth import _core
@@ -88,6 +90,38 @@ def test_core_tile_copy_refuses_out_overlapping_part_of_atlas():
     np.frombuffer(m1, np.uint8, count=32)[:] = np.arange(32)
     _core.tile_copy(atlas, np.ones((1, 1), np.int32), after)
     assert np.array_equal(after[..., 0], np.arange(16, 32).reshape(4, 4))
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    n_atlas=st.integers(0, 48),
+    n_out=st.integers(0, 48),
+    shift=st.integers(0, 100),
+    dtype=st.sampled_from(["uint8", "uint16", "float32", "int32"]),
+)
+def test_tile_copy_overlap_property(n_atlas: int, n_out: int, shift: int, dtype: str):
+    """atlas (K, 2, 2, 1) and out (H, 2, 1) placed at random byte offsets in one buffer, through two
+    memoryviews: refused exactly when their bytes overlap; otherwise the copy is the reference one."""
+    dt = np.dtype(dtype)
+    k, h = max(1, n_atlas // 4), n_out // 2
+    size = dt.itemsize
+    a_bytes, o_bytes = k * 4 * size, h * 2 * size
+    shift = shift // size * size  # aligned offsets: alignment is its own test
+    buf = bytearray(max(a_bytes, shift + o_bytes) + 16)
+    m1, m2 = memoryview(buf), memoryview(buf)
+    atlas = np.frombuffer(m1, dt, count=k * 4).reshape(k, 2, 2, 1)
+    atlas[...] = (np.arange(k * 4) % 100).reshape(k, 2, 2, 1)
+    out = np.frombuffer(m2, dt, count=h * 2, offset=shift).reshape(h, 2, 1)
+    imap = np.zeros((max(1, -(-h // 2)), 1), np.int32)
+    overlap = a_bytes > 0 and o_bytes > 0 and shift < a_bytes
+    want = np.asarray(atlas[0]).copy()
+    if overlap:
+        with pytest.raises(ParameterError, match="shares memory with atlas"):
+            _core.tile_copy(atlas, imap, out)
+    else:
+        _core.tile_copy(atlas, imap, out)
+        for y in range(h):
+            assert np.array_equal(out[y], want[y % 2])
 
 
 def test_tile_copy_refuses_an_index_map_overlapping_out():
