@@ -34,7 +34,9 @@ def asarray_aligned(value: Any) -> np.ndarray:
     field of a packed structured array): the Rust core refuses misaligned arrays (a view of one is undefined
     behaviour there), and every public function takes them like any other layout."""
     a = np.asarray(value)
-    return a if a.flags.aligned else a.copy()
+    # the pointer too: numpy may flag an empty array at an odd address aligned, and the core checks both
+    aligned = a.flags.aligned and a.__array_interface__["data"][0] % max(a.dtype.alignment, 1) == 0
+    return a if aligned else a.copy()
 
 
 def as_image(image: Any, name: str = "image") -> np.ndarray:
