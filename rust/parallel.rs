@@ -20,6 +20,11 @@ pub const MAX_THREADS: usize = 1024;
 /// used one is dropped beyond that, so a caller cycling through thread counts cannot accumulate threads.
 pub const MAX_POOLS: usize = 4;
 
+/// Stack size of every pool worker: the default of Rust's threads (2 MiB), given explicitly so that spawning
+/// a worker never reads `RUST_MIN_STACK` from the environment (an environment read is not safe while another
+/// thread of the embedding process may be changing it; see `py::run`).
+pub const WORKER_STACK_BYTES: usize = 2 << 20;
+
 /// Resolves the thread count: the explicit value if any, else `TILESYNTH_NUM_THREADS`, else all cores.
 pub fn resolve_threads(threads: Option<usize>) -> Result<usize> {
     match threads {
@@ -80,6 +85,7 @@ pub fn install<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) ->
                 let p = Arc::new(
                     rayon::ThreadPoolBuilder::new()
                         .num_threads(n)
+                        .stack_size(WORKER_STACK_BYTES)
                         .thread_name(|i| format!("tilesynth-{i}"))
                         .build()
                         .map_err(|e| {

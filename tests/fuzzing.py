@@ -36,7 +36,7 @@ ALL_DTYPES = [
     ">u2",
     ">i8",
 ]
-LAYOUTS = ["C", "F", "strided", "reversed", "readonly"]
+LAYOUTS = ["C", "F", "strided", "reversed", "readonly", "unaligned"]
 VALUE_KINDS = ["unit", "unit", "unit", "special", "large", "negative", "tiny"]
 
 MODE = {"tame": False}
@@ -81,7 +81,8 @@ def _fill(shape: tuple[int, ...], dtype: Any, kind: str, seed: int, lo: float, h
 
 
 def relayout(a: np.ndarray, layout: str) -> np.ndarray:
-    """The same values as ``a`` in another memory layout (Fortran, strided view, negative strides, read-only)."""
+    """The same values as ``a`` in another memory layout (Fortran, strided view, negative strides, read-only,
+    misaligned)."""
     if layout == "F":
         return np.asfortranarray(a)
     if layout == "strided" and a.ndim:
@@ -93,6 +94,13 @@ def relayout(a: np.ndarray, layout: str) -> np.ndarray:
     if layout == "readonly":
         b = a.copy()
         b.setflags(write=False)
+        return b
+    if layout == "unaligned" and a.dtype.itemsize > 1:
+        # C-contiguous data one byte into a buffer (as numpy.frombuffer at an odd offset gives): misaligned for
+        # the dtype; the bindings refuse it (a Rust view of it is undefined behaviour), the public API copies it
+        buf = bytearray(a.nbytes + 1)
+        b = np.frombuffer(memoryview(buf)[1:], a.dtype).reshape(a.shape)
+        b[...] = a
         return b
     return a
 

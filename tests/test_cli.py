@@ -131,7 +131,10 @@ def run_err(args, capsys):
         (["synth", "{tiles}", "-o", "{out}", "--size", "10x10x3"], "--size"),
         (["synth", "{tiles}", "-o", "{out}", "--size", ""], "--size"),
         (["synth", "{tiles}", "-o", "{out}", "--size", "100000x100000"], "the output needs about"),
-        (["synth", "{tiles}", "-o", "{out}", "--size", "10x10", "--threads", "5000"], "threads = 5000"),
+        (
+            ["synth", "{tiles}", "-o", "{out}", "--size", "10x10", "--threads", "5000"],
+            "--threads: 5000 is out of range: expected an integer in [1, 1024]",
+        ),
         (["build", "{ex}", "-o", "{out}", "--set", "n100"], "at most n16"),
         (["build", "{ex}", "-o", "{out}", "--tile-size", "0"], "--tile-size"),
         (["build", "{ex}", "-o", "{out}", "--select", "ga", "--population", "0"], "--population"),

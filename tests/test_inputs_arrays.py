@@ -298,7 +298,7 @@ def test_kernel_parameters_are_named(ex):
         ts.tile_copy(a, np.zeros((1, 1), np.int32), a[0])
     ro = np.zeros((2, 2, 3), np.uint8)
     ro.setflags(write=False)
-    with pytest.raises(TypeError, match="out: array must be C-contiguous and writeable"):
+    with pytest.raises(TypeError, match="out: array must be C-contiguous, aligned and writeable"):
         ts.tile_copy(a, np.zeros((1, 1), np.int32), ro)
 
 

@@ -135,6 +135,8 @@ def _commands(path: Path, out: Path) -> list[list[str]]:
         ["synth", str(path), "-o", str(out / "o.png"), "--size", "64x64", "--seed", "1", "-q"],
         ["metrics", str(path), "--size", "64x64"],
         ["report", str(path), "-o", str(out / "rep"), "--size", "64x64", "-q"],
+        ["export", str(path), "-o", str(out / "exp")],  # issue 13's readers apply the same rules
+        ["view", str(path), "-o", str(out / "v.html")],
     ]
 
 

@@ -29,6 +29,16 @@ from . import _core
 from .errors import ParameterError, ShapeError
 
 
+def asarray_aligned(value: Any) -> np.ndarray:
+    """``numpy.asarray(value)``, copied when its data is not aligned for its dtype (a buffer at an odd offset, a
+    field of a packed structured array): the Rust core refuses misaligned arrays (a view of one is undefined
+    behaviour there), and every public function takes them like any other layout."""
+    a = np.asarray(value)
+    # the pointer too: numpy may flag an empty array at an odd address aligned, and the core checks both
+    aligned = a.flags.aligned and a.__array_interface__["data"][0] % max(a.dtype.alignment, 1) == 0
+    return a if aligned else a.copy()
+
+
 def as_image(image: Any, name: str = "image") -> np.ndarray:
     """Return ``image`` as a C-contiguous float32 ``(H, W, C)`` array in [0, 1].
 
@@ -42,7 +52,7 @@ def as_image(image: Any, name: str = "image") -> np.ndarray:
         For float input with NaN, infinity or values outside [0, 1].
     """
     try:
-        arr = np.asarray(image)
+        arr = asarray_aligned(image)
     except (ValueError, TypeError) as exc:  # ragged nested lists and the like
         raise ShapeError(f"{name} is not an array ({exc})") from None
     if not arr.dtype.isnative:
@@ -89,7 +99,7 @@ def as_features(image: Any, name: str = "image") -> np.ndarray:
     For images that are not colours, e.g. the gradient-augmented exemplar of 000's eq. 3 (colour, then √μ times
     the signed x and y differences of every channel): only the shape and finiteness are checked.
     """
-    arr = np.asarray(image)
+    arr = asarray_aligned(image)
     if arr.ndim == 2:
         arr = arr[:, :, None]
     if arr.ndim != 3 or 0 in arr.shape:
@@ -107,7 +117,7 @@ def as_image_stack(images: Any, name: str = "templates") -> tuple[np.ndarray, bo
     image converted and checked by :func:`as_image`. Returns the stack and whether a single image was given.
     ``K = 0`` is allowed (an empty stack)."""
     try:
-        t = np.asarray(images)
+        t = asarray_aligned(images)
     except (ValueError, TypeError) as exc:
         raise ShapeError(f"{name} is not an array ({exc})") from None
     single = t.ndim in (2, 3)

@@ -64,7 +64,7 @@ maps = true}``, each one the ``tilesynth synth`` command with ``--with`` for eve
 (``true`` or ``{size, seed, borders}``, as ``tilesynth report``) and ``map_kinds``: ``auto`` smooths a map where
 the colour tiles were smoothed, ``smooth`` requires it (the preset must set ``smooth = true``), ``copy`` never
 blends (labels, masks, IDs). ``export`` (default ``false``; ``true`` or a table ``{bits = 8|16, padding = 8,
-lookup = "auto"|"hash"|"index_map", seed = 0, index_seed = 0, normal_y = "+y"|"-y", map_smooth =
+lookup = "auto"|"hash"|"index_map", seed = 0, index_seed = 0, normal_y = "up"|"down" (or "+y"|"-y"), map_smooth =
 "auto"|"on"|"off", viewer = false, maps = true}``) writes the engine export of the tile set, as ``tilesynth
 export NAME.tiles -o NAME-export/`` with ``--with`` for every map of the job (``maps = false``: the colour only);
 the options mean what the options of :func:`tilesynth.engine.export` of the same name mean (defaults the same).
@@ -702,7 +702,7 @@ def _export(value: Any, where: str) -> dict[str, Any] | None:
         raise BatchError(f"{where}: field 'index_seed' = {index_seed}: must be in [0, 2**63)")
     choices = {
         "lookup": ("auto", "hash", "index_map"),
-        "normal_y": ("+y", "-y"),
+        "normal_y": ("+y", "-y", "up", "down"),  # both spellings, as everywhere (tilesynth.argtypes)
         "map_smooth": ("auto", "on", "off"),
     }
     out: dict[str, Any] = {"bits": bits, "padding": padding, "seed": seed, "index_seed": index_seed}

@@ -13,7 +13,6 @@ import argparse
 import contextlib
 import json
 import os
-import re
 import sys
 import time
 import warnings
@@ -23,6 +22,8 @@ from typing import Any, NoReturn
 
 import numpy as np
 
+from ._validate import MAX_THREADS
+from .argtypes import int_text, origin_text, size_text
 from .errors import InternalError, ParameterError, TilesynthError
 from .io import add_png_compression_argument, set_png_compression
 from .schemes import REGISTRY, SCHEMES, Option, Scheme, get_scheme
@@ -40,26 +41,14 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(f"{self.prog}: {message}")
 
 
-def _size(text: str) -> tuple[int, int]:
-    """WIDTHxHEIGHT, or one integer for a square (``--size 1024`` is 1024x1024)."""
-    m = re.fullmatch(r"\s*(\d+)\s*(?:[xX]\s*(\d+)\s*)?", text)
-    if not m or int(m.group(1)) < 1 or int(m.group(2) or m.group(1)) < 1:
-        raise argparse.ArgumentTypeError(
-            f"--size = {text!r}: expected WIDTHxHEIGHT or SIZE (a square) with positive integers, e.g. 1024x768 or 1024"
-        )
-    return int(m.group(1)), int(m.group(2) or m.group(1))
-
-
-_nonneg = nonneg_int_text  # argparse types shared with the scheme options (schemes.base)
+# argparse types: one rule for every integer, size and pair option (tilesynth.argtypes: ASCII digits, ranges
+# named in the message)
+_size = size_text  # WIDTHxHEIGHT, or one integer for a square (``--size 1024`` is 1024x1024)
+_nonneg = nonneg_int_text  # shared with the scheme options (schemes.base)
 _pos = positive_int_text
-
-
-def _origin(text: str) -> tuple[int, int]:
-    try:
-        x, y = (int(p) for p in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y (two integers, e.g. -512,256)") from None
-    return x, y
+_threads = int_text(1, MAX_THREADS)
+_bits = int_text(1)  # then choices (8, 16)
+_origin = origin_text
 
 
 def _set_name(text: str) -> str:
@@ -135,14 +124,14 @@ def _add_build_parser(sub) -> None:  # noqa: ANN001
     b.add_argument("--set", default=None, type=_set_name, metavar="SET", help=SET_HELP)
     b.add_argument(
         "--tile-size",
-        type=_pos,
+        type=int_text(4),
         default=None,
         help="tile size N in pixels, even (default: half the exemplar's shorter side, at most 256)",
     )
     b.add_argument("--seed", type=_nonneg, default=None, help="random seed (default: a fresh one, recorded)")
     b.add_argument(
         "--threads",
-        type=_pos,
+        type=_threads,
         default=None,
         help="worker threads (default: TILESYNTH_NUM_THREADS or all cores)",
     )
@@ -220,12 +209,12 @@ def _add_synth_parser(sub) -> None:  # noqa: ANN001
     )
     s.add_argument(
         "--bits",
-        type=int,
+        type=_bits,
         choices=(8, 16),
         default=None,
         help="bits per channel of the output (default: those of the exemplar)",
     )
-    s.add_argument("--threads", type=_pos, default=None, help="copy threads")
+    s.add_argument("--threads", type=_threads, default=None, help="copy threads")
     add_png_compression_argument(s)
     s.add_argument(
         "--origin",
@@ -261,6 +250,7 @@ def _add_sheet_parser(sub) -> None:  # noqa: ANN001
     sh.add_argument("tileset", help="tile-set file (.tiles)")
     sh.add_argument("-o", "--output", required=True, help="PNG to write")
     sh.add_argument("--no-cuts", action="store_true", help="do not draw the cutting curves")
+    sh.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     add_png_compression_argument(sh)
 
 
@@ -276,7 +266,7 @@ def _add_demo_parser(sub) -> None:  # noqa: ANN001
     d.add_argument("--set", default="c5", type=_set_name, metavar="SET", help=SET_HELP)
     d.add_argument("--size", type=_size, default=(1024, 1024), help="texture size (default 1024x1024)")
     d.add_argument("--seed", type=_nonneg, default=1, help="seed (default 1)")
-    d.add_argument("--threads", type=_pos, default=None, help="worker threads")
+    d.add_argument("--threads", type=_threads, default=None, help="worker threads")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     add_png_compression_argument(d)
 
@@ -319,7 +309,7 @@ def _add_metrics_parsers(sub) -> None:  # noqa: ANN001
         default=DEFAULT_STRIDE,
         help=f"coherence patch stride (default {DEFAULT_STRIDE})",
     )
-    m.add_argument("--threads", type=_pos, default=None, help="worker threads")
+    m.add_argument("--threads", type=_threads, default=None, help="worker threads")
     m.add_argument("-q", "--quiet", action="store_true", help="no progress output (on stderr)")
 
     r = sub.add_parser(
@@ -342,7 +332,7 @@ def _add_metrics_parsers(sub) -> None:  # noqa: ANN001
     r.add_argument(
         "--no-borders", action="store_true", help="do not write the sample with the tile borders outlined"
     )
-    r.add_argument("--threads", type=_pos, default=None, help="worker threads")
+    r.add_argument("--threads", type=_threads, default=None, help="worker threads")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     add_png_compression_argument(r)
 
@@ -971,9 +961,12 @@ def _run_command(args: argparse.Namespace) -> int:
     elif args.command == "info":
         _info(args.tileset, args.json)
     elif args.command == "sheet":
+        from .progress import Progress
         from .tilefile import TileSet
 
-        _write_sheet(TileSet.load(args.tileset), args.output, not args.no_cuts)
+        tiles = TileSet.load(args.tileset)
+        _write_sheet(tiles, args.output, not args.no_cuts)
+        Progress(args.quiet).message(f"wrote {args.output}: contact sheet of {tiles.n_tiles} tiles")
     elif args.command == "demo":
         _demo(args.output_dir, args.set, args.size, args.seed, args.threads, args.quiet)
     elif args.command == "metrics":

@@ -19,6 +19,7 @@ from ._validate import (
     as_features,
     as_image,
     as_image_stack,
+    asarray_aligned,
     finite_float,
     nonneg_int,
     positive_int,
@@ -39,7 +40,7 @@ def _templates(
 ) -> tuple[np.ndarray, bool]:
     if not features:
         return as_image_stack(templates, name)
-    t = np.asarray(templates)
+    t = asarray_aligned(templates)
     single = t.ndim in (2, 3)
     if t.ndim == 2:
         t = t[:, :, None]
@@ -52,7 +53,7 @@ def _templates(
 
 def _asarray(value: object, name: str) -> np.ndarray:
     try:
-        a = np.asarray(value)
+        a = asarray_aligned(value)
     except (ValueError, TypeError) as exc:
         raise ShapeError(f"{name} is not an array ({exc})") from None
     return a
@@ -372,8 +373,8 @@ def tile_copy(
             f"atlas has dtype {a.dtype} and out {out.dtype}: expected the same dtype, uint8, uint16, float32 or "
             "int32 (native byte order)"
         )
-    if not out.flags.c_contiguous or not out.flags.writeable:
-        raise TypeError("out: array must be C-contiguous and writeable")
+    if not out.flags.c_contiguous or not out.flags.writeable or not out.flags.aligned:
+        raise TypeError("out: array must be C-contiguous, aligned and writeable")
     if np.may_share_memory(a, out):
         raise ParameterError("out: must not share memory with atlas")
     _core.tile_copy(

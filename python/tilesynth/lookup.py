@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from . import _core
-from ._validate import threads_arg
+from ._validate import asarray_aligned, threads_arg
 from .errors import ParameterError
 
 HASH_NAME: str = _core.HASH_NAME
@@ -199,9 +199,11 @@ def ts_hash(x: Any, y: Any, seed: int, role: int) -> np.ndarray:
     uint32 array of the broadcast shape."""
     seed = hash_seed(seed)
     role = _int(role, "role", 0, _M32)
-    xa, ya = np.asarray(x), np.asarray(y)
+    xa, ya = asarray_aligned(x), asarray_aligned(y)
     for name, a in (("x", xa), ("y", ya)):
-        if a.dtype.kind not in "iu" and a.size:
+        # an empty bool or float array is a harmless empty list; complex, strings, objects never (numpy warns
+        # or fails casting them even when empty)
+        if a.dtype.kind not in "iu" and (a.size or a.dtype.kind not in "bf"):
             raise ParameterError(f"{name} has dtype {a.dtype}, expected integers")
         if a.size and (int(a.min()) < _I32_MIN or int(a.max()) > _I32_MAX):
             raise ParameterError(f"{name} has values in [{a.min()}, {a.max()}], expected int32 coordinates")
@@ -237,8 +239,11 @@ def index_map(
     seed = hash_seed(seed)
     cols, rows = _pair(size, "size")
     cols, rows = _int(cols, "size", 0), _int(rows, "size", 0)
-    if cols * rows > MAX_MAP_CELLS:
-        raise ParameterError(f"size = ({cols}, {rows}): more than {MAX_MAP_CELLS} cells in one index map")
+    if cols * rows > MAX_MAP_CELLS or max(cols, rows) > MAX_MAP_CELLS:
+        # each side too: (0, 2**63 - 1) has no cells, but numpy cannot make that shape (issue 16's SIGSEGV)
+        raise ParameterError(
+            f"size = ({cols}, {rows}): more than {MAX_MAP_CELLS} cells in one index map, or a side longer than that"
+        )
     cx, cy = _pair(origin, "origin")
     cx, cy = _int(cx, "origin", _I32_MIN, _I32_MAX), _int(cy, "origin", _I32_MIN, _I32_MAX)
     return _core.hashed_index_map(

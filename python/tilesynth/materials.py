@@ -277,8 +277,9 @@ def check_maps(
     """
     if not isinstance(maps, dict) or not maps:
         raise ParameterError(f"maps = {type(maps).__name__}: expected a non-empty dict {{name: array}}")
-    if normal_y not in ("up", "down"):
-        raise ParameterError(f"normal_y = {normal_y!r}: must be 'up' (OpenGL) or 'down' (DirectX)")
+    from .argtypes import normal_y_value
+
+    normal_y = normal_y_value(normal_y)  # 'up' / '+y' (OpenGL) or 'down' / '-y' (DirectX)
     kinds = {} if map_kinds is None else map_kinds
     weights = {} if map_weights is None else map_weights
     for what, d in (("map_kinds", kinds), ("map_weights", weights)):

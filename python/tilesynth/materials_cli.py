@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .argtypes import normal_y_text
 from .errors import ParameterError
 
 __all__ = [
@@ -53,8 +54,10 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--normal-y",
         default=None,
+        type=normal_y_text,
         choices=("up", "down"),
-        help="Y convention of the --map normal maps: up (OpenGL, default) or down (DirectX); recorded",
+        help="Y convention of the --map normal maps: up (OpenGL, default) or down (DirectX; +y and -y are accepted "
+        "too); recorded",
     )
 
 
@@ -63,6 +66,7 @@ def add_synth_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--normal-y",
         default=None,
+        type=normal_y_text,
         choices=("up", "down"),
         help="write the tile set's normal maps in this Y convention: up (OpenGL) or down (DirectX); default: "
         "as recorded at build",

@@ -1,5 +1,6 @@
 //! Bindings of the hashed lookup (`rust/hash.rs`, `HASH-SPEC.md`); the windowed tile copy is in `synth.rs`.
 
+use super::convert::{aligned, numpy_shape};
 use super::errors::{guard, to_pyerr};
 use super::run;
 use crate::error::TilesynthError;
@@ -59,6 +60,8 @@ fn ts_hash<'py>(
 ) -> PyResult<Bound<'py, PyArray1<u32>>> {
     guard("ts_hash", || {
         let seed = seed_arg(seed)?;
+        aligned("x", &x)?;
+        aligned("y", &y)?;
         let (x, y) = (x.as_array(), y.as_array());
         if x.len() != y.len() {
             return Err(to_pyerr(TilesynthError::shape(
@@ -99,17 +102,21 @@ fn hashed_index_map<'py>(
         let scheme = scheme_arg(kind, &colours, variants)?;
         let (cols, rows) = size;
         // 2^28 cells (1 GiB of int32) is a map for a ~10^12-pixel texture: anything larger is a mistake, and
-        // an allocation failure would abort the process instead of raising.
-        if rows.saturating_mul(cols) > 1 << 28 {
+        // an allocation failure would abort the process instead of raising. Each side is bounded too: an
+        // empty map of shape (2^62, 0) has no cells, but numpy refuses to make it, and rust-numpy 0.30's
+        // `into_pyarray` does not check for that refusal (it sets the base object of a null array: the
+        // SIGSEGV "inside hashed_index_map" of issue 16, `size = (0, 2**63 - 1)` from the fuzzer).
+        if rows.saturating_mul(cols) > 1 << 28 || rows.max(cols) > 1 << 28 {
             return Err(to_pyerr(TilesynthError::param(
                 "size",
                 format!("({cols}, {rows})"),
-                "more than 2^28 cells in one index map",
+                "more than 2^28 cells in one index map, or a side longer than 2^28 cells",
             )));
         }
         let map = run(py, threads, || {
             hash::index_map(scheme, seed, origin.0, origin.1, rows, cols, wrap)
         })?;
+        numpy_shape("size", map.shape(), std::mem::size_of::<i32>())?;
         Ok(map.into_pyarray(py))
     })
 }

@@ -1,5 +1,6 @@
 //! Max-flow / min-cut on a 4-connected grid.
 
+use super::convert::aligned;
 use super::errors::guard;
 use super::run;
 use crate::maxflow;
@@ -19,6 +20,14 @@ pub(super) fn grid_mincut<'py>(
     sink_cap: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<(Bound<'py, PyArray2<bool>>, f64)> {
     guard("grid_mincut", || {
+        aligned("wx", &wx)?;
+        aligned("wy", &wy)?;
+        if let Some(a) = &source_cap {
+            aligned("source_cap", a)?;
+        }
+        if let Some(a) = &sink_cap {
+            aligned("sink_cap", a)?;
+        }
         let (wx, wy) = (wx.as_array(), wy.as_array());
         let (src, snk) = (source_hard.as_array(), sink_hard.as_array());
         let sc = source_cap.as_ref().map(|a| a.as_array());

@@ -24,12 +24,19 @@ use errors::{guard, to_pyerr};
 use pyo3::prelude::*;
 
 /// Runs a core kernel without the GIL on a pool of `threads` workers and maps its error.
+///
+/// The thread count is resolved before the GIL is released: without an explicit count it comes from
+/// `TILESYNTH_NUM_THREADS`, read with `getenv`, and Python threads change the environment
+/// (`os.environ[...] = ...`, i.e. `setenv`, which may move and free the `environ` array) holding the GIL. A
+/// `getenv` without the GIL could race with that in a threaded caller (a `ThreadPoolExecutor` or Dask worker
+/// running jobs that set the variable, as `build_many` does) and read freed memory.
 fn run<R: Send>(
     py: Python<'_>,
     threads: Option<usize>,
     f: impl FnOnce() -> crate::Result<R> + Send,
 ) -> PyResult<R> {
-    py.detach(|| parallel::install(threads, f).and_then(|r| r))
+    let n = parallel::resolve_threads(threads).map_err(to_pyerr)?;
+    py.detach(|| parallel::install(Some(n), f).and_then(|r| r))
         .map_err(to_pyerr)
 }
 

@@ -1,6 +1,6 @@
 //! Seam weights and the ω cutting curves.
 
-use super::convert::contiguous;
+use super::convert::{aligned, contiguous};
 use super::errors::guard;
 use super::run;
 use crate::{omega, seams};
@@ -26,6 +26,9 @@ pub(super) fn kwatra_weights<'py>(
         contiguous("b", &b)?;
         let (a, b) = (a.as_array(), b.as_array());
         let region = region.as_ref().map(|r| r.as_array());
+        if let Some(g) = &a_grad {
+            aligned("a_grad", g)?;
+        }
         let a_grad = a_grad.as_ref().map(|g| g.as_array());
         let (wx, wy) = run(py, Some(1), || {
             omega::kwatra_weights(a, b, region, eps, a_grad)
@@ -51,6 +54,9 @@ pub(super) fn omega_cuts<'py>(
         contiguous("intermediate", &intermediate)?;
         contiguous("matching", &matching)?;
         let (i, o) = (intermediate.as_array(), matching.as_array());
+        if let Some(g) = &intermediate_grad {
+            aligned("intermediate_grad", g)?;
+        }
         let g = intermediate_grad.as_ref().map(|g| g.as_array());
         let (masks, costs) = run(py, threads, || omega::omega_cuts(i, o, eps, g, keep_border))?;
         Ok((masks.into_pyarray(py), costs.into_pyarray(py)))
@@ -76,6 +82,9 @@ pub(super) fn edge_weight_sums<'py>(
         contiguous("image", &image)?;
         let (t, img) = (template.as_array(), image.as_array());
         let (mx, my) = (wx_mask.as_array(), wy_mask.as_array());
+        if let Some(g) = &template_grad {
+            aligned("template_grad", g)?;
+        }
         let g = template_grad.as_ref().map(|g| g.as_array());
         let map = run(py, threads, || {
             omega::edge_weight_sums(t, g, img, mx, my, eps)

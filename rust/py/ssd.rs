@@ -1,6 +1,6 @@
 //! SSD bindings: the cached exhaustive SSD index and 000's eq. 2 map.
 
-use super::convert::contiguous;
+use super::convert::{aligned, contiguous};
 use super::errors::guard;
 use super::run;
 use crate::ssd;
@@ -122,6 +122,8 @@ pub(super) fn weighted_ssd_map<'py>(
     guard("weighted_ssd_map", || {
         contiguous("image", &image)?;
         contiguous("template", &template)?;
+        aligned("image_grad", &image_grad)?;
+        aligned("template_grad", &template_grad)?;
         let (i, t) = (image.as_array(), template.as_array());
         let (ig, tg) = (image_grad.as_array(), template_grad.as_array());
         let map = run(py, threads, || ssd::weighted_ssd_map(i, ig, t, tg, mu, eps))?;

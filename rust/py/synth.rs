@@ -1,11 +1,14 @@
 //! The synthesis tile copy: the whole tiling, or a window of it at a pixel offset (the hashed lookup's random
 //! access).
 
-use super::convert::contiguous;
+use super::convert::{aligned, contiguous};
 use super::errors::{self, guard};
 use super::run;
+use crate::error::{fmt_shape, try_to_owned, TilesynthError};
 use crate::synth;
-use numpy::{PyReadonlyArray2, PyReadonlyArray4, PyReadwriteArray3, PyUntypedArrayMethods};
+use numpy::{
+    PyArrayMethods, PyReadonlyArray2, PyReadonlyArray4, PyReadwriteArray3, PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 
 /// Writes tiles into `out` `(H, W, C)` by `index_map`; `atlas` `(K, th, tw, C)` and `out` share a dtype
@@ -57,7 +60,11 @@ fn copy_window<'py>(
 ) -> PyResult<()> {
     guard(what, || {
         contiguous("index_map", &index_map)?;
-        let map = index_map.as_array();
+        let map_span = byte_span(&index_map);
+        // An owned copy (a map has one cell per tile): the values the kernel validates are the ones it uses,
+        // even if another Python thread writes into the caller's map while the GIL is released.
+        let map = try_to_owned("index_map", index_map.as_array()).map_err(errors::to_pyerr)?;
+        let map = map.view();
         macro_rules! dispatch {
             ($t:ty) => {
                 if let (Ok(a), Ok(mut o)) = (
@@ -68,6 +75,11 @@ fn copy_window<'py>(
                     if !o.is_c_contiguous() {
                         return Err(errors::layout_error("out", "array must be C-contiguous"));
                     }
+                    aligned("out", &o)?;
+                    refuse_overlap(o.shape(), byte_span(&o), &[
+                        ("atlas", byte_span(&a)),
+                        ("index_map", map_span),
+                    ])?;
                     let a = a.as_array();
                     if o.len() == 0 {
                         // numpy may give an empty array zero strides, which a mutable view refuses (a
@@ -96,6 +108,36 @@ fn copy_window<'py>(
              native-endian dtype, uint8, uint16, float32 or int32",
         ))
     })
+}
+
+/// The bytes `[start, end)` of a C-contiguous array's data (empty for an empty array).
+fn byte_span<T: numpy::Element, D: ndarray::Dimension>(
+    a: &numpy::PyReadonlyArray<'_, T, D>,
+) -> std::ops::Range<usize> {
+    let start = a.data() as usize;
+    start..start + a.len() * std::mem::size_of::<T>()
+}
+
+/// A `ParameterError` if `out`'s bytes overlap those of an input. rust-numpy's borrow checking refuses a
+/// mutable borrow of an array sharing its base object with a borrowed input, but two arrays made from the
+/// same buffer through different objects (`numpy.frombuffer` of two memoryviews of one bytearray, an
+/// mmap, ...) have different bases and pass it; copying from an input into memory that overlaps it would
+/// alias a `&[T]` with a `&mut [T]` (undefined behaviour), so the addresses are compared here.
+fn refuse_overlap(
+    out_shape: &[usize],
+    out: std::ops::Range<usize>,
+    inputs: &[(&'static str, std::ops::Range<usize>)],
+) -> PyResult<()> {
+    for (name, span) in inputs {
+        if !out.is_empty() && !span.is_empty() && out.start < span.end && span.start < out.end {
+            return Err(errors::to_pyerr(TilesynthError::param(
+                "out",
+                format!("{} array", fmt_shape(out_shape)),
+                format!("shares memory with {name}: write into a separate array"),
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Adds this family's bindings to the module.

@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from ..argtypes import normal_y_value
 from ..errors import ParameterError, ShapeError
 from . import atlas as _atlas
 from .periodic import default_index_size, toroidal_index_map
@@ -192,7 +193,7 @@ def _stored_maps(tileset: Any, padding: int, map_smooth: str, normal_y: str) -> 
         spec = MapSpec.from_dict(d)
         arr = tileset.maps[spec.name]
         cells = _atlas.padded_tiles(map_atlas(tileset, spec, arr, smooth), arr, tileset.source, padding)
-        if spec.kind == "normal" and {"+y": "up", "-y": "down"}[normal_y] != spec.normal_y:
+        if spec.kind == "normal" and normal_y_value(normal_y) != spec.normal_y:
             cells = convert_normal_y(cells, spec.encoding or "unorm")
         out[spec.name] = {"cells": cells, "kind": "map", "map_kind": spec.kind, "encoding": spec.encoding}
     return out
@@ -233,12 +234,14 @@ def export(
     index_size : (cols, rows) of the toroidal index map (index-map mode); default: the multiple of the set's
         torus period nearest 32 x 32 (:func:`~tilesynth.engine.periodic.default_index_size`).
     index_seed : seed of the toroidal index map.
-    normal_y : ``"+y"`` (OpenGL convention, green up) or ``"-y"`` (DirectX): recorded for normal maps; the
+    normal_y : ``"up"`` or ``"+y"`` (OpenGL convention, green up), ``"down"`` or ``"-y"`` (DirectX): recorded
+        for normal maps (as ``+y`` / ``-y``, the manifest's spelling); the
         values are not changed (the exemplar's normal map is what it is).
     map_smooth : ``"auto"`` / ``"on"`` / ``"off"``, as ``synth --map-smooth``.
     viewer : also write ``viewer.html``.
     source_path : the ``.tiles`` file, recorded in the manifest (its file digest) when given.
     """
+    normal_y = {"up": "+y", "down": "-y"}[normal_y_value(normal_y)]  # the manifest's spelling
     padding, lookup, hl = _check_export_args(
         tileset, maps, padding, bits, lookup, seed, wrap, index_size, index_seed, normal_y, map_smooth
     )
@@ -297,7 +300,7 @@ def _check_export_args(
     padding = int(padding)
     _check_choice(bits, "bits", (8, 16))
     _check_choice(lookup, "lookup", ("auto", "hash", "index_map"))
-    _check_choice(normal_y, "normal_y", ("+y", "-y"))
+    normal_y_value(normal_y)  # up/+y or down/-y (tilesynth.argtypes); the manifest records +y or -y
     _check_choice(map_smooth, "map_smooth", ("auto", "on", "off"))
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**32:
         raise ParameterError(f"seed = {seed!r}: must be an integer in [0, 2^32)")

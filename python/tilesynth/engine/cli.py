@@ -8,19 +8,18 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from ..argtypes import int_text, normal_y_text, pair_text
 from ..errors import ParameterError
 
-
-def _pair(text: str) -> tuple[int, int]:
-    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
-    if not m or int(m.group(1)) < 1 or int(m.group(2)) < 1:
-        raise argparse.ArgumentTypeError(f"{text!r}: expected COLSxROWS with positive integers, e.g. 32x32")
-    return int(m.group(1)), int(m.group(2))
+_pair = pair_text  # COLSxROWS, positive ASCII integers (tilesynth.argtypes)
 
 
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument(
-        "--padding", type=int, default=8, help="gutter texels on every side of every tile (default 8)"
+        "--padding",
+        type=int_text(0, 256),
+        default=8,
+        help="gutter texels on every side of every tile (default 8)",
     )
     p.add_argument(
         "--lookup",
@@ -29,7 +28,9 @@ def _common(p: argparse.ArgumentParser) -> None:
         help="hash (complete sets stored in hash order: no index texture, infinite plane), index_map "
         "(a toroidal index.png; every other set), auto (default: hash when possible)",
     )
-    p.add_argument("--seed", type=int, default=0, help="hash seed in [0, 2^32) (default 0)")
+    p.add_argument(
+        "--seed", type=int_text(0, 2**32 - 1), default=0, help="hash seed in [0, 2^32) (default 0)"
+    )
     p.add_argument(
         "--wrap",
         type=_pair,
@@ -45,7 +46,12 @@ def _common(p: argparse.ArgumentParser) -> None:
         help="index-map mode: size of the toroidal index map in tiles (default: the multiple of the "
         "set's torus period nearest 32x32)",
     )
-    p.add_argument("--index-seed", type=int, default=0, help="index-map mode: seed of the tiling (default 0)")
+    p.add_argument(
+        "--index-seed",
+        type=int_text(0, 2**63 - 1),
+        default=0,
+        help="index-map mode: seed of the tiling (default 0)",
+    )
 
 
 def add_parsers(sub: Any) -> None:
@@ -58,7 +64,11 @@ def add_parsers(sub: Any) -> None:
     e.add_argument("-o", "--output-dir", required=True, help="directory to write (created if missing)")
     _common(e)
     e.add_argument(
-        "--bits", type=int, choices=(8, 16), default=8, help="PNG depth of the colour atlas (default 8)"
+        "--bits",
+        type=int_text(1),
+        choices=(8, 16),
+        default=8,
+        help="PNG depth of the colour atlas (default 8)",
     )
     e.add_argument(
         "--with",
@@ -77,9 +87,11 @@ def add_parsers(sub: Any) -> None:
     )
     e.add_argument(
         "--normal-y",
-        default="+y",
-        choices=("+y", "-y"),
-        help="Y convention of normal maps, recorded in the manifest: +y OpenGL (default), -y DirectX",
+        default="up",
+        type=normal_y_text,
+        choices=("up", "down"),
+        help="Y convention of the exported normal maps: up (OpenGL, default) or down (DirectX); +y and -y are "
+        "accepted too (the manifest records +y or -y)",
     )
     e.add_argument("--viewer", action="store_true", help="also write viewer.html (offline WebGL2 viewer)")
     v = sub.add_parser("view", help="write one self-contained offline HTML viewer (WebGL2) of a tile set")

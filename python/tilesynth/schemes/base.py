@@ -14,6 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
+from ..argtypes import parse_int
 from ..errors import ParameterError
 
 if TYPE_CHECKING:
@@ -45,22 +46,13 @@ def layout_kind(layout: dict[str, Any]) -> str:
 
 
 def nonneg_int_text(text: str) -> int:
-    """argparse type: an integer >= 0."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"{v} must be >= 0")
-    return v
+    """argparse type: an integer >= 0 (ASCII digits, :mod:`tilesynth.argtypes`)."""
+    return parse_int(text, 0)
 
 
 def positive_int_text(text: str) -> int:
-    """argparse type: an integer >= 1."""
-    v = nonneg_int_text(text)
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"{v} must be >= 1")
-    return v
+    """argparse type: an integer >= 1 (ASCII digits, :mod:`tilesynth.argtypes`)."""
+    return parse_int(text, 1)
 
 
 def layout_of_set(name: str) -> str:

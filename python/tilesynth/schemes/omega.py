@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..argtypes import float_text
 from ..omega import build_omega
-from .base import Option, Scheme, lambda_energy_line, nonneg_int_text
+from .base import Option, Scheme, lambda_energy_line, nonneg_int_text, positive_int_text
 from .common import CORNER_BORDER_TRIES, GRADIENTS, LITERAL_BORDER
 
 
@@ -115,7 +116,7 @@ SCHEME = Scheme(
             "--cut-bias",
             "--cut-region free/ring: area reward per pixel that moves the cut outwards, in units of the mean edge "
             "weight (default 32/N for free, 0.02 for ring)",
-            cli_type=float,
+            cli_type=float_text(0.0),
         ),
         Option(
             "objective",
@@ -129,7 +130,7 @@ SCHEME = Scheme(
             "rerank",
             "--rerank",
             "--objective cut: how many of the best candidates by ΣD are built and re-ranked (default 4)",
-            cli_type=int,
+            cli_type=positive_int_text,
             metavar="K",
         ),
         Option(
