@@ -52,7 +52,7 @@ __all__ = [
     "resolve_objective",
 ]
 
-OBJECTIVES = ("cut", "sum-d", "E")
+OBJECTIVES = ("visible", "cut", "sum-d", "E")
 """The selection objectives (see the module docstring)."""
 
 DEFAULT_COUNT = 32
@@ -77,6 +77,7 @@ POLISH_SWEEPS = 2
 
 def check_objective(objective: Any) -> str:
     if not isinstance(objective, str) or objective.strip().lower().replace("_", "-") not in (
+        "visible",
         "cut",
         "sum-d",
         "e",
@@ -135,10 +136,16 @@ def resolve_objective(
         obj = "E" if objective is None else check_objective(objective)
         if isinstance(select, str) and select.strip().lower() == "random" and obj != "E" and not polish:
             obj = "E"  # one random draw: there is nothing to rank
-    k = DEFAULT_RERANK if rerank_k is None else _int_param("rerank", rerank_k, 1)
-    if obj != "cut" and rerank_k is not None:
-        raise ParameterError(f"rerank = {rerank_k!r}: only with objective 'cut'")
-    return select, obj, params, (k if obj == "cut" else 0)
+    from .visselect import VISIBLE_RERANK
+
+    default_k = VISIBLE_RERANK if obj == "visible" else DEFAULT_RERANK
+    k = default_k if rerank_k is None else _int_param("rerank", rerank_k, 1)
+    if obj not in ("cut", "visible") and rerank_k is not None:
+        raise ParameterError(f"rerank = {rerank_k!r}: only with objective 'cut' or 'visible'")
+    if obj == "visible" and polish:
+        raise ParameterError("polish with objective 'visible': the polishes follow ΣD or the cut score; use "
+                             "objective 'cut' for the cut polish")  # fmt: skip
+    return select, obj, params, (k if obj in ("cut", "visible") else 0)
 
 
 class TopK:
