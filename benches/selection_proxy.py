@@ -5,8 +5,8 @@ For each texture and each build seed, the default's first stage (best-of ``--cou
 the same draws as ``build_omega(seed=s)``) keeps its ``--keep`` best candidates; each is built, and measured twice:
 
 * on the **proxy** the selection may see: the tiles' own cut score and cut seam, and a small synthesis with a
-  different seed and size than the evaluation (``--proxy-size``, seed :data:`PROXY_SEED`): coherence, texture
-  statistics, histogram distance;
+  different seed and size than the evaluation (:class:`tilesynth.visselect.ProxyJudge`: a 256² synthesis with
+  seed :data:`tilesynth.visselect.PROXY_SEED` = 7919 at 80-px tiles): coherence, texture statistics;
 * on the **evaluation** the bench scores: a ``--size``² synthesis with seed 1 (exactly
   ``benches/selection.py``'s :func:`visible_measures`).
 
@@ -159,11 +159,13 @@ def rule_pick(rows: list[dict[str, Any]], rule: str) -> int:
         "rank3": PROXY_KEYS,
         "rank4": (*PROXY_KEYS, "cut_score"),
         "rank5": (*PROXY_KEYS, "cut_score", "histogram"),
+        "seamcoh": ("cut_seam", "coherence"),
+        "seamcoh2tex": ("cut_seam", "coherence", "coherence", "texstats"),
         "logsum3": PROXY_KEYS,
         "logsum4": (*PROXY_KEYS, "histogram"),
     }[how]
     m = np.array([[r["proxy"][q] for q in keys] for r in rows])
-    if how.startswith("rank"):
+    if not how.startswith("logsum"):
         from tilesynth.visselect import pick_by_ranks
 
         return pick_by_ranks([r["proxy"] for r in rows], keys)
@@ -188,6 +190,19 @@ def replay(data: dict[str, Any], rules: list[str], seeds: int | None = None) -> 
             per[name] = {k: _gain(val[k], med[k], sg) for _, k, sg in VISIBLE_MEASURES}
         res[rule] = per
     return res
+
+
+def cpu_table(data: dict[str, Any]) -> None:
+    """Median CPU seconds per candidate build and per proxy measurement, and per random build."""
+    b = [
+        r["build_cpu_s"] for rec in data["textures"].values() for rows in rec["seeds"].values() for r in rows
+    ]
+    q = [
+        r["proxy_cpu_s"] for rec in data["textures"].values() for rows in rec["seeds"].values() for r in rows
+    ]
+    rnd = [v for rec in data["textures"].values() for v in rec["random_cpu_s"]]
+    print(f"\nmedian CPU s: random build {np.median(rnd):.3f}, candidate build {np.median(b):.3f}, "
+          f"proxy measures {np.median(q):.3f}")  # fmt: skip
 
 
 def print_replay(res: dict[str, Any]) -> None:
@@ -241,6 +256,7 @@ def main(argv: list[str] | None = None) -> int:
             data["textures"].update(json.loads(path.read_text())["textures"])
         res = replay(data, a.rules.split(","))
         print_replay(res)
+        cpu_table(data)
         for rule in (a.detail or "").split(","):
             if rule:
                 print_per_texture(res, rule)

@@ -206,7 +206,7 @@ def pick_by_ranks(rows: list[dict[str, float]], keys: tuple[str, ...] = VISIBLE_
     return int(np.argmin(total))
 
 
-KEEP_BYTES = 256 * 2**20
+KEEP_BYTES = 64 * 2**20
 """Candidates' stage results are kept for the winner while they total at most this many bytes; past that the
 winner is built again (one more build instead of holding K large tile atlases)."""
 
