@@ -487,8 +487,10 @@ def build_omega(
         ``benches/selection.py``). Not allowed together with ``genes``.
     objective : what the selection minimises: "cut" (the robust real cut score, :func:`tilesynth.quality.cut_score`,
         ΣD as the cheap first stage and the best ``rerank`` candidates built and re-ranked; the
-        default of ``select=None`` on the papers' sets), "sum-d" (ΣD_j) or "E" (the papers' E; the default of a named ``select``).
-    rerank : candidates the "cut" objective builds and re-ranks (default 4).
+        default of ``select=None`` on the papers' sets), "visible" (the ``rerank`` best by ΣD built and measured on
+        a proxy synthesis, the smallest rank sum of cut seam, coherence and texture statistics kept;
+        :mod:`tilesynth.visselect`), "sum-d" (ΣD_j) or "E" (the papers' E; the default of a named ``select``).
+    rerank : candidates the "cut" / "visible" objective builds and re-ranks (default 4 / 8).
     polish : follow the selection with the exact coordinate-descent polish (:func:`tilesynth.select.polish_genes`);
         with ``objective="cut"`` the cut polish (:func:`tilesynth.cutselect.cut_polish`).
     generations, population : N_g and the population size of "ga" / "ais" (count of "best-of"); None: the papers'.
