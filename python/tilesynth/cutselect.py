@@ -16,7 +16,7 @@ cut polish.
     (default 8) candidates by ΣD are built and measured (cut seam, coherence, texture statistics of a small
     synthesis with its own seed), the smallest rank sum kept. It gains the most on the three target measures
     (+10.6 / +9.0 / +25.3 % vs +7.3 / +7.0 / +11.7 % for the default, n2, six textures, six seeds) but costs
-    6-12 x the default's CPU and still misses 10 % in coherence, so it is an option, not the default.
+    3-12 x the default's CPU and still misses 10 % in coherence, so it is an option, not the default.
 ``sum-d``
     ΣD_j alone (λ = 1): what the issue's measurements found to follow coherence best of the cheap objectives
     (Spearman +0.56, vs +0.2 to +0.4 for E).
