@@ -265,6 +265,19 @@ _CUT_RERANK = Obj(
     }
 )
 
+#: params.selection.visible: the re-ranking by the visible measures on a proxy synthesis (tilesynth.visselect).
+_VISIBLE_RERANK = Obj(
+    optional={
+        "rerank": _POS,
+        "chosen": _COUNT,
+        "proxy_side": _POS,
+        "proxy_seed": _COUNT,
+        "cut_seam": List(Optional(Num(0.0))),
+        "coherence": List(Optional(Num(0.0))),
+        "texstats": List(Optional(Num(0.0))),
+    }
+)
+
 #: params.selection: the method, its parameters (numbers and flags) and its result.
 SELECTION = Obj(
     optional={
@@ -291,8 +304,9 @@ SELECTION = Obj(
         "border_seam_first": Num(nan_ok=True),
         "border_seam_predicted": Num(nan_ok=True),
         # issue 15: the objective and the cut re-ranking (tilesynth.cutselect)
-        "objective": Str(("cut", "sum-d", "E")),
+        "objective": Str(("visible", "cut", "sum-d", "E")),
         "cut": Optional(_CUT_RERANK),
+        "visible": Optional(_VISIBLE_RERANK),
         "border_criterion": Str(("cap", "log", "min")),  # ω and patch (tilesynth.omegaborders)
     },
 )

@@ -860,7 +860,7 @@ def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
     lines = [head + "".join(f", {k}={v}" for k, v in sorted(params.items()))]
     if "evaluations" in sel:
         obj = "normalised E" if sel.get("normalise") else "E"
-        if sel.get("objective") in ("cut", "sum-d"):  # issue 15: λ = 1, the first stage of the cut objective
+        if sel.get("objective") in ("cut", "sum-d", "visible"):  # issue 15: λ = 1, the first stage
             obj = "normalised ΣD" if sel.get("normalise") else "ΣD"
         lines.append(
             f"              {sel['evaluations']} evaluations, {sel.get('generations', 0)} generation(s), "

@@ -68,6 +68,19 @@ def info_lines(params: dict[str, Any]) -> list[str]:
                 else ""
             )
         )
+    elif isinstance(sel, dict) and isinstance(sel.get("visible"), dict):  # tilesynth.visselect
+        vis = sel["visible"]
+        k = vis.get("chosen")
+        row = ", ".join(
+            f"{key.replace('_', ' ')} {num(vals[k]) if isinstance(k, int) and 0 <= k < len(vals) else '-'}"
+            for key in ("cut_seam", "coherence", "texstats")
+            for vals in [vis.get(key) if isinstance(vis.get(key), list) else []]
+        )
+        out.append(
+            f"objective     visible: {num(vis.get('rerank'), 'd')} candidates measured on a "
+            f"{num(vis.get('proxy_side'), 'd')}² proxy synthesis (seed {num(vis.get('proxy_seed'), 'd')}), "
+            f"#{num(k, 'd')} kept by the rank sum ({row})"
+        )
     elif isinstance(sel, dict) and isinstance(sel.get("objective"), str):
         out.append(f"objective     {sel['objective']}")
     return out

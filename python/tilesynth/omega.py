@@ -526,8 +526,10 @@ def build_omega(
         ``benches/selection.py``). Not allowed together with ``genes``.
     objective : what the selection minimises: "cut" (the robust real cut score, :func:`tilesynth.quality.cut_score`,
         ΣD as the cheap first stage and the best ``rerank`` candidates built and re-ranked; the
-        default of ``select=None`` on the papers' sets), "sum-d" (ΣD_j) or "E" (the papers' E; the default of a named ``select``).
-    rerank : candidates the "cut" objective builds and re-ranks (default 4).
+        default of ``select=None`` on the papers' sets), "visible" (the ``rerank`` best by ΣD built and measured on
+        a proxy synthesis, the smallest rank sum of cut seam, coherence and texture statistics kept;
+        :mod:`tilesynth.visselect`), "sum-d" (ΣD_j) or "E" (the papers' E; the default of a named ``select``).
+    rerank : candidates the "cut" / "visible" objective builds and re-ranks (default 4 / 8).
     polish : follow the selection with the exact coordinate-descent polish (:func:`tilesynth.select.polish_genes`);
         with ``objective="cut"`` the cut polish (:func:`tilesynth.cutselect.cut_polish`).
     generations, population : N_g and the population size of "ga" / "ais" (count of "best-of"); None: the papers'.
@@ -639,7 +641,7 @@ def build_omega(
         and active(b.mask) is None,  # the draws are not mask-aware: a masked build keeps its one clear draw
     )  # fmt: skip
     t_sel = time.perf_counter()
-    if objective == "cut" and sel.get("method") not in ("given", "random"):  # issue 15: the cut objective
+    if objective in ("cut", "visible") and sel.get("method") not in ("given", "random"):  # issue 15
         quiet = dataclasses.replace(b, progress=lambda *a: None)
         cands = top.best()
         m = active(b.mask)
@@ -650,12 +652,22 @@ def build_omega(
                 g for g in cands if m.windows_ok(g, b.tile_size).all() and len(np.unique(g, axis=0)) == len(g)
             ]
             cands = cands or [genes_arr]
-        i, scores, res = rerank_by_cut(
-            cands, lambda g: _stages(quiet, opts, plan, g, smooth=False), b.tile_size, b.report
-        )
-        genes_arr = cands[i]
-        sel["cut"] = selection_record(scores, i, b.tile_size)
-        if polish:
+        if objective == "visible":  # the visible measures on a proxy synthesis (tilesynth.visselect)
+            from .visselect import visible_choice
+
+            genes_arr, res, sel["visible"] = visible_choice(
+                cands, lambda g: _stages(quiet, opts, plan, g, smooth=False),
+                lambda g, r: _trial_tileset(b, opts, plan, sel, g, r), b.exemplar, b.tile_size, b.threads,
+                b.report,
+            )  # fmt: skip
+            i, scores = 0, []
+        else:
+            i, scores, res = rerank_by_cut(
+                cands, lambda g: _stages(quiet, opts, plan, g, smooth=False), b.tile_size, b.report
+            )
+            genes_arr = cands[i]
+            sel["cut"] = selection_record(scores, i, b.tile_size)
+        if polish and objective == "cut":
             stage1 = omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads, 1.0, mask=m)
             genes_arr, score, res, info = cut_polish(
                 genes_arr, scores[i], res, stage1, lambda g: _stages(quiet, opts, plan, g, smooth=False),
@@ -682,6 +694,19 @@ def build_omega(
         started=b.started,
     )  # fmt: skip
     return finish_build(ts, b)  # issue 14: the mask record and the input warnings
+
+
+def _trial_tileset(
+    b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, sel: dict, genes_arr: np.ndarray, res: _Stages
+) -> TileSet:
+    """The tile set of one candidate of a re-ranking (what a build of ``genes_arr`` returns, without the input
+    diagnosis), for measures that need a synthesis (issue 15, :mod:`tilesynth.visselect`)."""
+    return finish_tileset(
+        scheme="omega", definition=b.definition, exemplar=b.exemplar, tiles=res.tiles, source=res.source,
+        cut_masks=res.masks, genes=genes_arr, tile_patches=plan.tile_patches, match_offsets=res.offsets,
+        D=res.D, cut_costs=res.costs, E=energy(res.best_D), params=_omega_params(b, opts, plan, sel, None),
+        exemplar_info=b.exemplar_info, timing=dict(res.timing), started=b.started,
+    )  # fmt: skip
 
 
 @dataclass

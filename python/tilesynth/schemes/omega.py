@@ -121,15 +121,17 @@ SCHEME = Scheme(
         Option(
             "objective",
             "--objective",
-            "what --select minimises: cut (the real cut cost of the tiles, robust geometric mean, with ΣD as "
-            "the cheap first stage and the best --rerank candidates built; the default selection), sum-d (ΣD) "
-            "or E (the papers' objective; the default of a named --select)",
-            choices=("cut", "sum-d", "E"),
+            "what --select minimises: visible (cut seam, coherence and texture statistics of a small proxy "
+            "synthesis, rank-summed over the best --rerank candidates by ΣD), cut (the real cut cost of the "
+            "tiles, robust geometric mean, with ΣD as the cheap first stage and the best --rerank candidates "
+            "built), sum-d (ΣD) or E (the papers' objective; the default of a named --select)",
+            choices=("visible", "cut", "sum-d", "E"),
         ),
         Option(
             "rerank",
             "--rerank",
-            "--objective cut: how many of the best candidates by ΣD are built and re-ranked (default 4)",
+            "--objective visible/cut: how many of the best candidates by ΣD are built and re-ranked (default 8 "
+            "for visible, 4 for cut)",
             cli_type=positive_int_text,
             metavar="K",
         ),
