@@ -228,7 +228,7 @@ def test_export_parameter_errors(tmp_path, omega_set):
         ({"lookup": "hash"}, "hash"),
         ({"lookup": "nope"}, "lookup"),
         ({"wrap": (4, 4)}, "wrap"),
-        ({"normal_y": "up"}, "normal_y"),
+        ({"normal_y": "sideways"}, "normal_y"),  # "up" is valid since the option rules (issue 16)
         ({"maps": {"albedo": omega_set.exemplar}}, "albedo"),
         ({"maps": {"bad name": omega_set.exemplar}}, "map name"),
     ):
