@@ -93,13 +93,10 @@ def _filter_spectra(channels: int, fh: int, fw: int) -> np.ndarray:
     return np.fft.rfft2(filt, s=(fh, fw), axes=(2, 3))
 
 
-def _gram(img: np.ndarray) -> np.ndarray:
-    """Gram matrix ``(F+1, F+1)`` of the rectified 'valid' responses plus a constant feature (so the means are in
-    it too)."""
+def _responses(img: np.ndarray) -> np.ndarray:
+    """``(F, P)``: the 'valid' responses of the fixed filters to ``img``, one row per filter (pixels flattened)."""
     h, w, c = img.shape
     k = TEXSTATS_SIZE
-    if h < k or w < k:
-        raise ShapeError(f"image of {h}x{w} pixels: too small for the {k}x{k} texture-statistics filters")
     fh, fw = _fast_len(h + k - 1), _fast_len(w + k - 1)
     spec = np.fft.rfft2(img.transpose(2, 0, 1), s=(fh, fw), axes=(1, 2))
     kern = _filter_spectra(c, fh, fw)
@@ -107,11 +104,26 @@ def _gram(img: np.ndarray) -> np.ndarray:
     for ch in range(1, c):
         acc += spec[ch][None] * kern[ch]
     resp = np.fft.irfft2(acc, s=(fh, fw), axes=(1, 2))[:, k - 1 : h, k - 1 : w]  # the 'valid' part
-    r = np.empty((resp.shape[0] + 1, resp.shape[1] * resp.shape[2]))
-    np.maximum(resp.reshape(resp.shape[0], -1), 0.0, out=r[:-1])
+    return resp.reshape(resp.shape[0], -1)
+
+
+def _rectified_gram(resp: np.ndarray) -> np.ndarray:
+    """Gram matrix ``(F+1, F+1)`` of rectified responses ``(F, P)`` plus a constant feature (so the means are in
+    it too)."""
+    r = np.empty((resp.shape[0] + 1, resp.shape[1]))
+    np.maximum(resp, 0.0, out=r[:-1])
     r[-1] = 1.0
     # einsum, not BLAS: a threaded BLAS on a loaded machine took seconds for this 25 x 25 product
     return np.einsum("ip,jp->ij", r, r) / r.shape[1]
+
+
+def _gram(img: np.ndarray) -> np.ndarray:
+    """Gram matrix ``(F+1, F+1)`` of the rectified 'valid' responses plus a constant feature."""
+    h, w, _ = img.shape
+    k = TEXSTATS_SIZE
+    if h < k or w < k:
+        raise ShapeError(f"image of {h}x{w} pixels: too small for the {k}x{k} texture-statistics filters")
+    return _rectified_gram(_responses(img))
 
 
 def _down(img: np.ndarray, f: int) -> np.ndarray:

@@ -134,24 +134,13 @@ def coherence_estimate(
 def _gram_sampled(img: np.ndarray, max_pixels: int) -> np.ndarray:
     """:func:`tilesynth.quality._gram` over at most ``max_pixels`` of the valid response pixels (a fixed random
     subset, seed :data:`PROXY_SEED`; all of them when there are fewer)."""
-    from .quality import TEXSTATS_SIZE, _fast_len, _filter_spectra
+    from .quality import _rectified_gram, _responses
 
-    h, w, c = img.shape
-    k = TEXSTATS_SIZE
-    fh, fw = _fast_len(h + k - 1), _fast_len(w + k - 1)
-    spec = np.fft.rfft2(img.transpose(2, 0, 1), s=(fh, fw), axes=(1, 2))
-    kern = _filter_spectra(c, fh, fw)
-    acc = spec[0][None] * kern[0]
-    for ch in range(1, c):
-        acc += spec[ch][None] * kern[ch]
-    resp = np.fft.irfft2(acc, s=(fh, fw), axes=(1, 2))[:, k - 1 : h, k - 1 : w].reshape(kern.shape[1], -1)
+    resp = _responses(img)
     if resp.shape[1] > max_pixels:
         idx = np.sort(np.random.default_rng(PROXY_SEED).choice(resp.shape[1], max_pixels, replace=False))
         resp = resp[:, idx]
-    r = np.empty((resp.shape[0] + 1, resp.shape[1]))
-    np.maximum(resp, 0.0, out=r[:-1])
-    r[-1] = 1.0
-    return np.einsum("ip,jp->ij", r, r) / r.shape[1]
+    return _rectified_gram(resp)
 
 
 def texture_stats_estimate(image: np.ndarray, exemplar_grams: list[np.ndarray | None]) -> float:
