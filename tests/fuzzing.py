@@ -239,7 +239,9 @@ API_ERRORS = (ValueError, TypeError)
 
 def call_checked(fn: Any, args: tuple, kwargs: dict, allowed: tuple, mutable: tuple[int, ...] = ()) -> Any:
     """Call ``fn``; it may return or raise one of ``allowed`` (with a message), and must not modify its
-    array arguments (except the positional arguments listed in ``mutable``, e.g. an ``out`` array).
+    array arguments (except the positional arguments listed in ``mutable``, e.g. an ``out`` array). A keyword
+    argument named ``out`` must stay unchanged only when the call fails: a drawn ``out`` that happens to fit
+    is the call's output, written as documented.
 
     A Rust panic surfaces as ``pyo3_runtime.PanicException`` (a ``BaseException``) or, through the bindings'
     guard, as ``tilesynth.InternalError``: both fail here.
@@ -250,8 +252,10 @@ def call_checked(fn: Any, args: tuple, kwargs: dict, allowed: tuple, mutable: tu
     from tilesynth.errors import InternalError
 
     keep = tuple(a for i, a in enumerate(args) if i not in mutable)
-    snaps = snapshot(keep, kwargs)
+    snaps = snapshot(keep, {k: v for k, v in kwargs.items() if k != "out"})
+    out_snaps = snapshot(kwargs.get("out"))
     result: Any = None
+    failed = False
     # a build's findings about a random input (issue 14) are allowed; other warnings stay errors
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", InputWarning)
@@ -261,6 +265,7 @@ def call_checked(fn: Any, args: tuple, kwargs: dict, allowed: tuple, mutable: tu
             raise
         except allowed as exc:
             assert str(exc).strip(), f"{type(exc).__name__} without a message"
+            failed = True
     assert all(str(w.message).strip() for w in caught), "a warning without a message"
-    assert_unchanged(snaps)
+    assert_unchanged(snaps + out_snaps if failed else snaps)
     return result
