@@ -116,12 +116,14 @@ def test_a_fifo_given_as_tile_set_is_named_as_such(tmp_path, capsys):
 
 def test_sigint_during_a_build_takes_effect_within_seconds(tmp_path):
     """The matching of a build (one call for every template before) is chunked, so Ctrl-C during it stops the
-    build promptly: exit 130, no output, no temporary file. The bound is loose (the machine may be loaded); it
-    was 18 s on this input."""
+    build promptly: exit 130, no output, no temporary file. The bound is on the CPU time spent after the signal
+    and loose; the whole matching was 18 s on this input."""
     import signal
     import subprocess
     import sys
     import time
+
+    from signal_timing import interrupt
 
     rng = np.random.default_rng(5)
     ex = tmp_path / "ex.png"
@@ -142,12 +144,10 @@ def test_sigint_during_a_build_takes_effect_within_seconds(tmp_path):
     )
     assert p.stdout.readline().strip() == "MATCHING"
     time.sleep(0.3)
-    t0 = time.monotonic()
-    p.send_signal(signal.SIGINT)
-    _, err = p.communicate(timeout=120)
-    took = time.monotonic() - t0
-    if p.returncode == 0:
+    rc, err, wall, cpu = interrupt(p, signal.SIGINT)
+    if rc == 0:
         pytest.skip("the build finished before the signal arrived")
-    assert p.returncode == 130, err
-    assert took < 5, f"took {took:.1f} s to stop"
+    assert rc == 130, err
+    # CPU after the signal (tests/signal_timing.py), not wall time, which the machine's load inflates
+    assert cpu < 5, f"the build did {cpu:.1f} CPU s of work after Ctrl-C (wall {wall:.1f} s)"
     assert not out.exists() and not list(tmp_path.glob(".*part"))
