@@ -517,6 +517,8 @@ def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
 
     if spec.kind == "label":
         return False
+    if spec.kind in SMOOTH_KINDS:  # the fusion needs only the provenance's seams: every scheme (issue 14: the
+        return True if smooth is None else bool(smooth)  # Wang sets' map seams were 4-43 as copies, 0.9-3.3 fused)
     patches = not (np.asarray(tileset.match_offsets) == -1).all()
     if smooth is None:
         return bool(is_smoothed(tileset) or (spec.kind in SMOOTH_KINDS and patches))
