@@ -165,7 +165,9 @@ def _albedo_perez(t: ts.TileSet) -> float:
     return _score(t, tiles)
 
 
-def _kink_profile(t: ts.TileSet, spec: materials.MapSpec, atlas: np.ndarray, imap: np.ndarray, size: int) -> np.ndarray:
+def _kink_profile(
+    t: ts.TileSet, spec: materials.MapSpec, atlas: np.ndarray, imap: np.ndarray, size: int
+) -> np.ndarray:
     """The tile-border kink of a map laid out by ``imap``, by distance ``d`` from the nearest tile border (``d =
     0``: the border ring of either tile; ``d = 1``: the pixels next to it, ...): the mean absolute second
     difference across the border direction (along y near horizontal borders, along x near vertical ones) at

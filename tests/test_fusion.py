@@ -63,7 +63,9 @@ def _oracle(values, copies, src, valid=None, clamp=None):
                             v = float(np.mean(steps)) if steps else 0.0
                         b_e = v
                         if (idx[p] < 0) != (idx[q] < 0):  # an edge into the ring: fixes its interior end
-                            inner, ring_v = (q, copies[t][p][ch] + v) if idx[p] < 0 else (p, copies[t][q][ch] - v)
+                            inner, ring_v = (
+                                (q, copies[t][p][ch] + v) if idx[p] < 0 else (p, copies[t][q][ch] - v)
+                            )
                             pinned.setdefault(idx[inner], []).append(ring_v)
                         for pix, sign in ((q, 1.0), (p, -1.0)):
                             if idx[pix] >= 0:

@@ -172,14 +172,15 @@ def _capacitance(m: int, eps: float) -> np.ndarray:
         a = (eps * _laplacian_eigenvalues(m) + _laplacian_eigenvalues(m) ** 2)[None, :, :, None]
         count = int(near.sum())
         units = np.zeros((count, m, m, 1))
-        units[np.arange(count), *np.nonzero(near), 0] = 1.0  # U's columns as images
+        rr, cc = np.nonzero(near)
+        units[np.arange(count), rr, cc, 0] = 1.0  # U's columns as images
         cap = _sine(_sine(units) / a)[:, near, 0]  # symmetric positive definite
         _CAPACITANCE[key] = 0.5 * (cap + cap.T)
     return _CAPACITANCE[key]
 
 
-#: The default width, in pixels, over which the fused correction bends back to zero slope at the tile border
-#: (:func:`fuse_tiles` ``clamp``). Chosen by ``benches/materials.py`` (border kink and cut seam of every map).
+#: A width for :func:`fuse_tiles` ``clamp`` (pixels; the boundary layer of the clamped correction). Not the
+#: default: see ``fuse_tiles``.
 CLAMP_WIDTH: float = 4.0
 
 
@@ -194,23 +195,28 @@ def fuse_tiles(
     ``copies`` on the one-pixel tile border ring. Arguments as :func:`seam_guidance`; tiles smaller than 3x3
     (no interior) are returned as they are.
 
-    ``clamp``: the width ``w`` (pixels) of the layer along the border ring in which the correction ``g = f − C``
-    bends back to zero *slope* as well as zero value (a clamped plate rather than a pinned membrane), so that
-    shaded heights show no crease along the tile grid. The energy minimised over the interior is
+    ``clamp`` (default None: off): a *clamped* correction, so that the correction ``g = f − C`` leaves the border
+    ring with zero slope as well as zero value (a clamped plate rather than a pinned membrane) and shaded heights
+    show no crease along the tile grid. Every interior pixel ``p₁`` next to the ring is pinned at the mean, over
+    its edges into the ring, of the wanted step ``s`` (0 unless a seam crosses the ring there), except where a
+    seam runs *along* the ring (:func:`_pinned`), and the energy over the rest of the interior is
 
-        ``Σ_e r_e² + w² Σ_p (Σ_{e ∋ p} ±r_e)²``,   ``r_e = g_q − g_p − s_e``,
+        ``Σ_e r_e² + w² Σ_p (Σ_{e ∋ p} ±r_e)²``,   ``r_e = g_q − g_p − s_e``,   ``w = clamp``,
 
-    over the edges ``e = (p, q)`` with an interior end and every pixel ``p`` of the interior *and the ring*: the
-    membrane energy plus ``w²`` times the squared divergence of its residual flux. Inside, that divergence is
-    the Poisson residual ``Δg − div s``, which the membrane solution makes 0; on a ring pixel it is the residual
-    of its one edge into the interior, ``g(p₁) − s``, i.e. the correction's slope through the border. The
-    minimiser equals the membrane solution up to a screened boundary layer of width about ``w`` (1-D: the
-    residual is ``c (1 − e^(−d/w))``-like) in which the slope goes to 0. ``clamp=float("inf")``: the pure
-    clamped plate (only the divergence term; the Poisson residual spreads over the whole tile); ``None`` or
-    ``0``: the pinned membrane (the fusion of 0.1, slope free at the ring). Normal equations
-    ``(L + w² L² + w² U Uᵀ) g = (I + w² L) b + w² U t`` (``L`` the Dirichlet Laplacian of the interior,
-    diagonal in the DST-I basis; ``U`` the ring-interior edges, ``t`` their ``s``), solved exactly by the
-    Woodbury identity with one ``4(N − 2)``-square capacitance matrix per tile size: no iteration."""
+    over the edges ``e = (p, q)`` with an interior end and the interior pixels ``p``: the membrane energy plus
+    ``w²`` times the squared divergence of its residual flux (the Poisson residual ``Δg − div s``, which the
+    membrane makes 0); ``clamp=float("inf")``: the divergence term alone (the discrete clamped plate). Without
+    the divergence term the pins would only move the crease one pixel inwards. Solved exactly: the membrane
+    solution ``g_m`` (DST), then ``g = g_m − A⁻¹ U λ`` with ``A = ε L + L²`` (``ε = 1 / w²``, diagonal in the DST
+    basis), ``U`` the pinned pixels and ``λ`` from their Schur complement ``Uᵀ A⁻¹ U`` (one per tile size and pin
+    pattern): no iteration.
+
+    Why it is off by default (``benches/materials-results.md``, "clamped correction"): it removes the ring crease
+    (border kink of the derived heights 1.29 → 1.00, pbr:tiles 5.3 → 1.6) but a correction that may not bend at
+    the ring cannot absorb a cut's level offset near the border, and the cut seam score of the heights rises
+    (0.99 → 1.15 on rust, 1.26 → 1.63 on pbr:tiles), against the issue's target of ≤ 1.3; the width ``w``
+    changes almost nothing (2 to ∞). Freeing the pins within 4 pixels of any seam brings the seams back (1.01,
+    1.30) and the crease too (1.24, 3.9): the trade-off is in the constraint, not in the solver."""
     copies = np.asarray(copies, np.float64)
     n = copies.shape[1]
     if n < 3 or copies.shape[0] == 0:
