@@ -324,7 +324,7 @@ def table(rows: list[dict], repeat: int) -> str:
         "interior, border ring kept); *reference*: what a perfectly hidden seam scores where the cut runs (the two "
         "patches' own steps at the cut's pixel pairs). Joint build; the colour-only build's *after* for comparison. "
         "*Border kink*: the mean absolute second difference at the pixels beside every tile border over its mean "
-        "elsewhere, on a 384² synthesis (1: the borders bend no more than the texture; the price of correcting "
+        "farther than n/4 from every border (band: the worst row within n/4), on a 384² synthesis (1: the borders bend no more than the texture; the price of correcting "
         "each tile inside a fixed border ring).",
         "",
         "| material | map | copies | before | **after** | reference | colour-only: copies | colour-only: after "
@@ -336,8 +336,8 @@ def table(rows: list[dict], repeat: int) -> str:
             j, c = r["joint"][k], r["colour"][k]
             lines.append(
                 f"| {r['name']} | {k} | {f(j['copies'])} | {f(j['before'])} | **{f(j['after'])}** | "
-                f"{f(j['reference'])} | {f(c['copies'])} | {f(c['after'])} | {f(j['kink_copies'])} / "
-                f"{f(j['kink_before'])} / {f(j['kink_after'])} |"
+                f"{f(j['reference'])} | {f(c['copies'])} | {f(c['after'])} | {f(j['kink_copies'][0])} / "
+                f"{f(j['kink_before'][0])} / {f(j['kink_after'][0])} (band {f(j['kink_after'][1])}) |"
             )
     lines += [
         "",
