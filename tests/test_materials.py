@@ -305,7 +305,8 @@ def test_report_shows_every_map_with_its_cut_seam(tmp_path):
 @pytest.mark.filterwarnings("ignore::tilesynth.InputWarning")
 @pytest.mark.parametrize("scheme, tileset", [("wang", "wang8"), ("swang", "wang8"), ("patch", "4")])
 def test_every_scheme_builds_materials(tmp_path, scheme, tileset):
-    """Cohen's Wang tiles have no matching patch: their maps are copies (nothing to smooth along)."""
+    """Every scheme's scalar maps are fused across the seams of its tiles (Cohen's Wang tiles, which have no
+    matching patch, too: the fusion needs only the provenance's seams), so they are not the copies."""
     albedo, height, normal = _material()
     t = ts.build(
         albedo, scheme=scheme, tileset=tileset, tile_size=16, seed=1, maps={"height": height, "n": normal}
@@ -317,7 +318,9 @@ def test_every_scheme_builds_materials(tmp_path, scheme, tileset):
     where = ts.source_map(back, imap, 48, 48)
     copies = height[where[..., 0], where[..., 1]]
     assert out["n"].shape == (48, 48, 3) and out["height"].dtype == np.uint16
-    assert np.array_equal(out["height"][..., 0], copies) == (scheme == "wang")
+    assert not np.array_equal(out["height"][..., 0], copies)
+    plain = materials.synthesize_maps(back, imap, 48, 48, smooth=False)
+    assert np.array_equal(plain["height"][..., 0], copies)
 
 
 def test_synth_with_a_normal_map_on_a_smoothed_set_renormalises_it(tmp_path):
@@ -358,12 +361,19 @@ def test_material_builds_are_deterministic_at_any_thread_count():
 
 
 def test_synth_map_smooth_on_a_set_without_matching_patches_fails_before_writing(tmp_path):
+    """A colour map follows the colour's Poisson smoothing, which needs matching patches: refused on Cohen's
+    Wang tiles. A scalar map is fused across the seams of any scheme, so there it is accepted."""
     albedo, height, _ = _material()
-    t = ts.build(albedo, scheme="wang", tileset="wang8", tile_size=16, seed=1, maps={"height": height})
+    emissive = np.ascontiguousarray(albedo[..., ::-1])
+    t = ts.build(albedo, scheme="wang", tileset="wang8", tile_size=16, seed=1, maps={"emissive": emissive})
     t.save(tmp_path / "w.tiles")
     r = _cli("synth", "w.tiles", "-o", "o.png", "--size", "32", "--map-smooth", "on", "-q", cwd=tmp_path)
-    assert r.returncode == 2 and "height" in r.stderr and "matching patches" in r.stderr, r.stderr
+    assert r.returncode == 2 and "emissive" in r.stderr and "matching patches" in r.stderr, r.stderr
     assert not (tmp_path / "o.png").exists()
+    t = ts.build(albedo, scheme="wang", tileset="wang8", tile_size=16, seed=1, maps={"height": height})
+    t.save(tmp_path / "h.tiles")
+    r = _cli("synth", "h.tiles", "-o", "o.png", "--size", "32", "--map-smooth", "on", "-q", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
 
 
 @pytest.mark.parametrize("how", ["mask", "alpha"])

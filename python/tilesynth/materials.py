@@ -507,7 +507,8 @@ def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
     """Whether map ``spec`` of ``tileset`` is smoothed (scalar and normal maps: fused across their seams,
     :func:`fuse_map_atlas`; colour maps: the colour's Poisson smoothing): never for labels; for ``smooth=None``
     (the default) when the colour tiles were smoothed, and for every scalar and normal map (:data:`SMOOTH_KINDS`)
-    of a set with matching patches. Why the maps without the albedo: the cuts of the joint build make the maps
+    of every scheme (the fusion reads only the provenance's seams, so Cohen's Wang sets, without matching patches,
+    are fused too). Why the maps without the albedo: the cuts of the joint build make the maps
     agree along the cut as well as the matching allows, but a smooth map (a height field) still shows the *level*
     offset between the two patches as a cliff along the curve (measured: ``benches/materials.py``, cut seam 4-15
     as copies), while the albedo, whose pixel steps are large, hides the same offset; the gradient-domain fusion
@@ -517,6 +518,8 @@ def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
 
     if spec.kind == "label":
         return False
+    if spec.kind in SMOOTH_KINDS:  # the fusion needs only the provenance's seams: every scheme (issue 14:
+        return True if smooth is None else bool(smooth)  # Wang maps' seams were 4-43 as copies, 0.9-3.3 fused
     patches = not (np.asarray(tileset.match_offsets) == -1).all()
     if smooth is None:
         return bool(is_smoothed(tileset) or (spec.kind in SMOOTH_KINDS and patches))
