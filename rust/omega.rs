@@ -30,7 +30,7 @@ use crate::error::{
     fmt_shape, try_array, try_collect, try_standard, try_to_owned, try_vec, try_with_capacity,
     Result, TilesynthError,
 };
-use crate::maxflow::{GridNetwork, MAX_INDEX};
+use crate::maxflow::{planar_mincut, GridNetwork, MAX_INDEX, PX_FREE, PX_SINK, PX_SOURCE};
 use ndarray::{Array2, Array3, ArrayView2, ArrayView3, ArrayView4, Axis, Zip};
 use rayon::prelude::*;
 
@@ -322,6 +322,72 @@ impl Tile<'_> {
             let den = t.gya[r] + t.gya[r + rw] + t.gyb[r] + t.gyb[r + rw] + eps;
             num / den
         };
+        // The quadrant with the ring of pixels around it (cross, outside the circle, or past the tile
+        // border) is s–t planar with both terminals on its outer face: a shortest path in the dual
+        // (`maxflow::planar_mincut`, conditions checked there). Pixels past the tile border count as sources
+        // (they have no edges, so this only fixes where the ring's terminal changes).
+        let rn = m + 2;
+        let ring_class = try_collect(
+            "intermediate",
+            rn * rn,
+            (0..rn * rn).map(|k| {
+                let (i, j) = (k / rn, k % rn);
+                if y0 + i < 1 || y0 + i > n || x0 + j < 1 || x0 + j > n {
+                    return PX_SOURCE;
+                }
+                match self.class[(y0 + i - 1) * n + x0 + j - 1] {
+                    FREE_PX => PX_FREE,
+                    SOURCE => PX_SOURCE,
+                    _ => PX_SINK,
+                }
+            }),
+        )?;
+        // Ring pixel (i, j) is the tile pixel (y0 + i − 1, x0 + j − 1), the pixel (i + qy − 1, j + qx − 1)
+        // of the terms' rectangle; the planar solver asks only for edges with a free end, whose other end
+        // is in the rectangle whenever it is in the tile.
+        let planar = planar_mincut(
+            "intermediate",
+            rn,
+            rn,
+            &ring_class,
+            |i, j| {
+                if x0 + j >= 1 && x0 + j < n {
+                    wx((i + qy - 1) * rw + j + qx - 1)
+                } else {
+                    0.0
+                }
+            },
+            |i, j| {
+                if y0 + i >= 1 && y0 + i < n {
+                    wy((i + qy - 1) * rw + j + qx - 1)
+                } else {
+                    0.0
+                }
+            },
+        )?;
+        if let Some((flow, sink_side)) = planar {
+            let local = try_collect(
+                "intermediate",
+                m * m,
+                (0..m * m).map(|l| sink_side[(l / m + 1) * rn + l % m + 1]),
+            )?;
+            return Ok((flow, local));
+        }
+        self.solve_quadrant_bk(m, (y0, x0), (ry0, rx0), rw, &wx, &wy)
+    }
+
+    /// [`Tile::solve_quadrant`] by the BK solver on the quadrant's free pixels (edges to hard pixels folded
+    /// into terminal links): the fallback for quadrants the planar solver does not take, and its oracle.
+    fn solve_quadrant_bk(
+        &self,
+        m: usize,
+        (y0, x0): (usize, usize),
+        (ry0, rx0): (usize, usize),
+        rw: usize,
+        wx: &dyn Fn(usize) -> f64,
+        wy: &dyn Fn(usize) -> f64,
+    ) -> Result<(f64, Vec<bool>)> {
+        let n = self.n;
         let mut net = GridNetwork::new("intermediate", m, m)?;
         let class = &self.class;
         for ly in 0..m {
