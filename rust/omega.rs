@@ -298,6 +298,31 @@ impl Tile<'_> {
         Ok(t)
     }
 
+    /// The classes of quadrant `(qy, qx)` and the ring of pixels around it (`(m + 2)²`, row-major, as
+    /// [`planar_mincut`] takes them): ring pixel `(i, j)` is the tile pixel `(y0 + i − 1, x0 + j − 1)`;
+    /// pixels past the tile border count as sources (they have no edges, so this only fixes where the
+    /// ring's terminal changes).
+    fn ring_classes(&self, qy: usize, qx: usize) -> Result<Vec<u8>> {
+        let n = self.n;
+        let rn = n / 2 + 1;
+        let (y0, x0) = (qy * (n / 2 + 1), qx * (n / 2 + 1));
+        try_collect(
+            "intermediate",
+            rn * rn,
+            (0..rn * rn).map(|k| {
+                let (i, j) = (k / rn, k % rn);
+                if y0 + i < 1 || y0 + i > n || x0 + j < 1 || x0 + j > n {
+                    return PX_SOURCE;
+                }
+                match self.class[(y0 + i - 1) * n + x0 + j - 1] {
+                    FREE_PX => PX_FREE,
+                    SOURCE => PX_SOURCE,
+                    _ => PX_SINK,
+                }
+            }),
+        )
+    }
+
     /// The min-cut of quadrant `(qy, qx)`: its free pixels, local `m x m` grid (`m = n/2 − 1`), edges to
     /// hard pixels folded into terminal links. Returns the flow and the local sink-side flags.
     fn solve_quadrant(&self, qy: usize, qx: usize) -> Result<(f64, Vec<bool>)> {
@@ -324,24 +349,10 @@ impl Tile<'_> {
         };
         // The quadrant with the ring of pixels around it (cross, outside the circle, or past the tile
         // border) is s–t planar with both terminals on its outer face: a shortest path in the dual
-        // (`maxflow::planar_mincut`, conditions checked there). Pixels past the tile border count as sources
-        // (they have no edges, so this only fixes where the ring's terminal changes).
+        // (`maxflow::planar_mincut`, conditions checked there; they hold for every tile size, see the test
+        // `every_quadrant_is_planar`).
         let rn = m + 2;
-        let ring_class = try_collect(
-            "intermediate",
-            rn * rn,
-            (0..rn * rn).map(|k| {
-                let (i, j) = (k / rn, k % rn);
-                if y0 + i < 1 || y0 + i > n || x0 + j < 1 || x0 + j > n {
-                    return PX_SOURCE;
-                }
-                match self.class[(y0 + i - 1) * n + x0 + j - 1] {
-                    FREE_PX => PX_FREE,
-                    SOURCE => PX_SOURCE,
-                    _ => PX_SINK,
-                }
-            }),
-        )?;
+        let ring_class = self.ring_classes(qy, qx)?;
         // Ring pixel (i, j) is the tile pixel (y0 + i − 1, x0 + j − 1), the pixel (i + qy − 1, j + qx − 1)
         // of the terms' rectangle; the planar solver asks only for edges with a free end, whose other end
         // is in the rectangle whenever it is in the tile.
@@ -995,6 +1006,33 @@ mod tests {
         let e =
             edge_weight_sums(t.view(), None, img.view(), bad.view(), wym.view(), 1e-6).unwrap_err();
         assert!(e.to_string().contains("wx_mask"), "{e}");
+    }
+
+    /// Every quadrant of every tile size meets the planar solver's conditions (so BK is only a fallback).
+    #[test]
+    fn every_quadrant_is_planar() {
+        for n in (4..=400).step_by(2).chain([512, 1024]) {
+            for keep_border in [false, true] {
+                let a = Array3::<f32>::zeros((n, n, 1));
+                let tile = Tile {
+                    n,
+                    c: 1,
+                    i: a.as_slice().unwrap(),
+                    o: a.as_slice().unwrap(),
+                    grad: None,
+                    eps: DEFAULT_EPS,
+                    class: classes(n, keep_border),
+                };
+                for q in 0..4 {
+                    let rc = tile.ring_classes(q / 2, q % 2).unwrap();
+                    let rn = n / 2 + 1;
+                    assert!(
+                        crate::maxflow::planar_applies(rn, rn, &rc),
+                        "n {n} keep_border {keep_border} quadrant {q}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]

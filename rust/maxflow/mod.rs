@@ -41,6 +41,8 @@ mod planar;
 
 pub(crate) use grid::GridNetwork;
 pub use grid::{grid_cut_cost, grid_mincut, GridCut};
+#[cfg(test)]
+pub(crate) use planar::planar_applies;
 pub(crate) use planar::{planar_mincut, PX_FREE, PX_SINK, PX_SOURCE};
 
 use crate::error::{alloc_error, try_collect, try_vec, Result};
