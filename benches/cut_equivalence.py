@@ -51,8 +51,14 @@ def record(path: Path, n_random: int) -> None:
 
     def spy(i, o, eps, threads, g, keep_border):  # noqa: ANN001, ANN202
         masks, costs = original(i, o, eps, threads, g, keep_border)
-        calls.append((case[0], (np.array(i), np.array(o), eps, None if g is None else np.array(g), keep_border),
-                      np.array(masks), np.array(costs)))
+        calls.append(
+            (
+                case[0],
+                (np.array(i), np.array(o), eps, None if g is None else np.array(g), keep_border),
+                np.array(masks),
+                np.array(costs),
+            )
+        )
         return masks, costs
 
     _core.omega_cuts = spy
@@ -72,7 +78,9 @@ def record(path: Path, n_random: int) -> None:
             b[0, : n // 3] = np.round(rng.random((n // 3, n, 3)) * 255) / 255
         kb = bool(k % 4 < 2)
         masks, costs = original(a, b.astype(np.float32), 1e-6, 1, None, kb)
-        calls.append((f"synthetic {k}", (a, b.astype(np.float32), 1e-6, None, kb), np.array(masks), np.array(costs)))
+        calls.append(
+            (f"synthetic {k}", (a, b.astype(np.float32), 1e-6, None, kb), np.array(masks), np.array(costs))
+        )
     out: dict[str, object] = {"n": np.array(len(calls))}
     for j, (name, (i, o, eps, g, kb), masks, costs) in enumerate(calls):
         out[f"{j}_name"] = np.array(name)
@@ -84,7 +92,9 @@ def record(path: Path, n_random: int) -> None:
     print(f"recorded {len(calls)} omega_cuts calls ({sum(len(c[3]) for c in calls)} cuts) to {path}")
 
 
-def mask_cost(i: np.ndarray, o: np.ndarray, g: np.ndarray | None, eps: float, kb: bool, mask: np.ndarray) -> float:
+def mask_cost(
+    i: np.ndarray, o: np.ndarray, g: np.ndarray | None, eps: float, kb: bool, mask: np.ndarray
+) -> float:
     """The cost of a mask on the ω weights (kwatra_weights in the circle; an infinite cost if it breaks a tie)."""
     n = i.shape[0]
     c = (n - 1) / 2.0
@@ -104,7 +114,9 @@ def mask_cost(i: np.ndarray, o: np.ndarray, g: np.ndarray | None, eps: float, kb
         cross &= ~ring
     if mask[src].any() or not mask[cross].all():
         return float("inf")
-    return float((wx[:, :-1] * (mask[:, :-1] != mask[:, 1:])).sum() + (wy[:-1] * (mask[:-1] != mask[1:])).sum())
+    return float(
+        (wx[:, :-1] * (mask[:, :-1] != mask[:, 1:])).sum() + (wy[:-1] * (mask[:-1] != mask[1:])).sum()
+    )
 
 
 def check(path: Path) -> int:
@@ -143,8 +155,10 @@ def check(path: Path) -> int:
     print("|---|---|---|---|")
     for name, (c, m, p) in by_case.items():
         print(f"| {name} | {c} | {m} | {p} |")
-    print(f"{n_cuts} cuts: largest relative cost difference {worst:.2e}; {n_masks_differ} masks differ "
-          f"({n_px_differ} pixels); {bad} problems")
+    print(
+        f"{n_cuts} cuts: largest relative cost difference {worst:.2e}; {n_masks_differ} masks differ "
+        f"({n_px_differ} pixels); {bad} problems"
+    )
     return 1 if bad else 0
 
 
