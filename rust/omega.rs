@@ -30,7 +30,7 @@ use crate::error::{
     fmt_shape, try_array, try_collect, try_standard, try_to_owned, try_vec, try_with_capacity,
     Result, TilesynthError,
 };
-use crate::maxflow::{GridNetwork, MAX_INDEX};
+use crate::maxflow::{planar_mincut, GridNetwork, MAX_INDEX, PX_FREE, PX_SINK, PX_SOURCE};
 use ndarray::{Array2, Array3, ArrayView2, ArrayView3, ArrayView4, Axis, Zip};
 use rayon::prelude::*;
 
@@ -298,6 +298,31 @@ impl Tile<'_> {
         Ok(t)
     }
 
+    /// The classes of quadrant `(qy, qx)` and the ring of pixels around it (`(m + 2)²`, row-major, as
+    /// [`planar_mincut`] takes them): ring pixel `(i, j)` is the tile pixel `(y0 + i − 1, x0 + j − 1)`;
+    /// pixels past the tile border count as sources (they have no edges, so this only fixes where the
+    /// ring's terminal changes).
+    fn ring_classes(&self, qy: usize, qx: usize) -> Result<Vec<u8>> {
+        let n = self.n;
+        let rn = n / 2 + 1;
+        let (y0, x0) = (qy * (n / 2 + 1), qx * (n / 2 + 1));
+        try_collect(
+            "intermediate",
+            rn * rn,
+            (0..rn * rn).map(|k| {
+                let (i, j) = (k / rn, k % rn);
+                if y0 + i < 1 || y0 + i > n || x0 + j < 1 || x0 + j > n {
+                    return PX_SOURCE;
+                }
+                match self.class[(y0 + i - 1) * n + x0 + j - 1] {
+                    FREE_PX => PX_FREE,
+                    SOURCE => PX_SOURCE,
+                    _ => PX_SINK,
+                }
+            }),
+        )
+    }
+
     /// The min-cut of quadrant `(qy, qx)`: its free pixels, local `m x m` grid (`m = n/2 − 1`), edges to
     /// hard pixels folded into terminal links. Returns the flow and the local sink-side flags.
     fn solve_quadrant(&self, qy: usize, qx: usize) -> Result<(f64, Vec<bool>)> {
@@ -322,6 +347,58 @@ impl Tile<'_> {
             let den = t.gya[r] + t.gya[r + rw] + t.gyb[r] + t.gyb[r + rw] + eps;
             num / den
         };
+        // The quadrant with the ring of pixels around it (cross, outside the circle, or past the tile
+        // border) is s–t planar with both terminals on its outer face: a shortest path in the dual
+        // (`maxflow::planar_mincut`, conditions checked there; they hold for every tile size, see the test
+        // `every_quadrant_is_planar`).
+        let rn = m + 2;
+        let ring_class = self.ring_classes(qy, qx)?;
+        // Ring pixel (i, j) is the tile pixel (y0 + i − 1, x0 + j − 1), the pixel (i + qy − 1, j + qx − 1)
+        // of the terms' rectangle; the planar solver asks only for edges with a free end, whose other end
+        // is in the rectangle whenever it is in the tile.
+        let planar = planar_mincut(
+            "intermediate",
+            rn,
+            rn,
+            &ring_class,
+            |i, j| {
+                if x0 + j >= 1 && x0 + j < n {
+                    wx((i + qy - 1) * rw + j + qx - 1)
+                } else {
+                    0.0
+                }
+            },
+            |i, j| {
+                if y0 + i >= 1 && y0 + i < n {
+                    wy((i + qy - 1) * rw + j + qx - 1)
+                } else {
+                    0.0
+                }
+            },
+        )?;
+        if let Some((flow, sink_side)) = planar {
+            let local = try_collect(
+                "intermediate",
+                m * m,
+                (0..m * m).map(|l| sink_side[(l / m + 1) * rn + l % m + 1]),
+            )?;
+            return Ok((flow, local));
+        }
+        self.solve_quadrant_bk(m, (y0, x0), (ry0, rx0), rw, &wx, &wy)
+    }
+
+    /// [`Tile::solve_quadrant`] by the BK solver on the quadrant's free pixels (edges to hard pixels folded
+    /// into terminal links): the fallback for quadrants the planar solver does not take, and its oracle.
+    fn solve_quadrant_bk(
+        &self,
+        m: usize,
+        (y0, x0): (usize, usize),
+        (ry0, rx0): (usize, usize),
+        rw: usize,
+        wx: &dyn Fn(usize) -> f64,
+        wy: &dyn Fn(usize) -> f64,
+    ) -> Result<(f64, Vec<bool>)> {
+        let n = self.n;
         let mut net = GridNetwork::new("intermediate", m, m)?;
         let class = &self.class;
         for ly in 0..m {
@@ -929,6 +1006,33 @@ mod tests {
         let e =
             edge_weight_sums(t.view(), None, img.view(), bad.view(), wym.view(), 1e-6).unwrap_err();
         assert!(e.to_string().contains("wx_mask"), "{e}");
+    }
+
+    /// Every quadrant of every tile size meets the planar solver's conditions (so BK is only a fallback).
+    #[test]
+    fn every_quadrant_is_planar() {
+        for n in (4..=400).step_by(2).chain([512, 1024]) {
+            for keep_border in [false, true] {
+                let a = Array3::<f32>::zeros((n, n, 1));
+                let tile = Tile {
+                    n,
+                    c: 1,
+                    i: a.as_slice().unwrap(),
+                    o: a.as_slice().unwrap(),
+                    grad: None,
+                    eps: DEFAULT_EPS,
+                    class: classes(n, keep_border),
+                };
+                for q in 0..4 {
+                    let rc = tile.ring_classes(q / 2, q % 2).unwrap();
+                    let rn = n / 2 + 1;
+                    assert!(
+                        crate::maxflow::planar_applies(rn, rn, &rc),
+                        "n {n} keep_border {keep_border} quadrant {q}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]

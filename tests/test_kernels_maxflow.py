@@ -163,3 +163,45 @@ def test_omega_cut_errors():
         tilesynth.omega_cuts(a, np.zeros((2, 8, 8, 3), np.float32))
     with pytest.raises(tilesynth.ShapeError, match="intermediate"):
         tilesynth.omega_cuts(np.zeros((1, 5, 5, 3), np.float32), np.zeros((1, 5, 5, 3), np.float32))
+
+
+def omega_terminals(n, keep_border):
+    """The ω cut's hard pixels (see tilesynth.omega): sources outside the circle (and on the border ring with
+    keep_border), sinks on the central cross inside the circle (off the ring with keep_border)."""
+    c = (n - 1) / 2.0
+    yy, xx = np.mgrid[:n, :n]
+    inside = (yy - c) ** 2 + (xx - c) ** 2 <= (n / 2.0) ** 2
+    cross = np.zeros((n, n), bool)
+    cross[n // 2 - 1 : n // 2 + 1] = True
+    cross[:, n // 2 - 1 : n // 2 + 1] = True
+    src, snk = ~inside, cross & inside
+    if keep_border:
+        ring = np.ones((n, n), bool)
+        ring[1:-1, 1:-1] = False
+        src, snk = src | ring, snk & ~ring
+    return inside, src, snk
+
+
+@pytest.mark.parametrize("seed", range(24))
+def test_omega_cuts_are_minimum_cuts_networkx(seed):
+    """The ω cut (a shortest path in the planar dual of each quadrant, issue 15) against networkx's max-flow on
+    the same weights: equal value, hard constraints kept, and the mask's own cut cost equal to the value. Tiles
+    with 8-bit values, flat areas and copied regions give exact ties of equal-cost cuts."""
+    r = np.random.default_rng(seed)
+    n = int(r.integers(2, 25)) * 2
+    keep_border = bool(seed % 2)
+    a = np.round(r.random((n, n, 3)) * 255) / 255
+    b = np.round(r.random((n, n, 3)) * 255) / 255
+    if seed % 3 == 1:
+        b[n // 3 :] = a[n // 3 :]  # a copied region: weights exactly 0 there
+    elif seed % 3 == 2:
+        a[: n // 2, : n // 2] = 0.5  # a flat area: ties
+    a, b = a.astype(np.float32), b.astype(np.float32)
+    masks, costs = tilesynth.omega_cuts(a[None], b[None], threads=1, keep_border=keep_border)
+    inside, src, snk = omega_terminals(n, keep_border)
+    wx, wy = tilesynth.kwatra_weights(a, b, region=inside)
+    ref = nx_mincut(wx, wy, src, snk)
+    mask = masks[0]
+    assert costs[0] == pytest.approx(ref, rel=1e-9, abs=1e-12)
+    assert not mask[src].any() and mask[snk].all()
+    assert cut_cost(mask, wx, wy) == pytest.approx(ref, rel=1e-9, abs=1e-12)

@@ -58,6 +58,7 @@ from typing import Any
 import numpy as np
 
 from . import kernels
+from ._memory import release_freed_memory
 from ._validate import finite_float
 from .diagnose import finish_build
 from .errors import ParameterError
@@ -641,6 +642,7 @@ def build_omega(
         and active(b.mask) is None,  # the draws are not mask-aware: a masked build keeps its one clear draw
     )  # fmt: skip
     t_sel = time.perf_counter()
+    release_freed_memory()  # issue 15: the selection's freed buffers do not add to the later stages' peak
     if objective in ("cut", "visible") and sel.get("method") not in ("given", "random"):  # issue 15
         quiet = dataclasses.replace(b, progress=lambda *a: None)
         cands = top.best()

@@ -150,6 +150,7 @@ def cut_and_compose(
         masks, costs = kernels.omega_cuts(
             I_tiles, O_tiles, eps=eps, threads=b.threads, intermediate_grad=grad, keep_border=keep_border
         )
+    grad = None  # issue 15 (peak RSS): not needed past the cut (K x n x n x 2 float64)
     t1 = time.perf_counter()
     b.report("cutting curves", k, k)
     smooth_info = None
@@ -158,7 +159,8 @@ def cut_and_compose(
         tiles, smooth_info = smooth_tiles(I_tiles, O_tiles, masks, threads=b.threads)
         b.report("poisson smoothing", k, k)
     else:
-        tiles = np.where(masks[..., None], O_tiles, I_tiles).astype(np.float32)
-    source = np.where(masks[..., None], o_src, I_src).astype(np.int32)
+        tiles = np.where(masks[..., None], O_tiles, I_tiles).astype(np.float32, copy=False)
+    del O_tiles
+    source = np.where(masks[..., None], o_src, I_src).astype(np.int32, copy=False)
     timing = {"cutting_s": t1 - t0, **({"smoothing_s": time.perf_counter() - t1} if smooth else {})}
     return tiles, source, masks, costs, smooth_info, timing
