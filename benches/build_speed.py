@@ -12,6 +12,9 @@ Cases (``--cases``, comma-separated):
   upscaled to 1024², saved as a tile set (issue 15 target: >= 2x faster).
 - ``ga512`` / ``ga1024``: the same with ``select="ga"`` and 128-px tiles on 512² / 1024² exemplars,
   ``--generations`` generations (issue 15 targets: peak RSS <= 600 MB / <= 1.2 GB).
+- ``c5default512``: the default build (``c5``: 625 tiles, 128 px, free cut, diversity 1, border-aware draw) of
+  the 512² exemplar, saved (issue 12: its peak RSS was 1.1 GB).
+- ``c3x2_512``: the complete ``c3x2`` set (162 tiles) with 128-px tiles on it (issue 12 target: <= 5 s CPU).
 
 The machine may be shared: only the ratios of medians mean much.
 
@@ -39,12 +42,16 @@ import sys, numpy as np
 from PIL import Image
 import tilesynth as ts
 tex, size, tile, select, gens, out = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], sys.argv[5], sys.argv[6]
+tileset = sys.argv[7] if len(sys.argv) > 7 else "n2"
 im = Image.open(tex).convert("RGB")
 if im.size != (size, size):
     im = im.resize((size, size), Image.BICUBIC)
 ex = np.asarray(im)
-kw = {} if select == "random" else {"select": select, "generations": int(gens)}
-tiles = ts.build_omega(ex, tileset="n2", tile_size=tile, seed=1, **kw)
+kw = {} if select in ("random", "default") else {"select": select, "generations": int(gens)}
+if tileset != "n2" and tile == 0:  # the default build (tile size, selection and levers of the set)
+    tiles = ts.build_omega(ex, tileset=tileset, seed=1)
+else:
+    tiles = ts.build_omega(ex, tileset=tileset, tile_size=tile, seed=1, **kw)
 tiles.save(out)
 """
 
@@ -52,6 +59,8 @@ CASES = {
     "random1024": (1024, 256, "random"),
     "ga512": (512, 128, "ga"),
     "ga1024": (1024, 128, "ga"),
+    "c5default512": (512, 0, "default", "c5"),
+    "c3x2_512": (512, 128, "default", "c3x2"),
 }
 
 
@@ -90,8 +99,16 @@ def main(argv: list[str] | None = None) -> int:
     print("|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for case in a.cases.split(","):
-            size, tile, select = CASES[case]
-            args = [tex, str(size), str(tile), select, str(a.generations), str(Path(tmp) / "out.tiles")]
+            size, tile, select, *tileset = CASES[case]
+            args = [
+                tex,
+                str(size),
+                str(tile),
+                select,
+                str(a.generations),
+                str(Path(tmp) / "out.tiles"),
+                *tileset,
+            ]
             res: dict[str, list[tuple[float, float, float]]] = {"old": [], "new": []}
             new_only = case in a.new_only.split(",")
             for _ in range(a.repeat):
@@ -100,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
                 res["new"].append(run(a.new_python, args))
             med = {k: [statistics.median(x[i] for x in v) for i in range(3)] for k, v in res.items() if v}
             (nc, nw, nm) = med["new"]
-            name = case + (f" ({a.generations} gen)" if select != "random" else "")
+            name = case + (f" ({a.generations} gen)" if select not in ("random", "default") else "")
             if new_only:
                 print(f"| {name} | – | {nc:.2f} | – | – | {nw:.2f} | – | not run | {nm:.0f} |", flush=True)
                 continue

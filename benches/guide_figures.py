@@ -38,11 +38,11 @@ FIGURES: dict[str, tuple[str, list[tuple[str, dict[str, Any]]]]] = {
             ("wang", {"tileset": "wang8"}),
         ],
     ),
-    "guide-stochastic": ("rust.png", [("omega", {"tileset": "c4"}), ("wang", {"tileset": "wang8"})]),
-    "guide-semi-structured": ("pebbles.png", [("omega", {"tileset": "c4"}), ("swang", {"tileset": "wang8"})]),
+    "guide-stochastic": ("rust.png", [("omega", {}), ("wang", {"tileset": "wang8"})]),
+    "guide-semi-structured": ("pebbles.png", [("omega", {}), ("swang", {"tileset": "wang8"})]),
     "guide-structured": (
         "bricks-brown.png",
-        [("omega", {"tileset": "c4"}), ("wang", {"tileset": "wang8"}), ("swang", {"tileset": "wang8"})],
+        [("omega", {}), ("wang", {"tileset": "wang8"}), ("swang", {"tileset": "wang8"})],
     ),
 }
 

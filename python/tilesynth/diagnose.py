@@ -218,7 +218,9 @@ def _coverage(ts: Any, mask: Any) -> float:
     h, w = ts.exemplar.shape[:2]
     used = np.zeros((h, w), bool)
     src = np.asarray(ts.source)
-    used[src[..., 0].ravel(), src[..., 1].ravel()] = True
+    step = max(1, (1 << 20) // max(1, src[:1, ..., 0].size))  # chunks of tiles: no 10 M-entry index copies
+    for lo in range(0, src.shape[0], step):
+        used[src[lo : lo + step, ..., 0].ravel(), src[lo : lo + step, ..., 1].ravel()] = True
     usable = h * w if mask is None else int((~mask.masked).sum())
     return float(used.sum()) / max(usable, 1)
 

@@ -15,7 +15,7 @@ import numpy as np
 from .errors import ParameterError
 from .tilesets import get_tileset
 
-__all__ = ["CornerPlan", "corner_set", "intermediate_tiles"]
+__all__ = ["CornerPlan", "IntermediateTiles", "corner_set", "intermediate_tiles"]
 
 
 @dataclass(frozen=True)
@@ -79,6 +79,29 @@ def intermediate_tiles(
             src[j, rs, cs, 0] = yy + r0
             src[j, rs, cs, 1] = xx + c0
     return tiles, src
+
+
+class IntermediateTiles:
+    """The intermediate tiles of ``tile_patches`` ``(U, 4)``, assembled on demand: :meth:`take` returns what
+    ``intermediate_tiles(...)`` rows ``ii`` hold (the same bytes: each tile is a copy of four exemplar
+    quadrants). The cut stage takes them a chunk at a time (:func:`tilesynth.stages.compose.cut_and_compose`),
+    so a 625-tile c5 set does not keep 205 MB of intermediate tiles and provenance after its matching search
+    (issue 12)."""
+
+    def __init__(self, exemplar: np.ndarray, genes: np.ndarray, tile_patches: np.ndarray, tile_size: int):
+        self.exemplar, self.genes, self.tile_patches, self.tile_size = (
+            exemplar,
+            genes,
+            tile_patches,
+            tile_size,
+        )
+        self.shape = (tile_patches.shape[0], tile_size, tile_size, exemplar.shape[2])
+
+    def take(self, ii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(tiles, src)`` of the intermediate tiles ``ii``, as :func:`intermediate_tiles` returns them."""
+        return intermediate_tiles(
+            self.exemplar, self.genes, self.tile_patches[np.asarray(ii)], self.tile_size
+        )
 
 
 def corner_set(tileset: Any) -> Any:

@@ -210,18 +210,50 @@ def diverse_matches_augmented(
     ``augment``, :mod:`tilesynth.augment`): also returns the chosen transform numbers ``(U, V)``. A region's
     uses are counted per orientation, and self-matches are excluded only untransformed (see
     :mod:`tilesynth.augment`). ``transforms=(0,)`` is :func:`diverse_matches` exactly."""
-    from .augment import candidates
+    check_max_uses(max_uses)
+    cands = diverse_candidates(ex, inter, n_variants, threads, transforms)
+    return assign_diverse(cands, inter.shape[1], n_variants, max_uses, exclude)
 
+
+def check_max_uses(max_uses: object) -> None:
+    """``diversity`` must be a positive int (raises ParameterError)."""
     if not isinstance(max_uses, (int, np.integer)) or isinstance(max_uses, bool) or max_uses < 1:
         raise ParameterError(f"diversity = {max_uses!r}: must be a positive int (uses per exemplar region)")
+
+
+def diverse_candidates(
+    ex: np.ndarray,
+    inter: np.ndarray,
+    n_variants: int,
+    threads: int | None = None,
+    transforms: tuple[int, ...] = (0,),
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The candidates of :func:`diverse_matches_augmented`: offsets, SSD and transforms of every tile's
+    ``max(DIVERSE_CANDIDATES, n_variants)`` best translations, N/4 apart (:func:`tilesynth.augment.candidates`).
+    With ``transforms=(0,)`` the first column is each tile's exact best translation and its SSD
+    (:meth:`tilesynth.kernels.SsdIndex.best_matches` returns the best first)."""
+    from .augment import candidates
+
     n = inter.shape[1]
-    k = max(DIVERSE_CANDIDATES, n_variants)
-    offsets, ssd, tids = candidates(ex, inter, k, n // 4, tuple(transforms), threads)
+    return candidates(ex, inter, max(DIVERSE_CANDIDATES, n_variants), n // 4, tuple(transforms), threads)
+
+
+def assign_diverse(
+    cands: tuple[np.ndarray, np.ndarray, np.ndarray],
+    n: int,
+    n_variants: int,
+    max_uses: int,
+    exclude: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The greedy assignment of :func:`diverse_matches_augmented` over :func:`diverse_candidates` ``cands``
+    (tiles of ``n`` pixels)."""
+    check_max_uses(max_uses)
+    offsets, ssd, tids = cands
     if offsets.shape[1] < n_variants:
         raise ParameterError(
             f"tile_size = {n}: the exemplar has too few distinct translations for {n_variants} matching patches"
         )
-    u = inter.shape[0]
+    u = offsets.shape[0]
     chosen = np.zeros((u, n_variants, 2), np.int64)
     chosen_d = np.zeros((u, n_variants))
     chosen_t = np.zeros((u, n_variants), np.int64)

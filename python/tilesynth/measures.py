@@ -26,7 +26,8 @@ def build_measures(tileset: Any) -> dict[str, Any]:
     src = np.asarray(tileset.source).reshape(-1, 2)
     h, w = tileset.exemplar.shape[:2]
     used = np.zeros((h, w), bool)
-    used[src[:, 0], src[:, 1]] = True
+    for lo in range(0, src.shape[0], 1 << 20):  # chunks: the int64 index arrays of 10 M pixels were 160 MB
+        used[src[lo : lo + (1 << 20), 0], src[lo : lo + (1 << 20), 1]] = True
     score = cut_score(costs, tileset.tile_size)
     seam_v = None if seam is None else seam.get("score")
     return {

@@ -628,20 +628,35 @@ def cut_seam_score(tileset: Any) -> dict[str, Any] | None:
     masks = getattr(tileset, "cut_masks", None)
     if masks is None or np.asarray(masks).ndim != 3 or np.asarray(masks).size == 0:
         return None
-    x = np.asarray(tileset.tiles, dtype=np.float64)
     m = np.asarray(masks, dtype=np.int8)
     num = den = 0.0
     cut = pairs = 0
     for ax in (1, 2):
-        d = (np.diff(x, axis=ax) ** 2).sum(axis=-1)
+        d = _squared_steps(tileset.tiles, ax)
         across = np.diff(m, axis=ax) != 0
         num += float(d[across].sum())
         cut += int(across.sum())
         den += float(d.sum())
         pairs += int(d.size)
+        del d, across  # one axis at a time (issue 12: peak memory)
     if cut == 0:
         return None
     return _finite({"score": _ratio(num / cut, den / pairs), "cut_pairs": cut, "pairs": pairs})
+
+
+def _squared_steps(tiles: Any, ax: int) -> np.ndarray:
+    """``(np.diff(x, axis=ax) ** 2).sum(axis=-1)`` of ``x`` = the tiles as float64, computed a chunk of tiles
+    at a time (every value is elementwise, so the same bytes): the whole float64 copy and its differences were
+    most of a c5 build's peak memory (issue 12)."""
+    t = np.asarray(tiles)
+    shape = list(t.shape)
+    shape[ax] -= 1
+    d = np.empty(shape[:-1])
+    step = max(1, (16 << 20) // max(1, 8 * int(np.prod(t.shape[1:]))))
+    for lo in range(0, t.shape[0], step):
+        x = np.asarray(t[lo : lo + step], dtype=np.float64)
+        d[lo : lo + step] = (np.diff(x, axis=ax) ** 2).sum(axis=-1)
+    return d
 
 
 # ------------------------------------------------------------------------------------ non-periodicity (issue 12)

@@ -72,7 +72,7 @@ from .genes import (  # noqa: F401 - re-exported: the public names of the genes 
     energy,
     random_genes,
 )
-from .layouts import CornerPlan, corner_set, intermediate_tiles
+from .layouts import CornerPlan, IntermediateTiles, corner_set, intermediate_tiles
 from .masking import active, masked_search, valid_fallback
 from .matching import (
     EQ2_EPS,
@@ -401,12 +401,12 @@ def _plain_matches(
         else masked_search(m, b.exemplar, inter, n, features=not diverse)
     )
     if opts.diversity is not None:  # issue 12: diverse matching patches (tilesynth.levers); E keeps the best
-        from .levers import diverse_matches, self_offsets
+        from .levers import assign_diverse, check_max_uses, diverse_candidates, self_offsets
 
-        best = kernels.best_matches(search, tpl, k=1, threads=b.threads)[1][:, 0]
-        chosen, chosen_D = diverse_matches(
-            search, tpl, nv, opts.diversity, b.threads, exclude=self_offsets(inter_src)
-        )
+        check_max_uses(opts.diversity)
+        cands = diverse_candidates(search, tpl, nv, b.threads)
+        best = cands[1][:, 0].copy()  # the exact best SSD: the candidates come best first (was a 2nd search)
+        chosen, chosen_D, _ = assign_diverse(cands, n, nv, opts.diversity, exclude=self_offsets(inter_src))
         if m is not None:
             best, chosen_D = best * unscale, chosen_D * unscale
             chosen, chosen_D = valid_fallback(m, chosen, chosen_D, search, tpl, exclude, b.threads, unscale)
@@ -742,11 +742,14 @@ def _stages(
     b.report("matching patches", 1, 1)
     # each tile: its tuple's intermediate tile and the (variant+1)-th best matching patch of it
     offsets = chosen[plan.inverse, plan.variants]
+    del inter, inter_src  # issue 12: the cut stage assembles them again a chunk at a time (same bytes)
+    lazy = IntermediateTiles(b.exemplar, genes_arr, plan.unique, b.tile_size)
     tiles, source, masks, costs, smooth_info, timing = cut_and_compose(
-        b, inter[plan.inverse], inter_src[plan.inverse], offsets, eps=opts.eps,
+        b, lazy, None, offsets, eps=opts.eps,
         grad_from_patches=opts.grad_from_patches, keep_border=opts.keep_border, smooth=smooth,
         cut_region=opts.cut_region, cut_bias=opts.cut_bias,
         transforms=None if tids is None else tids[plan.inverse, plan.variants],
+        index=plan.inverse,  # issue 12: no copy of the intermediate tiles per tile
     )  # fmt: skip
     return _Stages(
         tiles,

@@ -258,7 +258,7 @@ class TileSet:
         with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w") as zf:
             _write_member(zf, "manifest.json", _json_bytes(self.manifest()))
             for name in self._arrays():
-                _write_member(zf, f"{name}.npy", _npy_bytes(self._member(name)))
+                _write_array(zf, f"{name}.npy", self._member(name))
             if include_timing:
                 _write_member(zf, "timing.json", _json_bytes(self.timing))
 
@@ -565,3 +565,33 @@ def _write_member(zf: zipfile.ZipFile, name: str, data: bytes) -> None:
     info.compress_type = zipfile.ZIP_DEFLATED
     info.external_attr = 0o644 << 16
     zf.writestr(info, data, compress_type=zipfile.ZIP_DEFLATED, compresslevel=DEFLATE_LEVEL)
+
+
+class _Count:
+    """A write-only sink that counts the bytes written to it."""
+
+    def __init__(self) -> None:
+        self.n = 0
+
+    def write(self, b: bytes) -> None:
+        self.n += len(b)
+
+
+def _write_array(zf: zipfile.ZipFile, name: str, a: np.ndarray) -> None:
+    """:func:`_write_member` of ``_npy_bytes(a)``, streamed: the same member bytes (the uncompressed size is
+    set in advance, as ``writestr`` sets it, and ``np.lib.format.write_array`` writes the same header and data
+    in 16 MiB pieces), without the two whole in-memory copies of the array (issue 12: a c5 set's 123 MB of
+    tiles were the peak of saving it)."""
+    a = np.ascontiguousarray(a)
+    count = _Count()  # the member's length: header + data, counted without keeping them
+    np.lib.format.write_array(count, a, allow_pickle=False)
+    info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+    info.compress_type = zipfile.ZIP_DEFLATED
+    info.external_attr = 0o644 << 16
+    info.file_size = count.n
+    if "compress_level" in getattr(zipfile.ZipInfo, "__slots__", ()):  # Python >= 3.13
+        info.compress_level = DEFLATE_LEVEL
+    else:
+        info._compresslevel = DEFLATE_LEVEL  # what writestr(..., compresslevel=) sets before 3.13
+    with zf.open(info, mode="w") as dest:
+        np.lib.format.write_array(dest, a, allow_pickle=False)

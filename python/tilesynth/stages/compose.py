@@ -111,8 +111,8 @@ def finish_tileset(
 
 def cut_and_compose(
     b: BuildOptions,
-    I_tiles: np.ndarray,
-    I_src: np.ndarray,
+    I_tiles: Any,
+    I_src: np.ndarray | None,
     offsets: np.ndarray,
     *,
     eps: float,
@@ -122,6 +122,7 @@ def cut_and_compose(
     cut_region: str = "circle",
     cut_bias: float | None = None,
     transforms: np.ndarray | None = None,
+    index: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any] | None, dict[str, float]]:
     """The ω cut of each intermediate tile against the patch at ``offsets`` (``(K, 2)``), then the composed (or
     Poisson-smoothed) tiles and their provenance; the corner schemes' shared cut stage (ω, patch).
@@ -130,8 +131,21 @@ def cut_and_compose(
     reward ``cut_bias``, None: its default) instead of the inscribed circle. ``transforms`` ``(K,)``: the
     matching patch of tile j is its window transformed by ``transforms[j]`` (:mod:`tilesynth.augment`).
 
+    ``index`` ``(K,)``: tile j cuts the intermediate tile ``I_tiles[index[j]]`` (so sets whose tiles share
+    intermediate tiles need not copy them; None: tile j is ``I_tiles[j]``). Without smoothing, ``I_tiles`` may
+    also be a :class:`tilesynth.layouts.IntermediateTiles` (with ``I_src=None``), assembled a chunk at a time.
+
     Returns ``(tiles, source, masks, costs, smooth_info, timing)``.
     """
+    if not smooth:  # issue 12: tile chunks into preallocated outputs, the same bytes at a fraction of the RSS
+        return _cut_and_compose_chunked(
+            b, I_tiles, I_src, offsets, eps=eps, grad_from_patches=grad_from_patches, keep_border=keep_border,
+            cut_region=cut_region, cut_bias=cut_bias, transforms=transforms, index=index,
+        )  # fmt: skip
+    if I_src is None:  # an IntermediateTiles
+        I_tiles, I_src = I_tiles.take(np.arange(I_tiles.shape[0]) if index is None else index)
+    elif index is not None:
+        I_tiles, I_src = I_tiles[index], I_src[index]
     ex, n, k = b.exemplar, b.tile_size, I_tiles.shape[0]
     t0 = time.perf_counter()
     O_tiles = patches_at(ex, offsets, n)
@@ -164,3 +178,66 @@ def cut_and_compose(
     source = np.where(masks[..., None], o_src, I_src).astype(np.int32, copy=False)
     timing = {"cutting_s": t1 - t0, **({"smoothing_s": time.perf_counter() - t1} if smooth else {})}
     return tiles, source, masks, costs, smooth_info, timing
+
+
+CHUNK_BYTES = 32 << 20
+"""Working memory per tile chunk of the unsmoothed cut stage (:func:`_cut_and_compose_chunked`): the chunk's
+matching patches, their provenance and the seam-weight gradients."""
+
+
+def _cut_and_compose_chunked(
+    b: BuildOptions,
+    I_tiles: Any,
+    I_src: np.ndarray | None,
+    offsets: np.ndarray,
+    *,
+    eps: float,
+    grad_from_patches: bool,
+    keep_border: bool,
+    cut_region: str,
+    cut_bias: float | None,
+    transforms: np.ndarray | None,
+    index: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, None, dict[str, float]]:
+    """:func:`cut_and_compose` without smoothing, a chunk of tiles at a time (issue 12: the c5 default's 625
+    tiles held the matching patches, their int64 provenance, float64 gradients, a copy of the intermediate tiles
+    and two casts of the composed tiles at once, a 1.1 GB peak for a 512² exemplar). Every cut is per tile
+    (its own Kwatra weights, mean edge weight and min cut), so the masks, costs, tiles and provenance are the
+    bytes of the whole-array version; only the peak memory differs."""
+    ex, n = b.exemplar, b.tile_size
+    index = np.arange(I_tiles.shape[0]) if index is None else np.asarray(index)
+    k = index.shape[0]
+    c = I_tiles.shape[3]
+    per_tile = n * n * (4 * c + 4 * c + 8 + 8 + 16 + 8)  # I, O (float32), two provenances, gradients, weights
+    step = max(1, 4 * max(1, b.threads or 1), CHUNK_BYTES // per_tile)
+    tiles = np.empty((k, n, n, c), np.float32)
+    source = np.empty((k, n, n, 2), np.int32)
+    masks = np.empty((k, n, n), bool)
+    costs = np.empty(k)
+    t0 = time.perf_counter()
+    b.report("cutting curves", 0, k)
+    for lo in range(0, k, step):
+        sl = slice(lo, min(k, lo + step))
+        ii = index[sl]
+        it, isrc = I_tiles.take(ii) if I_src is None else (I_tiles[ii], I_src[ii])
+        O_tiles = patches_at(ex, offsets[sl], n)
+        o_src = offset_source(offsets[sl], n)
+        if transforms is not None:  # issue 12: augmented matching patches
+            from ..augment import transform_tiles
+
+            O_tiles, o_src = transform_tiles(O_tiles, transforms[sl]), transform_tiles(o_src, transforms[sl])
+        grad = patch_gradients(ex, isrc) if grad_from_patches else None
+        if cut_region in ("free", "ring"):  # issue 12: the free cut regions
+            from ..levers import free_cuts
+
+            m, cst = free_cuts(it, O_tiles, eps, grad, bias=cut_bias, cut_region=cut_region)
+        else:
+            m, cst = kernels.omega_cuts(
+                it, O_tiles, eps=eps, threads=b.threads, intermediate_grad=grad, keep_border=keep_border
+            )
+        masks[sl], costs[sl] = m, cst
+        tiles[sl] = np.where(m[..., None], O_tiles, it)  # cast on assignment, as .astype(np.float32) did
+        source[sl] = np.where(m[..., None], o_src, isrc)
+        del it, isrc, O_tiles, o_src, grad, m
+        b.report("cutting curves", sl.stop, k)
+    return tiles, source, masks, costs, None, {"cutting_s": time.perf_counter() - t0}
