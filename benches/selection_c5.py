@@ -70,7 +70,9 @@ def report(data: dict[str, Any]) -> None:
     print("| **mean** | " + " | ".join(f"**{m[k]:+.1f}**" for _, k, _ in VISIBLE_MEASURES) + " |")
     rc = [v for r in data["textures"].values() for v in r["random_cpu_s"]]
     dc = [v for r in data["textures"].values() for v in r["default_cpu_s"]]
-    print(f"\nmedian CPU s per build: single random draw {np.median(rc):.2f}, default (obord) {np.median(dc):.2f}")
+    print(
+        f"\nmedian CPU s per build: single random draw {np.median(rc):.2f}, default (obord) {np.median(dc):.2f}"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

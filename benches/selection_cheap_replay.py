@@ -112,7 +112,11 @@ def table(data: dict[str, Any], rules: list[str]) -> list[tuple[str, dict[str, f
         c = cost(data, rule)
         tgt = min(m[q] for q in TARGETS)
         out.append((rule, m, c))
-        print(f"| {rule} | " + " | ".join(f"{m[k]:+.1f}" for _, k, _ in VISIBLE_MEASURES) + f" | {tgt:+.1f} | {c:.1f} |")
+        print(
+            f"| {rule} | "
+            + " | ".join(f"{m[k]:+.1f}" for _, k, _ in VISIBLE_MEASURES)
+            + f" | {tgt:+.1f} | {c:.1f} |"
+        )
     return out
 
 
