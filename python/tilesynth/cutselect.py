@@ -65,7 +65,14 @@ DEFAULT_COUNT = 32
 """Random gene vectors of the default selection (best-of by ΣD, then re-ranked by the cut score)."""
 
 DEFAULT_RERANK = 4
-"""Candidates re-ranked by the real cut score (the best distinct ones by the first stage)."""
+"""Candidates re-ranked by the real cut score (the best distinct ones by the first stage).
+
+Why the cut score and not a cheap visible re-ranking (``benches/selection-results.md``, "Cheap visible
+selection"): rank sums of the tiles' cut seam with a sampled proxy coherence (and cropped texture statistics),
+chosen on six textures outside the bench, gain +9.5 / +6.5 / +13.9 % (cut seam / coherence / texture
+statistics) on the bench's textures against this default's +7.3 / +7.0 / +11.7 %, for 1.9-2.4 x its CPU: worse
+in coherence, and no cheaper than 1.5 x. Even the best of 4 candidates by the evaluation itself gains only
++10.0 % in coherence (+4.0 % on the tuning textures), so no re-ranking of these candidates meets 10 % there."""
 
 COMPLETE_DEFAULT = "random"
 """The default selection of the complete sets (c4, c3x2, ...): one random draw. Measured with
