@@ -9,7 +9,7 @@ the whole set's intermediate and matching patches) and, when the genes are selec
 (``_core.DEFAULT_CACHE_BYTES``) plus a working set linear in the exemplar's pixels, and a second set of tiles
 (the cut re-ranking keeps the best build while the next is made).
 
-The constants are measured peaks (``ru_maxrss`` above the interpreter's, 2 threads, lettuce exemplar tiled to
+The constants are measured peaks (VmHWM above the interpreter's, 2 threads, lettuce exemplar tiled to
 size, this tree after the chunked cut stage of issue 12), rounded up so the estimate stays above every one and
 within about 1.5-2x of it (estimate / peak): c5 default 125 MB at 256² (1.5x), 359 MB at 512² (1.4x),
 1371 MB at 1024² (1.5x), c5 smoothed 725 MB at 512² (1.3x); 16a at 128 px by the default selection 395 MB at
