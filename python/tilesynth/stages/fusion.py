@@ -91,8 +91,13 @@ def seam_guidance(
     copies' own steps (module docstring, :func:`seam_steps`). ``values``: the map on the exemplar grid
     ``(H, W, C)`` float64; ``copies``: its tiles ``(K, N, N, C)`` as copied through ``source`` ``(K, N, N, 2)``;
     ``valid``: bool ``(H, W)`` of the exemplar pixels a continuation may read (None: all)."""
-    sv, sh = seam_steps(values, copies, source, valid)
-    div = np.zeros(copies.shape, np.float64)
+    return _divergence(*seam_steps(values, copies, source, valid), copies.shape)
+
+
+def _divergence(sv: np.ndarray, sh: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """``div s`` of the vertical and horizontal steps ``sv`` / ``sh`` on tiles of ``shape``: +s at the first
+    pixel of each step, −s at the second."""
+    div = np.zeros(shape, np.float64)
     div[:, :-1] += sv
     div[:, 1:] -= sv
     div[:, :, :-1] += sh
@@ -225,11 +230,7 @@ def fuse_tiles(
         raise ValueError(f"clamp = {clamp!r}: must be None, 0 or a positive width in pixels")
     values = np.asarray(values, np.float64)
     sv, sh = seam_steps(values, copies, source, valid)
-    div = np.zeros(copies.shape, np.float64)
-    div[:, :-1] += sv
-    div[:, 1:] -= sv
-    div[:, :, :-1] += sh
-    div[:, :, 1:] -= sh
+    div = _divergence(sv, sh, copies.shape)
     # A g = b with A the 5-point Laplacian (4 g_p − Σ neighbours): the normal equations of Σ (g_q − g_p − s)²
     # give A g = −div s (div as accumulated above: +s at p, −s at q).
     b = -div[:, 1:-1, 1:-1]
