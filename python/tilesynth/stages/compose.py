@@ -109,6 +109,41 @@ def finish_tileset(
     return ts
 
 
+def _cut(
+    b: BuildOptions,
+    I_tiles: np.ndarray,
+    I_src: np.ndarray,
+    offsets: np.ndarray,
+    transforms: np.ndarray | None,
+    *,
+    eps: float,
+    grad_from_patches: bool,
+    keep_border: bool,
+    cut_region: str,
+    cut_bias: float | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The cut of intermediate tiles ``I_tiles`` (provenance ``I_src``) against their matching patches at
+    ``offsets``: ``(patches, their provenance, masks, costs)``, for the whole set or one chunk of it. The seam
+    gradients live only inside this call (issue 15, peak RSS: ``K x n x n x 2`` float64)."""
+    ex, n = b.exemplar, b.tile_size
+    O_tiles = patches_at(ex, offsets, n)
+    o_src = offset_source(offsets, n)
+    if transforms is not None:  # issue 12: augmented matching patches
+        from ..augment import transform_tiles
+
+        O_tiles, o_src = transform_tiles(O_tiles, transforms), transform_tiles(o_src, transforms)
+    grad = patch_gradients(ex, I_src) if grad_from_patches else None
+    if cut_region in ("free", "ring"):  # issue 12: the free cut regions
+        from ..levers import free_cuts
+
+        masks, costs = free_cuts(I_tiles, O_tiles, eps, grad, bias=cut_bias, cut_region=cut_region)
+    else:
+        masks, costs = kernels.omega_cuts(
+            I_tiles, O_tiles, eps=eps, threads=b.threads, intermediate_grad=grad, keep_border=keep_border
+        )
+    return O_tiles, o_src, masks, costs
+
+
 def cut_and_compose(
     b: BuildOptions,
     I_tiles: Any,
@@ -146,25 +181,13 @@ def cut_and_compose(
         I_tiles, I_src = I_tiles.take(np.arange(I_tiles.shape[0]) if index is None else index)
     elif index is not None:
         I_tiles, I_src = I_tiles[index], I_src[index]
-    ex, n, k = b.exemplar, b.tile_size, I_tiles.shape[0]
+    k = I_tiles.shape[0]
     t0 = time.perf_counter()
-    O_tiles = patches_at(ex, offsets, n)
-    o_src = offset_source(offsets, n)
-    if transforms is not None:  # issue 12: augmented matching patches
-        from ..augment import transform_tiles
-
-        O_tiles, o_src = transform_tiles(O_tiles, transforms), transform_tiles(o_src, transforms)
     b.report("cutting curves", 0, k)
-    grad = patch_gradients(ex, I_src) if grad_from_patches else None
-    if cut_region in ("free", "ring"):  # issue 12: the free cut regions
-        from ..levers import free_cuts
-
-        masks, costs = free_cuts(I_tiles, O_tiles, eps, grad, bias=cut_bias, cut_region=cut_region)
-    else:
-        masks, costs = kernels.omega_cuts(
-            I_tiles, O_tiles, eps=eps, threads=b.threads, intermediate_grad=grad, keep_border=keep_border
-        )
-    grad = None  # issue 15 (peak RSS): not needed past the cut (K x n x n x 2 float64)
+    O_tiles, o_src, masks, costs = _cut(
+        b, I_tiles, I_src, offsets, transforms, eps=eps, grad_from_patches=grad_from_patches,
+        keep_border=keep_border, cut_region=cut_region, cut_bias=cut_bias,
+    )  # fmt: skip
     t1 = time.perf_counter()
     b.report("cutting curves", k, k)
     smooth_info = None
@@ -204,7 +227,7 @@ def _cut_and_compose_chunked(
     and two casts of the composed tiles at once, a 1.1 GB peak for a 512² exemplar). Every cut is per tile
     (its own Kwatra weights, mean edge weight and min cut), so the masks, costs, tiles and provenance are the
     bytes of the whole-array version; only the peak memory differs."""
-    ex, n = b.exemplar, b.tile_size
+    n = b.tile_size
     index = np.arange(I_tiles.shape[0]) if index is None else np.asarray(index)
     k = index.shape[0]
     c = I_tiles.shape[3]
@@ -220,24 +243,13 @@ def _cut_and_compose_chunked(
         sl = slice(lo, min(k, lo + step))
         ii = index[sl]
         it, isrc = I_tiles.take(ii) if I_src is None else (I_tiles[ii], I_src[ii])
-        O_tiles = patches_at(ex, offsets[sl], n)
-        o_src = offset_source(offsets[sl], n)
-        if transforms is not None:  # issue 12: augmented matching patches
-            from ..augment import transform_tiles
-
-            O_tiles, o_src = transform_tiles(O_tiles, transforms[sl]), transform_tiles(o_src, transforms[sl])
-        grad = patch_gradients(ex, isrc) if grad_from_patches else None
-        if cut_region in ("free", "ring"):  # issue 12: the free cut regions
-            from ..levers import free_cuts
-
-            m, cst = free_cuts(it, O_tiles, eps, grad, bias=cut_bias, cut_region=cut_region)
-        else:
-            m, cst = kernels.omega_cuts(
-                it, O_tiles, eps=eps, threads=b.threads, intermediate_grad=grad, keep_border=keep_border
-            )
+        O_tiles, o_src, m, cst = _cut(
+            b, it, isrc, offsets[sl], None if transforms is None else transforms[sl], eps=eps,
+            grad_from_patches=grad_from_patches, keep_border=keep_border, cut_region=cut_region, cut_bias=cut_bias,
+        )  # fmt: skip
         masks[sl], costs[sl] = m, cst
         tiles[sl] = np.where(m[..., None], O_tiles, it)  # cast on assignment, as .astype(np.float32) did
         source[sl] = np.where(m[..., None], o_src, isrc)
-        del it, isrc, O_tiles, o_src, grad, m
+        del it, isrc, O_tiles, o_src, m
         b.report("cutting curves", sl.stop, k)
     return tiles, source, masks, costs, None, {"cutting_s": time.perf_counter() - t0}
