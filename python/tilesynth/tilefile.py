@@ -567,14 +567,17 @@ def _write_member(zf: zipfile.ZipFile, name: str, data: bytes) -> None:
     zf.writestr(info, data, compress_type=zipfile.ZIP_DEFLATED, compresslevel=DEFLATE_LEVEL)
 
 
-class _Count:
-    """A write-only sink that counts the bytes written to it."""
-
-    def __init__(self) -> None:
-        self.n = 0
-
-    def write(self, b: bytes) -> None:
-        self.n += len(b)
+def _npy_size(a: np.ndarray) -> int:
+    """The length of ``np.lib.format.write_array(fp, a)``'s output (header + data) without writing the data:
+    the header as ``write_array`` chooses it (format 1.0, 2.0 when the header does not fit 1.0) and ``nbytes``."""
+    head = io.BytesIO()
+    d = np.lib.format.header_data_from_array_1_0(a)
+    try:
+        np.lib.format.write_array_header_1_0(head, d)
+    except ValueError:  # a header over 65535 bytes: write_array falls back to 2.0 the same way
+        head = io.BytesIO()
+        np.lib.format.write_array_header_2_0(head, d)
+    return head.tell() + a.nbytes
 
 
 def _write_array(zf: zipfile.ZipFile, name: str, a: np.ndarray) -> None:
@@ -583,12 +586,10 @@ def _write_array(zf: zipfile.ZipFile, name: str, a: np.ndarray) -> None:
     in 16 MiB pieces), without the two whole in-memory copies of the array (issue 12: a c5 set's 123 MB of
     tiles were the peak of saving it)."""
     a = np.ascontiguousarray(a)
-    count = _Count()  # the member's length: header + data, counted without keeping them
-    np.lib.format.write_array(count, a, allow_pickle=False)
     info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
     info.compress_type = zipfile.ZIP_DEFLATED
     info.external_attr = 0o644 << 16
-    info.file_size = count.n
+    info.file_size = _npy_size(a)
     if "compress_level" in getattr(zipfile.ZipInfo, "__slots__", ()):  # Python >= 3.13
         info.compress_level = DEFLATE_LEVEL
     else:
