@@ -520,10 +520,9 @@ def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
         return False
     if spec.kind in SMOOTH_KINDS:  # the fusion needs only the provenance's seams: every scheme (issue 14:
         return True if smooth is None else bool(smooth)  # Wang maps' seams were 4-43 as copies, 0.9-3.3 fused
-    patches = not (np.asarray(tileset.match_offsets) == -1).all()
-    if smooth is None:
-        return bool(is_smoothed(tileset) or (spec.kind in SMOOTH_KINDS and patches))
-    if smooth and not patches:
+    if smooth is None:  # a colour map: as the colour tiles were
+        return bool(is_smoothed(tileset))
+    if smooth and (np.asarray(tileset.match_offsets) == -1).all():  # no matching patches
         raise ParameterError(
             f"map {spec.name!r}: the tile set has no matching patches (scheme {tileset.scheme!r}), so there is "
             "no smoothing to follow; use map smoothing off"
