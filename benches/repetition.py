@@ -20,7 +20,8 @@ of 8):
 
 Measures (:mod:`tilesynth.metrics`): periodic-copy fraction, detail-layer autocorrelation peak, exemplar
 coverage (the provenance of every pixel: for hex tiling the vertex with the largest weight), histogram distance,
-border seam score and inner-lattice seam score (:func:`tilesynth.metrics.inner_seam_score`, the worst line
+texture-statistics distance (:func:`tilesynth.quality.texture_stats_distance`: Gram matrices of fixed random
+filters at scales 1 and 2, the issue's "no loss in texture statistics against 16a"), border seam score and inner-lattice seam score (:func:`tilesynth.metrics.inner_seam_score`, the worst line
 1-4 px inside the tile borders; tile sets: tile size N; others: n/a), build CPU seconds. One Markdown table, then means per
 method. ``--quick``: 4 textures, 512² outputs. The machine is shared: CPU times are indicative only.
 
@@ -55,6 +56,7 @@ from tilesynth.metrics import (
     periodic_copies,
     seam_score,
 )
+from tilesynth.quality import texture_stats_distance
 from tilesynth.synthesis import source_map
 
 TEXTURES = Path(__file__).resolve().parents[2] / "shared" / "textures"
@@ -266,6 +268,7 @@ def measure(img: np.ndarray, ex: np.ndarray, src: np.ndarray | None, tile: int |
         "hist": histogram_distance(img, ex).distance,
         "seam": seam_score(img, tile).score if tile else None,
         "inner": inner_seam_score(img, tile).max if tile else None,
+        "texstats": texture_stats_distance(img, ex),
     }
     return row
 
@@ -341,6 +344,7 @@ def run(textures: list[str], size: int, seed: int, methods: list[str], out_png: 
                     "hist": None,
                     "seam": None,
                     "inner": None,
+                    "texstats": None,
                     "texture": name,
                     "method": "exemplar",
                     "build_s": 0.0,
@@ -356,14 +360,15 @@ def _f(v, fmt=".3f") -> str:
 
 def table(rows: list[dict]) -> str:
     lines = [
-        "| texture | method | copies | autocorr peak | coverage | hist dist | border seam | inner seam | cut seam "
-        "| build CPU s |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| texture | method | copies | autocorr peak | coverage | hist dist | tex stats | border seam | inner seam "
+        "| cut seam | build CPU s |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
             f"| {r['texture']} | {r['method']} | {_f(r['copies'])} | {_f(r['autocorr'])} | "
-            f"{_f(r['coverage'])} | {_f(r['hist'])} | {_f(r['seam'])} | {_f(r.get('inner'))} | "
+            f"{_f(r['coverage'])} | {_f(r['hist'])} | {_f(r.get('texstats'))} | {_f(r['seam'])} | "
+            f"{_f(r.get('inner'))} | "
             f"{_f(r.get('cut_seam'))} | "
             f"{_f(r['build_s'], '.2f')} |"
         )
@@ -371,8 +376,9 @@ def table(rows: list[dict]) -> str:
         "",
         "Means over the textures:",
         "",
-        "| method | copies | autocorr peak | coverage | hist dist | border seam | inner seam | cut seam | build CPU s |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| method | copies | autocorr peak | coverage | hist dist | tex stats | border seam | inner seam | cut seam "
+        "| build CPU s |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     by: dict[str, list[dict]] = {}
     for r in rows:
@@ -386,7 +392,8 @@ def table(rows: list[dict]) -> str:
 
         lines.append(
             f"| {key} | {_f(mean('copies'))} | {_f(mean('autocorr'))} | {_f(mean('coverage'))} | "
-            f"{_f(mean('hist'))} | {_f(mean('seam'))} | {_f(mean('inner'))} | {_f(mean('cut_seam'))} | "
+            f"{_f(mean('hist'))} | {_f(mean('texstats'))} | {_f(mean('seam'))} | {_f(mean('inner'))} | "
+            f"{_f(mean('cut_seam'))} | "
             f"{_f(mean('build_s'), '.2f')} |"
         )
     return "\n".join(lines)
