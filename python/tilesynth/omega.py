@@ -291,10 +291,12 @@ def omega_options(
     metric = check_metric(metric)
     if not isinstance(smooth, (bool, np.bool_)):
         raise ParameterError(f"smooth = {smooth!r}: must be True or False")
-    if cut_region not in ("circle", "free", "ring"):
-        raise ParameterError(f"cut_region = {cut_region!r}: must be 'circle', 'free' or 'ring'")
+    if cut_region not in ("circle", "free", "free8", "ring"):
+        raise ParameterError(f"cut_region = {cut_region!r}: must be 'circle', 'free', 'free8' or 'ring'")
     if cut_bias is not None and (cut_region == "circle" or finite_float(cut_bias, "cut_bias") < 0):
-        raise ParameterError(f"cut_bias = {cut_bias!r}: a number >= 0, only with cut_region 'free' or 'ring'")
+        raise ParameterError(
+            f"cut_bias = {cut_bias!r}: a number >= 0, only with cut_region 'free', 'free8' or 'ring'"
+        )
     cut_bias = None if cut_bias is None else float(cut_bias)  # None: levers.default_bias (needs N)
     diversity = None if diversity == 0 else diversity
     if diversity is not None and (

@@ -109,7 +109,7 @@ SCHEME = Scheme(
             "border ring and corner discs, so most of each tile is its own matching patch (less repetition; "
             "default for complete sets); ring: the free region with a uniform area reward, which draws a grid of "
             "seams 2 px inside the tile borders (for comparison)",
-            choices=("circle", "free", "ring"),
+            choices=("circle", "free", "free8", "ring"),
         ),
         Option(
             "cut_bias",
