@@ -553,7 +553,8 @@ def build_omega(
     cut_region : "circle" (002's inscribed circle) or "free" (free but for a border ring and corner discs, so
         most of the tile is its own matching patch; a tapered area reward and a ring penalty keep the cut off
         the ring; :mod:`tilesynth.levers`). "ring": the same region with a uniform area reward, which presses
-        the cut onto the ring (a grid of seams 2 px inside the tile borders; kept for comparison). None
+        the cut onto the ring (a grid of seams 2 px inside the tile borders; kept for comparison). "free8": "free"
+        on an 8-connected grid with geo-cut weights (cut cost ~ Euclidean length, no staircases; opt-in). None
         (default): "free" for the complete sets of the hashed lookup (``c3x2``, ``c4``, ...), "circle" for the
         papers' sets.
     cut_bias : "free"/"ring" only: the area reward per pixel in units of the mean edge weight (default
