@@ -29,7 +29,8 @@ Second round (after the border-aware draw, :data:`ROUND2`): ``<set> default`` = 
 complete sets (free cut, diversity 1, border-aware best-of-32 corner draw, default N), and levers on top of them
 (``c4x2``, ``c5``, ``augment`` flip / rotate / all, diversity 2); ``exemplar`` = the exemplar's own copies and
 autocorrelation peak (lags up to half the exemplar). ``--methods "c4 default;hex;exemplar"`` runs a selection
-(semicolon-separated names of :func:`method_table` and :data:`BASELINES`).
+(semicolon-separated names of :func:`method_table` and :data:`BASELINES`). ``c5 free8``: the default c5 with the
+8-connected geo-cut free region (staircase round, :mod:`tilesynth.levers`).
 
 Usage: ``python benches/repetition.py [--quick] [--size 1024] [--textures a,b] [--methods M1;M2] [--out table.md]``
 """
@@ -93,6 +94,7 @@ ROUND2 = [
     ("c4", "aug-all", {"augment": "all"}),
     ("c4x2", "aug-all", {"augment": "all"}),
     ("c4", "div2", {"diversity": 2}),
+    ("c5", "free8", {"cut_region": "free8"}),
 ]
 BASELINES = ["periodic", "hex", "quilt", "exemplar"]
 """``exemplar``: the exemplar itself (its own detail-layer autocorrelation peak and copies: how far the target

@@ -45,7 +45,7 @@ def test_free_terminals():
         free_terminals(n, ring=2, disc=32)
 
 
-@pytest.mark.parametrize(("region", "bias"), [("free", 0.0), ("free", None), ("ring", None)])
+@pytest.mark.parametrize(("region", "bias"), [("free", 0.0), ("free", None), ("free8", None), ("ring", None)])
 def test_free_cut_keeps_the_border_and_covers_the_cross(lettuce, region, bias):
     genes = np.array([[10, 10], [100, 30], [30, 150], [150, 150]])
     circle = ts.build_omega(lettuce, tileset="c2", tile_size=64, genes=genes[:2], cut_region="circle")
@@ -307,3 +307,43 @@ def test_default_complete_tile_size_is_a_multiple_of_8():
         assert default_complete_tile_size((side, side + 10, 3)) == n
         assert max_mip_level(n, 8) == 3  # the export's mips reach level 3 with its default gutter
     assert default_complete_tile_size((20, 20, 3)) == 10  # small exemplars: the half-side default
+
+
+def test_grid_mincut8_geo_weights_and_errors():
+    """The 8-connected cut of ``cut_region="free8"``: zero diagonals give the 4-connected cut, the geo-cut
+    weights price a straight 45° boundary like an axis one, and wd/wa come together."""
+    from itertools import product
+
+    from tilesynth import kernels
+    from tilesynth.levers import geo_weights
+
+    rng = np.random.default_rng(3)
+    h, w = 3, 4
+    wx, wy = rng.random((h, w)), rng.random((h, w))
+    src = np.zeros((h, w), bool)
+    src[:, 0] = True
+    sink = np.zeros((h, w), bool)
+    sink[:, -1] = True
+    zero = np.zeros((h, w))
+    four = kernels.grid_mincut(wx, wy, src, sink)
+    eight = kernels.grid_mincut(wx, wy, src, sink, wd=zero, wa=zero)
+    np.testing.assert_array_equal(four[0], eight[0])
+    assert four[1] == pytest.approx(eight[1])
+    # brute force over the free pixels (oracle written here, independent of the solver)
+    gx, gy, gd, ga = geo_weights(wx, wy)
+    labels, flow = kernels.grid_mincut(gx, gy, src, sink, wd=gd, wa=ga)
+    free = np.flatnonzero(~src.ravel() & ~sink.ravel())
+
+    def cost(lab):
+        c = (gx[:, :-1] * (lab[:, :-1] != lab[:, 1:])).sum() + (gy[:-1] * (lab[:-1] != lab[1:])).sum()
+        c += (gd[:-1, :-1] * (lab[:-1, :-1] != lab[1:, 1:])).sum()
+        return c + (ga[:-1, 1:] * (lab[:-1, 1:] != lab[1:, :-1])).sum()
+
+    best = np.inf
+    for bits in product([False, True], repeat=free.size):
+        lab = sink.copy().ravel()
+        lab[free] = bits
+        best = min(best, cost(lab.reshape(h, w)))
+    assert flow == pytest.approx(best) and cost(labels) == pytest.approx(flow)
+    with pytest.raises(ParameterError, match="wa"):
+        kernels.grid_mincut(wx, wy, src, sink, wd=zero)

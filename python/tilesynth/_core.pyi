@@ -20,6 +20,7 @@ __all__ = [
     "PopulationEvaluator",
     "WangEvaluator",
     "grid_mincut",
+    "grid_mincut8",
     "kwatra_weights",
     "omega_cuts",
     "poisson_smooth",
@@ -103,6 +104,16 @@ class PopulationEvaluator:
 def grid_mincut(
     wx: npt.NDArray[np.float64],
     wy: npt.NDArray[np.float64],
+    source_hard: npt.NDArray[np.bool_],
+    sink_hard: npt.NDArray[np.bool_],
+    source_cap: npt.NDArray[np.float64] | None = None,
+    sink_cap: npt.NDArray[np.float64] | None = None,
+) -> tuple[npt.NDArray[np.bool_], float]: ...
+def grid_mincut8(
+    wx: npt.NDArray[np.float64],
+    wy: npt.NDArray[np.float64],
+    wd: npt.NDArray[np.float64],
+    wa: npt.NDArray[np.float64],
     source_hard: npt.NDArray[np.bool_],
     sink_hard: npt.NDArray[np.bool_],
     source_cap: npt.NDArray[np.float64] | None = None,

@@ -385,7 +385,7 @@ PARAMS = Obj(
         "sample_size": Optional(_POS),
         "threads": Optional(_POS),
         # the levers of the complete sets (issue 12, tilesynth.levers)
-        "cut_region": Str(("circle", "free", "ring")),
+        "cut_region": Str(("circle", "free", "free8", "ring")),
         "cut_bias": Num(0.0),
         "diversity": _POS,
         "augment": Str(("none", "flip", "rotate", "all")),  # issue 12: tilesynth.augment

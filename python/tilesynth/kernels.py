@@ -226,12 +226,18 @@ def grid_mincut(
     sink: np.ndarray,
     source_cap: np.ndarray | None = None,
     sink_cap: np.ndarray | None = None,
+    wd: np.ndarray | None = None,
+    wa: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float]:
-    """Minimum cut of a 4-connected ``(H, W)`` pixel grid (Boykov–Kolmogorov max-flow).
+    """Minimum cut of a 4-connected ``(H, W)`` pixel grid (Boykov–Kolmogorov max-flow), 8-connected with
+    ``wd`` and ``wa``.
 
     ``wx[y, x]`` is the capacity of edge (y,x)–(y,x+1) and ``wy[y, x]`` of (y,x)–(y+1,x) (both directions;
     the last column / row is ignored). ``source`` / ``sink`` are bool masks of pixels tied to a terminal with
-    infinite capacity; ``source_cap`` / ``sink_cap`` optional finite t-link capacities.
+    infinite capacity; ``source_cap`` / ``sink_cap`` optional finite t-link capacities. ``wd[y, x]``
+    (edge (y,x)–(y+1,x+1)) and ``wa[y, x]`` (edge (y,x)–(y+1,x−1)), given together, add the diagonal edges
+    (the same BK solver on an 8-connected grid; last row ignored, and the last column of ``wd``, the first
+    of ``wa``).
 
     Returns ``(labels, flow)``: bool ``(H, W)``, True on the sink side, and the max-flow value (= the cut cost).
     """
@@ -239,14 +245,20 @@ def grid_mincut(
     def f64(a: np.ndarray | None, name: str) -> np.ndarray | None:
         return None if a is None else _real(a, name, 2, "(H, W)")
 
-    return _core.grid_mincut(
-        f64(wx, "wx"),
-        f64(wy, "wy"),
+    terminals = (
         _mask(source, "source"),
         _mask(sink, "sink"),
         f64(source_cap, "source_cap"),
         f64(sink_cap, "sink_cap"),
     )
+    if (wd is None) != (wa is None):
+        missing = "wd" if wd is None else "wa"
+        raise ParameterError(
+            f"{missing} = None: wd and wa (the two diagonals) are given together or not at all"
+        )
+    if wd is None:
+        return _core.grid_mincut(f64(wx, "wx"), f64(wy, "wy"), *terminals)
+    return _core.grid_mincut8(f64(wx, "wx"), f64(wy, "wy"), f64(wd, "wd"), f64(wa, "wa"), *terminals)
 
 
 def _grad(g: np.ndarray | None, name: str, ndim: int, shape_text: str) -> np.ndarray | None:

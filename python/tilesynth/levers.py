@@ -33,6 +33,25 @@ matching patch O. Two build options of :func:`tilesynth.build_omega` move that b
     tapered reward without the penalty still left 3.1 (the tie of equal-length paths), the penalty brings it to
     1.4-1.6 at a cost of a few points of O's share (0.71 instead of 0.78 of the tile on cracked mud).
 
+``cut_region="free8"`` (:func:`free_cuts`, the default of complete sets)
+    The same terminals, reward and ring penalty as ``"free"``, cut on an 8-connected grid whose cost
+    approximates the Euclidean length of the cut instead of its L1 length. On the 4-connected grid every
+    monotone staircase between two points costs as much as the straight diagonal, so the cut follows
+    content edges in long axis-aligned runs joined by right-angle steps of a few pixels, and tiles are hard
+    copies: where a bright part of O meets darker vertex content each step shows as a notch (issue 12,
+    ``benches/repetition-results.md``). The edge weights are Boykov & Kolmogorov's geo-cut weights
+    ("Computing geodesics and minimal surfaces via graph cuts", ICCV 2003: ``w_k = δ² Δφ_k / (2 |e_k|)``,
+    Δφ = π/4 for the 8-neighbourhood) times the local seam cost, scaled so that a straight axis-aligned cut
+    through content of unit Kwatra weight costs 1 per pixel as on the 4-connected grid (the reward and the
+    penalty keep their calibration): :data:`GEO_AXIS` = √2 − 1 for the axis edges, :data:`GEO_DIAG` =
+    1 − 1/√2 for the diagonals. A 45° cut then also costs its length (4-connected: √2 times it), at 22.5°
+    8 % more (the metrication error of the 8-neighbourhood). The paper's metric is a density evaluated at
+    the edge; for a diagonal edge the Kwatra weights need a gradient along the diagonal that the patch
+    gradients of the ω construction do not hold, so its density is the mean of the four (penalised) Kwatra
+    weights of the axis edges of the pixel square it crosses (the density at the square's centre, where
+    both diagonals cross). Consequence: the ring penalty acts at about 3/4 strength on a cut parallel to a
+    border (its diagonal share averages a penalised and an unpenalised pair).
+
 ``diversity=m`` (:func:`diverse_matches`)
     Instead of each intermediate tile's independent best matching patch, the matching patches are assigned
     greedily (tiles in the order of their best distance, then variants) among each tile's ``DIVERSE_CANDIDATES``
@@ -52,7 +71,7 @@ import numpy as np
 from . import kernels
 from .errors import ParameterError
 
-CUT_REGIONS = ("circle", "free", "ring")
+CUT_REGIONS = ("circle", "free", "free8", "ring")
 """Values of ``cut_region``."""
 DIVERSE_CANDIDATES = 32
 """Candidate translations per intermediate tile of :func:`diverse_matches` (24 before self-matches were
@@ -93,14 +112,20 @@ RING_PENALTY = 3.0
 docstring); it falls to 0 at N/4 inside. 3 and 6 were measured: 6 shrinks O with no further gain."""
 SUPERELLIPSE = 3.0
 """Exponent of the rounded square that shapes the reward (2 = circle; 3 reaches further into the corners)."""
-FREE_REGIONS = ("free", "ring")
+FREE_REGIONS = ("free", "free8", "ring")
 """The values of ``cut_region`` cut by :func:`free_cuts` (``circle`` is the ω kernel's)."""
+TAPERED_REGIONS = ("free", "free8")
+"""The free regions with the tapered reward and the ring penalty (:func:`free_weights`)."""
+GEO_AXIS = float(np.sqrt(2.0) - 1.0)
+"""Geo-cut factor of the axis edges of ``cut_region="free8"`` (module docstring)."""
+GEO_DIAG = float(1.0 - 1.0 / np.sqrt(2.0))
+"""Geo-cut factor of the diagonal edges of ``cut_region="free8"`` (GEO_AXIS / √2, as Δφ/(2|e|) prescribes)."""
 
 
 def default_bias(cut_region: str, n: int) -> float:
-    """The default ``cut_bias`` of a free cut region for tiles of ``n`` pixels: FREE_BETA / (N/2) for "free",
-    RING_BIAS for "ring"."""
-    return FREE_BETA / (n / 2) if cut_region == "free" else RING_BIAS
+    """The default ``cut_bias`` of a free cut region for tiles of ``n`` pixels: FREE_BETA / (N/2) for "free" and
+    "free8", RING_BIAS for "ring"."""
+    return FREE_BETA / (n / 2) if cut_region in TAPERED_REGIONS else RING_BIAS
 
 
 def free_weights(
@@ -142,17 +167,18 @@ def free_cuts(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Masks ``(K, N, N)`` (True = take O) and cut costs of a free cut region, one grid min cut per tile.
 
-    ``cut_region`` "free" (tapered reward and ring penalty, :func:`free_weights`) or "ring" (a uniform reward,
-    the first version). ``bias`` > 0 rewards area given to O: free pixels get sink t-links of the reward times
-    the tile's mean edge weight (None: :func:`default_bias`). The reported cost is the cut's edge weights
-    (penalised ones included) plus the rewards it forgoes."""
+    ``cut_region`` "free" (tapered reward and ring penalty, :func:`free_weights`), "free8" (the same on the
+    8-connected geo-cut grid, :func:`geo_weights`) or "ring" (a uniform reward, the first version). ``bias`` > 0
+    rewards area given to O: free pixels get sink t-links of the reward times the tile's mean edge weight
+    (None: :func:`default_bias`). The reported cost is the cut's edge weights (penalised ones included) plus
+    the rewards it forgoes."""
     if cut_region not in FREE_REGIONS:
         raise ParameterError(f"cut_region = {cut_region!r}: free_cuts takes {FREE_REGIONS}")
     k, n = intermediate.shape[:2]
     src, sink = free_terminals(n, ring, disc)
     free = ~src & ~sink
     bias = default_bias(cut_region, n) if bias is None else float(bias)
-    reward, fx, fy = free_weights(n, bias, ring, tapered=cut_region == "free")
+    reward, fx, fy = free_weights(n, bias, ring, tapered=cut_region in TAPERED_REGIONS)
     reward = np.where(free, reward, 0.0)
     masks = np.zeros((k, n, n), bool)
     costs = np.zeros(k)
@@ -162,8 +188,28 @@ def free_cuts(
         )
         mean_w = float(np.concatenate([wx[:, :-1].ravel(), wy[:-1].ravel()]).mean())
         cap = reward * mean_w if bias > 0 else None
-        masks[j], costs[j] = kernels.grid_mincut(wx * fx, wy * fy, src, sink, sink_cap=cap)
+        if cut_region == "free8":
+            gx, gy, gd, ga = geo_weights(wx * fx, wy * fy)
+            masks[j], costs[j] = kernels.grid_mincut(gx, gy, src, sink, sink_cap=cap, wd=gd, wa=ga)
+        else:
+            masks[j], costs[j] = kernels.grid_mincut(wx * fx, wy * fy, src, sink, sink_cap=cap)
     return masks, costs
+
+
+def geo_weights(wx: np.ndarray, wy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The 8-connected geo-cut capacities ``(wx, wy, wd, wa)`` of ``cut_region="free8"`` from the axis weights
+    ``(H, W)`` of :func:`tilesynth.kernels.kwatra_weights` (layout of :func:`tilesynth.kernels.grid_mincut`):
+    axis edges times :data:`GEO_AXIS`; the diagonals of the pixel square with top-left (y, x) (``wd[y, x]``
+    from (y, x), ``wa[y, x + 1]`` from (y, x + 1)) :data:`GEO_DIAG` times the mean of its four axis weights
+    (module docstring). Entries the solver ignores are 0."""
+    h, w = wx.shape
+    wd = np.zeros((h, w))
+    wa = np.zeros((h, w))
+    if h > 1 and w > 1:
+        square = (wx[:-1, :-1] + wx[1:, :-1] + wy[:-1, :-1] + wy[:-1, 1:]) * (GEO_DIAG / 4)
+        wd[:-1, :-1] = square
+        wa[:-1, 1:] = square
+    return wx * GEO_AXIS, wy * GEO_AXIS, wd, wa
 
 
 def self_offsets(inter_src: np.ndarray) -> np.ndarray:

@@ -291,10 +291,12 @@ def omega_options(
     metric = check_metric(metric)
     if not isinstance(smooth, (bool, np.bool_)):
         raise ParameterError(f"smooth = {smooth!r}: must be True or False")
-    if cut_region not in ("circle", "free", "ring"):
-        raise ParameterError(f"cut_region = {cut_region!r}: must be 'circle', 'free' or 'ring'")
+    if cut_region not in ("circle", "free", "free8", "ring"):
+        raise ParameterError(f"cut_region = {cut_region!r}: must be 'circle', 'free', 'free8' or 'ring'")
     if cut_bias is not None and (cut_region == "circle" or finite_float(cut_bias, "cut_bias") < 0):
-        raise ParameterError(f"cut_bias = {cut_bias!r}: a number >= 0, only with cut_region 'free' or 'ring'")
+        raise ParameterError(
+            f"cut_bias = {cut_bias!r}: a number >= 0, only with cut_region 'free', 'free8' or 'ring'"
+        )
     cut_bias = None if cut_bias is None else float(cut_bias)  # None: levers.default_bias (needs N)
     diversity = None if diversity == 0 else diversity
     if diversity is not None and (
@@ -551,7 +553,8 @@ def build_omega(
     cut_region : "circle" (002's inscribed circle) or "free" (free but for a border ring and corner discs, so
         most of the tile is its own matching patch; a tapered area reward and a ring penalty keep the cut off
         the ring; :mod:`tilesynth.levers`). "ring": the same region with a uniform area reward, which presses
-        the cut onto the ring (a grid of seams 2 px inside the tile borders; kept for comparison). None
+        the cut onto the ring (a grid of seams 2 px inside the tile borders; kept for comparison). "free8": "free"
+        on an 8-connected grid with geo-cut weights (cut cost ~ Euclidean length, no staircases; opt-in). None
         (default): "free" for the complete sets of the hashed lookup (``c3x2``, ``c4``, ...), "circle" for the
         papers' sets.
     cut_bias : "free"/"ring" only: the area reward per pixel in units of the mean edge weight (default

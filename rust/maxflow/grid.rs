@@ -410,7 +410,7 @@ pub fn grid_cut_cost(
     Ok(cost)
 }
 
-fn check_shape(
+pub(super) fn check_shape(
     name: &'static str,
     shape: &[usize],
     h: usize,
@@ -424,7 +424,12 @@ fn check_shape(
 }
 
 /// Edge capacities in the used part `[..rows, ..cols]` must be finite and `>= 0`.
-fn check_edge_caps(name: &'static str, a: ArrayView2<f64>, rows: usize, cols: usize) -> Result<()> {
+pub(super) fn check_edge_caps(
+    name: &'static str,
+    a: ArrayView2<f64>,
+    rows: usize,
+    cols: usize,
+) -> Result<()> {
     for y in 0..rows {
         for x in 0..cols {
             let c = a[(y, x)];
@@ -441,7 +446,12 @@ fn check_edge_caps(name: &'static str, a: ArrayView2<f64>, rows: usize, cols: us
 }
 
 /// Soft terminal capacities must be finite and `>= 0`.
-fn check_caps(name: &'static str, a: ArrayView2<f64>, rows: usize, cols: usize) -> Result<()> {
+pub(super) fn check_caps(
+    name: &'static str,
+    a: ArrayView2<f64>,
+    rows: usize,
+    cols: usize,
+) -> Result<()> {
     for y in 0..rows {
         for x in 0..cols {
             let c = a[(y, x)];

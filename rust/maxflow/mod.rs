@@ -28,7 +28,8 @@
 //! state as a struct of arrays. Two front ends build such a network: [`Graph`], a general directed graph
 //! with terminal links (CSR adjacency), and [`grid_mincut`], a 4-connected pixel grid whose arcs sit at
 //! fixed slots, heads and reverse arcs found by index arithmetic, and in which pixels hard-wired to a
-//! terminal are folded into the terminal links of their free neighbours.
+//! terminal are folded into the terminal links of their free neighbours; [`grid_mincut8`] is the same
+//! front end on an 8-connected grid (diagonal edges too, for cuts whose cost approximates Euclidean length).
 //!
 //! The computation is sequential and deterministic.
 //!
@@ -37,10 +38,12 @@
 //! as the fallback for regions that do not have that shape.
 
 mod grid;
+mod grid8;
 mod planar;
 
 pub(crate) use grid::GridNetwork;
 pub use grid::{grid_cut_cost, grid_mincut, GridCut};
+pub use grid8::{grid_cut_cost8, grid_mincut8};
 #[cfg(test)]
 pub(crate) use planar::planar_applies;
 pub(crate) use planar::{planar_mincut, PX_FREE, PX_SINK, PX_SOURCE};

@@ -1,4 +1,4 @@
-//! Max-flow / min-cut on a 4-connected grid.
+//! Max-flow / min-cut on a 4- or 8-connected grid.
 
 use super::convert::aligned;
 use super::errors::guard;
@@ -39,8 +39,45 @@ pub(super) fn grid_mincut<'py>(
     })
 }
 
+/// Min-cut on an 8-connected grid (`wd` down-right, `wa` down-left edge capacities too): labels and flow.
+#[pyfunction]
+#[pyo3(signature = (wx, wy, wd, wa, source_hard, sink_hard, source_cap=None, sink_cap=None))]
+#[allow(clippy::too_many_arguments)]
+pub(super) fn grid_mincut8<'py>(
+    py: Python<'py>,
+    wx: PyReadonlyArray2<'py, f64>,
+    wy: PyReadonlyArray2<'py, f64>,
+    wd: PyReadonlyArray2<'py, f64>,
+    wa: PyReadonlyArray2<'py, f64>,
+    source_hard: PyReadonlyArray2<'py, bool>,
+    sink_hard: PyReadonlyArray2<'py, bool>,
+    source_cap: Option<PyReadonlyArray2<'py, f64>>,
+    sink_cap: Option<PyReadonlyArray2<'py, f64>>,
+) -> PyResult<(Bound<'py, PyArray2<bool>>, f64)> {
+    guard("grid_mincut8", || {
+        for (name, a) in [("wx", &wx), ("wy", &wy), ("wd", &wd), ("wa", &wa)] {
+            aligned(name, a)?;
+        }
+        if let Some(a) = &source_cap {
+            aligned("source_cap", a)?;
+        }
+        if let Some(a) = &sink_cap {
+            aligned("sink_cap", a)?;
+        }
+        let (wx, wy, wd, wa) = (wx.as_array(), wy.as_array(), wd.as_array(), wa.as_array());
+        let (src, snk) = (source_hard.as_array(), sink_hard.as_array());
+        let sc = source_cap.as_ref().map(|a| a.as_array());
+        let kc = sink_cap.as_ref().map(|a| a.as_array());
+        let cut = run(py, Some(1), || {
+            maxflow::grid_mincut8(wx, wy, wd, wa, src, snk, sc, kc)
+        })?;
+        Ok((cut.sink_side.into_pyarray(py), cut.flow))
+    })
+}
+
 /// Adds this family's bindings to the module.
 pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grid_mincut, m)?)?;
+    m.add_function(wrap_pyfunction!(grid_mincut8, m)?)?;
     Ok(())
 }

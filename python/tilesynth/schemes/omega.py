@@ -108,13 +108,14 @@ SCHEME = Scheme(
             "where the cut may run: the inscribed circle (002; default for the papers' sets) or free but for a "
             "border ring and corner discs, so most of each tile is its own matching patch (less repetition; "
             "default for complete sets); ring: the free region with a uniform area reward, which draws a grid of "
-            "seams 2 px inside the tile borders (for comparison)",
-            choices=("circle", "free", "ring"),
+            "seams 2 px inside the tile borders (for comparison); free8: free on an 8-connected grid (cut cost ~ "
+            "Euclidean length: straight diagonal cut edges instead of staircases)",
+            choices=("circle", "free", "free8", "ring"),
         ),
         Option(
             "cut_bias",
             "--cut-bias",
-            "--cut-region free/ring: area reward per pixel that moves the cut outwards, in units of the mean edge "
+            "--cut-region free/free8/ring: area reward per pixel that moves the cut outwards, in units of the mean edge "
             "weight (default 32/N for free, 0.02 for ring)",
             cli_type=float_text(0.0),
         ),

@@ -133,7 +133,7 @@ def _cut(
 
         O_tiles, o_src = transform_tiles(O_tiles, transforms), transform_tiles(o_src, transforms)
     grad = patch_gradients(ex, I_src) if grad_from_patches else None
-    if cut_region in ("free", "ring"):  # issue 12: the free cut regions
+    if cut_region in ("free", "free8", "ring"):  # issue 12: the free cut regions
         from ..levers import free_cuts
 
         masks, costs = free_cuts(I_tiles, O_tiles, eps, grad, bias=cut_bias, cut_region=cut_region)
