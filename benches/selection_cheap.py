@@ -74,6 +74,21 @@ def proxies(tset: Any, judge: Any, side: int, threads: int | None) -> dict[str, 
     return out
 
 
+def fit(ex: np.ndarray, side: int | None) -> np.ndarray:
+    """``ex`` reduced to ``side``² (``--fit``; None: unchanged): block means over f x f pixels with
+    f = ⌊min(h, w) / side⌋ (so several texture elements of a large exemplar stay in view), then the centre
+    ``side``² crop. For a second tuning set from the larger shared textures at the bench's exemplar scale."""
+    if side is None or min(ex.shape[:2]) <= side:
+        return ex
+    f = min(ex.shape[:2]) // side
+    h, w = ex.shape[0] // f * f, ex.shape[1] // f * f
+    a = ex[:h, :w].astype(np.float64).reshape(h // f, f, w // f, f, -1).mean(axis=(1, 3))
+    y, x = (a.shape[0] - side) // 2, (a.shape[1] - side) // 2
+    a = a[y : y + side, x : x + side]
+    out = np.rint(a) if np.issubdtype(ex.dtype, np.integer) else a
+    return np.ascontiguousarray(out.astype(ex.dtype).reshape(side, side, *ex.shape[2:]))
+
+
 def collect(a: argparse.Namespace) -> dict[str, Any]:
     from tilesynth.visselect import ProxyJudge
 
@@ -81,7 +96,7 @@ def collect(a: argparse.Namespace) -> dict[str, Any]:
     out: dict[str, Any] = {"kind": a.kind, "textures": {}, "args": {k: str(v) for k, v in vars(a).items()}}
     seeds = [int(s) for s in a.seeds.split(",")]
     for name in a.textures.split(","):
-        ex = load(a.dir / name)
+        ex = fit(load(a.dir / name), a.fit)
         rec: dict[str, Any] = {"random": [], "random_cpu_s": [], "seeds": {}}
         out["textures"][name] = rec
         for s in range(a.random):
@@ -121,6 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--proxy", type=int, default=256)
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--json", type=Path, default=None)
+    p.add_argument("--fit", type=int, default=None, help="reduce each exemplar to this side (see fit())")
     a = p.parse_args(argv)
     import os
 
