@@ -9,7 +9,7 @@ import pytest
 from scipy.sparse import coo_matrix
 from scipy.sparse.linalg import lsqr
 
-from tilesynth.stages.fusion import CLAMP_WIDTH, fuse_tiles
+from tilesynth.stages.fusion import CLAMP_WIDTH, exemplar_levels, fuse_tiles
 
 
 def _random_provenance(r, k, n, h, w, pieces=3):
@@ -172,3 +172,61 @@ def test_a_level_offset_between_patches_is_spread_not_a_cliff():
     assert across_copy.min() > 0.15  # the cliff (offset 17 columns x 0.01 + 28 rows x 0.002)
     assert across_fused.max() < across_copy.min()
     assert across_fused[4:-4].max() < 0.03  # the ramp's own 0.01 per column plus the spread offset
+
+
+def _two_patch_set(n: int = 24):
+    """A smooth ramp exemplar and one tile of two patches with a level offset (as in the test above)."""
+    yy, xx = np.mgrid[0:64, 0:64]
+    values = (0.01 * xx + 0.002 * yy)[..., None].astype(np.float64)
+    ty, tx = np.mgrid[0:n, 0:n]
+    left = tx < n // 2
+    src = np.where(left[..., None], np.stack([ty + 2, tx + 3], -1), np.stack([ty + 30, tx + 20], -1))[None]
+    return values, src.astype(np.int32)
+
+
+def test_exemplar_levels_take_the_offset_the_ring_cannot():
+    """The exemplar's level correction moves both patches (their border rings too), so the cliff goes right up
+    to the ring, where the tile-interior fusion alone keeps it."""
+    values, src = _two_patch_set()
+    copies = values[src[..., 0], src[..., 1]]
+    phi = exemplar_levels(values, copies, src)
+    assert phi.shape == values.shape
+    f = values + phi
+    levelled = f[src[..., 0], src[..., 1]]
+    n = src.shape[1]
+    across = np.abs(np.diff(levelled[0, :, :, 0], axis=1)[:, n // 2 - 1])
+    plain = np.abs(np.diff(fuse_tiles(values, copies, src)[0, :, :, 0], axis=1)[:, n // 2 - 1])
+    assert across.max() < 0.05 < plain.max()  # the ring rows too (offset 0.23 as copied)
+    assert np.array_equal(phi, exemplar_levels(values, copies, src))  # deterministic
+    assert abs(float(phi[src[..., 0], src[..., 1]].mean())) < 0.01  # about the mean level kept (offset 0.23)
+
+
+def test_exemplar_levels_are_zero_without_seams_and_check_the_block():
+    r = np.random.default_rng(6)
+    values = r.random((20, 20, 2))
+    yy, xx = np.mgrid[0:8, 0:8]
+    src = np.stack([yy + 3, xx + 5], axis=-1)[None].astype(np.int32)
+    copies = values[src[..., 0], src[..., 1]]
+    np.testing.assert_allclose(exemplar_levels(values, copies, src), 0.0, atol=1e-12)
+    with pytest.raises(ValueError, match="block"):
+        exemplar_levels(values, copies, src, block=0)
+
+
+def test_exemplar_levels_keep_tilings_seamless():
+    """Two tiles that continue one exemplar strip across their shared border (a tiling's border pair) keep
+    exemplar-neighbour pairs there, so after the correction the step across the border is the corrected
+    exemplar's own step, whatever seams the tile interiors have."""
+    r = np.random.default_rng(7)
+    values = r.random((40, 40, 1))
+    n = 10
+    ty, tx = np.mgrid[0:n, 0:n]
+    a = np.stack([ty + 5, tx + 5], -1)
+    b = np.stack([ty + 5, tx + 5 + n], -1)  # b continues a to the right
+    b[3:7, 3:7] = np.stack([ty[3:7, 3:7] + 25, tx[3:7, 3:7] + 25], -1)  # an inner patch from elsewhere
+    src = np.stack([a, b]).astype(np.int32)
+    copies = values[src[..., 0], src[..., 1]]
+    f = values + exemplar_levels(values, copies, src)
+    out = fuse_tiles(f, f[src[..., 0], src[..., 1]], src)
+    np.testing.assert_allclose(
+        out[1, :, 0] - out[0, :, -1], f[5 : 5 + n, 5 + n] - f[5 : 5 + n, 4 + n], atol=1e-12
+    )

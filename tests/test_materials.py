@@ -75,13 +75,20 @@ def test_every_map_goes_through_the_colour_provenance():
     assert np.array_equal(out["green"][..., 0], img[..., 1])
     where = ts.source_map(t, imap, 80, 72)
     assert np.array_equal(out["height"][..., 0], height[where[..., 0], where[..., 1]])
-    # by default scalar maps are fused across their seams inside the tiles, and the tile border ring is copied
+    # by default scalar maps are fused across their seams (the exemplar's level correction, then the tile
+    # interiors); the second stage alone copies the tile border ring
     smoothed = materials.synthesize_maps(t, imap, 80, 72)["height"][..., 0]
     ring = np.ones((t.n_tiles, 16, 16, 1), np.uint8)
     ring[:, 1:-1, 1:-1] = 0
     border = kernels_tile_copy(ring, imap, (72, 80))[..., 0] == 1
-    assert np.array_equal(smoothed[border], out["height"][..., 0][border])
-    assert not np.array_equal(smoothed[~border], out["height"][..., 0][~border])
+    spec = materials.MapSpec.from_dict(next(d for d in t.map_specs if d["name"] == "height"))
+    copies = np.ascontiguousarray(t.maps["height"][t.source[..., 0], t.source[..., 1]])
+    inner = materials.fuse_map_atlas(t, t.maps["height"], copies, level=False)
+    inner_img = kernels_tile_copy(inner, imap, (72, 80))[..., 0]
+    assert spec.kind == "scalar"
+    assert np.array_equal(inner_img[border], out["height"][..., 0][border])
+    assert not np.array_equal(inner_img[~border], out["height"][..., 0][~border])
+    assert not np.array_equal(smoothed, out["height"][..., 0])
 
 
 def kernels_tile_copy(atlas: np.ndarray, imap: np.ndarray, hw: tuple[int, int]) -> np.ndarray:

@@ -530,12 +530,15 @@ def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
     return bool(smooth)
 
 
-def fuse_map_atlas(tileset: Any, arr: np.ndarray, atlas: np.ndarray) -> np.ndarray:
-    """The tiles ``atlas`` of map ``arr`` fused across their seams in the gradient domain over the whole tile
-    interior (:mod:`tilesynth.stages.fusion`; the tile border ring kept bit for bit), in the map's own sample
-    type. The continued steps across a seam only read exemplar pixels the tile set uses somewhere (so never a
-    masked one)."""
-    from .stages.fusion import fuse_tiles
+def fuse_map_atlas(tileset: Any, arr: np.ndarray, atlas: np.ndarray, level: bool = True) -> np.ndarray:
+    """The tiles ``atlas`` of map ``arr`` fused across their seams in the gradient domain, in the map's own
+    sample type (:mod:`tilesynth.stages.fusion`), in two stages: ``level=True`` (the default) first adds the
+    exemplar's smooth level correction (:func:`~tilesynth.stages.fusion.exemplar_levels`: every copy of an
+    exemplar pixel moves alike, so tilings stay seamless and tile borders do not crease), then each tile's
+    interior is fused with its border ring kept (:func:`~tilesynth.stages.fusion.fuse_tiles`); ``level=False``:
+    the second stage alone (the border ring as copied, bit for bit). The continued steps across a seam only
+    read exemplar pixels the tile set uses somewhere (so never a masked one)."""
+    from .stages.fusion import LEVEL_BLOCK, exemplar_levels, fuse_tiles
     from .synthesis import check_smoothable
 
     check_smoothable(arr)
@@ -544,7 +547,12 @@ def fuse_map_atlas(tileset: Any, arr: np.ndarray, atlas: np.ndarray) -> np.ndarr
     used[src[..., 0], src[..., 1]] = True
     scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(arr.dtype)
     f = arr.astype(np.float64) / (scale or 1.0)
-    fused = fuse_tiles(f, atlas.astype(np.float64) / (scale or 1.0), src, used)
+    copies = atlas.astype(np.float64) / (scale or 1.0)
+    if level:  # the exemplar's smooth level correction first (ring included), then each tile's interior
+        phi = exemplar_levels(f, copies, src, used, LEVEL_BLOCK)
+        f = f + phi
+        copies = copies + phi[src[..., 0], src[..., 1]]
+    fused = fuse_tiles(f, copies, src, used)
     if scale:
         return np.ascontiguousarray(np.rint(np.clip(fused, 0.0, 1.0) * scale).astype(arr.dtype))
     return np.ascontiguousarray(fused, dtype=np.float32)

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CLAMP_WIDTH", "fuse_tiles", "seam_guidance", "seam_steps"]
+__all__ = ["CLAMP_WIDTH", "LEVEL_BLOCK", "exemplar_levels", "fuse_tiles", "seam_guidance", "seam_steps"]
 
 
 def _dst1(x: np.ndarray, axis: int) -> np.ndarray:
@@ -259,3 +259,185 @@ def fuse_tiles(
     out = copies.copy()
     out[:, 1:-1, 1:-1] += g
     return out
+
+
+#: The block side (exemplar pixels) of :func:`exemplar_levels`, the first stage of the maps' fusion
+#: (:func:`tilesynth.materials.fuse_map_atlas`).
+LEVEL_BLOCK: int = 4
+_LEVEL_TOL = 1e-10
+_LEVEL_MAXIT = 20000
+_LEVEL_GRID = 1e-3
+
+
+def _border_pairs(
+    values: np.ndarray, source: np.ndarray, valid: np.ndarray | None
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, float]]:
+    """The pixel pairs *across* tile borders: for every two tiles that may lie side by side (their facing
+    border columns, or rows, are exemplar neighbours at a quarter and at three quarters of the side: the same
+    sample continues, as in any valid tiling), every facing pair, as ``[(s_p, s_q, s, weight)]``: the sources
+    of both ends ``(E, 2)`` int64, the wanted correction step ``s`` ``(E, C)`` (0 where the pair is an exemplar
+    neighbour pair; elsewhere, at the Wang corners, the guidance of :func:`seam_steps` minus the copies' step)
+    and the weight of each pair, ``K / (number of such tile pairs)`` per direction (a tiling has about one
+    right and one lower neighbour per tile)."""
+    h, w = values.shape[:2]
+    src = np.asarray(source).astype(np.int64)
+    n = src.shape[1]
+    probe = sorted({n // 4, (3 * n) // 4})
+    out = []
+    for d in ((0, 1), (1, 0)):
+        first = src[:, :, -1] if d == (0, 1) else src[:, -1, :]  # (K, N, 2): the right column / bottom row
+        second = src[:, :, 0] if d == (0, 1) else src[:, 0, :]
+        step = np.array(d)
+        cand = np.ones((src.shape[0], src.shape[0]), bool)
+        for i in probe:  # (K_first, K_second)
+            cand &= ((first[:, None, i] + step) == second[None, :, i]).all(axis=-1)
+        pi, qi = np.nonzero(cand)
+        if pi.size == 0:
+            continue
+        sp = first[pi].reshape(-1, 2)
+        sq = second[qi].reshape(-1, 2)
+        r = np.zeros((sp.shape[0], values.shape[2]))
+        seam = (sq != sp + step).any(axis=-1)
+        if seam.any():
+            a, b = sp[seam], sq[seam]
+            ep, eq = a + step, b - step
+            okp = (ep[:, 0] < h) & (ep[:, 1] < w)
+            okq = (eq[:, 0] >= 0) & (eq[:, 1] >= 0)
+            ep = np.minimum(ep, [h - 1, w - 1])
+            eq = np.maximum(eq, 0)
+            if valid is not None:
+                okp &= valid[ep[:, 0], ep[:, 1]]
+                okq &= valid[eq[:, 0], eq[:, 1]]
+            vp, vq = values[a[:, 0], a[:, 1]], values[b[:, 0], b[:, 1]]
+            wp, wq = okp[:, None].astype(np.float64), okq[:, None].astype(np.float64)
+            cont = (values[ep[:, 0], ep[:, 1]] - vp) * wp + (vq - values[eq[:, 0], eq[:, 1]]) * wq
+            r[seam] = cont / np.maximum(wp + wq, 1.0) - (vq - vp)
+        out.append((sp, sq, r, src.shape[0] / pi.size))
+    return out
+
+
+def exemplar_levels(
+    values: np.ndarray,
+    copies: np.ndarray,
+    source: np.ndarray,
+    valid: np.ndarray | None = None,
+    block: int = LEVEL_BLOCK,
+) -> np.ndarray:
+    """A smooth correction ``φ`` ``(H, W, C)`` float64 *of the exemplar* such that the tiles copied from
+    ``values + φ`` through ``source`` have the least seams: the first stage of the maps' fusion (issue 14),
+    before :func:`fuse_tiles` fuses what is left inside each tile. Arguments as :func:`seam_guidance`.
+
+    Why. :func:`fuse_tiles` keeps every tile's border ring, so the level offset of two patches that meet near the
+    ring (the Wang tiles' cuts end *at* the tile corners, where the ring holds both samples) cannot be taken
+    there, and the correction bends back to zero at the ring (a crease in shaded heights). A correction of the
+    exemplar moves every copy of an exemplar pixel alike, the ring's too: two pixels of different tiles that
+    are neighbours in the exemplar (every border pair of a tiling, which is what makes it seamless) stay
+    neighbours of one smooth field, so tilings stay seamless and the border does not crease, while patches from
+    different places of the exemplar can be levelled against each other.
+
+    What. The least-squares ``Σ_e (φ(s_q) − φ(s_p) − s_e)²`` over every edge ``e = (p, q)`` of every tile
+    (:func:`seam_steps`' ``s``: the seam-free guidance minus the copies' steps, 0 inside a patch, so there the
+    term asks ``φ`` to be smooth) and over the pairs across tile borders (:func:`_border_pairs`: without them
+    the two halves of a sample, which meet only across a border, and the Wang corners, where two samples meet
+    across a border, would drift apart), ``φ`` constant on ``block x block`` blocks of the exemplar (edges inside one
+    block drop out), plus ``1e-3`` x the mean edge weight times the squared steps between every two
+    neighbouring blocks (blocks no tile reads get the harmonic extension, the system is regular). Solved by
+    Jacobi-preconditioned conjugate gradients to a relative residual of 1e-10 (sparse sums by ``np.bincount``:
+    the same bytes on any number of threads), the use-weighted mean of ``φ`` removed (the map's mean level is
+    kept), then interpolated bilinearly between the block centres (a field without steps). Where the paper
+    and Agarwala et al. are silent: the block size 4 is a measured compromise (``benches/materials-results.md``,
+    "exemplar levels": blocks of 2 leave lower cut seams but sharper level changes, shaded creases on the flat
+    tile faces of pbr:tiles; 8-16 leave higher seams); interpolated blocks rather than a per-pixel field keep
+    the unknowns at 1/16 of the exemplar's pixels.
+    """
+    values = np.asarray(values, np.float64)
+    h, w, ch = values.shape
+    k, n = np.asarray(copies).shape[:2]
+    if k == 0 or n < 2:
+        return np.zeros_like(values)
+    s = int(block)
+    if s < 1:
+        raise ValueError(f"block = {block!r}: must be a positive number of pixels")
+    hb, wb = -(-h // s), -(-w // s)
+    nb = hb * wb
+    src = np.asarray(source)
+    blk = (src[..., 0].astype(np.int64) // s) * wb + src[..., 1].astype(np.int64) // s
+    ends_a, ends_b, wanted = [], [], []
+    for ax, step in zip((1, 2), seam_steps(values, copies, src, valid)):
+        lo = [slice(None)] * 3
+        hi = [slice(None)] * 3
+        lo[ax], hi[ax] = slice(0, n - 1), slice(1, n)
+        a, b = blk[tuple(lo)].ravel(), blk[tuple(hi)].ravel()
+        keep = a != b
+        a, b, r = a[keep], b[keep], step.reshape(-1, ch)[keep]
+        flip = a > b  # one orientation per block pair: (a, b) with a < b wants φ_b − φ_a = r
+        r[flip] = -r[flip]
+        ends_a.append(np.where(flip, b, a))
+        ends_b.append(np.where(flip, a, b))
+        wanted.append(r)
+    weights = [np.ones(v.shape[0]) for v in wanted]
+    for sp, sq, r, wt in _border_pairs(values, src, valid):  # across tile borders: the tilings' own pairs
+        a, b = sp[:, 0] // s * wb + sp[:, 1] // s, sq[:, 0] // s * wb + sq[:, 1] // s
+        keep = a != b
+        a, b, r = a[keep], b[keep], r[keep]
+        flip = a > b
+        r[flip] = -r[flip]
+        ends_a.append(np.where(flip, b, a))
+        ends_b.append(np.where(flip, a, b))
+        wanted.append(r)
+        weights.append(np.full(a.size, wt))
+    a, b, r = np.concatenate(ends_a), np.concatenate(ends_b), np.concatenate(wanted)
+    ew_all = np.concatenate(weights)
+    if a.size == 0:
+        return np.zeros_like(values)
+    pair, inv = np.unique(a * nb + b, return_inverse=True)
+    inv = inv.reshape(-1)
+    weight = np.bincount(inv, ew_all, minlength=pair.size)
+    rhs = np.stack([np.bincount(inv, r[:, c] * ew_all, minlength=pair.size) for c in range(ch)], axis=1)
+    grid = np.arange(nb).reshape(hb, wb)
+    ga = np.concatenate([grid[:-1].ravel(), grid[:, :-1].ravel()])
+    gb = np.concatenate([grid[1:].ravel(), grid[:, 1:].ravel()])
+    ea = np.concatenate([pair // nb, ga])
+    eb = np.concatenate([pair % nb, gb])
+    ew = np.concatenate([weight, np.full(ga.size, _LEVEL_GRID * float(weight.mean()))])
+    er = np.concatenate([rhs, np.zeros((ga.size, ch))])
+
+    def scatter(d: np.ndarray) -> np.ndarray:  # Σ over edges of d at b minus d at a
+        return np.stack(
+            [
+                np.bincount(eb, d[:, c], minlength=nb) - np.bincount(ea, d[:, c], minlength=nb)
+                for c in range(ch)
+            ],
+            axis=1,
+        )
+
+    rhs_b = scatter(er)
+    diag = (np.bincount(ea, ew, minlength=nb) + np.bincount(eb, ew, minlength=nb))[:, None]
+    x = np.zeros((nb, ch))
+    res = rhs_b.copy()
+    z = res / diag
+    p = z.copy()
+    rz = (res * z).sum(axis=0)
+    stop = _LEVEL_TOL * np.sqrt((rhs_b * rhs_b).sum(axis=0))
+    for _ in range(_LEVEL_MAXIT):
+        if (np.sqrt((res * res).sum(axis=0)) <= stop).all():
+            break
+        ap = scatter(ew[:, None] * (p[eb] - p[ea]))
+        alpha = rz / np.where(rz > 0, (p * ap).sum(axis=0), 1.0)
+        x += alpha * p
+        res -= alpha * ap
+        z = res / diag
+        rz_next = (res * z).sum(axis=0)
+        p = z + (rz_next / np.where(rz > 0, rz, 1.0)) * p
+        rz = rz_next
+    use = np.bincount(blk.ravel(), minlength=nb).astype(np.float64)
+    x -= (use[:, None] * x).sum(axis=0) / use.sum()
+    levels = x.reshape(hb, wb, ch)
+    ys = np.clip((np.arange(h) + 0.5) / s - 0.5, 0.0, hb - 1.0)
+    xs = np.clip((np.arange(w) + 0.5) / s - 0.5, 0.0, wb - 1.0)
+    y0, x0 = np.floor(ys).astype(np.int64), np.floor(xs).astype(np.int64)
+    y1, x1 = np.minimum(y0 + 1, hb - 1), np.minimum(x0 + 1, wb - 1)
+    fy, fx = (ys - y0)[:, None, None], (xs - x0)[None, :, None]
+    top = levels[y0][:, x0] * (1 - fx) + levels[y0][:, x1] * fx
+    bottom = levels[y1][:, x0] * (1 - fx) + levels[y1][:, x1] * fx
+    return top * (1 - fy) + bottom * fy
