@@ -29,7 +29,9 @@ maps={...})``, ``tilesynth build EX --map height=H.png``) chooses them on every 
    same provenance and cuts as the colour (``synth``, ``export`` and ``report`` write all of them). Scalar and
    normal maps are fused across every seam of the tile in the gradient domain by default (:func:`smooths`,
    :mod:`tilesynth.stages.fusion`: a smooth map shows the level offset of two patches as a cliff that no cut
-   avoids; the fusion spreads it over the tile interior, the border ring kept); ``smooth=False`` /
+   avoids; a first stage moves the exemplar's levels by one smooth correction shared by every copy of a pixel,
+   :func:`~tilesynth.stages.fusion.exemplar_levels`, then the tile interior is fused with the border ring kept as
+   the first stage left it, so tilings stay seamless; ``level=False`` skips the first stage); ``smooth=False`` /
    ``--map-smooth off`` gives pure copies.
 
 **Default weights** (0.5 for scalar and normal maps, :data:`DEFAULT_WEIGHTS`). Measured on the bench's 4 derived
@@ -61,8 +63,9 @@ categories, not distances); a positive ``map_weights`` entry makes them count nu
 central cross (where two sample patches meet) reaches the border at the four side midpoints; a few pixels of that
 cross are outside every cut region (in every scheme with a kept border). The fusion of scalar and normal maps
 treats them as seams like the cut, so inside the tile they are fused too; what is left is the cross's one pixel
-pair on the border ring itself (the ring is shared with the neighbouring tile and kept bit for bit), about which
-the fused interior bends back within a few pixels. With the colour's Pérez smoothing (``synth --with`` on a
+pair on the border ring itself (the ring is shared with the neighbouring tile and kept by the interior fusion),
+about which the fused interior bends back within a few pixels; the first (level) stage lowers that pair's step,
+since it corrects the exemplar itself, every copy of a ring pixel by the same amount. With the colour's Pérez smoothing (``synth --with`` on a
 ``--smooth`` set, and the albedo) they stay as they are: invisible in an albedo, a small dot at each tile side
 midpoint in a smooth height map.
 

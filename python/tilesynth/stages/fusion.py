@@ -14,7 +14,7 @@ instead of their variance, or weighting them more, moved the scores by less than
 What this module does instead (the gradient-domain compositing of Agarwala et al. 2004, "Interactive digital
 photomontage", §3.3, restricted to the tile interior): every pixel of the tile interior is unknown, the one-pixel
 tile border ring is the Dirichlet boundary (it is shared with the neighbouring tiles, so tilings stay seamless and
-the border is bit for bit as copied), and the guidance field is
+the border is bit for bit as copied, or as :func:`exemplar_levels` corrected it), and the guidance field is
 
 * the map's own step ``m[s(q)] − m[s(p)]`` between two neighbouring tile pixels p, q whose sources are neighbours
   in the exemplar too (the pixels of one patch), and
