@@ -183,6 +183,16 @@ def grid_mincut(d: st.DrawFn):
 
 
 @st.composite
+def grid_mincut8(d: st.DrawFn):
+    """The 8-connected cut: the 4-connected strategy's arguments plus the two diagonal capacity arrays."""
+    _, (wx, wy, src, snk), kw, _ = d(grid_mincut())
+    hw = wx.shape if getattr(wx, "ndim", 0) == 2 else (d(side(0, 7)), d(side(0, 7)))
+    wd = d(arrays(2, F64, hw, lo=0.0, hi=10.0))
+    wa = d(arrays(2, F64, hw, lo=0.0, hi=10.0))
+    return _core.grid_mincut8, (wx, wy, wd, wa, src, snk), kw, ()
+
+
+@st.composite
 def kwatra_weights(d: st.DrawFn):
     shp = (d(side(0, 7)), d(side(0, 7)), d(st.integers(0, 4)))
     a, b = d(arrays(3, F32, shp)), d(arrays(3, F32, shp))
@@ -462,6 +472,7 @@ ENTRY_POINTS = {
     "PopulationEvaluator.clear_cache": population_clear_cache,
     "PopulationEvaluator.dims": population_dims,
     "grid_mincut": grid_mincut,
+    "grid_mincut8": grid_mincut8,
     "kwatra_weights": kwatra_weights,
     "omega_cuts": omega_cuts,
     "tile_copy": tile_copy,
