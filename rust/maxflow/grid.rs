@@ -52,14 +52,15 @@ pub fn grid_mincut(
     }
     let expected = fmt_shape(&[h, w]);
     check_shape("wy", wy.shape(), h, w, &expected)?;
-    check_shape("source_hard", source_hard.shape(), h, w, &expected)?;
-    check_shape("sink_hard", sink_hard.shape(), h, w, &expected)?;
-    if let Some(c) = &source_cap {
-        check_shape("source_cap", c.shape(), h, w, &expected)?;
-    }
-    if let Some(c) = &sink_cap {
-        check_shape("sink_cap", c.shape(), h, w, &expected)?;
-    }
+    check_terminal_shapes(
+        source_hard,
+        sink_hard,
+        source_cap,
+        sink_cap,
+        h,
+        w,
+        &expected,
+    )?;
     if h.checked_mul(w)
         .and_then(|n| n.checked_mul(4))
         .map_or(true, |m| m > MAX_INDEX)
@@ -70,24 +71,9 @@ pub fn grid_mincut(
             expected,
         ));
     }
-    check_edge_caps("wx", wx, h, w - 1)?;
-    check_edge_caps("wy", wy, h - 1, w)?;
-    if let Some(c) = &source_cap {
-        check_caps("source_cap", c.view(), h, w)?;
-    }
-    if let Some(c) = &sink_cap {
-        check_caps("sink_cap", c.view(), h, w)?;
-    }
-    if let Some(((y, x), _)) = source_hard
-        .indexed_iter()
-        .find(|&((y, x), &s)| s && sink_hard[(y, x)])
-    {
-        return Err(TilesynthError::param(
-            "sink_hard",
-            format!("true at ({y}, {x})"),
-            "a pixel cannot be tied to both the source and the sink (source_hard is true there too)",
-        ));
-    }
+    check_edge_caps("wx", wx, h, 0..w - 1)?;
+    check_edge_caps("wy", wy, h - 1, 0..w)?;
+    check_terminal_values(source_hard, sink_hard, source_cap, sink_cap, h, w)?;
 
     let wx = try_standard("wx", wx)?;
     let wy = try_standard("wy", wy)?;
@@ -110,6 +96,19 @@ pub fn grid_mincut(
 
     let mut net = build(h, w, wx, wy, src_hard, snk_hard, src_cap, snk_cap)?;
     let sol = net.solve("wx")?;
+    grid_cut(h, w, src_hard, snk_hard, &sol.sink_side, sol.flow)
+}
+
+/// The labelling of a solved grid network: hard pixels on their terminal's side, the rest as the solver
+/// left them (the rule of [`GridCut::sink_side`]). Shared by the 4- and 8-connected front ends.
+pub(super) fn grid_cut(
+    h: usize,
+    w: usize,
+    src_hard: &[bool],
+    snk_hard: &[bool],
+    solved: &[bool],
+    flow: f64,
+) -> Result<GridCut> {
     let sink_side = try_collect(
         "wx",
         h * w,
@@ -117,14 +116,64 @@ pub fn grid_mincut(
             if src_hard[p] || snk_hard[p] {
                 snk_hard[p]
             } else {
-                sol.sink_side[p]
+                solved[p]
             }
         }),
     )?;
     Ok(GridCut {
         sink_side: Array2::from_shape_vec((h, w), sink_side).expect("h * w labels"),
-        flow: sol.flow,
+        flow,
     })
+}
+
+/// The shapes of the terminal arrays of a grid cut (the hard masks and the optional soft capacities).
+pub(super) fn check_terminal_shapes(
+    source_hard: ArrayView2<bool>,
+    sink_hard: ArrayView2<bool>,
+    source_cap: Option<ArrayView2<f64>>,
+    sink_cap: Option<ArrayView2<f64>>,
+    h: usize,
+    w: usize,
+    expected: &str,
+) -> Result<()> {
+    check_shape("source_hard", source_hard.shape(), h, w, expected)?;
+    check_shape("sink_hard", sink_hard.shape(), h, w, expected)?;
+    if let Some(c) = &source_cap {
+        check_shape("source_cap", c.shape(), h, w, expected)?;
+    }
+    if let Some(c) = &sink_cap {
+        check_shape("sink_cap", c.shape(), h, w, expected)?;
+    }
+    Ok(())
+}
+
+/// The values of the terminal arrays of a grid cut: soft capacities finite and `>= 0`, no pixel in both hard
+/// masks.
+pub(super) fn check_terminal_values(
+    source_hard: ArrayView2<bool>,
+    sink_hard: ArrayView2<bool>,
+    source_cap: Option<ArrayView2<f64>>,
+    sink_cap: Option<ArrayView2<f64>>,
+    h: usize,
+    w: usize,
+) -> Result<()> {
+    if let Some(c) = &source_cap {
+        check_caps("source_cap", c.view(), h, w)?;
+    }
+    if let Some(c) = &sink_cap {
+        check_caps("sink_cap", c.view(), h, w)?;
+    }
+    if let Some(((y, x), _)) = source_hard
+        .indexed_iter()
+        .find(|&((y, x), &s)| s && sink_hard[(y, x)])
+    {
+        return Err(TilesynthError::param(
+            "sink_hard",
+            format!("true at ({y}, {x})"),
+            "a pixel cannot be tied to both the source and the sink (source_hard is true there too)",
+        ));
+    }
+    Ok(())
 }
 
 /// Grid adjacency. Node `p` is the pixel `(p / w, p % w)`; the edge right of `p` holds the arcs `4p`
@@ -423,15 +472,15 @@ pub(super) fn check_shape(
     Ok(())
 }
 
-/// Edge capacities in the used part `[..rows, ..cols]` must be finite and `>= 0`.
+/// Edge capacities in the used part `[..rows, cols]` must be finite and `>= 0`.
 pub(super) fn check_edge_caps(
     name: &'static str,
     a: ArrayView2<f64>,
     rows: usize,
-    cols: usize,
+    cols: std::ops::Range<usize>,
 ) -> Result<()> {
     for y in 0..rows {
-        for x in 0..cols {
+        for x in cols.clone() {
             let c = a[(y, x)];
             if !(c.is_finite() && c >= 0.0) {
                 return Err(TilesynthError::param(

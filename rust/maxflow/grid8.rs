@@ -10,10 +10,12 @@
 //! minimal surfaces via graph cuts", ICCV 2003) the cost of a cut approximates its Euclidean length, where
 //! on a 4-connected grid every monotone staircase costs as much as the diagonal it follows (L1 length).
 
-use super::grid::{check_caps, check_edge_caps, check_shape, GridCut};
+use super::grid::{
+    check_edge_caps, check_shape, check_terminal_shapes, check_terminal_values, grid_cut, GridCut,
+};
 use super::{Network, Topology, MAX_INDEX};
-use crate::error::{fmt_shape, try_collect, try_standard, try_vec, Result, TilesynthError};
-use ndarray::{Array2, ArrayView2};
+use crate::error::{fmt_shape, try_standard, try_vec, Result, TilesynthError};
+use ndarray::ArrayView2;
 
 /// The neighbour steps `(dy, dx)` of the four forward edges of a pixel, in slot order: right, down,
 /// down-right, down-left.
@@ -53,14 +55,15 @@ pub fn grid_mincut8(
     check_shape("wy", wy.shape(), h, w, &expected)?;
     check_shape("wd", wd.shape(), h, w, &expected)?;
     check_shape("wa", wa.shape(), h, w, &expected)?;
-    check_shape("source_hard", source_hard.shape(), h, w, &expected)?;
-    check_shape("sink_hard", sink_hard.shape(), h, w, &expected)?;
-    if let Some(c) = &source_cap {
-        check_shape("source_cap", c.shape(), h, w, &expected)?;
-    }
-    if let Some(c) = &sink_cap {
-        check_shape("sink_cap", c.shape(), h, w, &expected)?;
-    }
+    check_terminal_shapes(
+        source_hard,
+        sink_hard,
+        source_cap,
+        sink_cap,
+        h,
+        w,
+        &expected,
+    )?;
     if h.checked_mul(w)
         .and_then(|n| n.checked_mul(8))
         .map_or(true, |m| m > MAX_INDEX)
@@ -71,38 +74,12 @@ pub fn grid_mincut8(
             expected,
         ));
     }
-    check_edge_caps("wx", wx, h, w - 1)?;
-    check_edge_caps("wy", wy, h - 1, w)?;
-    check_edge_caps("wd", wd, h - 1, w - 1)?;
+    check_edge_caps("wx", wx, h, 0..w - 1)?;
+    check_edge_caps("wy", wy, h - 1, 0..w)?;
+    check_edge_caps("wd", wd, h - 1, 0..w - 1)?;
     // wa: rows 0..h-1, columns 1..w (an anti-diagonal edge leaves every pixel but those of column 0).
-    for y in 0..h - 1 {
-        for x in 1..w {
-            let c = wa[(y, x)];
-            if !(c.is_finite() && c >= 0.0) {
-                return Err(TilesynthError::param(
-                    "wa",
-                    format!("{c} at ({y}, {x})"),
-                    "edge capacities must be finite and >= 0",
-                ));
-            }
-        }
-    }
-    if let Some(c) = &source_cap {
-        check_caps("source_cap", c.view(), h, w)?;
-    }
-    if let Some(c) = &sink_cap {
-        check_caps("sink_cap", c.view(), h, w)?;
-    }
-    if let Some(((y, x), _)) = source_hard
-        .indexed_iter()
-        .find(|&((y, x), &s)| s && sink_hard[(y, x)])
-    {
-        return Err(TilesynthError::param(
-            "sink_hard",
-            format!("true at ({y}, {x})"),
-            "a pixel cannot be tied to both the source and the sink (source_hard is true there too)",
-        ));
-    }
+    check_edge_caps("wa", wa, h - 1, 1..w)?;
+    check_terminal_values(source_hard, sink_hard, source_cap, sink_cap, h, w)?;
     let caps = [
         try_standard("wx", wx)?,
         try_standard("wy", wy)?,
@@ -127,21 +104,7 @@ pub fn grid_mincut8(
 
     let mut net = build8(h, w, caps, src_hard, snk_hard, src_cap, snk_cap)?;
     let sol = net.solve("wx")?;
-    let sink_side = try_collect(
-        "wx",
-        h * w,
-        (0..h * w).map(|p| {
-            if src_hard[p] || snk_hard[p] {
-                snk_hard[p]
-            } else {
-                sol.sink_side[p]
-            }
-        }),
-    )?;
-    Ok(GridCut {
-        sink_side: Array2::from_shape_vec((h, w), sink_side).expect("h * w labels"),
-        flow: sol.flow,
-    })
+    grid_cut(h, w, src_hard, snk_hard, &sol.sink_side, sol.flow)
 }
 
 /// 8-connected grid adjacency. Node `p` is the pixel `(p / w, p % w)`; its four forward edges (right,
