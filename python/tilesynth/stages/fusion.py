@@ -34,6 +34,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import ParameterError
+
 __all__ = ["CLAMP_WIDTH", "LEVEL_BLOCK", "exemplar_levels", "fuse_tiles", "seam_guidance", "seam_steps"]
 
 
@@ -357,27 +359,16 @@ def exemplar_levels(
         return np.zeros_like(values)
     s = int(block)
     if s < 1:
-        raise ValueError(f"block = {block!r}: must be a positive number of pixels")
+        raise ParameterError(f"block = {block!r}: must be a positive number of pixels")
     hb, wb = -(-h // s), -(-w // s)
     nb = hb * wb
     src = np.asarray(source)
     blk = (src[..., 0].astype(np.int64) // s) * wb + src[..., 1].astype(np.int64) // s
-    ends_a, ends_b, wanted = [], [], []
-    for ax, step in zip((1, 2), seam_steps(values, copies, src, valid)):
-        lo = [slice(None)] * 3
-        hi = [slice(None)] * 3
-        lo[ax], hi[ax] = slice(0, n - 1), slice(1, n)
-        a, b = blk[tuple(lo)].ravel(), blk[tuple(hi)].ravel()
-        keep = a != b
-        a, b, r = a[keep], b[keep], step.reshape(-1, ch)[keep]
-        flip = a > b  # one orientation per block pair: (a, b) with a < b wants φ_b − φ_a = r
-        r[flip] = -r[flip]
-        ends_a.append(np.where(flip, b, a))
-        ends_b.append(np.where(flip, a, b))
-        wanted.append(r)
-    weights = [np.ones(v.shape[0]) for v in wanted]
-    for sp, sq, r, wt in _border_pairs(values, src, valid):  # across tile borders: the tilings' own pairs
-        a, b = sp[:, 0] // s * wb + sp[:, 1] // s, sq[:, 0] // s * wb + sq[:, 1] // s
+    ends_a, ends_b, wanted, weights = [], [], [], []
+
+    def add(a: np.ndarray, b: np.ndarray, r: np.ndarray, wt: float) -> None:
+        """Block pairs ``a -> b`` wanting the step ``r``: pairs inside one block drop out, and each pair is
+        kept in one orientation, ``(a, b)`` with ``a < b`` wanting ``φ_b − φ_a = r``."""
         keep = a != b
         a, b, r = a[keep], b[keep], r[keep]
         flip = a > b
@@ -386,6 +377,14 @@ def exemplar_levels(
         ends_b.append(np.where(flip, a, b))
         wanted.append(r)
         weights.append(np.full(a.size, wt))
+
+    for ax, step in zip((1, 2), seam_steps(values, copies, src, valid)):
+        lo = [slice(None)] * 3
+        hi = [slice(None)] * 3
+        lo[ax], hi[ax] = slice(0, n - 1), slice(1, n)
+        add(blk[tuple(lo)].ravel(), blk[tuple(hi)].ravel(), step.reshape(-1, ch), 1.0)
+    for sp, sq, r, wt in _border_pairs(values, src, valid):  # across tile borders: the tilings' own pairs
+        add(sp[:, 0] // s * wb + sp[:, 1] // s, sq[:, 0] // s * wb + sq[:, 1] // s, r, wt)
     a, b, r = np.concatenate(ends_a), np.concatenate(ends_b), np.concatenate(wanted)
     ew_all = np.concatenate(weights)
     if a.size == 0:
