@@ -33,7 +33,7 @@ matching patch O. Two build options of :func:`tilesynth.build_omega` move that b
     tapered reward without the penalty still left 3.1 (the tie of equal-length paths), the penalty brings it to
     1.4-1.6 at a cost of a few points of O's share (0.71 instead of 0.78 of the tile on cracked mud).
 
-``cut_region="free8"`` (:func:`free_cuts`, the default of complete sets)
+``cut_region="free8"`` (:func:`free_cuts`, opt-in: measured no better than ``"free"``, the default)
     The same terminals, reward and ring penalty as ``"free"``, cut on an 8-connected grid whose cost
     approximates the Euclidean length of the cut instead of its L1 length. On the 4-connected grid every
     monotone staircase between two points costs as much as the straight diagonal, so the cut follows

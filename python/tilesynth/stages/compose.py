@@ -133,9 +133,9 @@ def _cut(
 
         O_tiles, o_src = transform_tiles(O_tiles, transforms), transform_tiles(o_src, transforms)
     grad = patch_gradients(ex, I_src) if grad_from_patches else None
-    if cut_region in ("free", "free8", "ring"):  # issue 12: the free cut regions
-        from ..levers import free_cuts
+    from ..levers import FREE_REGIONS, free_cuts  # issue 12: the free cut regions
 
+    if cut_region in FREE_REGIONS:
         masks, costs = free_cuts(I_tiles, O_tiles, eps, grad, bias=cut_bias, cut_region=cut_region)
     else:
         masks, costs = kernels.omega_cuts(
