@@ -44,7 +44,6 @@ def figure(path: str, ex: np.ndarray, maps: dict, relief: float, size: int = 320
 
     t = ts.build(ex, tileset=B.SET, seed=1, maps=maps)
     _, imap = ts.synthesize(t, size, size, seed=7)
-    light = np.array([0.5, 0.5, 0.7]) / np.linalg.norm([0.5, 0.5, 0.7])
     rows = []
     for clamp in (None, np.inf):
         _with_clamp(clamp)
@@ -56,15 +55,10 @@ def figure(path: str, ex: np.ndarray, maps: dict, relief: float, size: int = 320
             kernels.tile_copy(np.ascontiguousarray(atlas), imap, img)
             x = materials._float_atlas(t, spec, img[None])[0]
             if name == "height":
-                gy, gx = np.gradient(x[..., 0] * relief)
-                nrm = np.dstack([-gx, -gy, np.ones_like(gx)])
+                nrm = B.height_normals(x[..., 0], relief)
             else:
                 nrm = x * 2 - 1 if x.min() >= 0 else x.copy()
-            nrm /= np.linalg.norm(nrm, axis=2, keepdims=True)
-            panels += [
-                np.clip((nrm @ light) * 255, 0, 255).astype(np.uint8),
-                np.full((size, 4), 255, np.uint8),
-            ]
+            panels += [B.lambert(nrm), np.full((size, 4), 255, np.uint8)]
         rows += [np.concatenate(panels[:-1], axis=1), np.full((4, 2 * size + 4), 255, np.uint8)]
     _with_clamp(None)
     Image.fromarray(np.concatenate(rows[:-1], axis=0)).save(path, optimize=True)

@@ -110,14 +110,10 @@ def figure(path: str, ex: np.ndarray, maps: dict, scheme: str, relief: float = 6
     t = ts.build(ex, seed=1, maps=maps, **_kw(scheme))
     _, imap = ts.synthesize(t, size, size, seed=7)
     spec = B._specs(t)["height"]
-    light = np.array([0.5, 0.5, 0.7]) / np.linalg.norm([0.5, 0.5, 0.7])
     panels = []
     for level in (False, True):
         x = materials._float_atlas(t, spec, _layout(atlas(t, spec, level), imap, size)[None])[0][..., 0]
-        gy, gx = np.gradient(x * relief)
-        nrm = np.dstack([-gx, -gy, np.ones_like(gx)])
-        nrm /= np.linalg.norm(nrm, axis=2, keepdims=True)
-        panels += [np.clip((nrm @ light) * 255, 0, 255).astype(np.uint8), np.full((size, 4), 255, np.uint8)]
+        panels += [B.lambert(B.height_normals(x, relief)), np.full((size, 4), 255, np.uint8)]
     Image.fromarray(np.concatenate(panels[:-1], axis=1)).save(path, optimize=True)
 
 

@@ -403,6 +403,23 @@ def figure(path: str, albedo: np.ndarray, maps: dict, seed: int, size: int = 200
     ts.save_image(path, np.concatenate(out, axis=0))
 
 
+LIGHT = np.array([0.5, 0.5, 0.7]) / np.linalg.norm([0.5, 0.5, 0.7])
+"""The light of the shaded-height figures (upper left, unit length)."""
+
+
+def height_normals(height: np.ndarray, relief: float) -> np.ndarray:
+    """Unnormalised normals ``(H, W, 3)`` of a height field ``(H, W)`` with its relief exaggerated."""
+    gy, gx = np.gradient(height * relief)
+    return np.dstack([-gx, -gy, np.ones_like(gx)])
+
+
+def lambert(normals: np.ndarray) -> np.ndarray:
+    """Lambert shading ``(H, W)`` uint8 of ``normals`` ``(H, W, 3)`` (normalised here, in place) lit by
+    :data:`LIGHT`."""
+    normals /= np.linalg.norm(normals, axis=2, keepdims=True)
+    return np.clip((normals @ LIGHT) * 255, 0, 255).astype(np.uint8)
+
+
 def shaded(
     path: str, albedo: np.ndarray, maps: dict, seed: int, size: int = 320, relief: float = 60.0
 ) -> None:
@@ -420,11 +437,8 @@ def shaded(
                   materials.map_atlas(t, spec, t.maps["height"])):  # fmt: skip
         out = np.empty((size, size, 1), atlas.dtype)
         kernels.tile_copy(np.ascontiguousarray(atlas), imap, out)
-        gy, gx = np.gradient(materials._float_atlas(t, spec, out[None])[0][..., 0] * relief)
-        n = np.dstack([-gx, -gy, np.ones_like(gx)])
-        n /= np.linalg.norm(n, axis=2, keepdims=True)
-        light = np.array([0.5, 0.5, 0.7]) / np.linalg.norm([0.5, 0.5, 0.7])
-        panels += [np.clip((n @ light) * 255, 0, 255).astype(np.uint8), np.full((size, 4), 255, np.uint8)]
+        height = materials._float_atlas(t, spec, out[None])[0][..., 0]
+        panels += [lambert(height_normals(height, relief)), np.full((size, 4), 255, np.uint8)]
     Image.fromarray(np.concatenate(panels[:-1], axis=1)).save(path, optimize=True)
 
 
