@@ -116,12 +116,13 @@ SUPERELLIPSE = 8.0
 What the tiles share is their vertex content: every vertex of colour c shows the centre of sample patch c, over
 the corner region the cut leaves to the intermediate tile, at a fifth of the vertices of a c5 tiling. With q = 3
 the reward is zero over a corner region of about 0.2·N, and the cut kept the vertex content out to about 0.3·N
-from each corner (c5 on dry-soil: 0.4 % of the pixels within 0.19·N of a corner, 37 % within 0.375·N belong to
+from each corner (c5 on dry-soil: 0.5 % of the pixels within 0.19·N of a corner, 37 % within 0.375·N belong to
 the matching patch). Measured on the 9 textures of ``benches/repetition.py`` (c5 defaults, 1024² outputs, seed
 1; issue 12, ``benches/repetition-results.md``), q = 3 → 8 (means): matching-patch share of the tiles 0.648 →
 0.684, periodic copies 0.056 → 0.039, coverage 0.835 → 0.845, texture statistics 0.0136 → 0.0132, histogram
 and border seam equal, cut seam +0.3 %, inner-lattice seam +2.5 % (worst: cracked mud 1.77 → 1.91); q = 16
-bought nothing more than 8, and a doubled reward (FREE_BETA 32) halved copies again but raised the inner seam by up to 26 % (lettuce 1.42 → 1.79)."""
+bought nothing more than 8, and a doubled reward (FREE_BETA 32) halved copies again but raised the inner seam
+by up to 26 % (lettuce 1.42 → 1.79)."""
 FREE_REGIONS = ("free", "free8", "ring")
 """The values of ``cut_region`` cut by :func:`free_cuts` (``circle`` is the ω kernel's)."""
 TAPERED_REGIONS = ("free", "free8")
