@@ -18,7 +18,8 @@ of 8):
   the block, exhaustive SSD over every exemplar position (FFT), random choice among the positions within
   (1 + 0.1)·min, DP minimum-error cuts in the overlaps.
 
-Measures (:mod:`tilesynth.metrics`): periodic-copy fraction, detail-layer autocorrelation peak, exemplar
+Measures (:mod:`tilesynth.metrics`): periodic-copy fraction, repeated-patch fraction (:func:`tilesynth.metrics.repeated_patches`:
+16x16 grid patches whose exact pixels recur anywhere else, e.g. the vertex content of corner tiles), detail-layer autocorrelation peak, exemplar
 coverage (the provenance of every pixel: for hex tiling the vertex with the largest weight), histogram distance,
 texture-statistics distance (:func:`tilesynth.quality.texture_stats_distance`: Gram matrices of fixed random
 filters at scales 1 and 2, the issue's "no loss in texture statistics against 16a"), border seam score and inner-lattice seam score (:func:`tilesynth.metrics.inner_seam_score`, the worst line
@@ -55,6 +56,7 @@ from tilesynth.metrics import (
     histogram_distance,
     inner_seam_score,
     periodic_copies,
+    repeated_patches,
     seam_score,
 )
 from tilesynth.quality import texture_stats_distance
@@ -265,6 +267,7 @@ def quilt(
 def measure(img: np.ndarray, ex: np.ndarray, src: np.ndarray | None, tile: int | None) -> dict:
     row = {
         "copies": periodic_copies(img).fraction,
+        "repeated": repeated_patches(img).fraction,
         "autocorr": detail_repetition(img).peak,
         "coverage": coverage(src, ex.shape).fraction if src is not None else None,
         "hist": histogram_distance(img, ex).distance,
@@ -362,13 +365,13 @@ def _f(v, fmt=".3f") -> str:
 
 def table(rows: list[dict]) -> str:
     lines = [
-        "| texture | method | copies | autocorr peak | coverage | hist dist | tex stats | border seam | inner seam "
+        "| texture | method | copies | repeated | autocorr peak | coverage | hist dist | tex stats | border seam | inner seam "
         "| cut seam | build CPU s |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
-            f"| {r['texture']} | {r['method']} | {_f(r['copies'])} | {_f(r['autocorr'])} | "
+            f"| {r['texture']} | {r['method']} | {_f(r['copies'])} | {_f(r.get('repeated'))} | {_f(r['autocorr'])} | "
             f"{_f(r['coverage'])} | {_f(r['hist'])} | {_f(r.get('texstats'))} | {_f(r['seam'])} | "
             f"{_f(r.get('inner'))} | "
             f"{_f(r.get('cut_seam'))} | "
@@ -378,9 +381,9 @@ def table(rows: list[dict]) -> str:
         "",
         "Means over the textures:",
         "",
-        "| method | copies | autocorr peak | coverage | hist dist | tex stats | border seam | inner seam | cut seam "
+        "| method | copies | repeated | autocorr peak | coverage | hist dist | tex stats | border seam | inner seam | cut seam "
         "| build CPU s |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     by: dict[str, list[dict]] = {}
     for r in rows:
@@ -393,7 +396,7 @@ def table(rows: list[dict]) -> str:
             return float(np.mean(vals)) if vals else None
 
         lines.append(
-            f"| {key} | {_f(mean('copies'))} | {_f(mean('autocorr'))} | {_f(mean('coverage'))} | "
+            f"| {key} | {_f(mean('copies'))} | {_f(mean('repeated'))} | {_f(mean('autocorr'))} | {_f(mean('coverage'))} | "
             f"{_f(mean('hist'))} | {_f(mean('texstats'))} | {_f(mean('seam'))} | {_f(mean('inner'))} | "
             f"{_f(mean('cut_seam'))} | "
             f"{_f(mean('build_s'), '.2f')} |"

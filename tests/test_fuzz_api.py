@@ -1184,7 +1184,7 @@ def hashed_index_map_call(d: st.DrawFn):
 
 @st.composite
 def repetition_measures(d: st.DrawFn):
-    fn = d(st.sampled_from([ts.periodic_copies, ts.detail_repetition]))
+    fn = d(st.sampled_from([ts.periodic_copies, ts.detail_repetition, ts.repeated_patches]))
     return fn, (d(exemplars()),), {}, ()
 
 
@@ -1471,6 +1471,7 @@ API = {
     "ts_hash": ts_hash_call,
     "hashed_index_map": hashed_index_map_call,
     "periodic_copies": repetition_measures,
+    "repeated_patches": repetition_measures,
     "detail_repetition": repetition_measures,
     "histogram_distance": histogram_distance_call,
     "predicted_border_seam": predicted_border_seam_call,

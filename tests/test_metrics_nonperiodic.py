@@ -12,6 +12,7 @@ from tilesynth.metrics import (
     histogram_distance,
     image_metrics,
     periodic_copies,
+    repeated_patches,
 )
 
 
@@ -54,6 +55,55 @@ def test_tolerance_is_two_levels():
     big = np.clip(base + rng.choice([-1, 1], base.shape) * (4.0 / 255), 0, 1).astype(np.float32)
     assert periodic_copies(small).fraction > 0.9  # differences of ~2/255 between partners: mse <= (2/255)^2
     assert periodic_copies(big).fraction < 0.1
+
+
+def _repeated_oracle(img, p):
+    """Brute force: every grid patch against every disjoint window, by the pixels."""
+    h, w, _ = img.shape
+    rows, cols = h // p, w // p
+    hit = np.zeros((rows, cols), bool)
+    for r in range(rows):
+        for c in range(cols):
+            y, x = r * p, c * p
+            mine = img[y : y + p, x : x + p]
+            hit[r, c] = any(
+                max(abs(yy - y), abs(xx - x)) >= p and np.array_equal(img[yy : yy + p, xx : xx + p], mine)
+                for yy in range(h - p + 1)
+                for xx in range(w - p + 1)
+            )
+    return hit.mean()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_repeated_patches_against_brute_force(seed):
+    """Random pastes of exemplar-like blocks at arbitrary offsets (the vertex content of corner tiles recurs
+    at lattice positions, a pasted block anywhere); the rolling-hash measure equals the brute-force count."""
+    rng = np.random.default_rng(seed)
+    p = int(rng.choice([4, 5, 8]))
+    h, w = int(rng.integers(20, 40)), int(rng.integers(20, 40))
+    img = rng.integers(0, 3, (h, w, 2)).astype(np.float32) / 2  # few values: partial matches are common
+    src = rng.integers(0, 256, (12, 12, 2)).astype(np.float32) / 255
+    for _ in range(3):
+        y, x = int(rng.integers(0, h - 12)), int(rng.integers(0, w - 12))
+        img[y : y + 12, x : x + 12] = src
+    img[-1, -1, 0] = -0.0  # -0.0 and +0.0 are the same value
+    got = repeated_patches(img, patch=p)
+    assert got.fraction == pytest.approx(_repeated_oracle(img, p), abs=0)
+    assert got.n_patches == (h // p) * (w // p)
+
+
+def test_repeated_patches_copy_periodic_and_noise():
+    img = _noise(128, 128, seed=7)
+    assert repeated_patches(img).fraction == 0.0
+    pasted = img.copy()
+    pasted[70:102, 83:115] = img[16:48, 16:48]  # 4 grid patches inside the source, 1 inside the copy
+    assert repeated_patches(pasted).fraction == 5 / 64
+    assert repeated_patches(np.tile(img[:32, :32], (4, 4, 1))).fraction == 1.0
+    shifted = pasted.copy()
+    shifted[70:102, 83:115] += 1 / 255  # no longer bit-identical: not a repeat
+    assert repeated_patches(np.clip(shifted, 0, 1)).fraction == 0.0
+    with pytest.raises(ShapeError, match="at least one 16x16 patch"):
+        repeated_patches(img[:8])
 
 
 def test_detail_layer_removes_smooth_variation():

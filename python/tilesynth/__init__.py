@@ -112,6 +112,7 @@ __all__ = [
     "ts_hash",
     "hashed_index_map",
     "periodic_copies",
+    "repeated_patches",
     "detail_repetition",
     "histogram_distance",
     "build_patch",
@@ -130,5 +131,6 @@ from .metrics import (  # noqa: E402
     histogram_distance,
     inner_seam_score,
     periodic_copies,
+    repeated_patches,
 )
 from .schemes import build_material  # noqa: E402

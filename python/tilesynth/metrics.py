@@ -801,6 +801,90 @@ def periodic_copies(
     )
 
 
+@dataclass(frozen=True)
+class RepeatedPatches:
+    """Share of grid patches whose exact content appears elsewhere in the image (:func:`repeated_patches`)."""
+
+    fraction: float
+    n_patches: int
+    patch: int
+
+    def to_dict(self) -> dict[str, Any]:
+        return _finite(asdict(self))
+
+
+def _window_keys(bits: np.ndarray, p: int) -> np.ndarray:
+    """A 64-bit key of every ``p`` x ``p`` window (top-left (y, x), y <= H - p, x <= W - p) of the uint64 pixel
+    bits ``(H, W, C)``: Σ_{i,j,c} a^i·b^j·r_c·bits[y+i, x+j, c] mod 2^64, by prefix sums along each axis (b and a
+    odd, so b^x and a^y are invertible mod 2^64 and a window's sum is a difference of prefixes times b^-x).
+    Equal windows have equal keys; unequal ones collide with probability about 2^-63 (the caller confirms by the
+    pixels). uint64 array arithmetic wraps, which is the mod 2^64."""
+    h, w, c = bits.shape
+    rng = np.random.default_rng(_HASH_SEED + 1)
+    r = rng.integers(0, 2**63, size=c, dtype=np.uint64) * np.uint64(2) + np.uint64(1)
+    a, b = (int(v) * 2 + 1 for v in rng.integers(0, 2**62, size=2))
+    mask = 2**64 - 1
+
+    def powers(base: int, n: int) -> np.ndarray:
+        out, v = np.empty(n, np.uint64), 1
+        for k in range(n):
+            out[k] = v
+            v = (v * base) & mask
+        return out
+
+    v = (bits * r).sum(axis=2, dtype=np.uint64)  # (H, W): the channels folded with their weights
+    for axis, base, n in ((1, b, w), (0, a, h)):
+        fwd, inv = powers(base, n + 1), powers(pow(base, -1, 2**64), n + 1)
+        shape = (1, -1) if axis == 1 else (-1, 1)
+        pre = np.cumsum(v * fwd[:n].reshape(shape), axis=axis, dtype=np.uint64)
+        pre = np.concatenate([np.zeros_like(pre.take([0], axis=axis)), pre], axis=axis)
+        m = n - p + 1
+        hi, lo = pre.take(np.arange(p, p + m), axis=axis), pre.take(np.arange(m), axis=axis)
+        v = (hi - lo) * inv[:m].reshape(shape)
+    return v
+
+
+def repeated_patches(image: np.ndarray, patch: int = COPY_PATCH) -> RepeatedPatches:
+    """Repeated-patch fraction: the share of the image's ``patch`` x ``patch`` grid patches (top-left at
+    multiples of ``patch``; a last partial row/column is left out) whose pixels appear bit for bit in another
+    window of the image at any position that does not overlap it (Chebyshev distance ≥ ``patch``).
+
+    Unlike :func:`periodic_copies` it looks at every offset, not only the dominant lags, so it counts content
+    that recurs at irregular places: the vertex content of a corner-tile set (every vertex of one colour shows
+    the same sample patch; issue 12), a matching patch used by several tiles, a tile drawn twice, a quilting
+    block taken twice from the same place. It measures exact re-use, not only visible repetition: a copying
+    method must re-use exemplar content once the output is larger than the exemplar (a 1024² output of a 512²
+    exemplar uses every exemplar pixel about 4 times), so compare methods at the same sizes. 0 for blended or
+    resampled content (hex tiling), 1 for a periodic image. Flat regions (one exact colour over more than two
+    patches) count as repeated. Exact: window keys by a rolling 64-bit hash (:func:`_window_keys`), every match
+    confirmed by the pixels. Cost O(H·W·C) plus a sort of the H·W keys."""
+    img = as_image(image)
+    p = positive_int(patch, "patch")
+    h, w, _ = img.shape
+    rows, cols = h // p, w // p
+    if rows < 1 or cols < 1:
+        raise ShapeError(f"image is {w}x{h}: repeated patches need at least one {p}x{p} patch")
+    keys = _window_keys(_float_bits(img), p)
+    ww = keys.shape[1]
+    flat = keys.ravel()
+    order = np.argsort(flat, kind="stable")
+    sk = flat[order]
+    gy, gx = np.meshgrid(np.arange(rows) * p, np.arange(cols) * p, indexing="ij")
+    gk = keys[gy, gx].ravel()
+    lo = np.searchsorted(sk, gk, side="left")
+    hi = np.searchsorted(sk, gk, side="right")
+    hit = np.zeros(gk.size, bool)
+    for q in np.nonzero(hi - lo > 1)[0]:  # a patch whose key occurs elsewhere: find a confirmed, disjoint one
+        y, x = int(gy.flat[q]), int(gx.flat[q])
+        mine = img[y : y + p, x : x + p]
+        for k in order[lo[q] : hi[q]]:
+            yy, xx = divmod(int(k), ww)
+            if max(abs(yy - y), abs(xx - x)) >= p and np.array_equal(img[yy : yy + p, xx : xx + p], mine):
+                hit[q] = True
+                break
+    return RepeatedPatches(fraction=float(hit.mean()), n_patches=rows * cols, patch=p)
+
+
 def _wasserstein1(a: np.ndarray, b: np.ndarray, n: int = 512) -> float:
     """1-D Wasserstein-1 distance of two samples: mean |Q_a(u) − Q_b(u)| over n mid-point quantiles."""
     u = (np.arange(n) + 0.5) / n
@@ -1247,6 +1331,8 @@ __all__ = [
     "detail_repetition",
     "histogram_distance",
     "periodic_copies",
+    "RepeatedPatches",
+    "repeated_patches",
     "Coherence",
     "Coverage",
     "Repetition",
