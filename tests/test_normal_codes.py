@@ -28,8 +28,19 @@ def _check(v: np.ndarray, dtype: type, encoding: str = "unorm") -> None:
         return
     scale = 255.0 if dtype is np.uint8 else 65535.0
     assert np.abs(length - 1).max() <= UNIT_TOLERANCE
-    # no farther from the exact vector than rounding can be (half a code step per channel)
-    assert np.linalg.norm(d - v, axis=-1).max() <= np.sqrt(3.0) / scale * (1 + 1e-9)
+    # no farther from the exact vector than rounding can be (half a code step per channel), wherever some
+    # floor/ceiling code is both that near and within the tolerance (brute force over the 8 candidates)
+    bound = np.sqrt(3.0) / scale * (1 + 1e-9)
+    flat = v.reshape(-1, 3)
+    lo = np.floor((flat + 1) * 0.5 * scale)
+    corners = np.array(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij")).reshape(3, -1).T
+    cand = np.minimum(lo[:, None, :] + corners[None], scale) * (2.0 / scale) - 1.0
+    both = (np.linalg.norm(cand - flat[:, None], axis=2) <= bound) & (
+        np.abs(np.linalg.norm(cand, axis=2) - 1) <= UNIT_TOLERANCE
+    )
+    dist = np.linalg.norm(d - v, axis=-1).reshape(-1)
+    assert (dist[both.any(axis=1)] <= bound).all()
+    assert dist.max() <= 2 * np.sqrt(3.0) / scale * (1 + 1e-9)
     # and every channel is the floor or the ceiling of its exact code
     exact = (v + 1) * 0.5 * scale
     assert (np.abs(codes.astype(np.float64) - exact) < 1.0).all()
@@ -51,6 +62,12 @@ def test_many_random_unit_vectors_all_within_tolerance_and_rounding_is_not(dtype
     if dtype is np.uint8:  # the test can fail: plain rounding leaves some 8-bit codes outside 1 ± 0.005
         rounded = np.rint((v + 1) * 0.5 * 255).astype(np.uint8)
         assert (np.abs(np.linalg.norm(decode(rounded, "unorm"), axis=1) - 1) > 0.005).mean() > 0.001
+
+
+def test_no_code_within_both_bounds_keeps_unit_length():
+    """Found by the property test: every 8-bit floor/ceiling code of this vector inside rounding's direction
+    bound is 0.00504 off unit length; the encoder takes the nearest code within the tolerance instead."""
+    _check(np.array([[0.0, 0.9020773051772446, 0.7892469267264337]]), np.uint8)
 
 
 def test_snorm_float_vectors_stay_signed():

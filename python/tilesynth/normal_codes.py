@@ -17,6 +17,9 @@ picks, among those whose decoded length is within :data:`UNIT_TOLERANCE` of 1 *a
 farther from the exact one than rounding can ever be (``√3 / S``, the worst case of rounding: half a code step in
 each channel), the one nearest the exact vector; so the direction moves no more than rounding may, and where
 rounding is already within the tolerance and nearest (almost always for 16-bit) the result is rounding's code.
+Where no candidate meets both (rare: found by the property test, e.g. (0, 0.7526, 0.6585) in 8 bits), unit
+length wins: the nearest candidate within the tolerance, whose direction moves a little more than rounding's
+bound (at most 2√3 / S: every channel stays the floor or the ceiling of its exact code).
 Measured over 300 000 random unit vectors (``tests/test_normal_codes.py``): every 8-bit code within 0.0049 of
 unit length, the largest direction error 0.0067 rad against rounding's 0.0066 rad and the bound √3 / 255 ≈
 0.0068. Float maps are renormalised in float64 and stored as float32 (length error below 1e-6).
@@ -58,10 +61,13 @@ def _encode_codes(v: np.ndarray, scale: float) -> np.ndarray:
     err = np.abs(np.sqrt((dec * dec).sum(axis=2)) - 1.0)
     dist = np.sqrt(((dec - v[:, None, :]) ** 2).sum(axis=2))
     inside = dist <= np.sqrt(3.0) / scale * (1.0 + 1e-9)
-    ok = inside & (err <= UNIT_TOLERANCE)
-    # Lexicographic choice: within tolerance and bound -> nearest; else within the bound -> most nearly unit;
-    # else (never for unit inputs) nearest.
-    key = np.where(ok, dist, np.where(inside, 10.0 + err, 100.0 + dist))
+    unit = err <= UNIT_TOLERANCE
+    ok = inside & unit
+    # Lexicographic choice: within tolerance and bound -> nearest; else within tolerance -> nearest (the
+    # length wins over the direction bound: e.g. (0, 0.7526, 0.6585) in 8 bits has no code within both, the
+    # most nearly unit code inside the bound is 0.00504 off unit length, the nearest unit code 0.0068 > √3/255
+    # away); else within the bound -> most nearly unit; else nearest.
+    key = np.where(ok, dist, np.where(unit, 10.0 + dist, np.where(inside, 20.0 + err, 100.0 + dist)))
     pick = key.argmin(axis=1)
     return cand[np.arange(cand.shape[0]), pick]
 
