@@ -251,6 +251,8 @@ def _rule_rows(rec: dict[str, Any], keys: list[str]) -> list[dict[str, float]]:
             if k == "scap":  # the obord criterion: log distance of S_pred to 0.8, above 1 last
                 s = r["spred"]
                 d[k] = abs(math.log(s / 0.8)) if 0 < s <= 1 else 1e6 + s
+            elif k.startswith("e_"):  # an oracle: the evaluated measure itself
+                d[k] = r["eval"][k[2:]]
             else:
                 d[k] = r[k]
         out.append(d)
@@ -353,6 +355,30 @@ def correlations(data: dict[str, Any], keys: list[str]) -> None:
         print(f"| {k} | " + " | ".join(f"{c:+.2f}" for c in cells) + " |")
 
 
+def cost(a: argparse.Namespace) -> None:
+    """CPU s per build (``time.process_time``, one thread), interleaved per seed: a single random draw, today's
+    default (obord) and ``objective="window"`` with ``--rerank`` candidates; medians and ratios to the default."""
+    t: dict[str, list[float]] = {"random": [], "default": [], "window": []}
+    for name in a.textures.split(","):
+        ex = fit(load(a.dir / name), a.fit)
+        for s in range(1, a.cost + 1):
+            for mode, kw in (
+                ("random", {"border_tries": 1}),
+                ("default", {}),
+                ("window", {"objective": "window", "rerank": a.rerank}),
+            ):
+                t0 = time.process_time()
+                ts.build_omega(ex, tileset="c5", seed=s, threads=a.threads, **kw)
+                t[mode].append(time.process_time() - t0)
+        print(f"  cost {name} done", file=sys.stderr, flush=True)
+    med = {k: float(np.median(v)) for k, v in t.items()}
+    print(f"\n| mode | median CPU s per build ({len(t['default'])} builds each) | ratio to the default |")
+    print("|---|---|---|")
+    for k in ("random", "default", "window"):
+        label = f"window, rerank {a.rerank}" if k == "window" else k
+        print(f"| {label} | {med[k]:.3f} | {med[k] / med['default']:.2f}x |")
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--dir", type=Path, default=DEFAULT_TEXTURES)
@@ -368,17 +394,24 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--detail", default="")
     p.add_argument("--subsets", type=int, default=400)
     p.add_argument("--ceiling", default="4,8,16")
+    p.add_argument("--cost", type=int, default=0, help="only the CPU comparison, this many seeds per texture")
+    p.add_argument("--rerank", type=int, default=None, help="--cost: candidates of the window objective")
     a = p.parse_args(argv)
     if a.replay:
         data: dict[str, Any] = {"textures": {}}
         for path in a.replay:
-            data["textures"].update(json.loads(path.read_text())["textures"])
+            d = json.loads(path.read_text())
+            want = int(d["args"]["pool"])
+            data["textures"].update({k: v for k, v in d["textures"].items() if len(v["pool"]) == want})
         default_table(data)
         ceiling(data, tuple(int(k) for k in a.ceiling.split(",")))
         proxies = ["scap", "spred"] + [f"w{w}_{m}" for w in WINDOWS for m in ("seam", "cut", "coh", "tex")]
         correlations(data, proxies)
         if a.rules:
             rules_table(data, a.rules.split(","), a.subsets, [r for r in a.detail.split(",") if r])
+        return 0
+    if a.cost:
+        cost(a)
         return 0
     collect(a)
     return 0

@@ -42,7 +42,7 @@ __all__ = [
     "window_measures",
 ]
 
-WINDOW_COUNT = 8
+WINDOW_COUNT = 4
 """Candidates whose windows are built and measured (``rerank`` overrides it)."""
 
 WINDOW_DRAWS = 8
