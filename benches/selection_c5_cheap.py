@@ -6,22 +6,27 @@ cheap rule that builds only a small window of the 625 tiles per candidate.
 random baseline of ``benches/selection_c5.py``), ``--seeds`` builds of today's default (border-aware "obord"
 draw, seeds 1..). Every build is scored by ``benches/selection.py``'s :func:`visible_measures` (the tiles' cut
 score and cut seam, and of a 512² synthesis with seed 1 coherence, texture statistics, histogram, coverage).
-The pool is the random draws themselves (their gene vectors). Every pool vector is also measured on the cheap **window proxies** (:func:`window_proxy`): the tiles of one
+The pool is the random draws themselves (their gene vectors). Every pool vector is also measured on the
+cheap **window proxies** (:class:`WindowJudge`, as :mod:`tilesynth.winselect`): the tiles of one
 ``W x W``-cell window of the hashed tiling (tiler seed 7919, not the scored seed 1; the cells' tile indices do
 not depend on the genes, so every candidate builds the same <= W² tuples) are built, their cut seam and cut
-score taken, and the window's image (W·N pixels square) measured for coherence (exact) and texture statistics;
+score taken, and the window's image (W·N pixels square) measured for coherence (exact; W = 8: a fixed sample of
+400 patches) and texture statistics;
 also the predicted border seam S_pred (:mod:`tilesynth.omegaborders`). CPU time (``time.process_time``) of
 every build, evaluation and proxy.
 
 **Replay**: the ceiling (the expected best of K pool vectors by the evaluation itself, per measure, exact over
-all K-subsets of the pool) and rules ``K:proxy-combination`` (of K pool vectors, the one with the smallest rank
-sum of the named proxy measures; gain of its evaluated measures, median over ``--subsets`` random K-subsets);
-gains in % over the median of the random draws.
+all K-subsets of the pool) and rules ``K:keys`` / ``K/F:keys`` (of K pool vectors, or of the K best of F by the
+border criterion ``scap``, the one with the smallest rank sum of the keys: window proxies ``w<W>_seam|cut|coh|tex``,
+``scap``, or the oracles ``e_<measure>``; gain of its evaluated measures, median over ``--subsets`` random
+subsets); gains in % over the median of the random draws. ``--cost N``: the CPU of random / default / window
+builds, interleaved.
 
 Usage::
 
     OPENBLAS_NUM_THREADS=1 python benches/selection_c5_cheap.py --textures gravel.png,beans.png --json a.json
-    python benches/selection_c5_cheap.py --replay a.json b.json --rules "8:w4_seam+w4_coh,16:w6_seam"
+    python benches/selection_c5_cheap.py --replay a.json b.json --rules "4/8:w8_seam+w8_coh+w8_tex,8:w8_seam"
+    OPENBLAS_NUM_THREADS=1 python benches/selection_c5_cheap.py --cost 3 --textures gravel.png,beans.png
 """
 
 from __future__ import annotations
