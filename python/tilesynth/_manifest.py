@@ -278,6 +278,20 @@ _VISIBLE_RERANK = Obj(
     }
 )
 
+#: params.selection.window: the window choice of the complete sets (tilesynth.winselect).
+_WINDOW_CHOICE = Obj(
+    optional={
+        "count": _POS,
+        "chosen": _COUNT,
+        "cells": _POS,
+        "window_tiles": _POS,
+        "proxy_seed": _COUNT,
+        "cut_seam": List(Optional(Num(0.0))),
+        "coherence": List(Optional(Num(0.0))),
+        "texstats": List(Optional(Num(0.0))),
+    }
+)
+
 #: params.selection: the method, its parameters (numbers and flags) and its result.
 SELECTION = Obj(
     optional={
@@ -304,9 +318,10 @@ SELECTION = Obj(
         "border_seam_first": Num(nan_ok=True),
         "border_seam_predicted": Num(nan_ok=True),
         # issue 15: the objective and the cut re-ranking (tilesynth.cutselect)
-        "objective": Str(("visible", "cut", "sum-d", "E")),
+        "objective": Str(("visible", "cut", "sum-d", "E", "window")),
         "cut": Optional(_CUT_RERANK),
         "visible": Optional(_VISIBLE_RERANK),
+        "window": Optional(_WINDOW_CHOICE),
         "border_criterion": Str(("cap", "log", "min")),  # ω and patch (tilesynth.omegaborders)
     },
 )

@@ -58,7 +58,7 @@ __all__ = [
     "resolve_objective",
 ]
 
-OBJECTIVES = ("visible", "cut", "sum-d", "E")
+OBJECTIVES = ("visible", "cut", "sum-d", "E", "window")
 """The selection objectives (see the module docstring)."""
 
 DEFAULT_COUNT = 32
@@ -94,6 +94,7 @@ def check_objective(objective: Any) -> str:
         "cut",
         "sum-d",
         "e",
+        "window",
     ):
         raise ParameterError(f"objective = {objective!r}: must be one of {', '.join(OBJECTIVES)}")
     o = objective.strip().lower().replace("_", "-")
@@ -130,6 +131,20 @@ def resolve_objective(
         if rerank_k is not None:
             raise ParameterError("rerank: only when genes are selected")
         return select, None, params, 0
+    if objective is not None and check_objective(objective) == "window":  # complete sets only (winselect)
+        from .winselect import WINDOW_COUNT
+
+        if not complete:
+            raise ParameterError(
+                "objective 'window': only for the complete corner sets (c4, c5, ...: their hashed tiling has "
+                "windows); the papers' sets have 'cut' (the default) and 'visible'"
+            )
+        if select is not None or polish or population is not None or params:
+            raise ParameterError(
+                "objective 'window' chooses among random draws itself: no select, polish, population or "
+                "select parameters besides rerank"
+            )
+        return None, "window", params, WINDOW_COUNT if rerank_k is None else _int_param("rerank", rerank_k, 1)
     if (
         select is None
         and complete

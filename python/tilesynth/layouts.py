@@ -50,6 +50,20 @@ class CornerPlan:
             len(colours),
         )  # fmt: skip
 
+    def subset(self, tiles: np.ndarray) -> CornerPlan:
+        """The plan of the tiles ``tiles`` (indices into :attr:`tile_patches`) alone, in that order: their
+        distinct tuples in first-appearance order (issue 15, :mod:`tilesynth.winselect`)."""
+        idx = np.asarray(tiles, dtype=np.int64).reshape(-1)
+        rows = self.inverse[idx]
+        _, first, inv = np.unique(rows, return_index=True, return_inverse=True)
+        order = np.argsort(first)
+        rank = np.empty_like(order)
+        rank[order] = np.arange(order.size)
+        return CornerPlan(
+            self.tile_patches[idx], self.unique[rows[np.sort(first)]], rank[np.asarray(inv).reshape(-1)],
+            self.variants[idx], self.n_variants, self.n_colours,
+        )  # fmt: skip
+
 
 def intermediate_tiles(
     exemplar: np.ndarray, genes: np.ndarray, tile_patches: np.ndarray, tile_size: int

@@ -82,6 +82,19 @@ def info_lines(params: dict[str, Any]) -> list[str]:
             f"{num(vis.get('proxy_side'), 'd')}² proxy synthesis (seed {num(vis.get('proxy_seed'), 'd')}), "
             f"#{num(k, 'd')} kept by the rank sum ({row})"
         )
+    elif isinstance(sel, dict) and isinstance(sel.get("window"), dict):  # tilesynth.winselect
+        win = sel["window"]
+        k = win.get("chosen")
+        row = ", ".join(
+            f"{key.replace('_', ' ')} {num(vals[k]) if isinstance(k, int) and 0 <= k < len(vals) else '-'}"
+            for key in ("cut_seam", "coherence", "texstats")
+            for vals in [win.get(key) if isinstance(win.get(key), list) else []]
+        )
+        out.append(
+            f"objective     window: {num(win.get('count'), 'd')} random draws measured on a "
+            f"{num(win.get('cells'), 'd')}x{num(win.get('cells'), 'd')}-tile window ({num(win.get('window_tiles'), 'd')} "
+            f"tiles, seed {num(win.get('proxy_seed'), 'd')}), #{num(k, 'd')} kept by the rank sum ({row})"
+        )
     elif isinstance(sel, dict) and isinstance(sel.get("objective"), str):
         out.append(f"objective     {sel['objective']}")
     return out

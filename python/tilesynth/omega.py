@@ -642,8 +642,11 @@ def build_omega(
         b.exemplar, b.tile_size, b.rng, genes_arr, sel, tries,
         genes is None
         and not wants_selection(select, polish, select_params, extra=normalise)
-        and active(b.mask) is None,  # the draws are not mask-aware: a masked build keeps its one clear draw
+        and active(b.mask) is None  # the draws are not mask-aware: a masked build keeps its one clear draw
+        and objective != "window",
     )  # fmt: skip
+    if objective == "window":  # issue 15: the cheap choice of the complete sets (tilesynth.winselect)
+        genes_arr, sel = _window_selection(b, opts, plan, genes_arr, sel, n_rerank)
     t_sel = time.perf_counter()
     release_freed_memory()  # issue 15: the selection's freed buffers do not add to the later stages' peak
     if objective in ("cut", "visible") and sel.get("method") not in ("given", "random"):  # issue 15
@@ -699,6 +702,26 @@ def build_omega(
         started=b.started,
     )  # fmt: skip
     return finish_build(ts, b)  # issue 14: the mask record and the input warnings
+
+
+def _window_selection(
+    b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, first: np.ndarray, sel: dict, count: int
+) -> tuple[np.ndarray, dict]:
+    """``objective="window"``: of the border-best ``count`` of the random draws (``first`` the build's own), the
+    one whose window of the hashed tiling measures best (:mod:`tilesynth.winselect`)."""
+    from .lookup import lookup_scheme
+    from .winselect import WINDOW_DRAWS, window_candidates, window_choice
+
+    if active(b.mask) is not None:
+        raise ParameterError("objective 'window' with a mask: the window draws are not mask-aware; leave the "
+                             "objective unset (one clear random draw) with a mask")  # fmt: skip
+    cands = window_candidates(b.exemplar, b.tile_size, b.rng, first, count, max(WINDOW_DRAWS, count))
+    quiet = dataclasses.replace(b, progress=lambda *a: None)
+    genes_arr, rec = window_choice(
+        cands, lambda g, idx: _stages(quiet, opts, plan.subset(idx), g, smooth=False),
+        lookup_scheme(b.definition), b.exemplar, b.tile_size, b.threads, b.report,
+    )  # fmt: skip
+    return genes_arr, {**sel, "method": "window", "objective": "window", "window": rec}
 
 
 def _trial_tileset(

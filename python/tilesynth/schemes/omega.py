@@ -125,14 +125,17 @@ SCHEME = Scheme(
             "what --select minimises: visible (cut seam, coherence and texture statistics of a small proxy "
             "synthesis, rank-summed over the best --rerank candidates by ΣD), cut (the real cut cost of the "
             "tiles, robust geometric mean, with ΣD as the cheap first stage and the best --rerank candidates "
-            "built), sum-d (ΣD) or E (the papers' objective; the default of a named --select)",
-            choices=("visible", "cut", "sum-d", "E"),
+            "built), sum-d (ΣD) or E (the papers' objective; the default of a named --select); window "
+            "(complete sets only: of --rerank border-best random draws, the one whose 8x8-tile window of "
+            "the tiling measures best in cut seam, coherence and texture statistics)",
+            choices=("visible", "cut", "sum-d", "E", "window"),
         ),
         Option(
             "rerank",
             "--rerank",
             "--objective visible/cut: how many of the best candidates by ΣD are built and re-ranked (default 8 "
-            "for visible, 4 for cut)",
+            "for visible, 4 for cut); --objective window: how many border-best random draws are measured on "
+            "the window (default 4 of 8)",
             cli_type=positive_int_text,
             metavar="K",
         ),
