@@ -3119,6 +3119,76 @@ mod tests {
     }
 
     #[test]
+    fn best_map_within_bound_with_its_minimum() {
+        // The map of the matching stage (its own code, see `fft_map_best`): every value within the bound
+        // of the direct sum, close to `ssd_map_f64`, its reported minimum, first index and ties exact, and
+        // the same bits whether the loops run compiled for AVX2 or not, and whether its buffers are fresh
+        // or were used by a template of another size (the reuse within one call). C = 5 takes the general
+        // path of the template constants.
+        let mut rng = Rng(21);
+        let mut ws = BestWs::default();
+        let check =
+            |img: &Array3<f32>, t: &Array3<f32>, m: Option<&Array2<bool>>, ws: &mut BestWs| {
+                let idx = SsdIndex::new(img.view()).unwrap();
+                idx.ensure::<f64>(m.is_some()).unwrap();
+                let tp = idx.prepare_template("template", t.view()).unwrap();
+                let mp = prepare_mask(m.map(|m| m.view()), t.dim().0, t.dim().1).unwrap();
+                let want = ssd_map_brute(img.view(), t.view(), m.map(|m| m.view())).unwrap();
+                let (old, old_bound) = idx.ssd_map_f64(t.view(), m.map(|m| m.view())).unwrap();
+                let n = want.len();
+                let (bound, (min, first, ties)) = idx.fft_map_best(&tp, mp.as_deref(), ws);
+                let map = ws.map[..n].to_vec();
+                // the same bound, up to the rounding of the template's sums (summed in another order)
+            assert!((bound - old_bound).abs() <= 1e-12 * old_bound);
+                for ((g, w), o) in map.iter().zip(want.iter()).zip(old.iter()) {
+                    assert!((g - w).abs() <= bound, "{g} vs {w} bound {bound}");
+                    assert!((g - o).abs() <= 2.0 * bound);
+                    assert!(!g.is_nan() && *g >= 0.0);
+                }
+                let m0 = map.iter().fold(f64::INFINITY, |a, &v| a.min(v));
+                assert_eq!(min, m0);
+                assert_eq!(first, map.iter().position(|&v| v == m0).unwrap());
+                assert_eq!(ties, map.iter().filter(|&&v| v == m0).count());
+                let plain = {
+                    let mut fresh = BestWs::default();
+                    best_cols_plain(&idx, &tp, mp.as_deref(), &mut fresh);
+                    let r = best_rows_plain(&idx, &tp, mp.as_deref(), &mut fresh);
+                    (r, fresh.map[..n].to_vec())
+                };
+                assert_eq!(plain.0, (bound, (min, first, ties)));
+                assert!(plain
+                    .1
+                    .iter()
+                    .zip(&map)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()));
+            };
+        let mut sizes: Vec<_> = SIZES.to_vec();
+        sizes.extend([
+            (70, 66, 33, 30, 5),
+            (64, 64, 32, 32, 3),
+            (130, 120, 64, 40, 3),
+        ]);
+        for &(hh, ww, h, w, c) in &sizes {
+            let img = rand3(&mut rng, (hh, ww, c));
+            let t = rand3(&mut rng, (h, w, c));
+            check(&img, &t, None, &mut ws);
+            check(&img, &t, Some(&rand_mask(&mut rng, h, w)), &mut ws);
+            let (y, x) = (rng.below(hh - h + 1), rng.below(ww - w + 1));
+            let cut = img.slice(s![y..y + h, x..x + w, ..]).to_owned();
+            check(&img, &cut, None, &mut ws);
+        }
+        // exact ties: a flat image (every translation ties) and a periodic one (copies of the template)
+        let flat = Array3::from_elem((40, 37, 3), 0.5f32);
+        check(&flat, &Array3::from_elem((6, 5, 3), 0.25f32), None, &mut ws);
+        let per = Array3::from_shape_fn((48, 50, 3), |(y, x, ch)| {
+            ((y % 4) * 7 + (x % 6) * 3 + ch) as f32 / 40.0
+        });
+        let cut = per.slice(s![5..13, 7..16, ..]).to_owned();
+        check(&per, &cut, None, &mut ws);
+        check(&per, &cut, Some(&rand_mask(&mut rng, 8, 9)), &mut ws);
+    }
+
+    #[test]
     fn deterministic_across_threads() {
         fn assert_send_sync<T: Send + Sync>() {}
         assert_send_sync::<SsdIndex>();
