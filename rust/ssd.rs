@@ -1043,9 +1043,11 @@ impl SsdIndex {
     /// `f > top + bound` (`f` its FFT value; its exact value is then `> top`): so we resolve, in `f` order
     /// (ties by index), only what could still beat the top, each translation at most once.
     ///
-    /// The `f` order is built lazily ([`LazyOrder`]): one linear pass finds the FFT minimum, one more
-    /// moves the translations within the exactness bound into a small sorted prefix — for `k = 1` that
-    /// is the whole cost (about 1 ms at 1024², where sorting every translation took ~100 ms). When more
+    /// The map is that of [`SsdIndex::fft_map_best`] (the matching stage's own, buffers in `ws`), which
+    /// also reports its minimum. The `f` order is built lazily ([`LazyOrder`]): the minimum starts it, one
+    /// linear pass moves the translations within the exactness bound into a small sorted prefix — for
+    /// `k = 1` that is the whole cost (about 1 ms at 1024², where sorting every translation took ~100 ms),
+    /// with a unique minimum no pass at all before the exact sum of the minimum. When more
     /// are needed (`k > 1`, large ties) the prefix grows at least geometrically, so the worst case stays
     /// O(n log n). The prefix is always exactly the prefix of the full sort, so the walk, and therefore
     /// the result, is identical to [`SsdIndex::best_prepared_sorting`] (tested), which is the exact greedy
@@ -1113,9 +1115,10 @@ impl SsdIndex {
     /// The greedy walk of both paths: translations in increasing FFT value, each one's exact SSD computed
     /// when the bound cannot rule it out, the best k taken with their exclusion windows. `sort_all`: the
     /// order is sorted whole up front ([`LazyOrder::full`]) instead of grown lazily; the walk is the same.
-    /// `ws`: the map is [`SsdIndex::fft_map_best`] in these buffers (the matching stage); `None`: the map
-    /// of [`SsdIndex::ssd_map_f64`] (the sorting baseline). Whatever the map, as long as its bound holds
-    /// the walk returns the exact greedy answer, so both give the same result.
+    /// `map`, `bound`: the map of [`SsdIndex::fft_map_best`] with `first` its minimum (the matching stage,
+    /// `fast`: exact sums by [`SsdIndex::exact_fast`]) or that of [`SsdIndex::ssd_map_f64`] (the sorting
+    /// baseline). Whatever the map, as long as its bound holds the walk returns the exact greedy answer, so
+    /// both give the same result.
     #[allow(clippy::too_many_arguments)]
     fn walk_map(
         &self,
@@ -3139,7 +3142,7 @@ mod tests {
                 let (bound, (min, first, ties)) = idx.fft_map_best(&tp, mp.as_deref(), ws);
                 let map = ws.map[..n].to_vec();
                 // the same bound, up to the rounding of the template's sums (summed in another order)
-            assert!((bound - old_bound).abs() <= 1e-12 * old_bound);
+                assert!((bound - old_bound).abs() <= 1e-12 * old_bound);
                 for ((g, w), o) in map.iter().zip(want.iter()).zip(old.iter()) {
                     assert!((g - w).abs() <= bound, "{g} vs {w} bound {bound}");
                     assert!((g - o).abs() <= 2.0 * bound);
