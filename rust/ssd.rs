@@ -225,6 +225,15 @@ pub struct SsdIndex {
     tail64: OnceLock<Chunk<f64>>,
 }
 
+/// The template-side constants of a map (see [`SsdIndex::template_consts`]).
+#[derive(Clone, Copy)]
+struct TConsts {
+    sum_t2: f64,
+    l1: f64,
+    nnz: f64,
+    kconst: f64,
+}
+
 /// A validated template, borrowed when C-contiguous, copied otherwise.
 struct Tmpl<'a> {
     h: usize,
@@ -495,7 +504,8 @@ impl SsdIndex {
         if k > 0 {
             self.ensure::<f64>(m.is_some())?;
         }
-        Ok(self.best_prepared(&t, m.as_deref(), k, exclude_radius))
+        let mut ws = BestWs::default();
+        Ok(self.best_prepared(&t, m.as_deref(), k, exclude_radius, &mut ws))
     }
 
     /// [`SsdIndex::best_matches`] by the first implementation (every translation sorted up front): the
@@ -572,8 +582,30 @@ impl SsdIndex {
         })
     }
 
+    /// [`SsdIndex::exact`], compiled for AVX2 when the CPU has it (the matching stage). The same operations
+    /// in the same order (four fixed lanes, no FMA), so the same bits.
+    fn exact_fast(&self, t: &Tmpl, mask: Option<&[bool]>, ty: usize, tx: usize) -> f64 {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2 (just checked).
+            return unsafe { self.exact_avx2(t, mask, ty, tx) };
+        }
+        self.exact(t, mask, ty, tx)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn exact_avx2(&self, t: &Tmpl, mask: Option<&[bool]>, ty: usize, tx: usize) -> f64 {
+        self.exact_body(t, mask, ty, tx)
+    }
+
     /// The direct `f64` SSD at `(ty, tx)` (no validation). Fixed summation order.
     fn exact(&self, t: &Tmpl, mask: Option<&[bool]>, ty: usize, tx: usize) -> f64 {
+        self.exact_body(t, mask, ty, tx)
+    }
+
+    #[inline(always)]
+    fn exact_body(&self, t: &Tmpl, mask: Option<&[bool]>, ty: usize, tx: usize) -> f64 {
         let c = self.c;
         let row_len = t.w * c;
         let mut acc = [0.0f64; 4];
@@ -629,28 +661,11 @@ impl SsdIndex {
         (map, bound)
     }
 
-    /// The FFT map with transforms in `T` (row-major, clamped at 0, converted by `cvt`), the rigorous
-    /// bound on its absolute error, and a typical (not rigorous) size of the transform rounding error,
-    /// `2 eps sqrt(levels) ||x||_2 ||y'||_2`, used to choose the precision of maps.
-    fn fft_map<T: Real, O: Copy + Default + Send + Sync, F: Fn(f64) -> O + Copy + Send + Sync>(
-        &self,
-        t: &Tmpl,
-        mask: Option<&[bool]>,
-        cvt: F,
-    ) -> (Vec<O>, f64, f64) {
-        let (hh, ww, c) = (self.h, self.w, self.c);
-        let wc = ww / 2 + 1;
-        let (th, tw) = (t.h, t.w);
-        let (mh, mw) = self.map_dim(th, tw);
-        let par = self.par();
-        let spec = self.spec::<T>();
-        let tail = mask.map(|_| self.tail::<T>());
-        let plans = &spec.plans;
-        // Template-side planes: -2 m T_c for every channel, then m (masked only). Scaling by -2 is exact.
-        let np = if mask.is_some() { c + 1 } else { c };
+    /// The template-side constants of a map: `sum m T^2`, `sum m |T|`, the mask's count and the centring
+    /// constant `sum_q mean_q * sum(p_q)`.
+    fn template_consts(&self, t: &Tmpl, mask: Option<&[bool]>) -> TConsts {
+        let c = self.c;
         let data = &t.data;
-        let zero = Complex::<T>::zero();
-
         // The constant term sum m T^2 and the norms of the template side (for the error bound), as
         // lane-parallel sums (fixed order, vectorisable): sq = sum m T^2, l1 = sum m |T|, over all channels.
         let (sum_t2, l1) =
@@ -686,6 +701,122 @@ impl SsdIndex {
         if mask.is_some() {
             kconst += self.means[c] * nnz;
         }
+
+        TConsts {
+            sum_t2,
+            l1,
+            nnz,
+            kconst,
+        }
+    }
+
+    /// [`SsdIndex::template_consts`] of an unmasked template with `C` dividing 24, in one pass of 24 lanes
+    /// (the flat index modulo 24 fixes the channel of a lane, so every lane sums one channel; vectorisable,
+    /// where the per-channel running sums of `template_consts` are one long dependency chain each). The
+    /// sums are the same up to rounding (another fixed order), which the bound's terms for the constant
+    /// (`k_err`, `sum_err`) cover; used by [`SsdIndex::fft_map_best`] only.
+    #[inline(always)]
+    fn template_consts_unmasked(&self, t: &Tmpl) -> TConsts {
+        const L: usize = 24;
+        let c = self.c;
+        debug_assert_eq!(L % c, 0);
+        let (mut sq, mut ab, mut sm) = ([0.0f64; L], [0.0f64; L], [0.0f64; L]);
+        let mut chunks = t.data.chunks_exact(L);
+        for ch in &mut chunks {
+            for l in 0..L {
+                let x = ch[l] as f64;
+                sq[l] += x * x;
+                ab[l] += x.abs();
+                sm[l] += x;
+            }
+        }
+        for (l, &x) in chunks.remainder().iter().enumerate() {
+            let x = x as f64;
+            sq[l] += x * x;
+            ab[l] += x.abs();
+            sm[l] += x;
+        }
+        let (sum_t2, l1) = (sq.iter().sum::<f64>(), ab.iter().sum::<f64>());
+        let mut kconst = 0.0f64;
+        for ch in 0..c {
+            let ps: f64 = sm.iter().skip(ch).step_by(c).sum();
+            kconst += self.means[ch] * (-2.0 * ps);
+        }
+        TConsts {
+            sum_t2,
+            l1,
+            nnz: 0.0,
+            kconst,
+        }
+    }
+
+    /// The rigorous bound on the absolute error of a map with transforms in `T` (see the module docs), and
+    /// the typical size of the transform rounding error (see [`SsdIndex::fft_map`]).
+    fn map_bound<T: Real>(&self, th: usize, tw: usize, masked: bool, tc: &TConsts) -> (f64, f64) {
+        let (hh, ww, c) = (self.h, self.w, self.c);
+        let TConsts {
+            sum_t2, l1, nnz, ..
+        } = *tc;
+        // Error bound (see the module docs): per plane pair, the FFT correlation error is at most
+        // ~ 3 a (||x||_2 ||y||_1 + ||x||_1 ||y||_2) with a = (rounding per FFT level) * (levels), doubled
+        // for the pair packing; plus the rounding of the centred image values, of the centring constant,
+        // of the final sums and of the integral image.
+        let eps = T::epsilon().to64();
+        let e64 = f64::EPSILON;
+        let levels = (ceil_log2(hh) + ceil_log2(ww) + 8) as f64;
+        let a = 16.0 * eps * levels;
+        // Template side: the planes -2 m T_c (sum_c ||x_c||_2 <= sqrt(C) * 2 sqrt(sum_t2) and
+        // sum_c ||x_c||_1 = 2 l1) against the largest centred image channel norms; then m against S'.
+        let (y1, y2, yinf) = self.norms[..c]
+            .iter()
+            .fold((0.0f64, 0.0f64, 0.0f64), |(a, b, d), &(n1, n2, ni)| {
+                (a.max(n1), b.max(n2), d.max(ni))
+            });
+        let mean_max = self.means[..c].iter().fold(0.0f64, |a, &m| a.max(m.abs()));
+        let x2 = 2.0 * (c as f64).sqrt() * sum_t2.sqrt();
+        let x1 = 2.0 * l1;
+        let mut fft_err = 6.0 * a * (x2 * y1 + x1 * y2);
+        let mut zmax = x2 * y2;
+        let mut cent_err = 2.0 * eps * x1 * yinf;
+        let mut k_abs = mean_max * x1;
+        if masked {
+            let (s1, s2, sinf) = self.norms[c];
+            fft_err += 6.0 * a * (nnz.sqrt() * s1 + nnz * s2);
+            zmax += nnz.sqrt() * s2;
+            cent_err += 2.0 * eps * nnz * sinf;
+            k_abs += self.means[c].abs() * nnz;
+        }
+        let k_err = (th * tw + 8) as f64 * e64 * k_abs;
+        let box_err = 4.0 * (hh + ww + 4) as f64 * e64 * self.s_total;
+        let sum_err = 8.0 * e64 * (sum_t2 + self.s_total + zmax + k_abs);
+        let est = 2.0 * eps * levels.sqrt() * zmax;
+        (fft_err + cent_err + k_err + box_err + sum_err, est)
+    }
+
+    /// The FFT map with transforms in `T` (row-major, clamped at 0, converted by `cvt`), the rigorous
+    /// bound on its absolute error, and a typical (not rigorous) size of the transform rounding error,
+    /// `2 eps sqrt(levels) ||x||_2 ||y'||_2`, used to choose the precision of maps.
+    fn fft_map<T: Real, O: Copy + Default + Send + Sync, F: Fn(f64) -> O + Copy + Send + Sync>(
+        &self,
+        t: &Tmpl,
+        mask: Option<&[bool]>,
+        cvt: F,
+    ) -> (Vec<O>, f64, f64) {
+        let (hh, ww, c) = (self.h, self.w, self.c);
+        let wc = ww / 2 + 1;
+        let (th, tw) = (t.h, t.w);
+        let (mh, mw) = self.map_dim(th, tw);
+        let par = self.par();
+        let spec = self.spec::<T>();
+        let tail = mask.map(|_| self.tail::<T>());
+        let plans = &spec.plans;
+        // Template-side planes: -2 m T_c for every channel, then m (masked only). Scaling by -2 is exact.
+        let np = if mask.is_some() { c + 1 } else { c };
+        let data = &t.data;
+        let zero = Complex::<T>::zero();
+
+        let tc = self.template_consts(t, mask);
+        let (sum_t2, kconst) = (tc.sum_t2, tc.kconst);
 
         let tfill = |q: usize, y: usize, out: &mut [T]| {
             let row = &data[y * tw * c..(y + 1) * tw * c];
@@ -852,40 +983,57 @@ impl SsdIndex {
             },
         );
 
-        // Error bound (see the module docs): per plane pair, the FFT correlation error is at most
-        // ~ 3 a (||x||_2 ||y||_1 + ||x||_1 ||y||_2) with a = (rounding per FFT level) * (levels), doubled
-        // for the pair packing; plus the rounding of the centred image values, of the centring constant,
-        // of the final sums and of the integral image.
-        let eps = T::epsilon().to64();
-        let e64 = f64::EPSILON;
-        let levels = (ceil_log2(hh) + ceil_log2(ww) + 8) as f64;
-        let a = 16.0 * eps * levels;
-        // Template side: the planes -2 m T_c (sum_c ||x_c||_2 <= sqrt(C) * 2 sqrt(sum_t2) and
-        // sum_c ||x_c||_1 = 2 l1) against the largest centred image channel norms; then m against S'.
-        let (y1, y2, yinf) = self.norms[..c]
-            .iter()
-            .fold((0.0f64, 0.0f64, 0.0f64), |(a, b, d), &(n1, n2, ni)| {
-                (a.max(n1), b.max(n2), d.max(ni))
-            });
-        let mean_max = self.means[..c].iter().fold(0.0f64, |a, &m| a.max(m.abs()));
-        let x2 = 2.0 * (c as f64).sqrt() * sum_t2.sqrt();
-        let x1 = 2.0 * l1;
-        let mut fft_err = 6.0 * a * (x2 * y1 + x1 * y2);
-        let mut zmax = x2 * y2;
-        let mut cent_err = 2.0 * eps * x1 * yinf;
-        let mut k_abs = mean_max * x1;
-        if mask.is_some() {
-            let (s1, s2, sinf) = self.norms[c];
-            fft_err += 6.0 * a * (nnz.sqrt() * s1 + nnz * s2);
-            zmax += nnz.sqrt() * s2;
-            cent_err += 2.0 * eps * nnz * sinf;
-            k_abs += self.means[c].abs() * nnz;
+        let (bound, est) = self.map_bound::<T>(th, tw, mask.is_some(), &tc);
+        (map, bound, est)
+    }
+
+    /// The `f64` FFT map of [`SsdIndex::best_matches`] only: [`SsdIndex::best_cols`] then
+    /// [`SsdIndex::best_rows`], the map into `ws.map` (row-major, `(H - h + 1) x (W - w + 1)`), with its
+    /// rigorous error bound and its minimum `(value, first index, count of ties)`.
+    ///
+    /// The transforms, products and sums are those of [`SsdIndex::fft_map`] in the same order (up to the
+    /// sign of zeros, and the centring constant summed in another fixed order, see
+    /// [`SsdIndex::template_consts_unmasked`]), so the values are those of [`SsdIndex::ssd_map_f64`] to
+    /// within its bound, and the same bound holds. What differs is the work around the transforms, which
+    /// the profile of the matching stage showed to be as large as the transforms themselves: the buffers
+    /// live in `ws` and are reused across the templates of a call (no zero fill and no page faults per
+    /// template); the template rows are written straight into the complex rows; the transposes store whole
+    /// cache lines; the minimum the walk starts from is found while the map is written; and these loops are
+    /// compiled for AVX2 when the CPU has it. `ssd_map_f64` (GA/AIS partial maps) and the sorting baseline
+    /// of the benches keep [`SsdIndex::fft_map`].
+    fn fft_map_best(
+        &self,
+        t: &Tmpl,
+        mask: Option<&[bool]>,
+        ws: &mut BestWs,
+    ) -> (f64, (f64, usize, usize)) {
+        self.best_cols(t, mask, ws);
+        self.best_rows(t, mask, ws)
+    }
+
+    /// The row transforms and the column pass of [`SsdIndex::fft_map_best`].
+    fn best_cols(&self, t: &Tmpl, mask: Option<&[bool]>, ws: &mut BestWs) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2 (just checked).
+            return unsafe { best_cols_avx2(self, t, mask, ws) };
         }
-        let k_err = (th * tw + 8) as f64 * e64 * k_abs;
-        let box_err = 4.0 * (hh + ww + 4) as f64 * e64 * self.s_total;
-        let sum_err = 8.0 * e64 * (sum_t2 + self.s_total + zmax + k_abs);
-        let est = 2.0 * eps * levels.sqrt() * zmax;
-        (map, fft_err + cent_err + k_err + box_err + sum_err, est)
+        best_cols_plain(self, t, mask, ws)
+    }
+
+    /// The inverse row transforms, the constants and the minimum of [`SsdIndex::fft_map_best`].
+    fn best_rows(
+        &self,
+        t: &Tmpl,
+        mask: Option<&[bool]>,
+        ws: &mut BestWs,
+    ) -> (f64, (f64, usize, usize)) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2 (just checked).
+            return unsafe { best_rows_avx2(self, t, mask, ws) };
+        }
+        best_rows_plain(self, t, mask, ws)
     }
 
     /// Greedy exact best matches on a prepared template.
@@ -895,29 +1043,29 @@ impl SsdIndex {
     /// `f > top + bound` (`f` its FFT value; its exact value is then `> top`): so we resolve, in `f` order
     /// (ties by index), only what could still beat the top, each translation at most once.
     ///
-    /// The `f` order is built lazily ([`LazyOrder`]): one linear pass finds the FFT minimum, one more
-    /// moves the translations within the exactness bound into a small sorted prefix — for `k = 1` that
-    /// is the whole cost (about 1 ms at 1024², where sorting every translation took ~100 ms). When more
+    /// The map is that of [`SsdIndex::fft_map_best`] (the matching stage's own, buffers in `ws`), which
+    /// also reports its minimum. The `f` order is built lazily ([`LazyOrder`]): the minimum starts it, one
+    /// linear pass moves the translations within the exactness bound into a small sorted prefix — for
+    /// `k = 1` that is the whole cost (about 1 ms at 1024², where sorting every translation took ~100 ms),
+    /// with a unique minimum no pass at all before the exact sum of the minimum. When more
     /// are needed (`k > 1`, large ties) the prefix grows at least geometrically, so the worst case stays
     /// O(n log n). The prefix is always exactly the prefix of the full sort, so the walk, and therefore
     /// the result, is identical to [`SsdIndex::best_prepared_sorting`] (tested), which is the exact greedy
     /// definition.
-    fn best_prepared(&self, t: &Tmpl, mask: Option<&[bool]>, k: usize, r: usize) -> Vec<Match> {
-        let (mh, mw) = self.map_dim(t.h, t.w);
-        let n = mh * mw;
-        // When the matches and their exclusion windows could cover the whole map, the walk reaches
-        // most translations anyway: sorting them all at once is then cheaper than growing the prefix in
-        // many steps (same walk, same result).
-        let side = 2 * r as u128 + 1;
-        let covered = (k.min(n) as u128).saturating_mul(side.saturating_mul(side));
-        if k > 1 && covered >= n as u128 {
-            return self.best_prepared_sorting(t, mask, k, r);
-        }
-        self.best_prepared_lazy(t, mask, k, r)
+    fn best_prepared(
+        &self,
+        t: &Tmpl,
+        mask: Option<&[bool]>,
+        k: usize,
+        r: usize,
+        ws: &mut BestWs,
+    ) -> Vec<Match> {
+        self.best_fast(t, mask, k, r, ws, false)
     }
 
     /// [`SsdIndex::best_prepared`] by the lazy order, whatever `k` and `r` (the tests compare it with the
     /// sorting path in every regime).
+    #[cfg(test)]
     fn best_prepared_lazy(
         &self,
         t: &Tmpl,
@@ -925,33 +1073,86 @@ impl SsdIndex {
         k: usize,
         r: usize,
     ) -> Vec<Match> {
-        self.walk(t, mask, k, r, false)
+        self.best_fast(t, mask, k, r, &mut BestWs::default(), true)
+    }
+
+    /// The matching stage's walk on the map of [`SsdIndex::fft_map_best`]. `lazy_only`: never sort the
+    /// whole order up front (tests).
+    fn best_fast(
+        &self,
+        t: &Tmpl,
+        mask: Option<&[bool]>,
+        k: usize,
+        r: usize,
+        ws: &mut BestWs,
+        lazy_only: bool,
+    ) -> Vec<Match> {
+        let (mh, mw) = self.map_dim(t.h, t.w);
+        let n = mh * mw;
+        if k.min(n) == 0 {
+            return Vec::new();
+        }
+        // When the matches and their exclusion windows could cover the whole map, the walk reaches
+        // most translations anyway: sorting them all at once is then cheaper than growing the prefix in
+        // many steps (same walk, same result).
+        let side = 2 * r as u128 + 1;
+        let covered = (k.min(n) as u128).saturating_mul(side.saturating_mul(side));
+        let sort_all = !lazy_only && k > 1 && covered >= n as u128;
+        let (bound, first) = self.fft_map_best(t, mask, ws);
+        self.walk_map(
+            t,
+            mask,
+            k,
+            r,
+            sort_all,
+            &ws.map[..n],
+            bound,
+            Some(first),
+            true,
+        )
     }
 
     /// The greedy walk of both paths: translations in increasing FFT value, each one's exact SSD computed
     /// when the bound cannot rule it out, the best k taken with their exclusion windows. `sort_all`: the
     /// order is sorted whole up front ([`LazyOrder::full`]) instead of grown lazily; the walk is the same.
-    fn walk(
+    /// `map`, `bound`: the map of [`SsdIndex::fft_map_best`] with `first` its minimum (the matching stage,
+    /// `fast`: exact sums by [`SsdIndex::exact_fast`]) or that of [`SsdIndex::ssd_map_f64`] (the sorting
+    /// baseline). Whatever the map, as long as its bound holds the walk returns the exact greedy answer, so
+    /// both give the same result.
+    #[allow(clippy::too_many_arguments)]
+    fn walk_map(
         &self,
         t: &Tmpl,
         mask: Option<&[bool]>,
         k: usize,
         r: usize,
         sort_all: bool,
+        map: &[f64],
+        bound: f64,
+        first: Option<(f64, usize, usize)>,
+        fast: bool,
     ) -> Vec<Match> {
         let (mh, mw) = self.map_dim(t.h, t.w);
         let n = mh * mw;
+        debug_assert_eq!(map.len(), n);
         let k = k.min(n);
         if k == 0 {
             return Vec::new();
         }
-        let (map, bound) = self.fft_map_f64(t, mask);
         let mut order = if sort_all {
-            LazyOrder::full(&map)
+            LazyOrder::full(map)
         } else {
-            LazyOrder::new(&map)
+            LazyOrder::new(map, first)
         };
-        let exact = |i: usize| self.exact(t, mask, i / mw, i % mw) + 0.0; // + 0.0: no -0.0 in the order
+        // + 0.0: no -0.0 in the order
+        let exact = |i: usize| {
+            let e = if fast {
+                self.exact_fast(t, mask, i / mw, i % mw)
+            } else {
+                self.exact(t, mask, i / mw, i % mw)
+            };
+            e + 0.0
+        };
         let mut excluded = if k > 1 { vec![false; n] } else { Vec::new() };
         let is_excluded = |ex: &[bool], i: usize| !ex.is_empty() && ex[i];
         // `order.sorted[..next]` are resolved or were excluded when reached (exclusion never ends).
@@ -1037,7 +1238,12 @@ impl SsdIndex {
         k: usize,
         r: usize,
     ) -> Vec<Match> {
-        self.walk(t, mask, k, r, true)
+        let (mh, mw) = self.map_dim(t.h, t.w);
+        if k.min(mh * mw) == 0 {
+            return Vec::new();
+        }
+        let (map, bound) = self.fft_map_f64(t, mask);
+        self.walk_map(t, mask, k, r, true, &map, bound, None, false)
     }
 }
 
@@ -1055,6 +1261,9 @@ struct LazyOrder<'a> {
     covered: f64,
     /// Translations (not NaN) not yet in `sorted`.
     left: usize,
+    /// The map's minimum, its first index and its number of ties, when known (found while the map was
+    /// written): the first step then needs no pass over the map (none at all without ties).
+    first: Option<(f64, usize, usize)>,
 }
 
 impl<'a> LazyOrder<'a> {
@@ -1063,19 +1272,27 @@ impl<'a> LazyOrder<'a> {
     /// About this many map values are sampled to estimate a cut value.
     const SAMPLE: usize = 4096;
 
-    fn new(map: &'a [f64]) -> Self {
-        let nan = map.iter().filter(|v| v.is_nan()).count();
+    /// The order of `map`; `first`: its minimum, first index and ties, when known (a map without NaN).
+    fn new(map: &'a [f64], first: Option<(f64, usize, usize)>) -> Self {
+        let nan = match first {
+            Some(_) => {
+                debug_assert!(!map.iter().any(|v| v.is_nan()));
+                0
+            }
+            None => map.iter().filter(|v| v.is_nan()).count(),
+        };
         LazyOrder {
             map,
             sorted: Vec::new(),
             covered: f64::NEG_INFINITY,
             left: map.len() - nan,
+            first,
         }
     }
 
     /// The whole order at once (every translation that is not NaN; nothing left to grow).
     fn full(map: &'a [f64]) -> Self {
-        let mut order = Self::new(map);
+        let mut order = Self::new(map, None);
         order.take_upto(f64::INFINITY);
         order
     }
@@ -1146,8 +1363,20 @@ impl<'a> LazyOrder<'a> {
         }
         if self.sorted.is_empty() {
             // the first step only needs the minimum (and its ties)
-            let c = self.next_min();
-            self.take_upto(c);
+            match self.first.take() {
+                Some((c, i, 1)) => {
+                    // a unique minimum: the prefix of the full sort up to it is just its index
+                    debug_assert_eq!(self.map[i], c);
+                    self.sorted.push(i);
+                    self.left -= 1;
+                    self.covered = c;
+                }
+                Some((c, _, _)) => self.take_upto(c),
+                None => {
+                    let c = self.next_min();
+                    self.take_upto(c);
+                }
+            }
             return true;
         }
         let before = self.sorted.len();
@@ -1212,9 +1441,12 @@ pub fn best_matches_many(
     if !ts.is_empty() && k > 0 {
         index.ensure::<f64>(m.is_some())?;
     }
+    // One buffer set per worker, reused across its templates.
     Ok(ts
         .par_iter()
-        .map(|t| index.best_prepared(t, m.as_deref(), k, exclude_radius))
+        .map_init(BestWs::default, |ws, t| {
+            index.best_prepared(t, m.as_deref(), k, exclude_radius, ws)
+        })
         .collect())
 }
 
@@ -1635,7 +1867,7 @@ fn rows_pair<T: Real>(
 /// Column `j` starts at `j * stride` (`stride >= hh`; a stride that is not a large power of two keeps the
 /// columns of a block in different cache sets, which the transposing stores need).
 #[allow(clippy::too_many_arguments)]
-#[inline]
+#[inline(always)]
 fn gather_cols<T: Real>(
     zr: &[Complex<T>],
     ww: usize,
@@ -1654,7 +1886,116 @@ fn gather_cols<T: Real>(
     }
     if rows < hh {
         for j in 0..nb {
-            out[j * stride + rows..j * stride + hh].fill(Complex::zero());
+            zero_fill(&mut out[j * stride + rows..j * stride + hh]);
+        }
+    }
+}
+
+/// Sets every value of `v` to zero: a plain loop, inlined (and vectorised with the caller's target
+/// features), where `slice::fill` was a call.
+#[inline(always)]
+fn zero_fill<T: Real>(v: &mut [Complex<T>]) {
+    for z in v {
+        *z = Complex::zero();
+    }
+}
+
+/// [`gather_cols`] for the columns `cols` (at most [`COL_BLOCK`]), in tiles of four rows: every store
+/// fills 64 contiguous bytes of a column, where one row at a time scattered 16-byte stores over all the
+/// columns of the block. Same values.
+#[inline(always)]
+fn gather_cols4(
+    zr: &[Complex<f64>],
+    ww: usize,
+    rows: usize,
+    hh: usize,
+    stride: usize,
+    cols: &[usize],
+    out: &mut [Complex<f64>],
+) {
+    let mut y = 0;
+    while y + 4 <= rows {
+        let r0 = &zr[y * ww..(y + 1) * ww];
+        let r1 = &zr[(y + 1) * ww..(y + 2) * ww];
+        let r2 = &zr[(y + 2) * ww..(y + 3) * ww];
+        let r3 = &zr[(y + 3) * ww..(y + 4) * ww];
+        for (j, &cx) in cols.iter().enumerate() {
+            let o = &mut out[j * stride + y..j * stride + y + 4];
+            o[0] = r0[cx];
+            o[1] = r1[cx];
+            o[2] = r2[cx];
+            o[3] = r3[cx];
+        }
+        y += 4;
+    }
+    for y in y..rows {
+        let row = &zr[y * ww..(y + 1) * ww];
+        for (j, &cx) in cols.iter().enumerate() {
+            out[j * stride + y] = row[cx];
+        }
+    }
+    if rows < hh {
+        for j in 0..cols.len() {
+            zero_fill(&mut out[j * stride + rows..j * stride + hh]);
+        }
+    }
+}
+
+/// [`split_real_cols`] two row pairs at a time (64-byte stores, see [`gather_cols4`]). Same values.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn split_real_cols4(
+    zr: &[Complex<f64>],
+    ww: usize,
+    rows: usize,
+    hh: usize,
+    stride: usize,
+    nb: usize,
+    kx0: usize,
+    out: &mut [Complex<f64>],
+) {
+    #[inline(always)]
+    fn split(z: &[Complex<f64>], kx: usize, ww: usize) -> (Complex<f64>, Complex<f64>) {
+        let a = z[kx];
+        let b = z[mirror(kx, ww)].conj();
+        // Even row: (a + b) / 2; odd row: (a - b) / 2i.
+        (
+            Complex::new((a.re + b.re) * 0.5, (a.im + b.im) * 0.5),
+            Complex::new((a.im - b.im) * 0.5, (b.re - a.re) * 0.5),
+        )
+    }
+    let mut jr = 0;
+    // Whole tiles of four rows (two row pairs, both complete).
+    while 2 * jr + 4 <= rows {
+        let z0 = &zr[jr * ww..(jr + 1) * ww];
+        let z1 = &zr[(jr + 1) * ww..(jr + 2) * ww];
+        let y = 2 * jr;
+        for j in 0..nb {
+            let (e0, o0) = split(z0, kx0 + j, ww);
+            let (e1, o1) = split(z1, kx0 + j, ww);
+            let o = &mut out[j * stride + y..j * stride + y + 4];
+            o[0] = e0;
+            o[1] = o0;
+            o[2] = e1;
+            o[3] = o1;
+        }
+        jr += 2;
+    }
+    for jr in jr..rows.div_ceil(2) {
+        let z = &zr[jr * ww..(jr + 1) * ww];
+        let y = 2 * jr;
+        let odd = y + 1 < rows;
+        for j in 0..nb {
+            let (e, o) = split(z, kx0 + j, ww);
+            out[j * stride + y] = e;
+            if odd {
+                out[j * stride + y + 1] = o;
+            }
+        }
+    }
+    if rows < hh {
+        for j in 0..nb {
+            zero_fill(&mut out[j * stride + rows..j * stride + hh]);
         }
     }
 }
@@ -1745,6 +2086,7 @@ fn rows_real<T: Real>(
 /// row transforms `zr` of [`rows_real`] by Hermitian symmetry and zero-padded to length `hh`.
 /// Column `j` starts at `j * stride` (see [`gather_cols`]).
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn split_real_cols<T: Real>(
     zr: &[Complex<T>],
     ww: usize,
@@ -1773,7 +2115,7 @@ fn split_real_cols<T: Real>(
     }
     if rows < hh {
         for j in 0..nb {
-            out[j * stride + rows..j * stride + hh].fill(Complex::zero());
+            zero_fill(&mut out[j * stride + rows..j * stride + hh]);
         }
     }
 }
@@ -1817,6 +2159,442 @@ fn accumulate_lone_block<T: Real>(g: &mut [Complex<T>], x: &[Complex<T>], img: &
     for ((gv, &a), &b) in g.iter_mut().zip(x).zip(img) {
         gv.re = gv.re + (a.re * b.re + a.im * b.im);
         gv.im = gv.im + (a.re * b.im - a.im * b.re);
+    }
+}
+
+/// The first part of the map of [`SsdIndex::best_cols`]: the row transforms and the column pass, into
+/// `ws.rows`, `ws.g`, `ws.tc`. Expanded twice: once in a function
+/// compiled for AVX2 (the loops around the transforms — fills, transposes, products, conversion — then use
+/// 256-bit vectors; no FMA, so the same values) and once for any CPU.
+macro_rules! best_cols_body {
+    ($idx:expr, $t:expr, $mask:expr, $ws:expr) => {{
+        let (this, t, mask, ws): (&SsdIndex, &Tmpl, Option<&[bool]>, &mut BestWs) = ($idx, $t, $mask, $ws);
+        let (hh, ww, c) = (this.h, this.w, this.c);
+        let wc = ww / 2 + 1;
+        let (th, tw) = (t.h, t.w);
+        let par = this.par();
+        let spec = this.spec::<f64>();
+        let tail = mask.map(|_| this.tail::<f64>());
+        let plans = &spec.plans;
+        let np = if mask.is_some() { c + 1 } else { c };
+        let zero = Complex::<f64>::zero();
+        ws.tc = Some(match mask {
+            None if 24 % c == 0 => this.template_consts_unmasked(t),
+            _ => this.template_consts(t, mask),
+        });
+        let scratch_len = plans.scratch;
+
+        // Plane q of template row y, value x: -2 m T_c (q < C), m (q = C).
+        let fill_row = |data: &[f32], q: usize, y: usize, out: &mut [Complex<f64>], im: bool| {
+            let row = &data[y * tw * c..(y + 1) * tw * c];
+            let head = &mut out[..tw];
+            match mask {
+                None => {
+                    if im {
+                        for (x, b) in head.iter_mut().enumerate() {
+                            b.im = -2.0 * row[x * c + q] as f64;
+                        }
+                    } else {
+                        for (x, b) in head.iter_mut().enumerate() {
+                            b.re = -2.0 * row[x * c + q] as f64;
+                        }
+                    }
+                }
+                Some(m) => {
+                    let mr = &m[y * tw..(y + 1) * tw];
+                    for (x, (b, &on)) in head.iter_mut().zip(mr).enumerate() {
+                        let v = match (on, q < c) {
+                            (false, _) => 0.0,
+                            (true, true) => -2.0 * row[x * c + q] as f64,
+                            (true, false) => 1.0,
+                        };
+                        if im {
+                            b.im = v;
+                        } else {
+                            b.re = v;
+                        }
+                    }
+                }
+            }
+        };
+
+        // Row transforms of every plane group (only the template's rows), into buffers of `ws`.
+        let ngroups = np.div_ceil(2);
+        if ws.rows.len() < ngroups {
+            ws.rows.resize_with(ngroups, Vec::new);
+        }
+        let imgs: Vec<&Chunk<f64>> = (0..ngroups)
+            .map(|k| match tail {
+                Some(tl) if k >= c / 2 => tl,
+                _ => &spec.chunks[k],
+            })
+            .collect();
+        let data: &[f32] = &t.data;
+        for k in 0..ngroups {
+            let qa = 2 * k;
+            let pair = matches!(imgs[k], Chunk::Pair { .. });
+            let nrows = if pair { th } else { th.div_ceil(2) };
+            grow(&mut ws.scratch, scratch_len, zero);
+            let zr = &mut grow(&mut ws.rows[k], nrows * ww, zero)[..nrows * ww];
+            for_each_block_ws(
+                zr,
+                ROW_BLOCK * ww,
+                par,
+                || vec![zero; scratch_len],
+                &mut ws.scratch,
+                |scratch, bi, blk| {
+                    let scratch = &mut scratch[..scratch_len];
+                    for (j, row) in blk.chunks_exact_mut(ww).enumerate() {
+                        let jr = bi * ROW_BLOCK + j;
+                        zero_fill(&mut row[tw..]);
+                        if pair {
+                            fill_row(data, qa, jr, row, false);
+                            fill_row(data, qa + 1, jr, row, true);
+                        } else {
+                            fill_row(data, qa, 2 * jr, row, false);
+                            if 2 * jr + 1 < th {
+                                fill_row(data, qa, 2 * jr + 1, row, true);
+                            } else {
+                                row[..tw].iter_mut().for_each(|b| b.im = 0.0);
+                            }
+                        }
+                    }
+                    plans.fwd_w.process_with_scratch(blk, scratch);
+                },
+            );
+        }
+
+        // Per block of columns of the half spectrum: the column transforms of every group, the products
+        // with the image spectra (written by the first group, added by the others, in the fixed group
+        // order), and the inverse column transforms.
+        let st = hh.next_multiple_of(8) + 8;
+        let rows_all = &ws.rows;
+        let g = &mut grow(&mut ws.g, wc * hh, zero)[..wc * hh];
+        let blen = 2 * COL_BLOCK * st + scratch_len;
+        grow(&mut ws.blocks, blen, zero);
+        for_each_block_ws(
+            g,
+            COL_BLOCK * hh,
+            par,
+            || vec![zero; blen],
+            &mut ws.blocks,
+            |buf, bi, blk| {
+                let (za, rest) = buf.split_at_mut(COL_BLOCK * st);
+                let (zb, rest) = rest.split_at_mut(COL_BLOCK * st);
+                let s = &mut rest[..scratch_len];
+                let kx0 = bi * COL_BLOCK;
+                let nb = blk.len() / hh;
+                for (gi, img) in imgs.iter().enumerate() {
+                    let first = gi == 0;
+                    let zr = &rows_all[gi];
+                    match img {
+                        Chunk::Pair { u, v } => {
+                            let mut cols = [0usize; COL_BLOCK];
+                            for (j, cx) in cols[..nb].iter_mut().enumerate() {
+                                *cx = kx0 + j;
+                            }
+                            gather_cols4(zr, ww, th, hh, st, &cols[..nb], za);
+                            for (j, cx) in cols[..nb].iter_mut().enumerate() {
+                                *cx = mirror(kx0 + j, ww);
+                            }
+                            gather_cols4(zr, ww, th, hh, st, &cols[..nb], zb);
+                            for j in 0..nb {
+                                plans
+                                    .fwd_h
+                                    .process_with_scratch(&mut za[j * st..j * st + hh], s);
+                                plans
+                                    .fwd_h
+                                    .process_with_scratch(&mut zb[j * st..j * st + hh], s);
+                            }
+                            for (j, gk) in blk.chunks_exact_mut(hh).enumerate() {
+                                let o = (kx0 + j) * hh;
+                                let (z1, z2) = (&za[j * st..j * st + hh], &zb[j * st..j * st + hh]);
+                                let (uu, vv) = (&u[o..o + hh], &v[o..o + hh]);
+                                if first {
+                                    pair_col::<true>(gk, z1, z2, uu, vv);
+                                } else {
+                                    pair_col::<false>(gk, z1, z2, uu, vv);
+                                }
+                            }
+                        }
+                        Chunk::Lone(x) => {
+                            split_real_cols4(zr, ww, th, hh, st, nb, kx0, za);
+                            for (j, gk) in blk.chunks_exact_mut(hh).enumerate() {
+                                plans
+                                    .fwd_h
+                                    .process_with_scratch(&mut za[j * st..j * st + hh], s);
+                                let o = (kx0 + j) * hh;
+                                let (z1, xx) = (&za[j * st..j * st + hh], &x[o..o + hh]);
+                                if first {
+                                    lone_block::<true>(gk, z1, xx);
+                                } else {
+                                    lone_block::<false>(gk, z1, xx);
+                                }
+                            }
+                        }
+                    }
+                }
+                plans.inv_h.process_with_scratch(blk, s);
+            },
+        );
+    }};
+}
+
+/// The second part of the map of [`SsdIndex::best_cols`] (expanded like [`best_cols_body`]): the real
+/// inverse transform of each valid row plus the constants, into `ws.map`, with the minimum found on the
+/// way. Returns the bound and `(minimum, first index, ties)`.
+macro_rules! best_rows_body {
+    ($idx:expr, $t:expr, $mask:expr, $ws:expr) => {{
+        let (this, t, mask, ws): (&SsdIndex, &Tmpl, Option<&[bool]>, &mut BestWs) = ($idx, $t, $mask, $ws);
+        let (hh, ww) = (this.h, this.w);
+        let wc = ww / 2 + 1;
+        let (th, tw) = (t.h, t.w);
+        let (mh, mw) = this.map_dim(th, tw);
+        let par = this.par();
+        let plans = &this.spec::<f64>().plans;
+        let scratch_len = plans.scratch;
+        let zero = Complex::<f64>::zero();
+        let tc = ws.tc.expect("best_cols ran first");
+        let g: &[Complex<f64>] = &ws.g[..wc * hh];
+        let gcol = |kx: usize| -> &[Complex<f64>] { &g[kx * hh..(kx + 1) * hh] };
+
+        // A real inverse transform of each valid row, plus the constants; the minimum on the way.
+        let scale = 1.0 / (hh as f64 * ww as f64);
+        let base = tc.sum_t2 + tc.kconst;
+        let w_even = ww % 2 == 0;
+        let integral = &this.integral;
+        let iw = ww + 1;
+        let best = Mutex::new((f64::INFINITY, usize::MAX, 0usize));
+        let rlen = ROW_BLOCK * wc + scratch_len;
+        grow(&mut ws.inv.0, rlen, zero);
+        grow(&mut ws.inv.1, ww, 0.0);
+        let map = &mut grow(&mut ws.map, mh * mw, 0.0)[..mh * mw];
+        for_each_block_ws(
+            map,
+            ROW_BLOCK * mw,
+            par,
+            || (vec![zero; rlen], vec![0.0f64; ww]),
+            &mut ws.inv,
+            |(rbuf, outr), bi, out| {
+                let (rows, rest) = rbuf.split_at_mut(ROW_BLOCK * wc);
+                let scratch = &mut rest[..scratch_len];
+                let outr = &mut outr[..ww];
+                let y0 = bi * ROW_BLOCK;
+                let nr = out.len() / mw;
+                // In tiles of four columns, so that every store fills 64 contiguous bytes.
+                let mut kx = 0;
+                while kx + 4 <= wc {
+                    let g0 = &gcol(kx)[y0..y0 + nr];
+                    let g1 = &gcol(kx + 1)[y0..y0 + nr];
+                    let g2 = &gcol(kx + 2)[y0..y0 + nr];
+                    let g3 = &gcol(kx + 3)[y0..y0 + nr];
+                    for j in 0..nr {
+                        let r = &mut rows[j * wc + kx..j * wc + kx + 4];
+                        r[0] = g0[j];
+                        r[1] = g1[j];
+                        r[2] = g2[j];
+                        r[3] = g3[j];
+                    }
+                    kx += 4;
+                }
+                for kx in kx..wc {
+                    for (j, &v) in gcol(kx)[y0..y0 + nr].iter().enumerate() {
+                        rows[j * wc + kx] = v;
+                    }
+                }
+                let (mut bmin, mut bidx, mut bcnt) = (f64::INFINITY, usize::MAX, 0usize);
+                for j in 0..nr {
+                    let row = &mut rows[j * wc..(j + 1) * wc];
+                    row[0].im = 0.0;
+                    if w_even {
+                        row[wc - 1].im = 0.0;
+                    }
+                    let r = plans.inv_w.process_with_scratch(row, outr, scratch);
+                    debug_assert!(r.is_ok());
+                    let y = y0 + j;
+                    let orow = &mut out[j * mw..(j + 1) * mw];
+                    if mask.is_some() {
+                        for (o, &z) in orow.iter_mut().zip(&outr[..mw]) {
+                            *o = (base + z * scale).max(0.0);
+                        }
+                    } else {
+                        let (top, bot) = (&integral[y * iw..], &integral[(y + th) * iw..]);
+                        let (tl, tr) = (&top[..mw], &top[tw..tw + mw]);
+                        let (bl, br) = (&bot[..mw], &bot[tw..tw + mw]);
+                        for x in 0..mw {
+                            let boxsum = (br[x] - tr[x]) - (bl[x] - tl[x]);
+                            orow[x] = (base + boxsum + outr[x] * scale).max(0.0);
+                        }
+                    }
+                    // The row minimum (a vectorisable fold), then its first position and ties only when
+                    // it reaches the block's minimum.
+                    let rmin = orow.iter().fold(f64::INFINITY, |a, &v| a.min(v));
+                    if rmin <= bmin {
+                        if rmin < bmin {
+                            (bmin, bidx, bcnt) = (rmin, usize::MAX, 0);
+                        }
+                        for (x, &v) in orow.iter().enumerate() {
+                            if v == rmin {
+                                if bidx == usize::MAX {
+                                    bidx = y * mw + x;
+                                }
+                                bcnt += 1;
+                            }
+                        }
+                    }
+                }
+                let mut b = best.lock().unwrap_or_else(|e| e.into_inner());
+                if bmin < b.0 || (bmin == b.0 && bidx < b.1) {
+                    let cnt = if bmin == b.0 { b.2 + bcnt } else { bcnt };
+                    *b = (bmin, bidx, cnt);
+                } else if bmin == b.0 {
+                    b.2 += bcnt;
+                }
+            },
+        );
+        let (bound, _) = this.map_bound::<f64>(th, tw, mask.is_some(), &tc);
+        let best = best.into_inner().unwrap_or_else(|e| e.into_inner());
+        (bound, best)
+    }};
+}
+
+/// [`best_cols_body`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn best_cols_avx2(idx: &SsdIndex, t: &Tmpl, mask: Option<&[bool]>, ws: &mut BestWs) {
+    best_cols_body!(idx, t, mask, ws)
+}
+
+/// [`best_cols_body`] for any CPU.
+fn best_cols_plain(idx: &SsdIndex, t: &Tmpl, mask: Option<&[bool]>, ws: &mut BestWs) {
+    best_cols_body!(idx, t, mask, ws)
+}
+
+/// [`best_rows_body`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn best_rows_avx2(
+    idx: &SsdIndex,
+    t: &Tmpl,
+    mask: Option<&[bool]>,
+    ws: &mut BestWs,
+) -> (f64, (f64, usize, usize)) {
+    best_rows_body!(idx, t, mask, ws)
+}
+
+/// [`best_rows_body`] for any CPU.
+fn best_rows_plain(
+    idx: &SsdIndex,
+    t: &Tmpl,
+    mask: Option<&[bool]>,
+    ws: &mut BestWs,
+) -> (f64, (f64, usize, usize)) {
+    best_rows_body!(idx, t, mask, ws)
+}
+
+/// Reusable buffers of [`SsdIndex::fft_map_best`], kept by each worker across the templates of one
+/// best-matches call (the map, the row transforms of the template groups, the half spectrum, and the
+/// block, row and scratch buffers of the serial case).
+#[derive(Default)]
+struct BestWs {
+    rows: Vec<Vec<Complex<f64>>>,
+    scratch: Vec<Complex<f64>>,
+    g: Vec<Complex<f64>>,
+    blocks: Vec<Complex<f64>>,
+    inv: (Vec<Complex<f64>>, Vec<f64>),
+    map: Vec<f64>,
+    tc: Option<TConsts>,
+}
+
+/// `v` grown (zero-filled) to at least `n` values; never shrunk, so a reused buffer is filled only once.
+fn grow<T: Clone>(v: &mut Vec<T>, n: usize, zero: T) -> &mut Vec<T> {
+    if v.len() < n {
+        v.resize(n, zero);
+    }
+    v
+}
+
+/// [`for_each_block`] whose serial case runs with the caller's state `serial` (kept across calls)
+/// instead of a new one; the parallel case makes one state per task with `init`, as before.
+fn for_each_block_ws<T, S, I, F>(
+    data: &mut [T],
+    block: usize,
+    par: bool,
+    init: I,
+    serial: &mut S,
+    f: F,
+) where
+    T: Send,
+    S: Send,
+    I: Fn() -> S + Sync + Send,
+    F: Fn(&mut S, usize, &mut [T]) + Sync + Send,
+{
+    if data.is_empty() {
+        return;
+    }
+    if par {
+        data.par_chunks_mut(block)
+            .enumerate()
+            .for_each_init(init, |s, (i, b)| f(s, i, b));
+    } else {
+        for (i, b) in data.chunks_mut(block).enumerate() {
+            f(serial, i, b);
+        }
+    }
+}
+
+/// [`accumulate_pair_col`] in `f64`; `SET`: the products are written (the first group of a map) instead
+/// of added.
+#[inline(always)]
+fn pair_col<const SET: bool>(
+    gk: &mut [Complex<f64>],
+    z1: &[Complex<f64>],
+    z2: &[Complex<f64>],
+    uu: &[Complex<f64>],
+    vv: &[Complex<f64>],
+) {
+    #[inline(always)]
+    fn step<const SET: bool>(
+        g: &mut Complex<f64>,
+        z1: Complex<f64>,
+        z2: Complex<f64>,
+        u: Complex<f64>,
+        v: Complex<f64>,
+    ) {
+        // The association of `accumulate_pair_col`: (g + first product) + second product.
+        let (re1, re2) = (z1.re * u.re + z1.im * u.im, z2.re * v.re - z2.im * v.im);
+        let (im1, im2) = (z1.re * u.im - z1.im * u.re, z2.re * v.im + z2.im * v.re);
+        if SET {
+            *g = Complex::new(re1 + re2, im1 + im2);
+        } else {
+            g.re = g.re + re1 + re2;
+            g.im = g.im + im1 + im2;
+        }
+    }
+    step::<SET>(&mut gk[0], z1[0], z2[0], uu[0], vv[0]);
+    for ((((gv, &a), &b), &uv), &vv) in gk[1..]
+        .iter_mut()
+        .zip(&z1[1..])
+        .zip(z2[1..].iter().rev())
+        .zip(&uu[1..])
+        .zip(&vv[1..])
+    {
+        step::<SET>(gv, a, b, uv, vv);
+    }
+}
+
+/// [`accumulate_lone_block`] in `f64`; `SET` as in [`pair_col`].
+#[inline(always)]
+fn lone_block<const SET: bool>(g: &mut [Complex<f64>], x: &[Complex<f64>], img: &[Complex<f64>]) {
+    for ((gv, &a), &b) in g.iter_mut().zip(x).zip(img) {
+        let re = a.re * b.re + a.im * b.im;
+        let im = a.re * b.im - a.im * b.re;
+        if SET {
+            *gv = Complex::new(re, im);
+        } else {
+            gv.re += re;
+            gv.im += im;
+        }
     }
 }
 
@@ -2341,6 +3119,76 @@ mod tests {
             "col"
         ));
         assert!(idx.ssd_at(t.view(), None, 7, 6).is_ok());
+    }
+
+    #[test]
+    fn best_map_within_bound_with_its_minimum() {
+        // The map of the matching stage (its own code, see `fft_map_best`): every value within the bound
+        // of the direct sum, close to `ssd_map_f64`, its reported minimum, first index and ties exact, and
+        // the same bits whether the loops run compiled for AVX2 or not, and whether its buffers are fresh
+        // or were used by a template of another size (the reuse within one call). C = 5 takes the general
+        // path of the template constants.
+        let mut rng = Rng(21);
+        let mut ws = BestWs::default();
+        let check =
+            |img: &Array3<f32>, t: &Array3<f32>, m: Option<&Array2<bool>>, ws: &mut BestWs| {
+                let idx = SsdIndex::new(img.view()).unwrap();
+                idx.ensure::<f64>(m.is_some()).unwrap();
+                let tp = idx.prepare_template("template", t.view()).unwrap();
+                let mp = prepare_mask(m.map(|m| m.view()), t.dim().0, t.dim().1).unwrap();
+                let want = ssd_map_brute(img.view(), t.view(), m.map(|m| m.view())).unwrap();
+                let (old, old_bound) = idx.ssd_map_f64(t.view(), m.map(|m| m.view())).unwrap();
+                let n = want.len();
+                let (bound, (min, first, ties)) = idx.fft_map_best(&tp, mp.as_deref(), ws);
+                let map = ws.map[..n].to_vec();
+                // the same bound, up to the rounding of the template's sums (summed in another order)
+                assert!((bound - old_bound).abs() <= 1e-12 * old_bound);
+                for ((g, w), o) in map.iter().zip(want.iter()).zip(old.iter()) {
+                    assert!((g - w).abs() <= bound, "{g} vs {w} bound {bound}");
+                    assert!((g - o).abs() <= 2.0 * bound);
+                    assert!(!g.is_nan() && *g >= 0.0);
+                }
+                let m0 = map.iter().fold(f64::INFINITY, |a, &v| a.min(v));
+                assert_eq!(min, m0);
+                assert_eq!(first, map.iter().position(|&v| v == m0).unwrap());
+                assert_eq!(ties, map.iter().filter(|&&v| v == m0).count());
+                let plain = {
+                    let mut fresh = BestWs::default();
+                    best_cols_plain(&idx, &tp, mp.as_deref(), &mut fresh);
+                    let r = best_rows_plain(&idx, &tp, mp.as_deref(), &mut fresh);
+                    (r, fresh.map[..n].to_vec())
+                };
+                assert_eq!(plain.0, (bound, (min, first, ties)));
+                assert!(plain
+                    .1
+                    .iter()
+                    .zip(&map)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()));
+            };
+        let mut sizes: Vec<_> = SIZES.to_vec();
+        sizes.extend([
+            (70, 66, 33, 30, 5),
+            (64, 64, 32, 32, 3),
+            (130, 120, 64, 40, 3),
+        ]);
+        for &(hh, ww, h, w, c) in &sizes {
+            let img = rand3(&mut rng, (hh, ww, c));
+            let t = rand3(&mut rng, (h, w, c));
+            check(&img, &t, None, &mut ws);
+            check(&img, &t, Some(&rand_mask(&mut rng, h, w)), &mut ws);
+            let (y, x) = (rng.below(hh - h + 1), rng.below(ww - w + 1));
+            let cut = img.slice(s![y..y + h, x..x + w, ..]).to_owned();
+            check(&img, &cut, None, &mut ws);
+        }
+        // exact ties: a flat image (every translation ties) and a periodic one (copies of the template)
+        let flat = Array3::from_elem((40, 37, 3), 0.5f32);
+        check(&flat, &Array3::from_elem((6, 5, 3), 0.25f32), None, &mut ws);
+        let per = Array3::from_shape_fn((48, 50, 3), |(y, x, ch)| {
+            ((y % 4) * 7 + (x % 6) * 3 + ch) as f32 / 40.0
+        });
+        let cut = per.slice(s![5..13, 7..16, ..]).to_owned();
+        check(&per, &cut, None, &mut ws);
+        check(&per, &cut, Some(&rand_mask(&mut rng, 8, 9)), &mut ws);
     }
 
     #[test]

@@ -173,3 +173,72 @@ def test_index_reuse_equals_one_shot(lettuce):
     np.testing.assert_array_equal(v1, v2)
     with pytest.raises(tilesynth.ShapeError, match="template"):
         index.ssd(np.zeros((8, 8, 1), np.float32))
+
+
+def greedy_oracle(ref: np.ndarray, k: int, r: int) -> tuple[np.ndarray, np.ndarray]:
+    """The exact greedy definition: translations by (SSD, row, col), each taken if it lies more than ``r``
+    (Chebyshev) from every one taken before, until ``k``."""
+    order = np.lexsort((np.arange(ref.size), ref.ravel()))
+    taken: list[tuple[int, int]] = []
+    for i in order:
+        y, x = divmod(int(i), ref.shape[1])
+        if all(max(abs(y - a), abs(x - b)) > r for a, b in taken):
+            taken.append((y, x))
+            if len(taken) == k:
+                break
+    off = np.array(taken, np.int64).reshape(-1, 2)
+    return off, ref[off[:, 0], off[:, 1]]
+
+
+def _matching_cases():
+    r = np.random.default_rng(15)
+    image = r.random((40, 37, 3), dtype=np.float32)
+    yield "random", image, r.random((3, 9, 8, 3), dtype=np.float32), False
+    # quantised values (multiples of 1/2): every SSD is exact in any summation order, many exact ties
+    q = (r.integers(0, 3, (45, 41, 3)) * 0.5).astype(np.float32)
+    yield "quantised", q, (r.integers(0, 3, (3, 4, 4, 3)) * 0.5).astype(np.float32), True
+    flat = np.full((30, 28, 3), 0.5, np.float32)
+    yield "flat", flat, np.full((2, 5, 4, 3), 0.25, np.float32), True
+    per = np.fromfunction(lambda y, x, c: ((y % 4) * 8 + (x % 6) * 4 + c) / 64.0, (48, 50, 3)).astype(
+        np.float32
+    )
+    yield "periodic", per, np.stack([per[5:13, 7:16], per[2:10, 1:10]]), True
+    # large enough for the parallel stages inside one call (>= 100 x 100 pixels, two threads)
+    big = r.random((130, 120, 3), dtype=np.float32)
+    yield (
+        "large",
+        big,
+        np.stack([big[10:74, 30:70] * 0.9 + 0.05, r.random((64, 40, 3), dtype=np.float32)]),
+        False,
+    )
+
+
+@pytest.mark.parametrize(
+    "name,image,templates,exact_sums", list(_matching_cases()), ids=lambda v: v if isinstance(v, str) else ""
+)
+@pytest.mark.parametrize("k,radius", [(1, 0), (4, 0), (5, 2), (16, 3)])
+@pytest.mark.parametrize("masked", [False, True])
+def test_best_matches_equal_sorting_path_and_greedy_oracle(
+    name, image, templates, exact_sums, k, radius, masked
+):
+    """The matching stage (its own map, the lazy scan) returns what the first implementation (every
+    translation sorted by the map of ``ssd_map_f64``) returns, bit for bit, and what the exact greedy
+    definition over brute-force sums gives: ties go to the smaller (row, col)."""
+    h, w = templates.shape[1:3]
+    mask = (np.random.default_rng(h * w).random((h, w)) < 0.7) if masked else None
+    index = _core.SsdIndex(image)
+    for threads in (1, 2):
+        off, val = index.best_matches(templates, k, radius, mask, threads)
+        off_s, val_s = _core._best_matches_sorting(index, templates, k, radius, mask, threads)
+        np.testing.assert_array_equal(off, off_s)
+        np.testing.assert_array_equal(val.view(np.int64), val_s.view(np.int64))
+    for t in range(templates.shape[0]):
+        ref = ssd_oracle(image, templates[t], mask)
+        want_off, want_val = greedy_oracle(ref, k, radius)
+        got = off[t, : len(want_off)]
+        if exact_sums:
+            np.testing.assert_array_equal(got, want_off)
+            np.testing.assert_array_equal(val[t, : len(want_val)], want_val)
+        else:
+            np.testing.assert_array_equal(got, want_off)
+            np.testing.assert_allclose(val[t, : len(want_val)], want_val, rtol=1e-9, atol=1e-9)
