@@ -593,9 +593,11 @@ impl SsdIndex {
         self.exact(t, mask, ty, tx)
     }
 
+    /// # Safety
+    /// The CPU must have AVX2 (`unsafe fn`: see [`best_cols_avx2`]).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn exact_avx2(&self, t: &Tmpl, mask: Option<&[bool]>, ty: usize, tx: usize) -> f64 {
+    unsafe fn exact_avx2(&self, t: &Tmpl, mask: Option<&[bool]>, ty: usize, tx: usize) -> f64 {
         self.exact_body(t, mask, ty, tx)
     }
 
@@ -2458,10 +2460,14 @@ macro_rules! best_rows_body {
     }};
 }
 
-/// [`best_cols_body`] compiled for AVX2.
+/// [`best_cols_body`] compiled for AVX2. `unsafe fn` (not a safe `#[target_feature]` fn, Rust >= 1.86) so the
+/// crate builds with its rust-version 1.80.
+///
+/// # Safety
+/// The CPU must have AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn best_cols_avx2(idx: &SsdIndex, t: &Tmpl, mask: Option<&[bool]>, ws: &mut BestWs) {
+unsafe fn best_cols_avx2(idx: &SsdIndex, t: &Tmpl, mask: Option<&[bool]>, ws: &mut BestWs) {
     best_cols_body!(idx, t, mask, ws)
 }
 
@@ -2470,10 +2476,13 @@ fn best_cols_plain(idx: &SsdIndex, t: &Tmpl, mask: Option<&[bool]>, ws: &mut Bes
     best_cols_body!(idx, t, mask, ws)
 }
 
-/// [`best_rows_body`] compiled for AVX2.
+/// [`best_rows_body`] compiled for AVX2 (`unsafe fn`: see [`best_cols_avx2`]).
+///
+/// # Safety
+/// The CPU must have AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn best_rows_avx2(
+unsafe fn best_rows_avx2(
     idx: &SsdIndex,
     t: &Tmpl,
     mask: Option<&[bool]>,
