@@ -30,7 +30,9 @@ complete sets (free cut, diversity 1, border-aware best-of-32 corner draw, defau
 (``c4x2``, ``c5``, ``augment`` flip / rotate / all, diversity 2); ``exemplar`` = the exemplar's own copies and
 autocorrelation peak (lags up to half the exemplar). ``--methods "c4 default;hex;exemplar"`` runs a selection
 (semicolon-separated names of :func:`method_table` and :data:`BASELINES`). ``c5 free8``: the default c5 with the
-8-connected geo-cut free region (staircase round, :mod:`tilesynth.levers`).
+8-connected geo-cut free region (staircase round, :mod:`tilesynth.levers`). ``c5 periodic-off`` / ``c5
+periodic-lock``: the default c5 without the periodic-exemplar tile size (the default before it) / with the
+phase lock as well (:mod:`tilesynth.periodic`).
 
 Usage: ``python benches/repetition.py [--quick] [--size 1024] [--textures a,b] [--methods M1;M2] [--out table.md]``
 """
@@ -95,6 +97,8 @@ ROUND2 = [
     ("c4x2", "aug-all", {"augment": "all"}),
     ("c4", "div2", {"diversity": 2}),
     ("c5", "free8", {"cut_region": "free8"}),
+    ("c5", "periodic-off", {"periodic": "off"}),
+    ("c5", "periodic-lock", {"periodic": "lock"}),
 ]
 BASELINES = ["periodic", "hex", "quilt", "exemplar"]
 """``exemplar``: the exemplar itself (its own detail-layer autocorrelation peak and copies: how far the target

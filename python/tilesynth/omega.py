@@ -435,6 +435,25 @@ def _cut_bias(opts: OmegaOptions, n: int) -> float:
     return default_bias(opts.cut_region, n) if opts.cut_bias is None else opts.cut_bias
 
 
+PERIODIC_MODES = ("auto", "lock", "off")
+"""Values of ``build_omega(periodic=...)``."""
+
+
+def _periodic_rule(b: BuildOptions, periodic: Any, eligible: bool) -> dict[str, Any] | None:
+    """The periodic exemplar rule of :mod:`tilesynth.periodic` for a build: ``{"tile_size", "shift_correlation"}``
+    or None (not eligible, ``periodic="off"``, a mask, or an exemplar that does not repeat at a tile's shift)."""
+    if periodic not in PERIODIC_MODES:
+        raise ParameterError(f"periodic = {periodic!r}: must be one of {', '.join(PERIODIC_MODES)}")
+    if periodic == "off" or not eligible or active(b.mask) is not None:
+        return None
+    from .periodic import periodic_tile_size
+
+    found = periodic_tile_size(b.exemplar, b.tile_size)
+    if found is None:
+        return None
+    return {"tile_size": int(found[0]), "shift_correlation": round(float(found[1]), 6)}
+
+
 def _omega_params(b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, sel: dict, smooth_info: Any) -> dict:
     n = b.tile_size
     return {
@@ -496,6 +515,7 @@ def build_omega(
     rerank: int | None = None,
     border_tries: int = DEFAULT_BORDER_TRIES,
     augment: str = "none",
+    periodic: str = "auto",
 ) -> TileSet:
     """Build a set of ω-tiles from ``exemplar``.
 
@@ -581,6 +601,13 @@ def build_omega(
         transform of every tile is stored in ``params["match_transforms"]``. Only with ``match="ssd"``,
         ``metric="color"`` and no mask; costs one matching search per orientation.
 
+    periodic : "auto" (default), "lock" or "off". "auto": a complete set built with the default tile size,
+        random genes and no mask, on an exemplar that repeats at a shift of one tile in both directions (a
+        brick wall), takes its tile size from the exemplar's period (:mod:`tilesynth.periodic`; recorded in
+        ``params["selection"]["periodic"]``). "lock": the same, and every sample patch moved to one phase of
+        the period (continuous courses, but more copies and a border seam no longer checked by the draw:
+        measured, opt-in). Other builds, and every build with "off", are unchanged.
+
     D_j is the distance (``metric``) between intermediate tile j and its matching patch; E is computed from the
     smallest distance of every intermediate tile over all translations, whatever ``match`` chose.
 
@@ -600,6 +627,13 @@ def build_omega(
             b = dataclasses.replace(b, tile_size=n_c)
         cut_region = complete["cut_region"] if cut_region is None else cut_region
         diversity = complete["diversity"] if diversity is None else diversity
+    lock = _periodic_rule(
+        b, periodic,
+        complete is not None and tile_size is None and genes is None and objective is None
+        and not wants_selection(select, polish, select_params, extra=normalise),
+    )  # fmt: skip
+    if lock is not None:  # issue 12: a periodic exemplar's tile size (tilesynth.periodic)
+        b = dataclasses.replace(b, tile_size=lock["tile_size"])
     opts = omega_options(
         eps=eps, gradients=gradients, keep_border=keep_border, match=match, match_k=match_k, metric=metric,
         smooth=smooth, normalise=normalise, cut_region="circle" if cut_region is None else cut_region,
@@ -644,6 +678,12 @@ def build_omega(
         and not wants_selection(select, polish, select_params, extra=normalise)
         and active(b.mask) is None,  # the draws are not mask-aware: a masked build keeps its one clear draw
     )  # fmt: skip
+    if lock is not None:  # issue 12: the periodic rule's record (and with "lock" one phase for every patch)
+        if periodic == "lock":
+            from .periodic import phase_locked_genes
+
+            genes_arr = phase_locked_genes(b.exemplar, genes_arr, b.tile_size)
+        sel = {**sel, "periodic": {**lock, "mode": periodic}}
     t_sel = time.perf_counter()
     release_freed_memory()  # issue 15: the selection's freed buffers do not add to the later stages' peak
     if objective in ("cut", "visible") and sel.get("method") not in ("given", "random"):  # issue 15
