@@ -124,3 +124,81 @@ def test_other_exemplars_build_byte_for_byte(small_exemplar):
     np.testing.assert_array_equal(a.tiles, b.tiles)
     np.testing.assert_array_equal(a.genes, b.genes)
     np.testing.assert_array_equal(a.source, b.source)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# representative sample patches (omegaborders "stats" criterion, the default of complete sets)
+
+
+def _two_halves(size: int = 192) -> np.ndarray:
+    """A non-stationary exemplar: fine grey noise on the left half, coarse green blobs on the right half."""
+    rng = np.random.default_rng(7)
+    img = np.empty((size, size, 3))
+    img[:, : size // 2] = 0.5 + 0.15 * rng.standard_normal((size, size // 2, 1))
+    coarse = rng.standard_normal((size // 8, size // 16))
+    blobs = np.kron(coarse, np.ones((8, 8)))[:, :, None] * np.array([0.05, 0.2, 0.05])
+    img[:, size // 2 :] = np.array([0.3, 0.5, 0.3]) + blobs
+    return (np.clip(img, 0, 1) * 255).astype(np.uint8)
+
+
+def test_sample_stats_distance_sees_unrepresentative_patches():
+    from tilesynth.omegaborders import sample_stats_distance
+
+    ex, n = _two_halves(), 48
+    left = np.array([[0, 0], [60, 10], [120, 40], [140, 0]])
+    right = left + [0, 96]
+    mixed = np.array([[0, 0], [60, 100], [120, 40], [140, 140]])
+    d_left, d_right, d_mixed = (sample_stats_distance(ex, g, n) for g in (left, right, mixed))
+    assert d_mixed < 0.5 * min(d_left, d_right), (d_left, d_right, d_mixed)
+    assert sample_stats_distance(ex, mixed, n) == d_mixed  # deterministic
+
+
+def test_stats_draws_keep_the_most_representative_admissible_draw():
+    from tilesynth.genes import random_genes
+    from tilesynth.omegaborders import (
+        border_aware_corner_genes,
+        predicted_corner_border_seam,
+        sample_stats_distance,
+    )
+
+    ex, n = _two_halves(), 48
+    rng = np.random.default_rng(0)
+    first = random_genes(ex.shape, 4, n, rng)
+    state = rng.bit_generator.state
+    g, rec = border_aware_corner_genes(ex, first, n, rng, 8, "stats")
+    rng.bit_generator.state = state
+    cands = [first] + [random_genes(ex.shape, 4, n, rng) for _ in range(7)]
+    seams = [predicted_corner_border_seam(ex, c, n) for c in cands]
+    ok = [i for i, s in enumerate(seams) if s <= 1.0]
+    assert ok  # the test means something only if some draws are admissible
+    dist = {i: sample_stats_distance(ex, cands[i], n) for i in ok}
+    best = min(ok, key=lambda i: (dist[i], i))
+    np.testing.assert_array_equal(g, cands[best])
+    assert rec["border_criterion"] == "stats"
+    assert rec["border_seam_predicted"] == pytest.approx(seams[best], rel=1e-6)
+    assert rec["sample_stats_predicted"] == pytest.approx(dist[best], rel=1e-9)
+    assert len(set(dist.values())) > 1  # the criterion has a choice to make
+
+
+@pytest.mark.filterwarnings("ignore::tilesynth.InputWarning")  # the halves match nothing across: cut outliers
+def test_complete_sets_draw_representative_patches():
+    """The default of complete sets: the sample patches of the kept draw are closer to the exemplar in texture
+    statistics than those of the "cap" draw, and so is the synthesis (two-halves exemplar, seeds 1-3)."""
+    from tilesynth.omegaborders import sample_stats_distance
+    from tilesynth.quality import texture_stats_distance
+
+    ex = _two_halves()
+    out = []
+    for seed in (1, 2, 3):
+        d = ts.build_omega(ex, tileset="c2", seed=seed)
+        c = ts.build_omega(ex, tileset="c2", seed=seed, border_criterion="cap")
+        assert d.params["selection"]["border_criterion"] == "stats"
+        assert c.params["selection"]["border_criterion"] == "cap"
+        n = d.tile_size
+        assert sample_stats_distance(ex, d.genes, n) <= sample_stats_distance(ex, c.genes, n)
+        out.append([texture_stats_distance(ts.synthesize(t, 256, 256, seed=5)[0], ex) for t in (d, c)])
+    stats, cap = np.mean(out, axis=0)
+    assert stats < cap, out
+    # the papers' sets keep "cap"
+    p = ts.build_omega(ex, tileset="16a", seed=1, select="random")
+    assert p.params["selection"]["border_criterion"] == "cap"

@@ -84,7 +84,7 @@ from .matching import (
     pick_distinct,
     strategy_edges,
 )
-from .omegaborders import DEFAULT_BORDER_TRIES, corner_border_draws
+from .omegaborders import DEFAULT_BORDER_TRIES, DEFAULT_CRITERION, check_criterion, corner_border_draws
 from .options import BuildOptions, Progress, SeedLike, common_options
 from .select import choose_genes, wants_selection
 from .stages.compose import cut_and_compose, finish_tileset, patch_gradients
@@ -516,6 +516,7 @@ def build_omega(
     border_tries: int = DEFAULT_BORDER_TRIES,
     augment: str = "none",
     periodic: str = "auto",
+    border_criterion: str | None = None,
 ) -> TileSet:
     """Build a set of ω-tiles from ``exemplar``.
 
@@ -601,6 +602,10 @@ def build_omega(
         transform of every tile is stored in ``params["match_transforms"]``. Only with ``match="ssd"``,
         ``metric="color"`` and no mask; costs one matching search per orientation.
 
+    border_criterion : how the border-aware draws are ranked (:data:`tilesynth.omegaborders.CRITERIA`). None
+        (default): "stats" for complete sets (of the draws whose predicted border seam is at most 1, the one
+        whose sample patches are closest to the exemplar in texture statistics,
+        :func:`tilesynth.omegaborders.sample_stats_distance`; issue 12), "cap" for the papers' sets.
     periodic : "auto" (default), "lock" or "off". "auto": a complete set built with the default tile size,
         random genes and no mask, on an exemplar that repeats at a shift of one tile in both directions (a
         brick wall), takes its tile size from the exemplar's period (:mod:`tilesynth.periodic`; recorded in
@@ -677,6 +682,9 @@ def build_omega(
         genes is None
         and not wants_selection(select, polish, select_params, extra=normalise)
         and active(b.mask) is None,  # the draws are not mask-aware: a masked build keeps its one clear draw
+        # issue 12: complete sets keep the admissible draw whose sample patches are most like the exemplar
+        criterion=(("stats" if complete is not None else DEFAULT_CRITERION) if border_criterion is None
+                   else check_criterion(border_criterion)),
     )  # fmt: skip
     if lock is not None:  # issue 12: the periodic rule's record (and with "lock" one phase for every patch)
         if periodic == "lock":
