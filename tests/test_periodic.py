@@ -202,3 +202,15 @@ def test_complete_sets_draw_representative_patches():
     # the papers' sets keep "cap"
     p = ts.build_omega(ex, tileset="16a", seed=1, select="random")
     assert p.params["selection"]["border_criterion"] == "cap"
+
+
+def test_records_survive_the_file(tmp_path):
+    t = ts.build_omega(_wall(), tileset="c2", seed=3)
+    t.save(tmp_path / "w.tiles")
+    sel = ts.TileSet.load(tmp_path / "w.tiles").params["selection"]
+    assert sel["border_criterion"] == "stats" and sel["sample_stats_predicted"] > 0
+    assert sel["periodic"] == {
+        "tile_size": 40,
+        "shift_correlation": sel["periodic"]["shift_correlation"],
+        "mode": "auto",
+    }
