@@ -32,7 +32,9 @@ autocorrelation peak (lags up to half the exemplar). ``--methods "c4 default;hex
 (semicolon-separated names of :func:`method_table` and :data:`BASELINES`). ``c5 free8``: the default c5 with the
 8-connected geo-cut free region (staircase round, :mod:`tilesynth.levers`). ``c5 periodic-off`` / ``c5
 periodic-lock``: the default c5 without the periodic-exemplar tile size (the default before it) / with the
-phase lock as well (:mod:`tilesynth.periodic`).
+phase lock as well (:mod:`tilesynth.periodic`). ``c5 cap-draw``: the default c5 before the "stats" draw of
+representative sample patches and the periodic rule (``border_criterion="cap"``, ``periodic="off"``: the
+default of main before them, byte for byte).
 
 Usage: ``python benches/repetition.py [--quick] [--size 1024] [--textures a,b] [--methods M1;M2] [--out table.md]``
 """
@@ -99,6 +101,7 @@ ROUND2 = [
     ("c5", "free8", {"cut_region": "free8"}),
     ("c5", "periodic-off", {"periodic": "off"}),
     ("c5", "periodic-lock", {"periodic": "lock"}),
+    ("c5", "cap-draw", {"border_criterion": "cap", "periodic": "off"}),
 ]
 BASELINES = ["periodic", "hex", "quilt", "exemplar"]
 """``exemplar``: the exemplar itself (its own detail-layer autocorrelation peak and copies: how far the target

@@ -142,7 +142,7 @@ def _two_halves(size: int = 192) -> np.ndarray:
 
 
 def test_sample_stats_distance_sees_unrepresentative_patches():
-    from tilesynth.omegaborders import sample_stats_distance
+    from tilesynth.omegaborders import sample_colour_distance, sample_stats_distance
 
     ex, n = _two_halves(), 48
     left = np.array([[0, 0], [60, 10], [120, 40], [140, 0]])
@@ -151,6 +151,9 @@ def test_sample_stats_distance_sees_unrepresentative_patches():
     d_left, d_right, d_mixed = (sample_stats_distance(ex, g, n) for g in (left, right, mixed))
     assert d_mixed < 0.5 * min(d_left, d_right), (d_left, d_right, d_mixed)
     assert sample_stats_distance(ex, mixed, n) == d_mixed  # deterministic
+    # the colour part: grey left, green right; the mixed draw is closer in colour too
+    c_left, c_right, c_mixed = (sample_colour_distance(ex, g, n) for g in (left, right, mixed))
+    assert c_mixed < 0.5 * min(c_left, c_right), (c_left, c_right, c_mixed)
 
 
 def test_stats_draws_keep_the_most_representative_admissible_draw():
@@ -158,6 +161,7 @@ def test_stats_draws_keep_the_most_representative_admissible_draw():
     from tilesynth.omegaborders import (
         border_aware_corner_genes,
         predicted_corner_border_seam,
+        sample_colour_distance,
         sample_stats_distance,
     )
 
@@ -172,11 +176,13 @@ def test_stats_draws_keep_the_most_representative_admissible_draw():
     ok = [i for i, s in enumerate(seams) if s <= 1.0]
     assert ok  # the test means something only if some draws are admissible
     dist = {i: sample_stats_distance(ex, cands[i], n) for i in ok}
-    best = min(ok, key=lambda i: (dist[i], i))
+    colour = {i: sample_colour_distance(ex, cands[i], n) for i in ok}
+    best = min(ok, key=lambda i: (dist[i] + colour[i], i))
     np.testing.assert_array_equal(g, cands[best])
     assert rec["border_criterion"] == "stats"
     assert rec["border_seam_predicted"] == pytest.approx(seams[best], rel=1e-6)
     assert rec["sample_stats_predicted"] == pytest.approx(dist[best], rel=1e-9)
+    assert rec["sample_colour_predicted"] == pytest.approx(colour[best], rel=1e-6)
     assert len(set(dist.values())) > 1  # the criterion has a choice to make
 
 
@@ -184,7 +190,7 @@ def test_stats_draws_keep_the_most_representative_admissible_draw():
 def test_complete_sets_draw_representative_patches():
     """The default of complete sets: the sample patches of the kept draw are closer to the exemplar in texture
     statistics than those of the "cap" draw, and so is the synthesis (two-halves exemplar, seeds 1-3)."""
-    from tilesynth.omegaborders import sample_stats_distance
+    from tilesynth.omegaborders import sample_colour_distance, sample_stats_distance
     from tilesynth.quality import texture_stats_distance
 
     ex = _two_halves()
@@ -195,7 +201,10 @@ def test_complete_sets_draw_representative_patches():
         assert d.params["selection"]["border_criterion"] == "stats"
         assert c.params["selection"]["border_criterion"] == "cap"
         n = d.tile_size
-        assert sample_stats_distance(ex, d.genes, n) <= sample_stats_distance(ex, c.genes, n)
+        both = [
+            sample_stats_distance(ex, t.genes, n) + sample_colour_distance(ex, t.genes, n) for t in (d, c)
+        ]
+        assert both[0] <= both[1]
         out.append([texture_stats_distance(ts.synthesize(t, 256, 256, seed=5)[0], ex) for t in (d, c)])
     stats, cap = np.mean(out, axis=0)
     assert stats < cap, out
@@ -209,6 +218,7 @@ def test_records_survive_the_file(tmp_path):
     t.save(tmp_path / "w.tiles")
     sel = ts.TileSet.load(tmp_path / "w.tiles").params["selection"]
     assert sel["border_criterion"] == "stats" and sel["sample_stats_predicted"] > 0
+    assert sel["sample_colour_predicted"] >= 0
     assert sel["periodic"] == {
         "tile_size": 40,
         "shift_correlation": sel["periodic"]["shift_correlation"],

@@ -310,6 +310,7 @@ SELECTION = Obj(
         "border_criterion": Str(("cap", "log", "min", "stats")),  # ω and patch (tilesynth.omegaborders)
         # issue 12: the "stats" criterion's distance and the periodic-exemplar rule (tilesynth.periodic)
         "sample_stats_predicted": Num(nan_ok=True),
+        "sample_colour_predicted": Num(nan_ok=True),
         "periodic": Obj(
             required={
                 "tile_size": _POS,

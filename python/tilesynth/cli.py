@@ -875,7 +875,8 @@ def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
             f"{sel.get('border_seam_first', float('nan')):.3f} -> {sel.get('border_seam_predicted', float('nan')):.3f}"
             + (f", criterion {sel['border_criterion']}" if "border_criterion" in sel else "")
             + (
-                f", sample-patch texture statistics {sel['sample_stats_predicted']:.4f}"
+                f", sample patches: texture statistics {sel['sample_stats_predicted']:.4f}, colour "
+                f"{sel.get('sample_colour_predicted', float('nan')):.4f}"
                 if "sample_stats_predicted" in sel
                 else ""
             )
