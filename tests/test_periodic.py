@@ -159,6 +159,7 @@ def test_sample_stats_distance_sees_unrepresentative_patches():
 def test_stats_draws_keep_the_most_representative_admissible_draw():
     from tilesynth.genes import random_genes
     from tilesynth.omegaborders import (
+        STATS_SEAM_CAP,
         border_aware_corner_genes,
         predicted_corner_border_seam,
         sample_colour_distance,
@@ -173,7 +174,7 @@ def test_stats_draws_keep_the_most_representative_admissible_draw():
     rng.bit_generator.state = state
     cands = [first] + [random_genes(ex.shape, 4, n, rng) for _ in range(7)]
     seams = [predicted_corner_border_seam(ex, c, n) for c in cands]
-    ok = [i for i, s in enumerate(seams) if s <= 1.0]
+    ok = [i for i, s in enumerate(seams) if s <= STATS_SEAM_CAP]
     assert ok  # the test means something only if some draws are admissible
     dist = {i: sample_stats_distance(ex, cands[i], n) for i in ok}
     colour = {i: sample_colour_distance(ex, cands[i], n) for i in ok}

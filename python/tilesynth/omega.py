@@ -603,8 +603,8 @@ def build_omega(
         ``metric="color"`` and no mask; costs one matching search per orientation.
 
     border_criterion : how the border-aware draws are ranked (:data:`tilesynth.omegaborders.CRITERIA`). None
-        (default): "stats" for complete sets (of the draws whose predicted border seam is at most 1, the one
-        whose sample patches are closest to the exemplar in texture statistics,
+        (default): "stats" for complete sets (of the draws whose predicted border seam is at most 0.9, the one
+        whose sample patches are closest to the exemplar in texture statistics and colour,
         :func:`tilesynth.omegaborders.sample_stats_distance`; issue 12), "cap" for the papers' sets.
     periodic : "auto" (default), "lock" or "off". "auto": a complete set built with the default tile size,
         random genes and no mask, on an exemplar that repeats at a shift of one tile in both directions (a

@@ -69,8 +69,8 @@ CRITERIA = ("cap", "log", "min", "stats")
 """How a draw is ranked: ``"min"`` smallest S_pred; ``"log"`` smallest ``|log S_pred|`` (closest to 1);
 ``"cap"`` (the default) closest to :data:`CAP_TARGET` on a log scale among the draws with S_pred <= 1 (the
 smallest S_pred when there is none); ``"stats"`` (the default of complete sets, issue 12) the smallest
-:func:`sample_stats_distance` + :func:`sample_colour_distance` among the draws with S_pred <= 1 (``"cap"``'s
-choice when there is none)."""
+:func:`sample_stats_distance` + :func:`sample_colour_distance` among the draws with S_pred <=
+:data:`STATS_SEAM_CAP` (``"cap"``'s choice when there is none)."""
 
 DEFAULT_CRITERION = "cap"
 
@@ -170,6 +170,12 @@ def sample_stats_distance(exemplar: np.ndarray, genes: np.ndarray, tile_size: in
     return _stats_distance(_window_responses(ex), g, n)
 
 
+STATS_SEAM_CAP = 0.9
+"""The predicted border seam at or below which a draw is admissible for the ``"stats"`` criterion. At 1 (the
+``"cap"`` criterion's bound) the measured border seam of c5 outputs reached 1.002 (dry soil, seed 2): the
+criterion does not aim at 0.8 as ``"cap"`` does, so it takes draws near the bound, and the measured score
+scatters around S_pred."""
+
 COLOUR_QUANTILES = 512
 """Quantiles of :func:`sample_colour_distance` (those of :func:`tilesynth.metrics.histogram_distance`)."""
 
@@ -247,13 +253,13 @@ def _stats_draws(
     tries: int,
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """The ``"stats"`` criterion of :func:`border_aware_corner_genes`: the same draws from ``rng`` as the other
-    criteria, the admissible one (S_pred <= 1) of smallest :func:`sample_stats_distance` +
+    criteria, the admissible one (S_pred <= :data:`STATS_SEAM_CAP`) of smallest :func:`sample_stats_distance` +
     :func:`sample_colour_distance` kept (the first of equals), else ``"cap"``'s choice."""
     from .wangborders import random_genes
 
     cands = [first] + [random_genes(ex.shape, len(first), tile_size, rng) for _ in range(int(tries) - 1)]
     scores = [_predict(steps, g, tile_size) for g in cands]
-    ok = [i for i, v in enumerate(scores) if v <= 1.0]
+    ok = [i for i, v in enumerate(scores) if v <= STATS_SEAM_CAP]
     rec: dict[str, Any] = {}
     if ok:  # the statistics on the [0, 1] scale of the builds, whatever the caller's dtype
         unit = as_image(exemplar, "exemplar").astype(np.float64)
