@@ -270,6 +270,12 @@ def _stats_draws(
         colour = {i: _colour_distance(unit, ref, cands[i], tile_size) for i in ok}
         best = min(ok, key=lambda i: (stats[i] + colour[i], i))
         rec = {"sample_stats_predicted": stats[best], "sample_colour_predicted": colour[best]}
+        del maps
+        from . import quality
+
+        # the filter spectra cached for this exemplar's FFT size (~200 MB at 512²) would otherwise stay
+        # through the build's heavier stages (the smoothed c5 build measured 953 MB against a 928 MB estimate)
+        quality._filter_spectra.cache_clear()
     else:
         best = int(np.argmin([_rank(v, "cap") for v in scores]))
     return cands[best], {
