@@ -31,7 +31,11 @@ complete sets (free cut, diversity 1, border-aware best-of-32 corner draw, defau
 (``c4x2``, ``c5``, ``augment`` flip / rotate / all, diversity 2); ``exemplar`` = the exemplar's own copies and
 autocorrelation peak (lags up to half the exemplar). ``--methods "c4 default;hex;exemplar"`` runs a selection
 (semicolon-separated names of :func:`method_table` and :data:`BASELINES`). ``c5 free8``: the default c5 with the
-8-connected geo-cut free region (staircase round, :mod:`tilesynth.levers`).
+8-connected geo-cut free region (staircase round, :mod:`tilesynth.levers`). ``c5 periodic-off`` / ``c5
+periodic-lock``: the default c5 without the periodic-exemplar tile size (the default before it) / with the
+phase lock as well (:mod:`tilesynth.periodic`). ``c5 cap-draw``: the default c5 before the "stats" draw of
+representative sample patches and the periodic rule (``border_criterion="cap"``, ``periodic="off"``: the
+default of main before them, byte for byte).
 
 Usage: ``python benches/repetition.py [--quick] [--size 1024] [--textures a,b] [--methods M1;M2] [--out table.md]``
 """
@@ -97,6 +101,9 @@ ROUND2 = [
     ("c4x2", "aug-all", {"augment": "all"}),
     ("c4", "div2", {"diversity": 2}),
     ("c5", "free8", {"cut_region": "free8"}),
+    ("c5", "periodic-off", {"periodic": "off"}),
+    ("c5", "periodic-lock", {"periodic": "lock"}),
+    ("c5", "cap-draw", {"border_criterion": "cap", "periodic": "off"}),
 ]
 BASELINES = ["periodic", "hex", "quilt", "exemplar"]
 """``exemplar``: the exemplar itself (its own detail-layer autocorrelation peak and copies: how far the target

@@ -322,7 +322,17 @@ SELECTION = Obj(
         "cut": Optional(_CUT_RERANK),
         "visible": Optional(_VISIBLE_RERANK),
         "window": Optional(_WINDOW_CHOICE),
-        "border_criterion": Str(("cap", "log", "min")),  # ω and patch (tilesynth.omegaborders)
+        "border_criterion": Str(("cap", "log", "min", "stats")),  # ω and patch (tilesynth.omegaborders)
+        # issue 12: the "stats" criterion's distance and the periodic-exemplar rule (tilesynth.periodic)
+        "sample_stats_predicted": Num(nan_ok=True),
+        "sample_colour_predicted": Num(nan_ok=True),
+        "periodic": Obj(
+            required={
+                "tile_size": _POS,
+                "shift_correlation": Num(nan_ok=True),
+                "mode": Str(("auto", "lock")),
+            }
+        ),
     },
 )
 

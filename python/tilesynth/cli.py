@@ -873,6 +873,19 @@ def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
         lines.append(
             f"              border-aware: best of {sel['border_tries']} random draws, predicted border seam "
             f"{sel.get('border_seam_first', float('nan')):.3f} -> {sel.get('border_seam_predicted', float('nan')):.3f}"
+            + (f", criterion {sel['border_criterion']}" if "border_criterion" in sel else "")
+            + (
+                f", sample patches: texture statistics {sel['sample_stats_predicted']:.4f}, colour "
+                f"{sel.get('sample_colour_predicted', float('nan')):.4f}"
+                if "sample_stats_predicted" in sel
+                else ""
+            )
+        )
+    per = sel.get("periodic")
+    if isinstance(per, dict):  # issue 12: the periodic-exemplar rule (tilesynth.periodic)
+        lines.append(
+            f"              periodic exemplar: tile size {per.get('tile_size')} from its period (autocorrelation "
+            f"{per.get('shift_correlation', float('nan')):.3f} at a one-tile shift), mode {per.get('mode')}"
         )
     pol = sel.get("polish")
     if pol:

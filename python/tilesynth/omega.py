@@ -84,7 +84,7 @@ from .matching import (
     pick_distinct,
     strategy_edges,
 )
-from .omegaborders import DEFAULT_BORDER_TRIES, corner_border_draws
+from .omegaborders import DEFAULT_BORDER_TRIES, DEFAULT_CRITERION, check_criterion, corner_border_draws
 from .options import BuildOptions, Progress, SeedLike, common_options
 from .select import choose_genes, wants_selection
 from .stages.compose import cut_and_compose, finish_tileset, patch_gradients
@@ -435,6 +435,25 @@ def _cut_bias(opts: OmegaOptions, n: int) -> float:
     return default_bias(opts.cut_region, n) if opts.cut_bias is None else opts.cut_bias
 
 
+PERIODIC_MODES = ("auto", "lock", "off")
+"""Values of ``build_omega(periodic=...)``."""
+
+
+def _periodic_rule(b: BuildOptions, periodic: Any, eligible: bool) -> dict[str, Any] | None:
+    """The periodic exemplar rule of :mod:`tilesynth.periodic` for a build: ``{"tile_size", "shift_correlation"}``
+    or None (not eligible, ``periodic="off"``, a mask, or an exemplar that does not repeat at a tile's shift)."""
+    if periodic not in PERIODIC_MODES:
+        raise ParameterError(f"periodic = {periodic!r}: must be one of {', '.join(PERIODIC_MODES)}")
+    if periodic == "off" or not eligible or active(b.mask) is not None:
+        return None
+    from .periodic import periodic_tile_size
+
+    found = periodic_tile_size(b.exemplar, b.tile_size)
+    if found is None:
+        return None
+    return {"tile_size": int(found[0]), "shift_correlation": round(float(found[1]), 6)}
+
+
 def _omega_params(b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, sel: dict, smooth_info: Any) -> dict:
     n = b.tile_size
     return {
@@ -496,6 +515,8 @@ def build_omega(
     rerank: int | None = None,
     border_tries: int = DEFAULT_BORDER_TRIES,
     augment: str = "none",
+    periodic: str = "auto",
+    border_criterion: str | None = None,
 ) -> TileSet:
     """Build a set of ω-tiles from ``exemplar``.
 
@@ -581,6 +602,17 @@ def build_omega(
         transform of every tile is stored in ``params["match_transforms"]``. Only with ``match="ssd"``,
         ``metric="color"`` and no mask; costs one matching search per orientation.
 
+    border_criterion : how the border-aware draws are ranked (:data:`tilesynth.omegaborders.CRITERIA`). None
+        (default): "stats" for complete sets (of the draws whose predicted border seam is at most 0.9, the one
+        whose sample patches are closest to the exemplar in texture statistics and colour,
+        :func:`tilesynth.omegaborders.sample_stats_distance`; issue 12), "cap" for the papers' sets.
+    periodic : "auto" (default), "lock" or "off". "auto": a complete set built with the default tile size,
+        random genes and no mask, on an exemplar that repeats at a shift of one tile in both directions (a
+        brick wall), takes its tile size from the exemplar's period (:mod:`tilesynth.periodic`; recorded in
+        ``params["selection"]["periodic"]``). "lock": the same, and every sample patch moved to one phase of
+        the period (continuous courses, but more copies and a border seam no longer checked by the draw:
+        measured, opt-in). Other builds, and every build with "off", are unchanged.
+
     D_j is the distance (``metric``) between intermediate tile j and its matching patch; E is computed from the
     smallest distance of every intermediate tile over all translations, whatever ``match`` chose.
 
@@ -600,6 +632,13 @@ def build_omega(
             b = dataclasses.replace(b, tile_size=n_c)
         cut_region = complete["cut_region"] if cut_region is None else cut_region
         diversity = complete["diversity"] if diversity is None else diversity
+    lock = _periodic_rule(
+        b, periodic,
+        complete is not None and tile_size is None and genes is None and objective is None
+        and not wants_selection(select, polish, select_params, extra=normalise),
+    )  # fmt: skip
+    if lock is not None:  # issue 12: a periodic exemplar's tile size (tilesynth.periodic)
+        b = dataclasses.replace(b, tile_size=lock["tile_size"])
     opts = omega_options(
         eps=eps, gradients=gradients, keep_border=keep_border, match=match, match_k=match_k, metric=metric,
         smooth=smooth, normalise=normalise, cut_region="circle" if cut_region is None else cut_region,
@@ -644,9 +683,18 @@ def build_omega(
         and not wants_selection(select, polish, select_params, extra=normalise)
         and active(b.mask) is None  # the draws are not mask-aware: a masked build keeps its one clear draw
         and objective != "window",
+        # issue 12: complete sets keep the admissible draw whose sample patches are most like the exemplar
+        criterion=(("stats" if complete is not None else DEFAULT_CRITERION) if border_criterion is None
+                   else check_criterion(border_criterion)),
     )  # fmt: skip
     if objective == "window":  # issue 15: the cheap choice of the complete sets (tilesynth.winselect)
         genes_arr, sel = _window_selection(b, opts, plan, genes_arr, sel, n_rerank)
+    if lock is not None:  # issue 12: the periodic rule's record (and with "lock" one phase for every patch)
+        if periodic == "lock":
+            from .periodic import phase_locked_genes
+
+            genes_arr = phase_locked_genes(b.exemplar, genes_arr, b.tile_size)
+        sel = {**sel, "periodic": {**lock, "mode": periodic}}
     t_sel = time.perf_counter()
     release_freed_memory()  # issue 15: the selection's freed buffers do not add to the later stages' peak
     if objective in ("cut", "visible") and sel.get("method") not in ("given", "random"):  # issue 15

@@ -156,6 +156,14 @@ SCHEME = Scheme(
             "matching search per orientation; only with --match ssd --metric color and no mask",
             choices=("none", "flip", "rotate", "all"),
         ),
+        Option(
+            "periodic",
+            "--periodic",
+            "complete sets at the default tile size: auto (default) takes the tile size from the exemplar's "
+            "period when it repeats at a shift of one tile (a brick wall; tilesynth.periodic), lock also puts "
+            "every sample patch at one phase of it (continuous courses, more copies), off never",
+            choices=("auto", "lock", "off"),
+        ),
     ),
     describe=_describe,
 )
