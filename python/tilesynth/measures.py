@@ -45,6 +45,14 @@ def info_lines(params: dict[str, Any]) -> list[str]:
     def num(v: Any, spec: str = ".4g") -> str:
         return format(v, spec) if isinstance(v, (int, float)) and not isinstance(v, bool) else "-"
 
+    def _chosen_measures(rec: dict[str, Any], k: Any) -> str:
+        """The measures of candidate ``k`` of a re-ranking record (visible or window), '-' where missing."""
+        return ", ".join(
+            f"{key.replace('_', ' ')} {num(vals[k]) if isinstance(k, int) and 0 <= k < len(vals) else '-'}"
+            for key in ("cut_seam", "coherence", "texstats")
+            for vals in [rec.get(key) if isinstance(rec.get(key), list) else []]
+        )
+
     out = []
     q = params.get("quality")
     if isinstance(q, dict):
@@ -72,11 +80,7 @@ def info_lines(params: dict[str, Any]) -> list[str]:
     elif isinstance(sel, dict) and isinstance(sel.get("visible"), dict):  # tilesynth.visselect
         vis = sel["visible"]
         k = vis.get("chosen")
-        row = ", ".join(
-            f"{key.replace('_', ' ')} {num(vals[k]) if isinstance(k, int) and 0 <= k < len(vals) else '-'}"
-            for key in ("cut_seam", "coherence", "texstats")
-            for vals in [vis.get(key) if isinstance(vis.get(key), list) else []]
-        )
+        row = _chosen_measures(vis, k)
         out.append(
             f"objective     visible: {num(vis.get('rerank'), 'd')} candidates measured on a "
             f"{num(vis.get('proxy_side'), 'd')}² proxy synthesis (seed {num(vis.get('proxy_seed'), 'd')}), "
@@ -85,11 +89,7 @@ def info_lines(params: dict[str, Any]) -> list[str]:
     elif isinstance(sel, dict) and isinstance(sel.get("window"), dict):  # tilesynth.winselect
         win = sel["window"]
         k = win.get("chosen")
-        row = ", ".join(
-            f"{key.replace('_', ' ')} {num(vals[k]) if isinstance(k, int) and 0 <= k < len(vals) else '-'}"
-            for key in ("cut_seam", "coherence", "texstats")
-            for vals in [win.get(key) if isinstance(win.get(key), list) else []]
-        )
+        row = _chosen_measures(win, k)
         out.append(
             f"objective     window: {num(win.get('count'), 'd')} random draws measured on a "
             f"{num(win.get('cells'), 'd')}x{num(win.get('cells'), 'd')}-tile window ({num(win.get('window_tiles'), 'd')} "
