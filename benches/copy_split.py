@@ -22,10 +22,9 @@ from tilesynth.io import load_image
 from tilesynth.metrics import (
     COPY_PATCH,
     COPY_TOLERANCE,
-    _autocorr_peaks,
+    _copy_distances,
     coverage,
     cut_seam_score,
-    detail_layer,
     detail_repetition,
     inner_seam_score,
     seam_score,
@@ -41,22 +40,7 @@ CLASSES = ("O", "disc", "ring", "other I")
 
 def copy_mask(img: np.ndarray, lags: int = 4) -> tuple[np.ndarray, list]:
     """The (rows, cols) bool mask of the grid patches :func:`periodic_copies` counts, and its lags."""
-    p = COPY_PATCH
-    h, w = img.shape[:2]
-    rows, cols = h // p, w // p
-    found, _ = _autocorr_peaks(detail_layer(img), lags)
-    im = img.astype(np.float64)
-    best = np.full((rows, cols), np.inf)
-    for dy, dx in found:
-        for sy, sx in ((dy, dx), (-dy, -dx)):
-            sq = np.full((rows * p, cols * p), np.inf)
-            y0, y1 = max(0, -sy), min(rows * p, h - sy)
-            x0, x1 = max(0, -sx), min(cols * p, w - sx)
-            if y1 <= y0 or x1 <= x0:
-                continue
-            diff = im[y0:y1, x0:x1] - im[y0 + sy : y1 + sy, x0 + sx : x1 + sx]
-            sq[y0:y1, x0:x1] = (diff * diff).mean(axis=2)
-            best = np.minimum(best, sq.reshape(rows, p, cols, p).mean(axis=(1, 3)))
+    best, found = _copy_distances(img.astype(np.float64), COPY_PATCH, lags)
     return best <= COPY_TOLERANCE, found
 
 

@@ -766,6 +766,29 @@ class PeriodicCopies:
         return _finite(asdict(self))
 
 
+def _copy_distances(img: np.ndarray, p: int, lags: int) -> tuple[np.ndarray, list]:
+    """The ``(rows, cols)`` mean squared difference of every ``p`` x ``p`` grid patch of the float64 image
+    ``(H, W, C)`` to its nearest partner at one of the ``lags`` strongest autocorrelation lags of the detail
+    layer, in either direction (inf where every partner falls outside), and those lags: the inner loop of
+    :func:`periodic_copies`, shared with ``benches/copy_split.py``, which needs the mask itself."""
+    h, w, _ = img.shape
+    rows, cols = h // p, w // p
+    found, _ = _autocorr_peaks(detail_layer(img), lags)
+    crop = img[: rows * p, : cols * p]
+    best = np.full((rows, cols), np.inf)
+    for dy, dx in found:
+        for sy, sx in ((dy, dx), (-dy, -dx)):
+            sq = np.full((rows * p, cols * p), np.inf)
+            y0, y1 = max(0, -sy), min(rows * p, h - sy)
+            x0, x1 = max(0, -sx), min(cols * p, w - sx)
+            if y1 <= y0 or x1 <= x0:
+                continue
+            diff = crop[y0:y1, x0:x1] - img[y0 + sy : y1 + sy, x0 + sx : x1 + sx]
+            sq[y0:y1, x0:x1] = (diff * diff).mean(axis=2)
+            best = np.minimum(best, sq.reshape(rows, p, cols, p).mean(axis=(1, 3)))
+    return best, found
+
+
 def periodic_copies(
     image: np.ndarray, patch: int = COPY_PATCH, lags: int = COPY_LAGS, tolerance: float = COPY_TOLERANCE
 ) -> PeriodicCopies:
@@ -782,19 +805,7 @@ def periodic_copies(
     rows, cols = h // p, w // p
     if rows < 1 or cols < 1 or h < 4 or w < 4:
         raise ShapeError(f"image is {w}x{h}: periodic copies need at least one {p}x{p} patch and 4x4 pixels")
-    found, _ = _autocorr_peaks(detail_layer(img), positive_int(lags, "lags"))
-    crop = img[: rows * p, : cols * p]
-    best = np.full((rows, cols), np.inf)
-    for dy, dx in found:
-        for sy, sx in ((dy, dx), (-dy, -dx)):
-            sq = np.full((rows * p, cols * p), np.inf)
-            y0, y1 = max(0, -sy), min(rows * p, h - sy)
-            x0, x1 = max(0, -sx), min(cols * p, w - sx)
-            if y1 <= y0 or x1 <= x0:
-                continue
-            diff = crop[y0:y1, x0:x1] - img[y0 + sy : y1 + sy, x0 + sx : x1 + sx]
-            sq[y0:y1, x0:x1] = (diff * diff).mean(axis=2)
-            best = np.minimum(best, sq.reshape(rows, p, cols, p).mean(axis=(1, 3)))
+    best, found = _copy_distances(img, p, positive_int(lags, "lags"))
     frac = float((best <= tolerance).mean())
     return PeriodicCopies(
         fraction=frac, n_patches=rows * cols, lags=found, patch=p, tolerance=float(tolerance)
