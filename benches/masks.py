@@ -112,12 +112,16 @@ def _measure(t: ts.TileSet, masked: np.ndarray) -> tuple[float, float]:
 
 
 def stationarity_table() -> list[str]:
-    rows = ["| texture | brightness trend | R² | contrast trend |", "|---|---:|---:|---:|"]
+    rows = [
+        "| texture | brightness trend | R² | contrast trend | orientation turn ° | R² | coherence |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
     for p in sorted(TEXTURES.glob("*.png")):
         img, _ = ts.load_image(p)
         st = stationarity(img)
         rows.append(
-            f"| {p.stem} | {st['mean_trend']:.3f} | {st['trend_r2']:.3f} | {st['contrast_trend']:.3f} |"
+            f"| {p.stem} | {st['mean_trend']:.3f} | {st['trend_r2']:.3f} | {st['contrast_trend']:.3f} "
+            f"| {st['orientation_turn']:.1f} | {st['orientation_r2']:.2f} | {st['orientation_coherence']:.2f} |"
         )
     return rows
 
@@ -167,7 +171,8 @@ def main() -> None:
             "",
             "## Non-stationarity of the shared textures (tilesynth.diagnose.stationarity)",
             "",
-            "The warning fires at a brightness trend >= 1.5 with R² >= 0.7, or a contrast trend >= 3.",
+            "The warning fires at a brightness trend >= 1.5 with R² >= 0.7, or a contrast trend >= 3; "
+            "`orientation-drift` at a turn >= 15° with R² >= 0.3 and coherence >= 0.35 at every corner.",
             "",
             *stationarity_table(),
             "",

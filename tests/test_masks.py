@@ -362,3 +362,50 @@ def test_report_shows_mask_and_warnings(bricks_hole, tmp_path):
     ts.write_report(t, tmp_path / "r", width=128, height=128)
     page = (tmp_path / "r" / "index.html").read_text()
     assert "mask: alpha: 17.0 % masked" in page and "warning: masked-area" in page
+
+
+def _grating(turn_deg: float, n: int = 192, base: float = 0.3, seed: int = 0) -> np.ndarray:
+    """A sinusoidal grating (period 12 px) whose orientation turns linearly by ``turn_deg`` from the left edge to
+    the right one, plus a little noise."""
+    yy, xx = np.mgrid[0:n, 0:n].astype(np.float64)
+    th = base + np.radians(turn_deg) * (xx / n - 0.5)
+    g = 0.5 + 0.4 * np.sin(2 * np.pi / 12 * (xx * np.cos(th) + yy * np.sin(th)))
+    g += 0.05 * np.random.default_rng(seed).standard_normal(g.shape)
+    return np.repeat(np.clip(g, 0, 1)[..., None], 3, axis=2).astype(np.float32)
+
+
+def test_turning_structure_warns_and_straight_structure_does_not():
+    turned = _grating(30.0)
+    st = stationarity(turned)
+    assert 28.0 < st["orientation_turn"] < 40.0 and st["orientation_r2"] > 0.9
+    found = [f for f in diagnose_exemplar(turned) if f["code"] == "orientation-drift"]
+    assert len(found) == 1 and "rectify" in found[0]["message"].lower()
+    assert found[0]["value"] == pytest.approx(st["orientation_turn"])
+    for calm in (_grating(0.0), _grating(0.0, base=1.2), _grating(8.0), _noise(n=192)):
+        st = stationarity(calm)
+        assert not [f for f in diagnose_exemplar(calm) if f["code"] == "orientation-drift"], st
+    assert stationarity(_grating(0.0))["orientation_turn"] < 2.0
+
+
+def test_isotropic_noise_has_no_orientation_field():
+    # the fitted field of an isotropic texture is short: its direction is noise and must not warn
+    st = stationarity(_noise(3, 192))
+    assert st["orientation_coherence"] < 0.1
+
+
+def test_masking_the_turned_part_silences_the_orientation_warning():
+    g = _grating(0.0)
+    g[:, 128:] = _grating(90.0, base=0.3 + np.radians(45.0))[:, 128:]  # the right third runs another way
+    assert any(f["code"] == "orientation-drift" for f in diagnose_exemplar(g))
+    m = np.zeros(g.shape[:2], bool)
+    m[:, 128:] = True
+    assert not any(f["code"] == "orientation-drift" for f in diagnose_exemplar(g, ExemplarMask(m, "array")))
+
+
+def test_a_brick_wall_photographed_at_an_angle_warns():
+    # tests/data/README.md: scikit-image's brick.png (CC0), reduced to 128²: the courses lean one way on the left,
+    # the other way on the right; brightness and contrast are uniform, so only the orientation test sees it
+    img, _ = ts.load_image(Path(__file__).parent / "data" / "brick-perspective-128.png")
+    codes = [f["code"] for f in diagnose_exemplar(img)]
+    assert codes == ["orientation-drift"]
+    assert stationarity(img)["orientation_turn"] > 30.0
