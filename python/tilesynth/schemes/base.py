@@ -133,7 +133,7 @@ class Scheme:
     selects : whether the scheme has an objective to select genes by (``--select`` other than random).
     material_options : builder options that a *joint* material build (:func:`tilesynth.materials.build_with_maps`:
         maps of weight > 0, cut on the feature image) uses unless the caller gives them; a colour-only build
-        never sees them (s-Wang: the cut's ``eps``, :data:`tilesynth.materials.MATERIAL_CUT_EPS`).
+        never sees them (ω, s-Wang: the cut's ``eps``, :data:`tilesynth.materials.MATERIAL_CUT_EPS`).
     """
 
     name: str
