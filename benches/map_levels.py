@@ -15,6 +15,10 @@ material: the CPU time of the 4-map build over the colour-only build, interleave
     python benches/map_levels.py --pbr DATA/rocks --pbr DATA/tiles > /tmp/levels.md
     python benches/map_levels.py --pbr DATA/rocks --pbr DATA/tiles --default-only > /tmp/default.md
 
+``--panel MAP --figure PATH``: one shaded panel of map MAP with the default fusion (first material and scheme, a
+320² synthesis, tiling seed 7; a normal map shaded directly with its x, y scaled by ``--relief``, a scalar map as a
+height): run it under two installs to set two trees' outputs side by side.
+
 ``--default-only``: the default fusion alone (both stages), one row per map with the albedo's border seam of the
 same synthesis added (the albedo's own cut seam is the tile set's): the columns to compare two trees with (run the
 script of one tree under each tree's install, then put the rows side by side).
@@ -154,6 +158,27 @@ def figure(path: str, ex: np.ndarray, maps: dict, scheme: str, relief: float = 6
     Image.fromarray(np.concatenate(panels[:-1], axis=1)).save(path, optimize=True)
 
 
+def panel(
+    path: str, ex: np.ndarray, maps: dict, scheme: str, name: str, relief: float, size: int = 320
+) -> None:
+    """``--panel``: Lambert shading of map ``name`` of a ``size``² synthesis, default fusion."""
+    from PIL import Image
+
+    t = ts.build(ex, seed=1, maps=maps, **_kw(scheme))
+    _, imap = ts.synthesize(t, size, size, seed=7)
+    spec = B._specs(t)[name]
+    x = materials._float_atlas(t, spec, _layout(atlas(t, spec, True), imap, size)[None])[0].astype(np.float64)
+    if spec.kind == "normal":
+        n = x.copy()
+        n[..., :2] *= relief
+        if spec.normal_y != "down":
+            n[..., 1] = -n[..., 1]  # Y up (OpenGL) -> rows down, the light's frame
+        img = B.lambert(n)
+    else:
+        img = B.lambert(B.height_normals(x[..., 0], relief))
+    Image.fromarray(img).save(path, optimize=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--pbr", action="append", default=[], metavar="DIR")
@@ -162,11 +187,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--figure", default=None, help="write the shaded figure of the first material and scheme")
     ap.add_argument("--relief", type=float, default=60.0)
+    ap.add_argument("--panel", default=None, metavar="MAP", help="with --figure: one shaded panel of map MAP")
     ap.add_argument(
         "--default-only", action="store_true", help="the default fusion alone, albedo border seam added"
     )
     args = ap.parse_args(argv)
     schemes = args.schemes.split(",")
+    if args.figure and args.panel:
+        name, ex, maps = _inputs(args)[0]
+        panel(args.figure, ex, maps, schemes[0], args.panel, args.relief)
+        print(f"wrote {args.figure}")
+        return 0
     if args.figure:
         name, ex, maps = _inputs(args)[0]
         figure(args.figure, ex, maps, schemes[0], args.relief)
