@@ -398,11 +398,11 @@ def exemplar_levels(
     the border a third and a fourth); those pixel pairs are fixed for :func:`fuse_tiles` and a 4-px block field
     can only take their mean offset, so the ring pairs there were most of the rest of the Wang maps' cut seams
     (roof-tiles ``wang`` roughness: 5 % of the cut pairs, 0.36 of the score 1.33). Every copy of such a pixel
-    still moves alike, so tilings stay seamless. Measured (``benches/materials-results.md``, "Corner levels"):
-    roof-tiles ``wang`` roughness 1.33 → 1.12 with a reach of 2 (1: 1.15, 3: 1.11), no Wang map higher, ring kinks
-    and border seams as low or lower. ω's and the patch tiles' rings have no seam near their corners (their
-    corners lie inside one sample patch), so they have no such pixels and their output is unchanged; ``corner=0``
-    gives the block model alone.
+    still moves alike, so tilings stay seamless. Measured (``benches/materials-results.md``, "Material cuts with a
+    capped gradient normalisation, and the Wang corners' own levels"): roof-tiles ``wang`` roughness 1.33 → 1.12
+    with a reach of 2 (1: 1.15, 3: 1.11), no Wang map higher, ring kinks and border seams within +0.01 or lower.
+    ω's rings have no seam near their corners (the corners lie inside one sample patch; checked on ``c5`` sets),
+    so ω has no such pixels and its output is unchanged; ``corner=0`` gives the block model alone.
     """
     values = np.asarray(values, np.float64)
     h, w, ch = values.shape
