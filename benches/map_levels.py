@@ -13,6 +13,15 @@ material: the CPU time of the 4-map build over the colour-only build, interleave
 (``time.process_time``, all threads).
 
     python benches/map_levels.py --pbr DATA/rocks --pbr DATA/tiles > /tmp/levels.md
+    python benches/map_levels.py --pbr DATA/rocks --pbr DATA/tiles --default-only > /tmp/default.md
+
+``--panel MAP --figure PATH``: one shaded panel of map MAP with the default fusion (first material and scheme, a
+320² synthesis, tiling seed 7; a normal map shaded directly with its x, y scaled by ``--relief``, a scalar map as a
+height): run it under two installs to set two trees' outputs side by side.
+
+``--default-only``: the default fusion alone (both stages), one row per map with the albedo's border seam of the
+same synthesis added (the albedo's own cut seam is the tile set's): the columns to compare two trees with (run the
+script of one tree under each tree's install, then put the rows side by side).
     python benches/map_levels.py --pbr DATA/tiles --textures "" --schemes c5 --figure docs/figures/material-levels.png
 """
 
@@ -102,6 +111,38 @@ def measure(name: str, ex: np.ndarray, maps: dict, scheme: str, repeat: int) -> 
     return rows
 
 
+def measure_default(name: str, ex: np.ndarray, maps: dict, scheme: str, repeat: int) -> list[str]:
+    """The rows of ``--default-only``: every map with the default fusion (both stages)."""
+    ct, jt = [], []
+    t = None
+    for _ in range(repeat):  # interleaved
+        c0 = time.process_time()
+        ts.build(ex, seed=1, **_kw(scheme))
+        c1 = time.process_time()
+        t = ts.build(ex, seed=1, maps=maps, **_kw(scheme))
+        ct.append(c1 - c0)
+        jt.append(time.process_time() - c1)
+    img, imap = ts.synthesize(t, 384, 384, seed=7)
+    alb = B._score(t, np.asarray(t.tiles))
+    alb_border = float(seam_score(np.asarray(img, np.float64), t.tile_size).score)
+    ratio = statistics.median(jt) / max(statistics.median(ct), 1e-9)
+    f = "{:.2f}".format
+    rows = []
+    for mname, spec in B._specs(t).items():
+        c0 = time.process_time()
+        a = atlas(t, spec, True)
+        cpu = time.process_time() - c0
+        prof = B._kink_profile(t, spec, a, imap, 384)
+        score = B._score(t, materials._float_atlas(t, spec, a))
+        ref = B._reference(t, spec, a)
+        rows.append(
+            f"| {name} | {scheme} | {mname} | {f(score)} | {f(ref)} | {f(prof[0])} | "
+            f"{f(_border(t, spec, a, imap, 384))} | {f(alb)} | {f(alb_border)} | {cpu:.2f} | "
+            f"{statistics.median(ct):.2f} / {statistics.median(jt):.2f} = {ratio:.2f} |"
+        )
+    return rows
+
+
 def figure(path: str, ex: np.ndarray, maps: dict, scheme: str, relief: float = 60.0, size: int = 320) -> None:
     """Shaded heights (Lambert on the height gradient x ``relief``, light from the upper left) of a ``size``²
     synthesis: the fusion without (left) and with (right) the exemplar stage."""
@@ -117,6 +158,27 @@ def figure(path: str, ex: np.ndarray, maps: dict, scheme: str, relief: float = 6
     Image.fromarray(np.concatenate(panels[:-1], axis=1)).save(path, optimize=True)
 
 
+def panel(
+    path: str, ex: np.ndarray, maps: dict, scheme: str, name: str, relief: float, size: int = 320
+) -> None:
+    """``--panel``: Lambert shading of map ``name`` of a ``size``² synthesis, default fusion."""
+    from PIL import Image
+
+    t = ts.build(ex, seed=1, maps=maps, **_kw(scheme))
+    _, imap = ts.synthesize(t, size, size, seed=7)
+    spec = B._specs(t)[name]
+    x = materials._float_atlas(t, spec, _layout(atlas(t, spec, True), imap, size)[None])[0].astype(np.float64)
+    if spec.kind == "normal":
+        n = x.copy()
+        n[..., :2] *= relief
+        if spec.normal_y != "down":
+            n[..., 1] = -n[..., 1]  # Y up (OpenGL) -> rows down, the light's frame
+        img = B.lambert(n)
+    else:
+        img = B.lambert(B.height_normals(x[..., 0], relief))
+    Image.fromarray(img).save(path, optimize=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--pbr", action="append", default=[], metavar="DIR")
@@ -125,12 +187,32 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--figure", default=None, help="write the shaded figure of the first material and scheme")
     ap.add_argument("--relief", type=float, default=60.0)
+    ap.add_argument("--panel", default=None, metavar="MAP", help="with --figure: one shaded panel of map MAP")
+    ap.add_argument(
+        "--default-only", action="store_true", help="the default fusion alone, albedo border seam added"
+    )
     args = ap.parse_args(argv)
     schemes = args.schemes.split(",")
+    if args.figure and args.panel:
+        name, ex, maps = _inputs(args)[0]
+        panel(args.figure, ex, maps, schemes[0], args.panel, args.relief)
+        print(f"wrote {args.figure}")
+        return 0
     if args.figure:
         name, ex, maps = _inputs(args)[0]
         figure(args.figure, ex, maps, schemes[0], args.relief)
         print(f"wrote {args.figure}")
+        return 0
+    if args.default_only:
+        print(
+            "| material | scheme | map | cut seam | reference | kink ring | border seam | albedo cut seam | "
+            "albedo border seam | fusion CPU s | build CPU s colour / joint = ratio |"
+        )
+        print("|---|---|---|---|---|---|---|---|---|---|---|")
+        for name, ex, maps in _inputs(args):
+            for scheme in schemes:
+                for row in measure_default(name, ex, maps, scheme, args.repeat):
+                    print(row, flush=True)
         return 0
     print(
         "| material | scheme | map | cut seam before → **after** | reference | kink ring | kink band | "

@@ -230,3 +230,54 @@ def test_exemplar_levels_keep_tilings_seamless():
     np.testing.assert_allclose(
         out[1, :, 0] - out[0, :, -1], f[5 : 5 + n, 5 + n] - f[5 : 5 + n, 4 + n], atol=1e-12
     )
+
+
+def _diagonal_set(n=16, h=48, w=48):
+    """One tile cut along its main diagonal (a Wang cut ending at two tile corners): the lower-left triangle from
+    one exemplar window, the rest from another with a level offset of 0.3; a smooth exemplar."""
+    yy, xx = np.mgrid[0:h, 0:w]
+    values = (0.004 * xx + 0.003 * yy)[..., None].astype(np.float64)
+    values[20:, 20:] += 0.3
+    ty, tx = np.mgrid[0:n, 0:n]
+    lower = ty > tx
+    src = np.where(lower[..., None], np.stack([ty + 1, tx + 1], -1), np.stack([ty + 24, tx + 24], -1))[None]
+    return values, src.astype(np.int32)
+
+
+def test_exemplar_levels_give_the_corner_pixels_their_own_level():
+    """Where a cut ends at a tile corner, the ring pixels there are fixed for the tile-interior fusion and a 4-px
+    block field takes only their mean offset; with their own level (``corner``) the ring steps across the cut
+    near the corners fall. Without a seam near a corner (ω's tiles) nothing changes, bit for bit."""
+    from tilesynth.stages.fusion import LEVEL_CORNER, _corner_pixels
+
+    values, src = _diagonal_set()
+    n = src.shape[1]
+    assert LEVEL_CORNER == 2
+    own = _corner_pixels(src, 2, values.shape[1])
+    assert own.size > 0 and set(own.tolist()) >= {int(src[0, 0, 0, 0]) * 48 + int(src[0, 0, 0, 1])}
+    copies = values[src[..., 0], src[..., 1]]
+
+    def ring_steps(corner):
+        f = values + exemplar_levels(values, copies, src, corner=corner)
+        t = fuse_tiles(f, f[src[..., 0], src[..., 1]], src)[0, ..., 0]
+        # the cut pairs on the ring within 2 px of the corners (0, 0) and (n - 1, n - 1)
+        pairs = [
+            (t[1, 0], t[0, 0]),
+            (t[2, 1], t[2, 2]),
+            (t[n - 1, n - 2], t[n - 1, n - 1]),
+            (t[1, 0], t[1, 1]),
+        ]
+        return max(abs(a - b) for a, b in pairs)
+
+    assert ring_steps(LEVEL_CORNER) < 0.5 * ring_steps(0)
+    phi = exemplar_levels(values, copies, src)
+    assert np.array_equal(phi, exemplar_levels(values, copies, src))  # deterministic
+    # a tile whose seam does not come near a corner (the two halves of _two_patch_set): no own pixels, same bytes
+    values2, src2 = _two_patch_set()
+    assert _corner_pixels(src2, 2, values2.shape[1]).size == 0
+    copies2 = values2[src2[..., 0], src2[..., 1]]
+    assert np.array_equal(
+        exemplar_levels(values2, copies2, src2), exemplar_levels(values2, copies2, src2, corner=0)
+    )
+    with pytest.raises(ValueError, match="corner"):
+        exemplar_levels(values2, copies2, src2, corner=-1)

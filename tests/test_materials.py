@@ -310,6 +310,27 @@ def test_report_shows_every_map_with_its_cut_seam(tmp_path):
 
 # The small Wang sets may warn of a cut-cost outlier (tilesynth.diagnose): not what this test is about.
 @pytest.mark.filterwarnings("ignore::tilesynth.InputWarning")
+def test_joint_builds_cut_with_the_material_eps_and_a_given_eps_wins():
+    """Joint s-Wang and ω builds cut with ``MATERIAL_CUT_EPS`` (a capped gradient normalisation, so the cut does
+    not follow the maps' own edges); a caller's ``eps`` is kept; a colour-only or labels-only build keeps the
+    scheme's default."""
+    albedo, height, normal = _material()
+    kw = {"scheme": "swang", "tileset": "wang8", "tile_size": 16, "seed": 1}
+    maps = {"height": height, "normal": normal}
+    joint = ts.build(albedo, maps=maps, **kw)
+    assert joint.params["eps"] == materials.MATERIAL_CUT_EPS == 1.0
+    given = ts.build(albedo, maps=maps, eps=1e-3, **kw)
+    assert given.params["eps"] == 1e-3
+    explicit = ts.build(albedo, maps=maps, eps=materials.MATERIAL_CUT_EPS, **kw)
+    assert np.array_equal(explicit.source, joint.source)
+    colour = ts.build(albedo, **kw)
+    labels = ts.build(albedo, maps={"mask": (albedo[..., 0] > 128).astype(np.uint8)}, **kw)
+    assert colour.params["eps"] == labels.params["eps"] == ts.kernels.DEFAULT_EPS
+    assert np.array_equal(colour.source, labels.source)
+    assert _build(albedo, maps).params["eps"] == materials.MATERIAL_CUT_EPS
+    assert ts.build(albedo, tileset="4", tile_size=16, seed=1).params["eps"] == ts.kernels.DEFAULT_EPS
+
+
 @pytest.mark.parametrize("scheme, tileset", [("wang", "wang8"), ("swang", "wang8"), ("patch", "4")])
 def test_every_scheme_builds_materials(tmp_path, scheme, tileset):
     """Every scheme's scalar maps are fused across the seams of its tiles (Cohen's Wang tiles, which have no

@@ -43,6 +43,24 @@ score rose to 1.48-1.57 on the brick material, though its seam itself is fused a
 patches' own steps there). 0.5 keeps the maps in the joint matching and cut at about a third of the features'
 variance and costs the albedo less.
 
+**The cut of a material build** (:data:`MATERIAL_CUT_EPS`, issue 14). The cut weights of ω and s-Wang are
+Kwatra's, ``(‖a − b‖(s) + ‖a − b‖(t)) / (Σ‖g‖ + eps)``: the gradient normalisation makes a step along an edge of
+the exemplar cheap, because a colour seam there hides in the edge. In a joint build the gradients are those of the
+feature image, so the cut is drawn along the *maps'* own edges too (a normal map's crease, a roughness step), and
+there nothing hides it: the maps are fused across the cut afterwards, and where the cut follows an edge that one
+patch has and the other does not, the fusion's guidance is not integrable. Measured (``benches/map_levels.py``):
+with the default ``eps`` = 1e-6 the s-Wang normals of pbr:tiles and bricks-red scored 1.46 / 1.45 with a
+*reference* (the patches' own steps where the cut runs) of 1.14 / 1.22, most of it more than 8 px from the tile
+borders; ω ``c5``'s pbr:tiles maps scored 1.52-3.14 (roughness reference 3.15: the cut along the grout). A
+joint ω or s-Wang build therefore uses ``eps`` = 1, the feature image's range (typical feature gradients are
+0.02-0.1, so the denominator varies by tens of per cent instead of orders of magnitude: a capped normalisation,
+close to the plain difference): on seeds 1-3 of the bench's six materials (``c5``: seeds 1-2) the s-Wang maps
+fall to 0.4-1.2 and ω's to 0.5-1.1, their references with them (the cut leaves the maps' edges), and so does the
+albedo's own cut seam, on nearly every material (``benches/materials-results.md``, "Material cuts with a capped
+gradient normalisation"); eps = 0.03 / 0.1 / 0.3 / 3 were measured too (0.3 already helps, 3 is as good as 1).
+A caller's ``eps`` is kept; colour-only builds are unchanged; so are Cohen's Wang tiles (their DP path has no
+gradient term) and the patch baseline (not measured).
+
 **Map kinds** (:data:`KINDS`), inferred from the name (:func:`infer_kind`) unless given:
 
 =========  =====================================================  ==============  ====================================
@@ -96,6 +114,7 @@ __all__ = [
     "DEFAULT_WEIGHTS",
     "FEATURE_CHANNELS",
     "KINDS",
+    "MATERIAL_CUT_EPS",
     "MapSpec",
     "NORMAL_TOLERANCE",
     "build_with_maps",
@@ -125,6 +144,10 @@ KIND_ALIASES: dict[str, str] = {
 DEFAULT_WEIGHTS: dict[str, float] = {"colour": 1.0, "scalar": 0.5, "normal": 0.5, "label": 0.0}
 #: Channels of the feature image the scheme is built on (see the module docstring, step 2).
 FEATURE_CHANNELS = 4
+#: Kwatra's ``eps`` of the ω and s-Wang cuts in a joint material build (``Scheme.material_options``), in the units
+#: of the feature image (range 1): a capped gradient normalisation, so the cut does not follow the maps' own edges
+#: (module docstring, "The cut of a material build").
+MATERIAL_CUT_EPS: float = 1.0
 #: A normal map is refused when more than :data:`NORMAL_BAD_SHARE` of its vectors have a length outside
 #: 1 ± NORMAL_TOLERANCE (8-bit quantisation alone stays within 0.007).
 NORMAL_TOLERANCE = 0.1
@@ -420,10 +443,14 @@ def build_with_maps(
     map_weights: Any = None,
     normal_y: str = "up",
     map_suffixes: dict[str, str] | None = None,
+    material_options: dict[str, Any] | None = None,
     **kwargs: Any,
 ) -> Any:
     """A material build with the scheme builder ``build`` (``Scheme.build``): the body of
-    :func:`tilesynth.build_material` (which looks the scheme up; this module does not import the registry)."""
+    :func:`tilesynth.build_material` (which looks the scheme up; this module does not import the registry).
+    ``material_options`` (``Scheme.material_options``): builder options a joint build uses unless ``kwargs``
+    give them (ω, s-Wang: ``eps`` = :data:`MATERIAL_CUT_EPS`); a colour-only build (only weight-0 maps) ignores
+    them."""
     from ._validate import as_image
     from .masking import build_mask
     from .stages.compose import exemplar_record
@@ -444,6 +471,8 @@ def build_with_maps(
         # with a mask the search adds a penalty channel, and the image index takes at most 4 channels
         k = FEATURE_CHANNELS - (emask is not None)
         feats, record = feature_image(albedo, specs, aw, channels=k)
+        for key, value in (material_options or {}).items():  # the scheme's joint-build defaults
+            kwargs.setdefault(key, value)
     else:  # only weight-0 maps (labels): the colour-only build, plus the maps
         feats, record = albedo, {"feature_channels": int(albedo.shape[2]), "variance_kept": 1.0,
                                  "feature_scale": 1.0, "albedo_weight": aw}  # fmt: skip

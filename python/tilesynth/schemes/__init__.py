@@ -101,5 +101,5 @@ def build_material(
     sc = get_scheme(scheme)
     return build_with_maps(
         sc.build, exemplar, maps=maps, map_kinds=map_kinds, map_weights=map_weights, normal_y=normal_y,
-        map_suffixes=map_suffixes, **kwargs,
+        map_suffixes=map_suffixes, material_options=sc.material_options, **kwargs,
     )  # fmt: skip

@@ -131,6 +131,9 @@ class Scheme:
     options : the scheme's own options (beyond those every builder takes).
     describe : ``info``'s lines about a tile set of this scheme (its matching, its objective E).
     selects : whether the scheme has an objective to select genes by (``--select`` other than random).
+    material_options : builder options that a *joint* material build (:func:`tilesynth.materials.build_with_maps`:
+        maps of weight > 0, cut on the feature image) uses unless the caller gives them; a colour-only build
+        never sees them (ω, s-Wang: the cut's ``eps``, :data:`tilesynth.materials.MATERIAL_CUT_EPS`).
     """
 
     name: str
@@ -143,6 +146,7 @@ class Scheme:
     describe: Callable[[TileSet], list[str]] | None = None
     selects: bool = True
     extra: dict[str, Any] = field(default_factory=dict)
+    material_options: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.layout not in LAYOUT_KINDS:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..argtypes import float_text
+from ..materials import MATERIAL_CUT_EPS
 from ..omega import build_omega
 from .base import Option, Scheme, lambda_energy_line, nonneg_int_text, positive_int_text
 from .common import CORNER_BORDER_TRIES, GRADIENTS, LITERAL_BORDER
@@ -166,4 +167,6 @@ SCHEME = Scheme(
         ),
     ),
     describe=_describe,
+    # issue 14: joint material builds cut with a capped gradient normalisation (materials.MATERIAL_CUT_EPS)
+    material_options={"eps": MATERIAL_CUT_EPS},
 )
