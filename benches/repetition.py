@@ -23,7 +23,10 @@ Measures (:mod:`tilesynth.metrics`): periodic-copy fraction, repeated-patch frac
 coverage (the provenance of every pixel: for hex tiling the vertex with the largest weight), histogram distance,
 texture-statistics distance (:func:`tilesynth.quality.texture_stats_distance`: Gram matrices of fixed random
 filters at scales 1 and 2, the issue's "no loss in texture statistics against 16a"), border seam score and inner-lattice seam score (:func:`tilesynth.metrics.inner_seam_score`, the worst line
-1-4 px inside the tile borders; tile sets: tile size N; others: n/a), build CPU seconds. One Markdown table, then means per
+1-4 px inside the tile borders; tile sets: tile size N; others: n/a), repeated salient discs (tile sets only, :func:`tilesynth.metrics.repeated_discs`: discs of
+the vertex content's radius 0.22·N copied by provenance: ``disc reps`` occurrences of the most repeated one, ``disc
+pct`` the saliency percentile of the most salient disc that recurs 4 times or more, ``salient reps`` copies of
+repeated discs above the 0.9 percentile per 100 disc centres), build CPU seconds. One Markdown table, then means per
 method. ``--quick``: 4 textures, 512² outputs. The machine is shared: CPU times are indicative only.
 
 Second round (after the border-aware draw, :data:`ROUND2`): ``<set> default`` = the library's defaults of
@@ -33,7 +36,9 @@ autocorrelation peak (lags up to half the exemplar). ``--methods "c4 default;hex
 (semicolon-separated names of :func:`method_table` and :data:`BASELINES`). ``c5 free8``: the default c5 with the
 8-connected geo-cut free region (staircase round, :mod:`tilesynth.levers`). ``c5 periodic-off`` / ``c5
 periodic-lock``: the default c5 without the periodic-exemplar tile size (the default before it) / with the
-phase lock as well (:mod:`tilesynth.periodic`). ``c5 cap-draw``: the default c5 before the "stats" draw of
+phase lock as well (:mod:`tilesynth.periodic`). ``c5 no-calm``: the default c5 without moving the
+sample patches whose centre disc is salient (:data:`tilesynth.omegaborders.VERTEX_SALIENCY_CAP` set to 1 for the
+build: the default before the vertex-saliency round, byte for byte). ``c5 cap-draw``: the default c5 before the "stats" draw of
 representative sample patches and the periodic rule (``border_criterion="cap"``, ``periodic="off"``: the
 default of main before them, byte for byte).
 
@@ -52,6 +57,7 @@ import numpy as np
 
 import tilesynth as ts
 import tilesynth.metrics
+from tilesynth import omegaborders
 from tilesynth.complete import default_complete_tile_size
 from tilesynth.io import load_image
 from tilesynth.metrics import (
@@ -60,8 +66,10 @@ from tilesynth.metrics import (
     histogram_distance,
     inner_seam_score,
     periodic_copies,
+    repeated_discs,
     repeated_patches,
     seam_score,
+    vertex_disc_radius,
 )
 from tilesynth.quality import texture_stats_distance
 from tilesynth.synthesis import source_map
@@ -104,6 +112,7 @@ ROUND2 = [
     ("c5", "periodic-off", {"periodic": "off"}),
     ("c5", "periodic-lock", {"periodic": "lock"}),
     ("c5", "cap-draw", {"border_criterion": "cap", "periodic": "off"}),
+    ("c5", "no-calm", {"_vertex_cap": 1.0}),
 ]
 BASELINES = ["periodic", "hex", "quilt", "exemplar"]
 """``exemplar``: the exemplar itself (its own detail-layer autocorrelation peak and copies: how far the target
@@ -282,6 +291,9 @@ def measure(img: np.ndarray, ex: np.ndarray, src: np.ndarray | None, tile: int |
         "inner": inner_seam_score(img, tile).max if tile else None,
         "texstats": texture_stats_distance(img, ex),
     }
+    if tile and src is not None:  # repeated salient discs of the vertex content's size, by provenance
+        rd = repeated_discs(src, ex, vertex_disc_radius(tile))
+        row.update(disc_reps=rd.most_repeated, disc_pct=rd.max_percentile, salient=rd.salient_repeats)
     return row
 
 
@@ -297,8 +309,14 @@ def run(textures: list[str], size: int, seed: int, methods: list[str], out_png: 
             if label in BASELINES:
                 continue
             set_name, tile, kw = table_n[label]
+            kw = dict(kw)
+            cap = kw.pop("_vertex_cap", omegaborders.VERTEX_SALIENCY_CAP)
+            saved, omegaborders.VERTEX_SALIENCY_CAP = omegaborders.VERTEX_SALIENCY_CAP, cap
             t = time.process_time()
-            tset = ts.build_omega(ex, tileset=set_name, tile_size=tile, seed=seed, **kw)
+            try:
+                tset = ts.build_omega(ex, tileset=set_name, tile_size=tile, seed=seed, **kw)
+            finally:
+                omegaborders.VERTEX_SALIENCY_CAP = saved
             build = time.process_time() - t
             img, imap = ts.synthesize(tset, size, size, seed=seed)
             src = source_map(tset, imap, size, size)
@@ -373,15 +391,16 @@ def _f(v, fmt=".3f") -> str:
 def table(rows: list[dict]) -> str:
     lines = [
         "| texture | method | copies | repeated | autocorr peak | coverage | hist dist | tex stats | border seam | inner seam "
-        "| cut seam | build CPU s |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| cut seam | disc reps | disc pct | salient reps | build CPU s |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
             f"| {r['texture']} | {r['method']} | {_f(r['copies'])} | {_f(r.get('repeated'))} | {_f(r['autocorr'])} | "
             f"{_f(r['coverage'])} | {_f(r['hist'])} | {_f(r.get('texstats'))} | {_f(r['seam'])} | "
             f"{_f(r.get('inner'))} | "
-            f"{_f(r.get('cut_seam'))} | "
+            f"{_f(r.get('cut_seam'))} | {_f(r.get('disc_reps'), 'd')} | {_f(r.get('disc_pct'))} | "
+            f"{_f(r.get('salient'), '.2f')} | "
             f"{_f(r['build_s'], '.2f')} |"
         )
     lines += [
@@ -389,8 +408,8 @@ def table(rows: list[dict]) -> str:
         "Means over the textures:",
         "",
         "| method | copies | repeated | autocorr peak | coverage | hist dist | tex stats | border seam | inner seam | cut seam "
-        "| build CPU s |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| disc pct | salient reps | build CPU s |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     by: dict[str, list[dict]] = {}
     for r in rows:
@@ -405,7 +424,7 @@ def table(rows: list[dict]) -> str:
         lines.append(
             f"| {key} | {_f(mean('copies'))} | {_f(mean('repeated'))} | {_f(mean('autocorr'))} | {_f(mean('coverage'))} | "
             f"{_f(mean('hist'))} | {_f(mean('texstats'))} | {_f(mean('seam'))} | {_f(mean('inner'))} | "
-            f"{_f(mean('cut_seam'))} | "
+            f"{_f(mean('cut_seam'))} | {_f(mean('disc_pct'))} | {_f(mean('salient'), '.2f')} | "
             f"{_f(mean('build_s'), '.2f')} |"
         )
     return "\n".join(lines)

@@ -326,6 +326,8 @@ SELECTION = Obj(
         # issue 12: the "stats" criterion's distance and the periodic-exemplar rule (tilesynth.periodic)
         "sample_stats_predicted": Num(nan_ok=True),
         "sample_colour_predicted": Num(nan_ok=True),
+        "vertex_saliency_predicted": Num(nan_ok=True),
+        "vertex_moves": _COUNT,
         "periodic": Obj(
             required={
                 "tile_size": _POS,

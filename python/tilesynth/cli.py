@@ -877,6 +877,11 @@ def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
             + (
                 f", sample patches: texture statistics {sel['sample_stats_predicted']:.4f}, colour "
                 f"{sel.get('sample_colour_predicted', float('nan')):.4f}"
+                + (
+                    f", vertex saliency {sel['vertex_saliency_predicted']:.3f}"
+                    if "vertex_saliency_predicted" in sel
+                    else ""
+                )
                 if "sample_stats_predicted" in sel
                 else ""
             )
