@@ -1443,13 +1443,36 @@ pub fn best_matches_many(
     if !ts.is_empty() && k > 0 {
         index.ensure::<f64>(m.is_some())?;
     }
-    // One buffer set per worker, reused across its templates.
+    // One buffer set per piece of the parallel loop, reused across its templates, and handed on to the
+    // next piece through a pool of this call: rayon splits the templates into more pieces than threads
+    // (two with one thread), so without the pool every piece allocated and zero-filled its own. The pool
+    // holds at most one set per thread and is released at the end of the call.
+    let pool = Mutex::new(Vec::new());
     Ok(ts
         .par_iter()
-        .map_init(BestWs::default, |ws, t| {
-            index.best_prepared(t, m.as_deref(), k, exclude_radius, ws)
-        })
+        .map_init(
+            || {
+                Pooled(
+                    pool.lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .pop()
+                        .unwrap_or_default(),
+                    &pool,
+                )
+            },
+            |ws, t| index.best_prepared(t, m.as_deref(), k, exclude_radius, &mut ws.0),
+        )
         .collect())
+}
+
+/// A [`BestWs`] of [`best_matches_many`]'s pool, given back to it when dropped.
+struct Pooled<'a>(BestWs, &'a Mutex<Vec<BestWs>>);
+
+impl Drop for Pooled<'_> {
+    fn drop(&mut self) {
+        let ws = std::mem::take(&mut self.0);
+        self.1.lock().unwrap_or_else(|e| e.into_inner()).push(ws);
+    }
 }
 
 /// [`best_matches_many`] by the first implementation (every translation sorted up front): the baseline of
@@ -3175,10 +3198,17 @@ mod tests {
                     .all(|(a, b)| a.to_bits() == b.to_bits()));
             };
         let mut sizes: Vec<_> = SIZES.to_vec();
+        // Templates of half the image (the matching stage's 256 in 512), less or just over half, odd sides.
         sizes.extend([
             (70, 66, 33, 30, 5),
             (64, 64, 32, 32, 3),
             (130, 120, 64, 40, 3),
+            (128, 96, 64, 48, 3),
+            (96, 128, 24, 64, 3),
+            (66, 70, 20, 35, 4),
+            (64, 64, 33, 31, 3),
+            (63, 64, 20, 32, 3),
+            (64, 63, 32, 20, 2),
         ]);
         for &(hh, ww, h, w, c) in &sizes {
             let img = rand3(&mut rng, (hh, ww, c));
