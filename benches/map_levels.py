@@ -77,7 +77,9 @@ def _border(t: ts.TileSet, spec: materials.MapSpec, a: np.ndarray, imap: np.ndar
     return float(seam_score(x, t.tile_size).score)
 
 
-def measure(name: str, ex: np.ndarray, maps: dict, scheme: str, repeat: int) -> list[str]:
+def _timed_builds(ex: np.ndarray, maps: dict, scheme: str, repeat: int) -> tuple[ts.TileSet, list, list]:
+    """The joint build of ``scheme`` (seed 1) and the CPU times of ``repeat`` colour-only and joint builds,
+    interleaved."""
     ct, jt = [], []
     t = None
     for _ in range(repeat):  # interleaved
@@ -87,6 +89,11 @@ def measure(name: str, ex: np.ndarray, maps: dict, scheme: str, repeat: int) -> 
         t = ts.build(ex, seed=1, maps=maps, **_kw(scheme))
         ct.append(c1 - c0)
         jt.append(time.process_time() - c1)
+    return t, ct, jt
+
+
+def measure(name: str, ex: np.ndarray, maps: dict, scheme: str, repeat: int) -> list[str]:
+    t, ct, jt = _timed_builds(ex, maps, scheme, repeat)
     _, imap = ts.synthesize(t, 384, 384, seed=7)
     alb = B._score(t, np.asarray(t.tiles))
     ratio = statistics.median(jt) / max(statistics.median(ct), 1e-9)
@@ -113,15 +120,7 @@ def measure(name: str, ex: np.ndarray, maps: dict, scheme: str, repeat: int) -> 
 
 def measure_default(name: str, ex: np.ndarray, maps: dict, scheme: str, repeat: int) -> list[str]:
     """The rows of ``--default-only``: every map with the default fusion (both stages)."""
-    ct, jt = [], []
-    t = None
-    for _ in range(repeat):  # interleaved
-        c0 = time.process_time()
-        ts.build(ex, seed=1, **_kw(scheme))
-        c1 = time.process_time()
-        t = ts.build(ex, seed=1, maps=maps, **_kw(scheme))
-        ct.append(c1 - c0)
-        jt.append(time.process_time() - c1)
+    t, ct, jt = _timed_builds(ex, maps, scheme, repeat)
     img, imap = ts.synthesize(t, 384, 384, seed=7)
     alb = B._score(t, np.asarray(t.tiles))
     alb_border = float(seam_score(np.asarray(img, np.float64), t.tile_size).score)
