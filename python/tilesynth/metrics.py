@@ -1365,17 +1365,16 @@ def _disc_kernel(radius: int) -> np.ndarray:
 
 
 def _disc_sums(x: np.ndarray, kernel: np.ndarray) -> np.ndarray:
-    """Σ over the disc ``kernel`` of ``x`` ``(H, W)`` for every window inside: ``(H − 2R + 1, W − 2R + 1)``,
-    entry (y, x) for the window with top-left (y, x) (FFT cross-correlation; no wrap reaches a valid window)."""
-    h, w = x.shape
+    """Σ over the disc ``kernel`` of ``x`` ``(..., H, W)`` for every window inside: ``(..., H − 2R + 1, W − 2R +
+    1)``, entry (y, x) for the window with top-left (y, x) (FFT cross-correlation; no wrap reaches a valid window).
+    Leading axes are planes summed alike: the kernel's spectrum is computed once for all of them."""
+    x = np.asarray(x, dtype=np.float64)
+    h, w = x.shape[-2:]
     k = kernel.shape[0]
     fh, fw = _fft_size(h), _fft_size(w)
-    kp = np.zeros((fh, fw))
-    kp[:k, :k] = kernel
-    xp = np.zeros((fh, fw))
-    xp[:h, :w] = x
-    out = np.fft.irfft2(np.fft.rfft2(xp) * np.conj(np.fft.rfft2(kp)), s=(fh, fw))
-    return out[: h - k + 1, : w - k + 1]
+    spec = np.conj(np.fft.rfft2(kernel, s=(fh, fw)))
+    out = np.fft.irfft2(np.fft.rfft2(x, s=(fh, fw)) * spec, s=(fh, fw))
+    return out[..., : h - k + 1, : w - k + 1]
 
 
 class DiscSaliency:
@@ -1403,12 +1402,12 @@ class DiscSaliency:
         area = float(k.sum())
         lum = luminance(img)
         det = detail_layer(img)
-        feats = [_disc_sums(img[..., ch], k) / area for ch in range(min(c, 3))]
-        m1 = _disc_sums(lum, k) / area
-        m2 = _disc_sums(lum * lum, k) / area
-        feats.append(np.sqrt(np.maximum(m2 - m1 * m1, 0.0)))
-        feats.append(np.sqrt(np.maximum(_disc_sums(det * det, k) / area, 0.0)))
-        f = np.stack(feats, axis=-1)  # (H', W', F)
+        nc = min(c, 3)
+        planes = np.concatenate([np.moveaxis(img[..., :nc], -1, 0), np.stack([lum, lum * lum, det * det])])
+        sums = _disc_sums(planes, k) / area  # the channel means, then E[lum], E[lum²], E[det²] over each disc
+        m1, m2, e_det = sums[nc], sums[nc + 1], sums[nc + 2]
+        contrast = np.sqrt(np.maximum(m2 - m1 * m1, 0.0))
+        f = np.stack([*sums[:nc], contrast, np.sqrt(np.maximum(e_det, 0.0))], axis=-1)  # (H', W', F)
         flat = f.reshape(-1, f.shape[-1])
         self.radius = r
         self.shape = f.shape[:2]
