@@ -61,7 +61,7 @@ import numpy as np
 from PIL import Image
 
 import tilesynth as ts
-from tilesynth import batch
+from tilesynth.cli import batch
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "textures"
 CROP, TILE = 192, 48

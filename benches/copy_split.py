@@ -2,8 +2,8 @@
 or other kept intermediate-tile content, for the default free-region terminals or smaller ones.
 
 Every output pixel is classed by its tile's cut mask and its position in the tile; the 16x16 grid patches that
-:func:`tilesynth.metrics.periodic_copies` counts as copies (same lags, same tolerance) are split by class. The
-terminals are changed by wrapping :func:`tilesynth.levers.free_terminals` (``--disc`` as a fraction of N,
+:func:`tilesynth.measure.metrics.periodic_copies` counts as copies (same lags, same tolerance) are split by class. The
+terminals are changed by wrapping :func:`tilesynth.builder.matching.levers.free_terminals` (``--disc`` as a fraction of N,
 ``--ring`` in pixels); the rest of the build is the library's default.
 
 Usage: ``python benches/copy_split.py TEXTURE [--disc 0.0625] [--ring 1] [--seed 1] [--size 1024]``
@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 
 import tilesynth as ts
-import tilesynth.levers as levers
-from tilesynth.io import load_image
-from tilesynth.metrics import (
+import tilesynth.builder.matching.levers as levers
+from tilesynth.io.images import load_image
+from tilesynth.measure.metrics import (
     COPY_PATCH,
     COPY_TOLERANCE,
     _copy_distances,
@@ -29,8 +29,8 @@ from tilesynth.metrics import (
     inner_seam_score,
     seam_score,
 )
-from tilesynth.quality import texture_stats_distance
-from tilesynth.synthesis import source_map
+from tilesynth.measure.quality import texture_stats_distance
+from tilesynth.synth.synthesis import source_map
 
 TEXTURES = Path(__file__).resolve().parents[2] / "shared" / "textures"
 if not TEXTURES.exists():

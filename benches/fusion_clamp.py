@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The clamped fusion correction (issue 14, ``tilesynth.stages.fusion.fuse_tiles(clamp=w)``) against the default
+"""The clamped fusion correction (issue 14, ``tilesynth.builder.fusion.fuse_tiles(clamp=w)``) against the default
 pinned membrane, on the materials of ``benches/materials.py`` (same builds: ``c4``, seed 1, 256² PBR / 192²
 derived crops): per map, the cut seam score and the border kink profile (``materials._kink_profile``: d = 0 the
 border ring, d = 1 the next pixel row, band = worst over d = 0 .. n/4) of a 384² synthesis; and, with
@@ -22,8 +22,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import materials as B  # noqa: E402
 
 import tilesynth as ts  # noqa: E402
-from tilesynth import kernels, materials  # noqa: E402
-from tilesynth.stages import fusion  # noqa: E402
+from tilesynth.base import kernels
+from tilesynth.builder import (
+    fusion,  # noqa: E402
+    materials,  # noqa: E402
+)
 
 
 def _with_clamp(clamp):  # noqa: ANN001, ANN202

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The maps' fusion with and without its first stage, the exemplar's level correction (issue 14,
-``tilesynth.stages.fusion.exemplar_levels``), on the materials of ``benches/materials.py`` (PBR: 256² crops,
+``tilesynth.builder.fusion.exemplar_levels``), on the materials of ``benches/materials.py`` (PBR: 256² crops,
 derived: 192² crops, seed 1) for the default of every scheme (``omega`` ``c5``, ``wang`` and ``swang`` with their
 default sets and options).
 
@@ -39,8 +39,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import materials as B  # noqa: E402
 
 import tilesynth as ts  # noqa: E402
-from tilesynth import kernels, materials  # noqa: E402
-from tilesynth.metrics import seam_score  # noqa: E402
+from tilesynth.base import kernels
+from tilesynth.builder import materials  # noqa: E402
+from tilesynth.measure.metrics import seam_score  # noqa: E402
 
 
 def _inputs(args):  # noqa: ANN001, ANN202

@@ -19,7 +19,7 @@ exemplar through the provenance (:func:`tilesynth.source_map`). Columns:
 - ``CPU s``, ``CPU ×``: median build CPU time (``time.process_time``) masked and clean, and their ratio (the
   Wang builds take tens of milliseconds: there the fixed cost of the mask and of the input checks, a few
   milliseconds, shows as a large ratio);
-- ``seam``: border seam score of the synthesis (:func:`tilesynth.metrics.seam_score`), masked and clean.
+- ``seam``: border seam score of the synthesis (:func:`tilesynth.measure.metrics.seam_score`), masked and clean.
 
 The machine is shared by other jobs: CPU times are indicative only (ratios of interleaved runs, medians).
 
@@ -38,8 +38,8 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 import tilesynth as ts
-from tilesynth.diagnose import InputWarning, stationarity
-from tilesynth.metrics import seam_score
+from tilesynth.measure.diagnose import InputWarning, stationarity
+from tilesynth.measure.metrics import seam_score
 
 TEXTURES = Path(__file__).resolve().parents[2] / "shared" / "textures"
 if not TEXTURES.exists():
@@ -169,7 +169,7 @@ def main() -> None:
             "",
             *lines,
             "",
-            "## Non-stationarity of the shared textures (tilesynth.diagnose.stationarity)",
+            "## Non-stationarity of the shared textures (tilesynth.measure.diagnose.stationarity)",
             "",
             "The warning fires at a brightness trend >= 1.5 with R² >= 0.7, or a contrast trend >= 3; "
             "`orientation-drift` at a turn >= 15° with R² >= 0.3 and coherence >= 0.35 at every corner.",

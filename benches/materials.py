@@ -4,7 +4,7 @@ against the joint material build (``build --map``), on albedo + normal + height 
 
 For each material and both builds (same seed, the default set ``c4`` of ``tilesynth build``):
 
-* the cut seam score (:func:`tilesynth.metrics.cut_seam_score`, 1 = the cuts are as invisible as any pair of
+* the cut seam score (:func:`tilesynth.measure.metrics.cut_seam_score`, 1 = the cuts are as invisible as any pair of
   neighbouring pixels) of the albedo and of every map, on the tiles as they are laid out (normals as vectors);
 * the share of output normals within 1 ± 0.005 of unit length, on a 512x512 synthesis, for plain and
   ``--smooth`` builds (smoothed normals are renormalised);
@@ -48,8 +48,8 @@ from types import SimpleNamespace
 import numpy as np
 
 import tilesynth as ts
-from tilesynth import materials
-from tilesynth.metrics import _gaussian_blur, cut_seam_score, luminance
+from tilesynth.builder import materials
+from tilesynth.measure.metrics import _gaussian_blur, cut_seam_score, luminance
 
 SET = "c4"  # the default set of `tilesynth build`
 TEXTURES = ("rust", "roof-tiles", "bricks-red", "lettuce-leaves")
@@ -116,7 +116,7 @@ def _specs(t: ts.TileSet) -> dict[str, materials.MapSpec]:
 def _perez_atlas(t: ts.TileSet, spec: materials.MapSpec) -> np.ndarray:
     """**Before** (main at 6153131): the map Poisson-smoothed inside the cut only, the colour's smoothing
     (Pérez, Dirichlet boundary = the intermediate tile next to the cut), normals renormalised by rounding."""
-    from tilesynth.synthesis import _smooth_map_atlas
+    from tilesynth.synth.synthesis import _smooth_map_atlas
 
     arr = t.maps[spec.name]
     atlas = _smooth_map_atlas(t, arr, np.ascontiguousarray(arr[t.source[..., 0], t.source[..., 1]]), None)
@@ -156,7 +156,7 @@ def _reference(t: ts.TileSet, spec: materials.MapSpec, fused: np.ndarray) -> flo
 
 def _albedo_perez(t: ts.TileSet) -> float:
     """The albedo's cut seam after the colour's Poisson smoothing (what ``--smooth`` gives) on this set."""
-    from tilesynth.stages.smoothing import smooth_tiles
+    from tilesynth.builder.smoothing import smooth_tiles
 
     n = t.tile_size
     a = t.exemplar.astype(np.float32) / (np.float32(255) if t.exemplar.dtype == np.uint8 else np.float32(1))
@@ -174,7 +174,7 @@ def _kink_profile(
     distance ``d`` over its mean at the pixels farther than ``n / 4`` from every border. A smooth map whose tiles
     were corrected inside a fixed border ring bends there: a faint grid line in shading, which neither the
     border seam score (steps) nor the cut seam sees. Returned for ``d = 0 .. n / 4``."""
-    from tilesynth import kernels
+    from tilesynth.base import kernels
 
     img = np.empty((size, size, atlas.shape[3]), atlas.dtype)
     kernels.tile_copy(np.ascontiguousarray(atlas), imap, img)
@@ -228,7 +228,7 @@ def _unit_share(a: np.ndarray) -> float:
 def _normal_shares(t: ts.TileSet, size: int = 512, seed: int = 7) -> dict[str, float]:
     """Share of output normals within 1 ± 0.005: before (copies keep the input's codes; smoothed pixels rounded)
     and after (every vector re-encoded, ``normal_codes``)."""
-    from tilesynth import kernels
+    from tilesynth.base import kernels
 
     _, imap = ts.synthesize(t, size, size, seed=seed)
     spec = _specs(t)["normal"]
@@ -320,7 +320,7 @@ def table(rows: list[dict], repeat: int) -> str:
         "",
         "Same run, same tile sets. *copies*: copied through the cuts (`--map-smooth off`); *before*: smoothed as on "
         "main at 6153131 (the colour's Pérez smoothing inside the cut, the intermediate tile next to it fixed); "
-        "*after*: the default now (`tilesynth.stages.fusion`: gradient-domain fusion of every seam over the tile "
+        "*after*: the default now (`tilesynth.builder.fusion`: gradient-domain fusion of every seam over the tile "
         "interior, border ring kept); *reference*: what a perfectly hidden seam scores where the cut runs (the two "
         "patches' own steps at the cut's pixel pairs). Joint build; the colour-only build's *after* for comparison. "
         "*Border kink*: the mean absolute second difference at the pixels beside every tile border over its mean "
@@ -344,7 +344,7 @@ def table(rows: list[dict], repeat: int) -> str:
         "## Normals within 1 ± 0.005 of unit length (512² output of the joint build, 8-bit normal maps)",
         "",
         "*before*: copies keep the input's own 8-bit codes, smoothed pixels renormalised and rounded; *after*: every "
-        "vector re-encoded by `tilesynth.normal_codes.encode_unit` (decoding `v = code / 255 · 2 − 1`).",
+        "vector re-encoded by `tilesynth.io.normal_codes.encode_unit` (decoding `v = code / 255 · 2 − 1`).",
         "",
         "| material | copies before | copies after | smoothed before | smoothed after |",
         "|---|---|---|---|---|",
@@ -379,7 +379,7 @@ def figure(path: str, albedo: np.ndarray, maps: dict, seed: int, size: int = 200
     maps copied through its cuts (``synth --with``); colour-only with the maps fused (``synth`` on a set built with
     weight-0 maps); the joint build with the maps smoothed as before (Pérez inside the cut, main at 6153131); the
     joint build as ``synth`` writes it now (seam-free fusion)."""
-    from tilesynth import kernels
+    from tilesynth.base import kernels
 
     colour = _with_maps(ts.build(albedo, tileset=SET, seed=seed), maps)
     joint = ts.build(albedo, tileset=SET, seed=seed, maps=maps)
@@ -427,7 +427,7 @@ def shaded(
     (``relief``): copies, before (Pérez inside the cut) and after (fusion), side by side."""
     from PIL import Image
 
-    from tilesynth import kernels
+    from tilesynth.base import kernels
 
     t = ts.build(albedo, tileset=SET, seed=seed, maps=maps)
     _, imap = ts.synthesize(t, size, size, seed=7)

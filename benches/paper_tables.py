@@ -22,7 +22,7 @@ space keeps the papers' proportions. Everything is printed as Markdown (``--out 
 2. **000 Table 1**: the wall time of 000's GA {pop 40, α 0.05, P_c 0.3, P_m 0.2, N_g 50, N_o 5} (plain E, as 000)
    on the textures of 000's Table 1 that we have, median over seeds, against 000's seconds (Pentium 4, ANN search).
 3. **Schemes**: each scheme of :data:`SCHEMES` builds a tile set per texture (build seed 1) and a sample
-   (``--size``, tiling seeds 1..``--seeds``) is measured by :mod:`tilesynth.metrics`: border seam score, coherence
+   (``--size``, tiling seeds 1..``--seeds``) is measured by :mod:`tilesynth.measure.metrics`: border seam score, coherence
    energy (as rms, 8x8 patches, stride 4), coverage and its evenness, repetition peak; means over the tiling seeds.
    Adding a scheme is one entry in :data:`SCHEMES` (a name and a builder; ``build=None`` prints it as pending).
    The border seam score does not see the cuts inside ω tiles, so smoothing shows up in the coherence energy
@@ -55,8 +55,8 @@ from typing import Any
 import numpy as np
 
 import tilesynth as ts
-from tilesynth import metrics
-from tilesynth.select import select_genes
+from tilesynth.builder.genes.select import select_genes
+from tilesynth.measure import metrics
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))

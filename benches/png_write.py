@@ -1,4 +1,4 @@
-"""PNG writing: tilesynth's encoder (``tilesynth.io.encode_png``, every compression level) against Pillow's
+"""PNG writing: tilesynth's encoder (``tilesynth.io.images.encode_png``, every compression level) against Pillow's
 default ``save`` (zlib level 6, adaptive filters), side by side on the same synthesized texture.
 
 Interleaved rounds (Pillow, then each level, in turn), medians of CPU time (``time.process_time``: all
@@ -27,7 +27,7 @@ import numpy as np
 from PIL import Image
 
 import tilesynth as ts
-from tilesynth.io import PNG_COMPRESSIONS, encode_png
+from tilesynth.io.images import PNG_COMPRESSIONS, encode_png
 
 HERE = Path(__file__).resolve().parent
 TEXTURE = HERE.parent.parent / "shared" / "textures" / "gravel.png"

@@ -1,12 +1,12 @@
 """Repetition bench (issue 12): how much do outputs repeat, per method, on textures of ../shared/textures.
 
 Methods, on each texture (exemplar = the whole file, tile size N = the complete sets' default,
-:func:`tilesynth.complete.default_complete_tile_size`: a quarter of the shorter side rounded down to a multiple
+:func:`tilesynth.layouts.complete.default_complete_tile_size`: a quarter of the shorter side rounded down to a multiple
 of 8):
 
 - ``16a``: the seed paper's set with the scan-line tiler (the old default), at the default tile size and at N;
 - ``c3``, ``c3x2``, ``c4``: complete corner sets (hashed lookup), built by the plain ω construction at N (inscribed
-  circle, each tile's best match), and with the levers of :mod:`tilesynth.levers`: ``div1`` (diversity 1),
+  circle, each tile's best match), and with the levers of :mod:`tilesynth.builder.matching.levers`: ``div1`` (diversity 1),
   ``free`` (free cut region: tapered area reward and ring penalty), ``free+div1`` (both: the defaults of
   complete sets), ``ring+div1`` (the first free region, a uniform area reward 0.02: the default before the
   inner-lattice seam was found);
@@ -18,12 +18,12 @@ of 8):
   the block, exhaustive SSD over every exemplar position (FFT), random choice among the positions within
   (1 + 0.1)·min, DP minimum-error cuts in the overlaps.
 
-Measures (:mod:`tilesynth.metrics`): periodic-copy fraction, repeated-patch fraction (:func:`tilesynth.metrics.repeated_patches`:
+Measures (:mod:`tilesynth.measure.metrics`): periodic-copy fraction, repeated-patch fraction (:func:`tilesynth.measure.metrics.repeated_patches`:
 16x16 grid patches whose exact pixels recur anywhere else, e.g. the vertex content of corner tiles), detail-layer autocorrelation peak, exemplar
 coverage (the provenance of every pixel: for hex tiling the vertex with the largest weight), histogram distance,
-texture-statistics distance (:func:`tilesynth.quality.texture_stats_distance`: Gram matrices of fixed random
-filters at scales 1 and 2, the issue's "no loss in texture statistics against 16a"), border seam score and inner-lattice seam score (:func:`tilesynth.metrics.inner_seam_score`, the worst line
-1-4 px inside the tile borders; tile sets: tile size N; others: n/a), repeated salient discs (tile sets only, :func:`tilesynth.metrics.repeated_discs`: discs of
+texture-statistics distance (:func:`tilesynth.measure.quality.texture_stats_distance`: Gram matrices of fixed random
+filters at scales 1 and 2, the issue's "no loss in texture statistics against 16a"), border seam score and inner-lattice seam score (:func:`tilesynth.measure.metrics.inner_seam_score`, the worst line
+1-4 px inside the tile borders; tile sets: tile size N; others: n/a), repeated salient discs (tile sets only, :func:`tilesynth.measure.metrics.repeated_discs`: discs of
 the vertex content's radius 0.22·N copied by provenance: ``disc reps`` occurrences of the most repeated one, ``disc
 pct`` the saliency percentile of the most salient disc that recurs 4 times or more, ``salient reps`` copies of
 repeated discs above the 0.9 percentile per 100 disc centres), build CPU seconds. One Markdown table, then means per
@@ -34,10 +34,10 @@ complete sets (free cut, diversity 1, border-aware best-of-32 corner draw, defau
 (``c4x2``, ``c5``, ``augment`` flip / rotate / all, diversity 2); ``exemplar`` = the exemplar's own copies and
 autocorrelation peak (lags up to half the exemplar). ``--methods "c4 default;hex;exemplar"`` runs a selection
 (semicolon-separated names of :func:`method_table` and :data:`BASELINES`). ``c5 free8``: the default c5 with the
-8-connected geo-cut free region (staircase round, :mod:`tilesynth.levers`). ``c5 periodic-off`` / ``c5
+8-connected geo-cut free region (staircase round, :mod:`tilesynth.builder.matching.levers`). ``c5 periodic-off`` / ``c5
 periodic-lock``: the default c5 without the periodic-exemplar tile size (the default before it) / with the
-phase lock as well (:mod:`tilesynth.periodic`). ``c5 no-calm``: the default c5 without moving the
-sample patches whose centre disc is salient (:data:`tilesynth.omegaborders.VERTEX_SALIENCY_CAP` set to 1 for the
+phase lock as well (:mod:`tilesynth.builder.periodic`). ``c5 no-calm``: the default c5 without moving the
+sample patches whose centre disc is salient (:data:`tilesynth.builder.genes.omega_borders.VERTEX_SALIENCY_CAP` set to 1 for the
 build: the default before the vertex-saliency round, byte for byte). ``c5 cap-draw``: the default c5 before the "stats" draw of
 representative sample patches and the periodic rule (``border_criterion="cap"``, ``periodic="off"``: the
 default of main before them, byte for byte).
@@ -56,11 +56,11 @@ from pathlib import Path
 import numpy as np
 
 import tilesynth as ts
-import tilesynth.metrics
-from tilesynth import omegaborders
-from tilesynth.complete import default_complete_tile_size
-from tilesynth.io import load_image
-from tilesynth.metrics import (
+import tilesynth.measure.metrics
+from tilesynth.builder.genes import omega_borders as omegaborders
+from tilesynth.io.images import load_image
+from tilesynth.layouts.complete import default_complete_tile_size
+from tilesynth.measure.metrics import (
     coverage,
     detail_repetition,
     histogram_distance,
@@ -71,8 +71,8 @@ from tilesynth.metrics import (
     seam_score,
     vertex_disc_radius,
 )
-from tilesynth.quality import texture_stats_distance
-from tilesynth.synthesis import source_map
+from tilesynth.measure.quality import texture_stats_distance
+from tilesynth.synth.synthesis import source_map
 
 TEXTURES = Path(__file__).resolve().parents[2] / "shared" / "textures"
 if not TEXTURES.exists():

@@ -19,7 +19,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 import tilesynth as ts
-from tilesynth.io import load_image
+from tilesynth.io.images import load_image
 
 
 def panel(set_name: str, ex: np.ndarray, crop: int) -> tuple[np.ndarray, int, str]:

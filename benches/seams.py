@@ -7,9 +7,9 @@ the builder's default), plus the variants that tell the Wang corner story (Cohen
 pinned corners, for ``wang8`` and ``wang18``), on the textures below:
 
 - ``border``: the border seam score S of a ``--size`` synthesis (default 1024x1024, tiling seed 7;
-  :func:`tilesynth.metrics.seam_score`: mean squared step across tile borders over the mean inside tiles; 1 =
+  :func:`tilesynth.measure.metrics.seam_score`: mean squared step across tile borders over the mean inside tiles; 1 =
   borders look like any other step, > 1 visible);
-- ``cut``: the cut seam score of the tile set (:func:`tilesynth.metrics.cut_seam_score`; the same ratio for the
+- ``cut``: the cut seam score of the tile set (:func:`tilesynth.measure.metrics.cut_seam_score`; the same ratio for the
   pixel pairs across the cutting curves inside the tiles);
 - ``disc``: the share of pixel pairs across tile borders of that synthesis that are *not* continuous exemplar
   content (through the provenance, :func:`tilesynth.source_map`).
@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 
 import tilesynth as ts
-from tilesynth import metrics
+from tilesynth.measure import metrics
 from tilesynth.schemes import REGISTRY
 
 HERE = Path(__file__).resolve().parent
@@ -87,7 +87,7 @@ def variants() -> list[tuple[str, str, dict[str, Any]]]:
 
 def corner_variants() -> list[tuple[str, str, dict[str, Any]]]:
     """``--corner``: ω c4 and patch 16a with 1, 16 (ω only) and 32 border-aware draws ranked by the criteria of
-    :mod:`tilesynth.omegaborders` ("min": smallest S_pred; "log": smallest |log S_pred|; "cap": closest to
+    :mod:`tilesynth.builder.genes.omega_borders` ("min": smallest S_pred; "log": smallest |log S_pred|; "cap": closest to
     0.8 among S_pred <= 1), and the
     Wang-8 default with the "log" and "cap" criteria as a figure. Each row is built from explicit genes drawn here from
     ``default_rng(1)`` (the first draw is the same for every count and criterion), so the rows differ only by
@@ -105,9 +105,10 @@ def corner_variants() -> list[tuple[str, str, dict[str, Any]]]:
 
 def corner_genes(ex: np.ndarray, scheme: str, kw: dict[str, Any]) -> dict[str, Any]:
     """The builder kwargs of a :func:`corner_variants` row: explicit genes chosen by its criterion."""
-    from tilesynth import omegaborders, wangborders
-    from tilesynth.complete import default_complete_tile_size
-    from tilesynth.genes import default_tile_size, random_genes
+    from tilesynth.builder.genes import omega_borders as omegaborders
+    from tilesynth.builder.genes import wang_borders as wangborders
+    from tilesynth.builder.genes.draws import default_tile_size, random_genes
+    from tilesynth.layouts.complete import default_complete_tile_size
 
     kw = dict(kw)
     tries, crit = kw.pop("_tries"), kw.pop("_crit")
@@ -181,10 +182,10 @@ def measure(
 
 
 def _predicted(ex: np.ndarray, tiles: ts.TileSet) -> float | None:
-    """S_pred of a corner set's genes (:func:`tilesynth.omegaborders.predicted_corner_border_seam`)."""
+    """S_pred of a corner set's genes (:func:`tilesynth.builder.genes.omega_borders.predicted_corner_border_seam`)."""
     if tiles.scheme not in ("omega", "patch"):
         return None
-    from tilesynth.omegaborders import predicted_corner_border_seam
+    from tilesynth.builder.genes.omega_borders import predicted_corner_border_seam
 
     return predicted_corner_border_seam(ex, tiles.genes, tiles.tile_size)
 

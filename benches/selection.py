@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 
 import tilesynth as ts
-from tilesynth.select import select_genes
+from tilesynth.builder.genes.select import select_genes
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_TEXTURES = HERE.parent.parent / "shared" / "textures"
@@ -331,9 +331,9 @@ VISIBLE_MEASURES = (
 def visible_measures(tset: Any, size: int, threads: int | None) -> dict[str, float]:
     """What users see of a tile set: the cut score and cut seam of its tiles, and of a ``size``² synthesis
     (seed 1) the coherence energy, texture-statistics and histogram distances to the exemplar and the coverage."""
-    from tilesynth.metrics import coherence_energy, coverage, cut_seam_score, histogram_distance
-    from tilesynth.quality import cut_score, texture_stats_distance
-    from tilesynth.synthesis import source_map
+    from tilesynth.measure.metrics import coherence_energy, coverage, cut_seam_score, histogram_distance
+    from tilesynth.measure.quality import cut_score, texture_stats_distance
+    from tilesynth.synth.synthesis import source_map
 
     img, imap = ts.synthesize(tset, size, size, seed=1, threads=threads)
     src = source_map(tset, imap, size, size)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The selection users actually get (issue 15, helper selq2): ``tilesynth build``'s default set is ``c5`` (625
 tiles), whose default selection is one random gene vector made border-aware ("obord": 32 random draws, the one
-whose predicted border seam is closest to 0.8 without exceeding 1 kept, :mod:`tilesynth.omegaborders`).
+whose predicted border seam is closest to 0.8 without exceeding 1 kept, :mod:`tilesynth.builder.genes.omega_borders`).
 
 Its visible measures (``benches/selection.py``'s :func:`visible_measures`: the tiles' cut score and cut seam, and
 of a 512² synthesis with seed 1 coherence, texture statistics, histogram distance, coverage) against the median

@@ -7,12 +7,12 @@ random baseline of ``benches/selection_c5.py``), ``--seeds`` builds of today's d
 draw, seeds 1..). Every build is scored by ``benches/selection.py``'s :func:`visible_measures` (the tiles' cut
 score and cut seam, and of a 512² synthesis with seed 1 coherence, texture statistics, histogram, coverage).
 The pool is the random draws themselves (their gene vectors). Every pool vector is also measured on the
-cheap **window proxies** (:class:`WindowJudge`, as :mod:`tilesynth.winselect`): the tiles of one
+cheap **window proxies** (:class:`WindowJudge`, as :mod:`tilesynth.builder.genes.window_objective`): the tiles of one
 ``W x W``-cell window of the hashed tiling (tiler seed 7919, not the scored seed 1; the cells' tile indices do
 not depend on the genes, so every candidate builds the same <= W² tuples) are built, their cut seam and cut
 score taken, and the window's image (W·N pixels square) measured for coherence (exact; W = 8: a fixed sample of
 400 patches) and texture statistics;
-also the predicted border seam S_pred (:mod:`tilesynth.omegaborders`). CPU time (``time.process_time``) of
+also the predicted border seam S_pred (:mod:`tilesynth.builder.genes.omega_borders`). CPU time (``time.process_time``) of
 every build, evaluation and proxy.
 
 **Replay**: the ceiling (the expected best of K pool vectors by the evaluation itself, per measure, exact over
@@ -66,10 +66,10 @@ class C5Builder:
     """The stages of ``build_omega(ex)`` with c5's defaults, callable on a subset of the tiles."""
 
     def __init__(self, ex: np.ndarray, threads: int | None) -> None:
-        from tilesynth.complete import complete_defaults
-        from tilesynth.layouts import CornerPlan, corner_set
-        from tilesynth.omega import omega_options
-        from tilesynth.options import common_options
+        from tilesynth.builder.omega import omega_options
+        from tilesynth.builder.options import common_options
+        from tilesynth.layouts.complete import complete_defaults
+        from tilesynth.layouts.corners import CornerPlan, corner_set
 
         b = common_options(ex, tileset="c5", resolve_set=corner_set, seed=0, threads=threads)
         comp = complete_defaults(b.definition, b.exemplar.shape, "ssd", "color")
@@ -85,18 +85,18 @@ class C5Builder:
         assert self.plan.n_variants == 1
         self.n = self.b.tile_size
         self.ex = self.b.exemplar
-        from tilesynth.lookup import lookup_scheme
+        from tilesynth.layouts.hashed import lookup_scheme
 
         self.scheme = lookup_scheme(b.definition)
 
     def window(self, cells: int, seed: int = PROXY_SEED) -> np.ndarray:
-        from tilesynth.lookup import index_map
+        from tilesynth.layouts.hashed import index_map
 
         return np.asarray(index_map(self.scheme, seed, (cells, cells)))
 
     def build_tiles(self, genes: np.ndarray, tile_idx: np.ndarray) -> Any:
-        from tilesynth.layouts import CornerPlan
-        from tilesynth.omega import _stages
+        from tilesynth.builder.omega import _stages
+        from tilesynth.layouts.corners import CornerPlan
 
         rows = self.plan.inverse[tile_idx]
         k = len(tile_idx)
@@ -111,7 +111,7 @@ class WindowJudge:
     """Proxy measures of one candidate on a window of the hashed tiling (see the module docstring)."""
 
     def __init__(self, builder: C5Builder, cells: int, sample: int | None = None) -> None:
-        from tilesynth.visselect import ProxyJudge
+        from tilesynth.builder.genes.visible_objective import ProxyJudge
 
         self.sample = sample
         self.builder = builder
@@ -121,9 +121,9 @@ class WindowJudge:
         self.judge = ProxyJudge(builder.ex, builder.n, builder.b.threads)
 
     def measures(self, genes: np.ndarray) -> dict[str, float]:
-        from tilesynth.metrics import cut_seam_score
-        from tilesynth.quality import cut_score
-        from tilesynth.visselect import coherence_estimate, texture_stats_estimate
+        from tilesynth.builder.genes.visible_objective import coherence_estimate, texture_stats_estimate
+        from tilesynth.measure.metrics import cut_seam_score
+        from tilesynth.measure.quality import cut_score
 
         t0 = time.process_time()
         res = self.builder.build_tiles(genes, self.uniq)
@@ -153,7 +153,7 @@ class WindowJudge:
 
 
 def collect(a: argparse.Namespace) -> dict[str, Any]:
-    from tilesynth.omegaborders import predicted_corner_border_seam
+    from tilesynth.builder.genes.omega_borders import predicted_corner_border_seam
 
     out: dict[str, Any] = {"textures": {}, "args": {k: str(v) for k, v in vars(a).items()}}
     for name in a.textures.split(","):
@@ -243,7 +243,7 @@ def ceiling(data: dict[str, Any], ks: tuple[int, ...]) -> None:
 
 
 def _pick(rows: list[dict[str, Any]], keys: list[str]) -> int:
-    from tilesynth.visselect import pick_by_ranks
+    from tilesynth.builder.genes.visible_objective import pick_by_ranks
 
     return pick_by_ranks(rows, tuple(keys))
 

@@ -4,10 +4,10 @@ coherence and texture statistics at the cost of today's default.
 
 For each texture and build seed, the default's first stage (best-of ``--count`` by ΣD, the draws of
 ``build_omega(seed=s)``) keeps its ``--keep`` best candidates; each is built and measured by every proxy the rules
-may use (all from a small synthesis with seed :data:`tilesynth.visselect.PROXY_SEED`, never the evaluation's):
+may use (all from a small synthesis with seed :data:`tilesynth.builder.genes.visible_objective.PROXY_SEED`, never the evaluation's):
 
 * ``cut_score``, ``cut_seam``: of the tiles (no synthesis);
-* ``coh_exact``: the coherence of the ``--proxy``² proxy (:func:`tilesynth.visselect.coherence_estimate`, exact at
+* ``coh_exact``: the coherence of the ``--proxy``² proxy (:func:`tilesynth.builder.genes.visible_objective.coherence_estimate`, exact at
   these sizes); ``coh_s{k}``: the same from a fixed sample of k searched patches;
 * ``tex``: the texture statistics of the proxy; ``tex_c{k}``: of its top-left k² crop;
 
@@ -42,9 +42,13 @@ CROPS = (128, 192)
 
 
 def proxies(tset: Any, judge: Any, side: int, threads: int | None) -> dict[str, float]:
-    from tilesynth.metrics import cut_seam_score
-    from tilesynth.quality import cut_score
-    from tilesynth.visselect import PROXY_SEED, coherence_estimate, texture_stats_estimate
+    from tilesynth.builder.genes.visible_objective import (
+        PROXY_SEED,
+        coherence_estimate,
+        texture_stats_estimate,
+    )
+    from tilesynth.measure.metrics import cut_seam_score
+    from tilesynth.measure.quality import cut_score
 
     out: dict[str, float] = {}
     t0 = time.process_time()
@@ -90,7 +94,7 @@ def fit(ex: np.ndarray, side: int | None) -> np.ndarray:
 
 
 def collect(a: argparse.Namespace) -> dict[str, Any]:
-    from tilesynth.visselect import ProxyJudge
+    from tilesynth.builder.genes.visible_objective import ProxyJudge
 
     base = {"tileset": a.kind, "tile_size": 80} if a.kind == "n2" else {"tileset": a.kind}
     out: dict[str, Any] = {"kind": a.kind, "textures": {}, "args": {k: str(v) for k, v in vars(a).items()}}

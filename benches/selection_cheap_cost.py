@@ -3,7 +3,7 @@
 ``/usr/bin/time -v`` (see ``benches/selection-results.md``). Modes: ``random``, ``default`` (cut re-rank 4),
 ``visible`` (8 candidates, exact proxy), ``cheap5`` (5 candidates, rank sum of cut seam and the coherence of 128
 sampled patches: the rule chosen on the tuning textures), ``cheap4`` (4 candidates, cut seam + coherence of 256
-sampled patches + texture statistics of the 128² crop). The cheap modes patch :mod:`tilesynth.visselect`.
+sampled patches + texture statistics of the 128² crop). The cheap modes patch :mod:`tilesynth.builder.genes.visible_objective`.
 
 Usage: ``python benches/selection_cheap_cost.py MODE TEXTURE TILE_SIZE``; prints the build's CPU seconds."""
 
@@ -13,7 +13,7 @@ import sys
 import time
 
 import tilesynth as ts
-import tilesynth.visselect as vs
+import tilesynth.builder.genes.visible_objective as vs
 
 
 def main() -> int:

@@ -2,7 +2,7 @@
 """Replay selection rules on the records of ``benches/selection_cheap.py`` (issue 15, helper selq2).
 
 A rule ``K:agg:key+key+...`` keeps one of the first K candidates (by ΣD) from the proxies alone: ``agg`` ``r`` =
-smallest sum of ranks (:func:`tilesynth.visselect.pick_by_ranks`, ties to the better by ΣD), ``l`` = smallest sum
+smallest sum of ranks (:func:`tilesynth.builder.genes.visible_objective.pick_by_ranks`, ties to the better by ΣD), ``l`` = smallest sum
 of logs of the ratios to the candidates' medians; ``1:sumd`` = the best by ΣD; ``K:cut`` = today's default (the
 lowest cut score). The kept candidate's **evaluation** (512² synthesis, seed 1) is compared with the median of the
 random draws: gain in %, median over the seeds, then the mean over the textures. The CPU column is the model
@@ -47,7 +47,7 @@ def _cost_keys(key: str) -> tuple[str, ...]:
 
 
 def pick(rows: list[dict[str, Any]], rule: str) -> int:
-    from tilesynth.visselect import pick_by_ranks
+    from tilesynth.builder.genes.visible_objective import pick_by_ranks
 
     parts = rule.split(":")
     k = int(parts[0])

@@ -5,8 +5,8 @@ For each texture and each build seed, the default's first stage (best-of ``--cou
 the same draws as ``build_omega(seed=s)``) keeps its ``--keep`` best candidates; each is built, and measured twice:
 
 * on the **proxy** the selection may see: the tiles' own cut score and cut seam, and a small synthesis with a
-  different seed and size than the evaluation (:class:`tilesynth.visselect.ProxyJudge`: a 256² synthesis with
-  seed :data:`tilesynth.visselect.PROXY_SEED` = 7919 at 80-px tiles): coherence, texture statistics;
+  different seed and size than the evaluation (:class:`tilesynth.builder.genes.visible_objective.ProxyJudge`: a 256² synthesis with
+  seed :data:`tilesynth.builder.genes.visible_objective.PROXY_SEED` = 7919 at 80-px tiles): coherence, texture statistics;
 * on the **evaluation** the bench scores: a ``--size``² synthesis with seed 1 (exactly
   ``benches/selection.py``'s :func:`visible_measures`).
 
@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 import tilesynth as ts
-import tilesynth.cutselect as cutselect
+import tilesynth.builder.genes.cut_objective as cutselect
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from selection import DEFAULT_TEXTURES, VISIBLE_MEASURES, _gain, load, visible_measures  # noqa: E402
@@ -43,7 +43,7 @@ from selection import DEFAULT_TEXTURES, VISIBLE_MEASURES, _gain, load, visible_m
 def _fast_gram_patch() -> None:
     """Speed the evaluation's texture statistics: the 25 x 25 Gram product by BLAS (run with
     OPENBLAS_NUM_THREADS=1) instead of einsum; the value is the same up to float rounding."""
-    import tilesynth.quality as q
+    import tilesynth.measure.quality as q
 
     slow = q._gram
 
@@ -70,9 +70,9 @@ TEXTURES = ("gravel.png", "beans.png", "caustics.png", "grapes.png", "tomatoes.p
 
 
 def proxy_measures(tset: Any, judge: Any) -> dict[str, float]:
-    """The library's proxy (:class:`tilesynth.visselect.ProxyJudge`) plus the tiles' cut score and the proxy's
+    """The library's proxy (:class:`tilesynth.builder.genes.visible_objective.ProxyJudge`) plus the tiles' cut score and the proxy's
     histogram distance (for rules that use them)."""
-    from tilesynth.quality import cut_score
+    from tilesynth.measure.quality import cut_score
 
     out = judge.measures(tset)
     out["cut_score"] = cut_score(tset.cut_costs, tset.tile_size)
@@ -101,7 +101,7 @@ EVAL_RULES = ("1:sumd", "4:cut", "4:rank3", "6:rank3", "8:rank3", "8:logsum3", "
 
 
 def collect(a: argparse.Namespace) -> dict[str, Any]:
-    from tilesynth.visselect import ProxyJudge
+    from tilesynth.builder.genes.visible_objective import ProxyJudge
 
     kind = a.kind
     base = {"tileset": "n2", "tile_size": 80} if kind == "n2" else {"tileset": kind}
@@ -166,7 +166,7 @@ def rule_pick(rows: list[dict[str, Any]], rule: str) -> int:
     }[how]
     m = np.array([[r["proxy"][q] for q in keys] for r in rows])
     if not how.startswith("logsum"):
-        from tilesynth.visselect import pick_by_ranks
+        from tilesynth.builder.genes.visible_objective import pick_by_ranks
 
         return pick_by_ranks([r["proxy"] for r in rows], keys)
     else:  # sum of logs: the product of the ratios to the candidates' median

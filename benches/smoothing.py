@@ -4,7 +4,7 @@ it, how many values the clip to [0, 1] touches, the solver's iterations and resi
 of the build time. Both builds use the same seed, so they have the same genes, matching patches and cuts.
 
 The speed of the solver itself against scipy and OpenCV is ``benches/poisson_compare.py``; this script is about
-the result. The cut seam score (:func:`tilesynth.metrics.cut_seam_score`) is the mean squared step across the
+the result. The cut seam score (:func:`tilesynth.measure.metrics.cut_seam_score`) is the mean squared step across the
 cutting curves over the mean squared step of all pixel pairs of the tiles: 1 = the cut is as invisible as any
 pair of neighbours.
 
@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 import tilesynth as ts
-from tilesynth.metrics import cut_seam_score
+from tilesynth.measure.metrics import cut_seam_score
 
 TEXTURES = ("gravel", "rust", "tomatoes", "bread", "grapes", "caustics")
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "textures"

@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 import tilesynth as ts
-from tilesynth.wang import corner_mismatch
+from tilesynth.builder.wang import corner_mismatch
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_TEXTURES = HERE.parent.parent / "shared" / "textures"

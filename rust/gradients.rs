@@ -10,7 +10,7 @@
 //! the L2 norm over channels in `f64` (each value converted from `f32`, the squares summed in channel
 //! order, then `sqrt`): bit-identical to the NumPy reference
 //! `sqrt(((e[:, 1:] - e[:, :-1]) ** 2).sum(-1))` for `C < 8` (where NumPy sums sequentially), which is
-//! what `tilesynth.omega.patch_gradients` computed before.
+//! what `tilesynth.builder.omega.patch_gradients` computed before.
 
 use crate::error::{fmt_shape, Result, TilesynthError};
 use ndarray::{Array2, ArrayView2, ArrayView3};

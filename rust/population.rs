@@ -8,7 +8,7 @@
 //! `⟨TL, BL, TR, BR⟩` patches. Intermediate tile `T_j` (`N x N`) takes its TL quadrant from the bottom-right
 //! quarter of the TL patch, its BL quadrant from the top-right quarter of the BL patch, its TR quadrant from
 //! the bottom-left quarter of the TR patch and its BR quadrant from the top-left quarter of the BR patch
-//! (see `tilesynth.omega`). Then
+//! (see `tilesynth.builder.omega`). Then
 //!
 //! ```text
 //! C_j(t) = sum_{p, c} (T_j(p, c) - I(p + t, c))^2        t in [0, H - N] x [0, W - N]
@@ -870,7 +870,7 @@ mod tests {
         }
     }
 
-    /// Tile set 16a (colours R, G, B, Y = gene indices 0..4), as in `tilesynth.tilesets`.
+    /// Tile set 16a (colours R, G, B, Y = gene indices 0..4), as in `tilesynth.layouts.omega_sets`.
     const SET_16A: &str =
         "BRYG BYRG BYYR BRRB YGRB YRGB YRRG YGGY RBGY RGBY RGGB RBBR GYBR GBYR GBBY GYYG";
 

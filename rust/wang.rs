@@ -2,7 +2,7 @@
 //! match of Dong, Sun and Paul, paper 001), Burke's square variant, and the closed graph cut of the strict
 //! Wang tiles of Zhang and Kim (paper 004).
 //!
-//! ## Geometry (the same as `tilesynth.wang`, which documents it with a figure)
+//! ## Geometry (the same as `tilesynth.builder.wang`, which documents it with a figure)
 //!
 //! A tile is `N x N` (N even, `h = N/2`), pixel `(y, x)` with centre `(y + ½, x + ½)`. Its four edge colours
 //! N, E, S, W each name one *sample*: a square of exemplar content of side `P` whose top-left corner is the

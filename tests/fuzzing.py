@@ -248,8 +248,8 @@ def call_checked(fn: Any, args: tuple, kwargs: dict, allowed: tuple, mutable: tu
     """
     import warnings
 
-    from tilesynth.diagnose import InputWarning
     from tilesynth.errors import InternalError
+    from tilesynth.measure.diagnose import InputWarning
 
     keep = tuple(a for i, a in enumerate(args) if i not in mutable)
     snaps = snapshot(keep, {k: v for k, v in kwargs.items() if k != "out"})

@@ -215,8 +215,8 @@ def test_cli_build_under_a_memory_limit_exits_2(tmp_path):
     tilesynth.save_image(ex, rng.integers(0, 256, (1024, 1024, 3), dtype=np.uint8))
     out = tmp_path / "x.tiles"
     code = _PRELUDE + textwrap.dedent(f"""
-        from tilesynth.cli import main
-        from tilesynth.io import load_image
+        from tilesynth.cli.main import main
+        from tilesynth.io.images import load_image
         load_image({str(ex)!r})  # the decoder and its buffers once, before the limit
         resource.setrlimit(resource.RLIMIT_AS, (vm_bytes() + (48 << 20), resource.RLIM_INFINITY))
         sys.exit(main(["build", {str(ex)!r}, "-o", {str(out)!r}, "--seed", "1", "-q"]))

@@ -1,4 +1,4 @@
-"""Flip / rotate augmentation of the matching candidates (issue 12, item 6; tilesynth.augment)."""
+"""Flip / rotate augmentation of the matching candidates (issue 12, item 6; tilesynth.builder.matching.augment)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import tilesynth as ts
-from tilesynth import kernels
-from tilesynth.augment import (
+from tilesynth.base import kernels
+from tilesynth.builder.matching.augment import (
     AUGMENT_MODES,
     best_augmented,
     candidates,
@@ -22,9 +22,9 @@ from tilesynth.augment import (
     transform_tiles,
     transformed_source,
 )
+from tilesynth.builder.matching.levers import diverse_matches, diverse_matches_augmented
 from tilesynth.errors import ParameterError
-from tilesynth.io import load_image
-from tilesynth.levers import diverse_matches, diverse_matches_augmented
+from tilesynth.io.images import load_image
 
 
 @pytest.fixture(scope="module")

@@ -19,9 +19,9 @@ import pytest
 from PIL import Image
 
 import tilesynth as ts
-from tilesynth import batch
-from tilesynth.batch import BatchError, build_many, load_library
-from tilesynth.cli import main as cli_main
+from tilesynth.cli import batch
+from tilesynth.cli.batch import BatchError, build_many, load_library
+from tilesynth.cli.main import main as cli_main
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "textures"
 if not SHARED.is_dir():

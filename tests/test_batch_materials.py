@@ -1,4 +1,4 @@
-"""Batch keys of material builds (issue 14, :mod:`tilesynth.batch_materials`): ``maps`` table entries with kind and
+"""Batch keys of material builds (issue 14, :mod:`tilesynth.cli.batch_materials`): ``maps`` table entries with kind and
 weight, ``mask``, ``alpha``, ``normal_y``; a batch material build equals ``tilesynth build`` with the same options; every bad value is refused
 before any work, naming the job and the field."""
 
@@ -11,9 +11,9 @@ import pytest
 from test_materials import _material
 
 import tilesynth as ts
-from tilesynth import batch
-from tilesynth.batch import BatchError, build_many, load_library
-from tilesynth.cli import main as cli_main
+from tilesynth.cli import batch
+from tilesynth.cli.batch import BatchError, build_many, load_library
+from tilesynth.cli.main import main as cli_main
 
 LIB = """
 output_dir = "out"

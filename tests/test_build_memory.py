@@ -10,11 +10,13 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth import kernels, levers, tilefile
-from tilesynth.layouts import CornerPlan, IntermediateTiles, intermediate_tiles
-from tilesynth.metrics import _squared_steps
-from tilesynth.stages import compose
-from tilesynth.tilesets import get_tileset
+from tilesynth.base import kernels
+from tilesynth.builder import compose
+from tilesynth.builder.matching import levers
+from tilesynth.layouts.corners import CornerPlan, IntermediateTiles, intermediate_tiles
+from tilesynth.layouts.omega_sets import get_tileset
+from tilesynth.measure.metrics import _squared_steps
+from tilesynth.tileset import tilefile
 
 
 def _arrays(ts):

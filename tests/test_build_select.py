@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth.cli import main
-from tilesynth.omega import energy
+from tilesynth.builder.omega import energy
+from tilesynth.cli.main import main
 
 
 @pytest.fixture(scope="module")

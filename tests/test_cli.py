@@ -11,7 +11,7 @@ import pytest
 from PIL import Image
 
 import tilesynth
-from tilesynth.cli import main
+from tilesynth.cli.main import main
 
 
 def read_png(path) -> np.ndarray:
@@ -253,7 +253,8 @@ def _big_map(tmp_path):
 
 def test_internal_error_is_exit_1_with_a_short_message(built_file, tmp_path, monkeypatch, capsys):
     """A Rust panic (here provoked on purpose through the test entry point) is a bug: exit 1, one line."""
-    from tilesynth import _core, synthesis
+    from tilesynth import _core
+    from tilesynth.synth import synthesis
 
     def panicking(*args, **kwargs):
         _core._raise_panic("boom in the kernel")
@@ -294,27 +295,29 @@ def test_ctrl_c_or_error_while_writing_leaves_no_partial_file(
         raise KeyboardInterrupt
 
     if when == "image":
-        import tilesynth.io
+        import tilesynth.io.images
 
         def encode_interrupted(*a, **k):  # the PNG encoder, interrupted while the temporary file is open
             parts = list(tmp_path.glob(".o.png.*.part"))
             assert len(parts) == 1
             interrupted(parts[0])
 
-        monkeypatch.setattr(tilesynth.io, "encode_png", encode_interrupted)
+        monkeypatch.setattr(tilesynth.io.images, "encode_png", encode_interrupted)
         monkeypatch.setattr(PILImage.Image, "save", lambda self, fp, *a, **k: interrupted(self, fp))
         args = ["synth", str(built_file), "-o", str(out), "--size", "40x40", "--seed", "1"]
     elif when == "tiles":
-        import tilesynth.tilefile
+        import tilesynth.tileset.tilefile
 
-        real = tilesynth.tilefile._write_array  # the array members are streamed (issue 12), not writestr
+        real = (
+            tilesynth.tileset.tilefile._write_array
+        )  # the array members are streamed (issue 12), not writestr
 
         def write_array(zf, name, a):
             real(zf, name, a)
             if name == "tiles.npy":
                 raise KeyboardInterrupt
 
-        monkeypatch.setattr(tilesynth.tilefile, "_write_array", write_array)
+        monkeypatch.setattr(tilesynth.tileset.tilefile, "_write_array", write_array)
         args = ["build", str(exemplar_png), "-o", str(out), "--set", "4", "--tile-size", "16", "--seed", "1"]
     else:
         monkeypatch.setattr(np, "save", lambda fh, *a, **k: interrupted(fh))
@@ -337,7 +340,7 @@ def test_ctrl_c_or_error_while_writing_leaves_no_partial_file(
 def test_same_seed_same_bytes_across_runs_and_threads(exemplar_png, tmp_path):
     """Two separate runs of the command, at 1 and 2 threads: the tile sets are identical member for member
     except timing.json (which is last, so the files are byte-identical up to it), and the textures and maps
-    byte-identical. See tilesynth.tilefile "Determinism"."""
+    byte-identical. See tilesynth.tileset.tilefile "Determinism"."""
     import os
     import zipfile
 

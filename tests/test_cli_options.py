@@ -1,4 +1,4 @@
-"""The value rules of every command-line option (:mod:`tilesynth.argtypes`), checked over every subcommand's parser.
+"""The value rules of every command-line option (:mod:`tilesynth.cli.argtypes`), checked over every subcommand's parser.
 
 Properties over all parsers rather than one option at a time: every option that takes a value has a checking
 type (no bare ``int``/``float``, which take other scripts' digits, underscores, ``nan``); every integer, size and
@@ -18,8 +18,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tilesynth import argtypes
-from tilesynth.cli import build_parser, main
+from tilesynth.cli import argtypes
+from tilesynth.cli.main import build_parser, main
 
 
 def _subparsers(p: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:

@@ -9,10 +9,10 @@ import pytest
 
 import tilesynth as ts
 from tilesynth.errors import ParameterError
-from tilesynth.lookup import lookup_scheme
-from tilesynth.metrics import seam_score
-from tilesynth.tilesets import get_tileset
-from tilesynth.wangsets import complete_edge_set, get_wang_tileset, is_wang_set_name
+from tilesynth.layouts.hashed import lookup_scheme
+from tilesynth.layouts.omega_sets import get_tileset
+from tilesynth.layouts.wang_sets import complete_edge_set, get_wang_tileset, is_wang_set_name
+from tilesynth.measure.metrics import seam_score
 
 
 @pytest.mark.parametrize(
@@ -79,7 +79,7 @@ def c2x2(lettuce):
 def lettuce():
     from importlib import resources
 
-    from tilesynth.io import load_image
+    from tilesynth.io.images import load_image
 
     return load_image(resources.files("tilesynth") / "data" / "lettuce-leaves.png")[0]
 

@@ -7,13 +7,17 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth import _core, _validate, genes, kernels, wang
+from tilesynth import _core
+from tilesynth.base import kernels
+from tilesynth.base import validate as _validate
+from tilesynth.builder import wang
+from tilesynth.builder.genes import draws as genes
 
 
 def test_python_names_are_the_cores():
     assert kernels.DEFAULT_EPS == _core.DEFAULT_EPS == 1e-6
     assert kernels.DEFAULT_POISSON_TOL == _core.DEFAULT_POISSON_TOL == 1e-6
-    assert genes.LAMBDA == tilesynth.omega.LAMBDA == _core.DEFAULT_LAMBDA == 0.8
+    assert genes.LAMBDA == tilesynth.builder.omega.LAMBDA == _core.DEFAULT_LAMBDA == 0.8
     assert wang.DEFAULT_OMEGA == _core.DEFAULT_OMEGA == 0.8
     assert _validate.MAX_THREADS == _core.MAX_THREADS == 1024
     assert (wang.NORTH, wang.EAST, wang.SOUTH, wang.WEST) == _core.WANG_SIDES == (0, 1, 2, 3)

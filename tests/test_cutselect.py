@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth.cutselect import DEFAULT_COUNT, DEFAULT_RERANK, TopK, resolve_objective
+from tilesynth.builder.genes.cut_objective import DEFAULT_COUNT, DEFAULT_RERANK, TopK, resolve_objective
 from tilesynth.errors import ParameterError, ShapeError
-from tilesynth.quality import CUT_SCORE_EPS, cut_score, texture_stats_distance
+from tilesynth.measure.quality import CUT_SCORE_EPS, cut_score, texture_stats_distance
 
 
 def test_cut_score_is_the_geometric_mean_with_eps():
@@ -140,7 +140,7 @@ def test_explicit_methods_keep_the_papers_objective(small_exemplar):
 
 
 def test_random_select_is_one_draw_and_measures_are_stored(small_exemplar, tmp_path):
-    # border_tries=1: the single draw (the default random draw is border-aware, tilesynth.omegaborders)
+    # border_tries=1: the single draw (the default random draw is border-aware, tilesynth.builder.genes.omega_borders)
     ts = tilesynth.build_omega(
         small_exemplar, tileset="8", tile_size=24, seed=5, select="random", border_tries=1
     )
@@ -160,7 +160,7 @@ def test_every_scheme_stores_the_measures(small_exemplar):
 
 
 def test_cli_objective_and_info(small_exemplar, tmp_path, capsys):
-    from tilesynth.cli import main
+    from tilesynth.cli.main import main
 
     ex = tmp_path / "ex.png"
     tilesynth.save_image(ex, small_exemplar)

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 import tilesynth as ts
-from tilesynth._validate import to_uint
+from tilesynth.base.validate import to_uint
 from tilesynth.engine import atlas as xatlas
 from tilesynth.engine import export, hash_layout, manifest_schema, validate_manifest
 from tilesynth.engine.periodic import toroidal_index_map
 from tilesynth.errors import ParameterError
-from tilesynth.io import load_raster
-from tilesynth.tiling import validate_index_map
+from tilesynth.io.images import load_raster
+from tilesynth.layouts.scanline import validate_index_map
 
 jsonschema = pytest.importorskip("jsonschema")
 
@@ -165,7 +165,7 @@ def test_toroidal_index_maps_of_named_corner_sets(name, period, strict):
 
 @pytest.mark.parametrize("name", ["wang8", "wang18"])
 def test_toroidal_index_maps_of_wang_sets(name):
-    from tilesynth.wangsets import get_wang_tileset
+    from tilesynth.layouts.wang_sets import get_wang_tileset
 
     defn = get_wang_tileset(name)
     imap = toroidal_index_map(defn, 8, 8, seed=1)
@@ -183,7 +183,7 @@ def test_toroidal_index_map_is_seeded_and_varied():
 @pytest.mark.parametrize("name", ["n2", "n2x2"])
 def test_toroidal_fallback_repeats_a_small_torus_and_recolours(name, monkeypatch):
     from tilesynth.engine import periodic
-    from tilesynth.wangsets import get_wang_tileset
+    from tilesynth.layouts.wang_sets import get_wang_tileset
 
     defn = get_wang_tileset(name) if name.startswith("wang") else ts.get_tileset(name)
     monkeypatch.setattr(periodic, "MAX_NODES", 40)  # the direct search of 12 x 12 cannot finish: fallback
@@ -193,8 +193,8 @@ def test_toroidal_fallback_repeats_a_small_torus_and_recolours(name, monkeypatch
 
 
 def test_hash_layout_detects_complete_sets_in_hash_order():
-    from tilesynth.tilesets import CornerTileSet
-    from tilesynth.wangsets import WangTileSet
+    from tilesynth.layouts.omega_sets import CornerTileSet
+    from tilesynth.layouts.wang_sets import WangTileSet
 
     cols = ("R", "G")
     tiles, variants = [], []
@@ -241,7 +241,7 @@ def test_export_parameter_errors(tmp_path, omega_set):
 
 
 def test_exr_roundtrip(tmp_path, omega_set):
-    from tilesynth.io import read_exr
+    from tilesynth.io.images import read_exr
 
     h = np.ascontiguousarray(omega_set.exemplar[..., 0] * 3.0 - 1.0)  # float data outside [0, 1]
     m = export(omega_set, tmp_path, maps={"h": h}, index_size=(2, 2))
@@ -267,7 +267,7 @@ def test_padding_zero_has_no_mips(tmp_path, omega_set):
 
 
 def test_cli_export_and_view(tmp_path, omega_set):
-    from tilesynth.cli import main
+    from tilesynth.cli.main import main
 
     src = tmp_path / "a.tiles"
     omega_set.save(src)

@@ -18,7 +18,7 @@ import tilesynth as ts
 from tilesynth.engine import atlas as xatlas
 from tilesynth.engine import export
 from tilesynth.engine import viewer as xv
-from tilesynth.metrics import seam_score
+from tilesynth.measure.metrics import seam_score
 
 
 @pytest.fixture(scope="module")
@@ -217,8 +217,8 @@ def complete_set(base, kind: str, variants: int = 1):
     (variant 1 darkened, so variants differ). Only the lookup is under test, not seamlessness."""
     import dataclasses
 
-    from tilesynth.tilesets import CornerTileSet
-    from tilesynth.wangsets import WangTileSet
+    from tilesynth.layouts.omega_sets import CornerTileSet
+    from tilesynth.layouts.wang_sets import WangTileSet
 
     k = base.n_tiles
     assert k == 16

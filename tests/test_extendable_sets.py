@@ -11,7 +11,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from tilesynth.tilesets import (
+from tilesynth.layouts.omega_sets import (
     BASIC_SET_NAME,
     EXTENDABLE_TILESET_NAMES,
     PATCH_COLOURS,
@@ -31,7 +31,7 @@ from tilesynth.tilesets import (
     reachable_situations,
     tileset_from_dict,
 )
-from tilesynth.tiling import scanline_index_map, validate_index_map
+from tilesynth.layouts.scanline import scanline_index_map, validate_index_map
 
 TL, BL, TR, BR = 0, 1, 2, 3
 

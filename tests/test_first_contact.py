@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 import tilesynth
-from tilesynth.cli import build_parser, main
+from tilesynth.cli.main import build_parser, main
 
 README = Path(__file__).resolve().parent.parent / "README.md"
 
@@ -74,7 +74,7 @@ def test_metrics_cli_prints_slow_steps(built, capsys, monkeypatch):
     """A step over a second is reported on stderr (non-terminal: one line when it ends)."""
     import time
 
-    from tilesynth import metrics
+    from tilesynth.measure import metrics
 
     ex, d = built
     ts = d / "m.tiles"

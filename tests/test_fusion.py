@@ -1,4 +1,4 @@
-"""Seam-free gradient-domain fusion of map tiles (issue 14, :mod:`tilesynth.stages.fusion`): the exact DST solve
+"""Seam-free gradient-domain fusion of map tiles (issue 14, :mod:`tilesynth.builder.fusion`): the exact DST solve
 against a sparse least-squares oracle, the tile border ring kept, no change without a seam, masked pixels never
 read, and the cut seam of a smooth map brought down to its patches' own steps."""
 
@@ -9,7 +9,7 @@ import pytest
 from scipy.sparse import coo_matrix
 from scipy.sparse.linalg import lsqr
 
-from tilesynth.stages.fusion import CLAMP_WIDTH, exemplar_levels, fuse_tiles
+from tilesynth.builder.fusion import CLAMP_WIDTH, exemplar_levels, fuse_tiles
 
 
 def _random_provenance(r, k, n, h, w, pieces=3):
@@ -248,7 +248,7 @@ def test_exemplar_levels_give_the_corner_pixels_their_own_level():
     """Where a cut ends at a tile corner, the ring pixels there are fixed for the tile-interior fusion and a 4-px
     block field takes only their mean offset; with their own level (``corner``) the ring steps across the cut
     near the corners fall. Without a seam near a corner (ω's tiles) nothing changes, bit for bit."""
-    from tilesynth.stages.fusion import LEVEL_CORNER, _corner_pixels
+    from tilesynth.builder.fusion import LEVEL_CORNER, _corner_pixels
 
     values, src = _diagonal_set()
     n = src.shape[1]

@@ -27,8 +27,8 @@ from hypothesis import strategies as st
 from PIL import Image
 
 import tilesynth as ts
-from tilesynth import batch as ts_batch
-from tilesynth._validate import as_image
+from tilesynth.base.validate import as_image
+from tilesynth.cli import batch as ts_batch
 
 F32, F64, I64, B = "float32", "float64", "int64", "bool"
 
@@ -717,8 +717,8 @@ def build_wang(d: st.DrawFn):
 
 @st.composite
 def predicted_border_seam_call(d: st.DrawFn):
-    """tilesynth.wangborders.predicted_border_seam: valid genes of a small exemplar, or one argument careless."""
-    from tilesynth.wangborders import predicted_border_seam
+    """tilesynth.builder.genes.wang_borders.predicted_border_seam: valid genes of a small exemplar, or one argument careless."""
+    from tilesynth.builder.genes.wang_borders import predicted_border_seam
 
     broken = d(
         st.sampled_from(["none", "none", "exemplar", "genes", "n_horizontal", "tile_size", "sample_size"])
@@ -748,9 +748,9 @@ def predicted_border_seam_call(d: st.DrawFn):
 
 @st.composite
 def predicted_corner_border_seam_call(d: st.DrawFn):
-    """tilesynth.omegaborders.predicted_corner_border_seam: valid genes of a small exemplar, or one argument
+    """tilesynth.builder.genes.omega_borders.predicted_corner_border_seam: valid genes of a small exemplar, or one argument
     careless."""
-    from tilesynth.omegaborders import predicted_corner_border_seam
+    from tilesynth.builder.genes.omega_borders import predicted_corner_border_seam
 
     broken = d(st.sampled_from(["none", "none", "exemplar", "genes", "tile_size"]))
     ex = d(exemplars()) if broken == "exemplar" else good_exemplar(d)
@@ -1537,7 +1537,7 @@ def test_cli_on_a_tampered_manifest_exits_0_or_2():
     import contextlib
     import json
 
-    from tilesynth.cli import main
+    from tilesynth.cli.main import main
 
     good = os.path.join(_tmpdir(), "cli-good.tiles")
     small_set().save(good)

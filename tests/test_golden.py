@@ -43,7 +43,7 @@ def test_golden(name, threads, small_exemplar):
     assert got == GOLDEN[name]
 
 
-# Issue 14 made ω's random draw border-aware (32 random gene vectors, tilesynth.omegaborders). On this exemplar
+# Issue 14 made ω's random draw border-aware (32 random gene vectors, tilesynth.builder.genes.omega_borders). On this exemplar
 # and seed the first draw is the one kept (its predicted border seam, 0.81, is the closest to the target 0.8),
 # so the border-aware draw (default border_tries) and the single draw (border_tries=1, named) both keep the
 # digests of the single random draw of before.
@@ -60,7 +60,7 @@ def test_golden_random(name, threads, border_tries, small_exemplar):
 
 
 # Selection (GA, AIS, best-of): the chosen genes, the tiles, a synthesis and the whole saved file
-# (without timing.json, see tilesynth.tilefile "Determinism") are fixed by the seed, at any thread count.
+# (without timing.json, see tilesynth.tileset.tilefile "Determinism") are fixed by the seed, at any thread count.
 # (File digests updated once when the manifest gained the matching parameters match/match_k/metric/mu: genes,
 # tiles and outputs were unchanged; once more when the deflate level went from 6 to 1, for the same reason; and
 # once more when the manifest gained params.quality and params.selection.objective, issue 15: same genes, tiles

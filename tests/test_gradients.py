@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import tilesynth as ts
-from tilesynth.gradients import patch_gradients, patch_gradients_numpy
-from tilesynth.omega import patch_gradients as omega_patch_gradients
+from tilesynth.base.gradients import patch_gradients, patch_gradients_numpy
+from tilesynth.builder.omega import patch_gradients as omega_patch_gradients
 
 
 @pytest.mark.parametrize("channels", [1, 2, 3, 4, 7])

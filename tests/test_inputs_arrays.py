@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import tilesynth as ts
-from tilesynth import kernels
-from tilesynth._validate import as_image
-from tilesynth.cli import main
+from tilesynth.base import kernels
+from tilesynth.base.validate import as_image
+from tilesynth.cli.main import main
 
 
 @pytest.fixture(scope="module")

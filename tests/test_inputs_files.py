@@ -17,8 +17,8 @@ import pytest
 from PIL import Image, ImageOps
 
 import tilesynth as ts
-from tilesynth._validate import to_uint
-from tilesynth.io import MAX_PIXELS, MAX_PIXELS_ENV, _exif_orient
+from tilesynth.base.validate import to_uint
+from tilesynth.io.images import MAX_PIXELS, MAX_PIXELS_ENV, _exif_orient
 
 
 def chunk(tag: bytes, data: bytes) -> bytes:

@@ -11,7 +11,7 @@ from PIL import Image
 
 import tilesynth
 from tilesynth import _core
-from tilesynth._validate import as_image, to_uint
+from tilesynth.base.validate import as_image, to_uint
 
 
 def test_as_image_conversions():

@@ -166,7 +166,7 @@ def test_omega_cut_errors():
 
 
 def omega_terminals(n, keep_border):
-    """The ω cut's hard pixels (see tilesynth.omega): sources outside the circle (and on the border ring with
+    """The ω cut's hard pixels (see tilesynth.builder.omega): sources outside the circle (and on the border ring with
     keep_border), sinks on the central cross inside the circle (off the ring with keep_border)."""
     c = (n - 1) / 2.0
     yy, xx = np.mgrid[:n, :n]

@@ -1,4 +1,4 @@
-"""The levers of issue 12: the free cut region and diverse matching patches (tilesynth.levers)."""
+"""The levers of issue 12: the free cut region and diverse matching patches (tilesynth.builder.matching.levers)."""
 
 from __future__ import annotations
 
@@ -8,9 +8,7 @@ import numpy as np
 import pytest
 
 import tilesynth as ts
-from tilesynth.errors import ParameterError
-from tilesynth.io import load_image
-from tilesynth.levers import (
+from tilesynth.builder.matching.levers import (
     FREE_BETA,
     RING_BIAS,
     RING_PENALTY,
@@ -20,6 +18,8 @@ from tilesynth.levers import (
     free_weights,
     self_offsets,
 )
+from tilesynth.errors import ParameterError
+from tilesynth.io.images import load_image
 
 
 @pytest.fixture(scope="module")
@@ -159,8 +159,8 @@ def test_lever_parameter_errors(lettuce):
 
 
 def test_cli_levers_and_hashed_synth(tmp_path, lettuce):
-    from tilesynth.cli import main
-    from tilesynth.io import save_image
+    from tilesynth.cli.main import main
+    from tilesynth.io.images import save_image
 
     ex = tmp_path / "ex.png"
     save_image(ex, lettuce)
@@ -233,8 +233,8 @@ def test_cli_levers_and_hashed_synth(tmp_path, lettuce):
 
 
 def test_cli_plain_omega_on_a_complete_set(tmp_path, lettuce):
-    from tilesynth.cli import main
-    from tilesynth.io import save_image
+    from tilesynth.cli.main import main
+    from tilesynth.io.images import save_image
 
     ex = tmp_path / "ex.png"
     save_image(ex, lettuce)
@@ -266,7 +266,7 @@ def test_cli_plain_omega_on_a_complete_set(tmp_path, lettuce):
 
 
 def test_self_offsets_copy_the_quadrants_back(lettuce):
-    from tilesynth.layouts import intermediate_tiles
+    from tilesynth.layouts.corners import intermediate_tiles
 
     n, h = 48, 24
     genes = np.array([[10, 10], [100, 30], [30, 150]])
@@ -284,7 +284,7 @@ def test_self_offsets_copy_the_quadrants_back(lettuce):
 
 
 def test_diverse_matches_exclude_self_matches(lettuce):
-    from tilesynth.layouts import intermediate_tiles
+    from tilesynth.layouts.corners import intermediate_tiles
 
     s = ts.build_omega(lettuce, tileset="c2", tile_size=48, seed=3)
     _, src = intermediate_tiles(s.exemplar, s.genes, s.tile_patches, 48)
@@ -299,8 +299,8 @@ def test_diverse_matches_exclude_self_matches(lettuce):
 
 
 def test_default_complete_tile_size_is_a_multiple_of_8():
-    from tilesynth.complete import default_complete_tile_size
     from tilesynth.engine.atlas import max_mip_level
+    from tilesynth.layouts.complete import default_complete_tile_size
 
     expect = {378: 88, 512: 128, 358: 88, 233: 56, 244: 56, 4096: 256, 32: 8, 63: 8}
     for side, n in expect.items():
@@ -314,8 +314,8 @@ def test_grid_mincut8_geo_weights_and_errors():
     weights price a straight 45° boundary like an axis one, and wd/wa come together."""
     from itertools import product
 
-    from tilesynth import kernels
-    from tilesynth.levers import geo_weights
+    from tilesynth.base import kernels
+    from tilesynth.builder.matching.levers import geo_weights
 
     rng = np.random.default_rng(3)
     h, w = 3, 4

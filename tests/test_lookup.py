@@ -1,4 +1,4 @@
-"""The hashed lookup (``tilesynth.lookup``, ``HASH-SPEC.md``): Rust against the plain-Python reference."""
+"""The hashed lookup (``tilesynth.layouts.hashed``, ``HASH-SPEC.md``): Rust against the plain-Python reference."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from tilesynth import _core
 from tilesynth.errors import ParameterError
-from tilesynth.lookup import (
+from tilesynth.layouts.hashed import (
     HASH_NAME,
     PCG_INC,
     PCG_MUL,

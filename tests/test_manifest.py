@@ -1,5 +1,5 @@
 """Tampered tile-set files exit 2 naming the field, never 1 (issue 16): the manifest schema and the .npy
-header checks of tilesynth._manifest, on the listed cases through every reading subcommand, and by fuzzing
+header checks of tilesynth.tileset.manifest, on the listed cases through every reading subcommand, and by fuzzing
 every field of real manifests (hypothesis)."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import tilesynth
-from tilesynth.cli import main
+from tilesynth.cli.main import main
 from tilesynth.errors import TileSetFormatError
 
 
@@ -260,8 +260,8 @@ def test_fuzzed_manifests_exit_2_naming_the_field_never_1(fuzz_sets, data):
 
 def test_manifest_schemes_are_the_registered_ones():
     """The manifest schema's scheme names are the registry's (a new scheme adds its name to both)."""
-    from tilesynth._manifest import SCHEME_LAYOUTS
     from tilesynth.schemes import REGISTRY
     from tilesynth.schemes.base import FILE_KIND
+    from tilesynth.tileset.manifest import SCHEME_LAYOUTS
 
     assert SCHEME_LAYOUTS == {s.name: FILE_KIND[s.layout] for s in REGISTRY}

@@ -10,8 +10,8 @@ import pytest
 from PIL import Image
 
 import tilesynth
-from tilesynth.cli import main
-from tilesynth.io import load_raster, read_png
+from tilesynth.cli.main import main
+from tilesynth.io.images import load_raster, read_png
 
 
 def _paeth(a: int, b: int, c: int) -> int:

@@ -14,9 +14,9 @@ import pytest
 from PIL import Image, ImageDraw
 
 import tilesynth as ts
-from tilesynth.cli import main as cli_main
-from tilesynth.diagnose import InputWarning, diagnose_exemplar, outliers, stationarity
-from tilesynth.masking import ExemplarMask, resolve_mask
+from tilesynth.builder.masking import ExemplarMask, resolve_mask
+from tilesynth.cli.main import main as cli_main
+from tilesynth.measure.diagnose import InputWarning, diagnose_exemplar, outliers, stationarity
 
 SHARED = Path("/work/shared/textures")
 
@@ -336,7 +336,7 @@ def test_cut_cost_outlier_in_a_tile_set(small_exemplar):
     """diagnose_tileset on a built set: no finding; with one tile's cut cost raised 20x: that tile is named."""
     from types import SimpleNamespace
 
-    from tilesynth.diagnose import diagnose_tileset
+    from tilesynth.measure.diagnose import diagnose_tileset
 
     t = ts.build_omega(small_exemplar, tileset="16a", tile_size=32, seed=2026)
     assert diagnose_tileset(t) == []

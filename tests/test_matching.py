@@ -6,10 +6,17 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth import kernels
-from tilesynth.cli import main
-from tilesynth.matching import MU, augmented, circle_ring, gradient_norm, midpoint_region, strategy_edges
-from tilesynth.omega import energy, patch_gradients
+from tilesynth.base import kernels
+from tilesynth.builder.matching.choose import (
+    MU,
+    augmented,
+    circle_ring,
+    gradient_norm,
+    midpoint_region,
+    strategy_edges,
+)
+from tilesynth.builder.omega import energy, patch_gradients
+from tilesynth.cli.main import main
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +59,7 @@ def test_heuristic_regions():
 def test_heuristics_choose_the_argmin_of_their_score(strategy, ex):
     ts = tilesynth.build_omega(ex, tileset="8", tile_size=N, seed=2, match=strategy, select="random")
     assert ts.params["match"] == strategy
-    inter, src = tilesynth.omega.intermediate_tiles(ex, ts.genes, ts.tile_patches, N)
+    inter, src = tilesynth.builder.omega.intermediate_tiles(ex, ts.genes, ts.tile_patches, N)
     grads = patch_gradients(ex, src)
     wxm, wym = strategy_edges(strategy, N, True)
     for j in range(ts.n_tiles):
@@ -72,7 +79,7 @@ def test_best_cut_all_is_the_exhaustive_cheapest_cut(ex):
     ts = tilesynth.build_omega(
         small, tileset="4", tile_size=n, seed=1, match="best-cut", match_k="all", select="random"
     )
-    inter, src = tilesynth.omega.intermediate_tiles(small, ts.genes, ts.tile_patches, n)
+    inter, src = tilesynth.builder.omega.intermediate_tiles(small, ts.genes, ts.tile_patches, n)
     grads = patch_gradients(small, src)
     cands = candidates(small, n)
     for j in range(ts.n_tiles):
@@ -106,7 +113,7 @@ def test_eq3_is_ssd_on_the_augmented_exemplar(ex):
     ts = tilesynth.build_omega(ex, tileset="8", tile_size=N, seed=5, metric="eq3")
     aug = augmented(ex)
     assert aug.shape[2] == 9
-    inter, src = tilesynth.omega.intermediate_tiles(ex, ts.genes, ts.tile_patches, N)
+    inter, src = tilesynth.builder.omega.intermediate_tiles(ex, ts.genes, ts.tile_patches, N)
     best = []
     for j in range(ts.n_tiles):
         t = aug[src[j, ..., 0], src[j, ..., 1]].astype(np.float64)
@@ -135,7 +142,7 @@ def test_eq2_oracle_and_build(ex, rng):
         want = (d2 / (MU * (tg + g[r : r + N, c : c + N]) + 1e-6)).sum()
         assert got[r, c] == pytest.approx(want, rel=1e-12)
     ts = tilesynth.build_omega(ex, tileset="4", tile_size=N, seed=6, metric="eq2")
-    inter, src = tilesynth.omega.intermediate_tiles(ex, ts.genes, ts.tile_patches, N)
+    inter, src = tilesynth.builder.omega.intermediate_tiles(ex, ts.genes, ts.tile_patches, N)
     for j in range(ts.n_tiles):
         m = kernels.weighted_ssd_map(ex, g, inter[j], g[src[j, ..., 0], src[j, ..., 1]], MU, 1e-6)
         assert tuple(ts.match_offsets[j]) == np.unravel_index(np.argmin(m), m.shape)

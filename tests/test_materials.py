@@ -1,4 +1,4 @@
-"""Material builds (issue 14, :mod:`tilesynth.materials`): maps cut jointly with the albedo, stored in the tile
+"""Material builds (issue 14, :mod:`tilesynth.builder.materials`): maps cut jointly with the albedo, stored in the tile
 set, laid out through the same provenance; map kinds, normals, labels, and every bad input."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import tilesynth as ts
-from tilesynth import materials
+from tilesynth.builder import materials
 from tilesynth.errors import ParameterError, ShapeError
 
 
@@ -308,7 +308,7 @@ def test_report_shows_every_map_with_its_cut_seam(tmp_path):
     assert set(seams) == {"height", "normal"} and all(v is not None and v > 0 for v in seams.values())
 
 
-# The small Wang sets may warn of a cut-cost outlier (tilesynth.diagnose): not what this test is about.
+# The small Wang sets may warn of a cut-cost outlier (tilesynth.measure.diagnose): not what this test is about.
 @pytest.mark.filterwarnings("ignore::tilesynth.InputWarning")
 def test_joint_builds_cut_with_the_material_eps_and_a_given_eps_wins():
     """Joint s-Wang and ω builds cut with ``MATERIAL_CUT_EPS`` (a capped gradient normalisation, so the cut does

@@ -74,7 +74,7 @@ def test_population_cache_is_bounded(small_exemplar):
 
 def test_extendable_set_cache_is_bounded():
     """get_tileset caches the extendable sets it builds; names beyond n16 are refused, so at most 17 are kept."""
-    from tilesynth.tilesets import MAX_EXTENSION, extendable_tileset
+    from tilesynth.layouts.omega_sets import MAX_EXTENSION, extendable_tileset
 
     assert MAX_EXTENSION == 16
     with pytest.raises(ValueError, match="at most n16"):

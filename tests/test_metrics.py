@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import tilesynth as ts
-from tilesynth import metrics as M
 from tilesynth.errors import ParameterError, ShapeError
+from tilesynth.measure import metrics as M
 
 
 @pytest.fixture(scope="module")
@@ -378,7 +378,7 @@ def test_image_metrics_skips_what_it_cannot_compute(rng):
 
 
 def test_cut_seam_score_oracle_and_smoothing(small_exemplar):
-    from tilesynth.metrics import cut_seam_score
+    from tilesynth.measure.metrics import cut_seam_score
 
     # constructed: two flat halves split by a vertical cut; only the pairs across the cut differ
     tiles = np.zeros((1, 4, 4, 1), np.float32)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tilesynth.errors import ShapeError
-from tilesynth.metrics import (
+from tilesynth.measure.metrics import (
     detail_layer,
     detail_repetition,
     histogram_distance,
@@ -144,7 +144,7 @@ def test_image_metrics_include_the_new_measures():
 
 # ------------------------------------------------------------------------------ inner-lattice seam (issue 12)
 def test_inner_seam_score_finds_a_grid_inside_the_tiles():
-    from tilesynth.metrics import inner_seam_score
+    from tilesynth.measure.metrics import inner_seam_score
 
     rng = np.random.default_rng(5)
     n = 32
@@ -165,14 +165,14 @@ def test_inner_seam_score_finds_a_grid_inside_the_tiles():
     d = s.to_dict()
     assert d["scores"]["2"] == pytest.approx(s.scores[2]) and d["tile_size"] == n
     # the border seam score does not flag that grid (its interior mean even includes the grid lines)
-    from tilesynth.metrics import seam_score
+    from tilesynth.measure.metrics import seam_score
 
     assert seam_score(seamed, n).score < 1.05
 
 
 def test_inner_seam_score_errors_and_small_tiles():
     from tilesynth.errors import ParameterError, ShapeError
-    from tilesynth.metrics import inner_seam_score
+    from tilesynth.measure.metrics import inner_seam_score
 
     img = np.random.default_rng(1).random((64, 64, 1)).astype(np.float32)
     with pytest.raises(ShapeError):

@@ -1,4 +1,4 @@
-"""Unit-length encoding of normals (issue 14, :mod:`tilesynth.normal_codes`): every written 8-bit, 16-bit and
+"""Unit-length encoding of normals (issue 14, :mod:`tilesynth.io.normal_codes`): every written 8-bit, 16-bit and
 float normal map decodes (``v = code / S · 2 − 1``) to vectors within 1 ± 0.005 of unit length, and no vector
 moves farther from the exact one than rounding may."""
 
@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 from test_materials import _build, _material
 
 import tilesynth as ts
-from tilesynth import materials
-from tilesynth.normal_codes import UNIT_TOLERANCE, decode, encode_unit
+from tilesynth.builder import materials
+from tilesynth.io.normal_codes import UNIT_TOLERANCE, decode, encode_unit
 
 _unit = st.tuples(*[st.floats(-1.0, 1.0, allow_nan=False)] * 3).filter(lambda v: sum(x * x for x in v) > 1e-6)
 

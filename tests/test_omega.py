@@ -7,7 +7,7 @@ import pytest
 from test_kernels_ssd import ssd_oracle
 
 import tilesynth
-from tilesynth.omega import energy, intermediate_tiles
+from tilesynth.builder.omega import energy, intermediate_tiles
 
 
 @pytest.fixture(scope="module")
@@ -23,7 +23,7 @@ def test_shapes_and_params(built, small_exemplar):
     assert built.cut_masks.shape == (16, 32, 32)
     assert built.genes.shape == (4, 2)
     assert built.params["seed"] == 5 and built.params["set"] == "16a" and built.params["tile_size"] == 32
-    # the default draw is border-aware (issue 14, tilesynth.omegaborders); the record says so
+    # the default draw is border-aware (issue 14, tilesynth.builder.genes.omega_borders); the record says so
     sel = built.params["selection"]
     assert sel["method"] == "random" and sel["border_tries"] == 32 and sel["border_criterion"] == "cap"
     assert built.params["border_tries"] == 32
@@ -177,7 +177,7 @@ def test_same_seed_same_tiles_any_threads(small_exemplar):
 
 
 def test_patch_gradients_follow_provenance(small_exemplar):
-    from tilesynth.omega import patch_gradients
+    from tilesynth.builder.omega import patch_gradients
 
     ex = small_exemplar.astype(np.float64)
     src = np.array([[[3, 4], [10, 95]], [[95, 7], [95, 95]]], np.int32)
@@ -196,7 +196,7 @@ def test_tile_gradients_reproduce_the_literal_weights(small_exemplar):
     masks, costs = tilesynth.omega_cuts(inter, O)
     np.testing.assert_array_equal(masks, a.cut_masks)
     np.testing.assert_array_equal(costs, a.cut_costs)
-    from tilesynth.omega import patch_gradients
+    from tilesynth.builder.omega import patch_gradients
 
     masks_p, costs_p = tilesynth.omega_cuts(inter, O, intermediate_grad=patch_gradients(small_exemplar, src))
     np.testing.assert_array_equal(masks_p, b.cut_masks)

@@ -1,4 +1,4 @@
-"""Border-aware random draws of the corner schemes ω and patch (issue 14, :mod:`tilesynth.omegaborders`)."""
+"""Border-aware random draws of the corner schemes ω and patch (issue 14, :mod:`tilesynth.builder.genes.omega_borders`)."""
 
 from __future__ import annotations
 
@@ -6,20 +6,20 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth import metrics
-from tilesynth.genes import random_genes
-from tilesynth.omegaborders import (
+from tilesynth.builder.genes.draws import random_genes
+from tilesynth.builder.genes.omega_borders import (
     DEFAULT_BORDER_TRIES,
     border_aware_corner_genes,
     check_criterion,
     predicted_corner_border_seam,
 )
+from tilesynth.measure import metrics
 
 
 def _from_tiles(ts: tilesynth.TileSet, ex: np.ndarray) -> float:
     """S_pred read from the built tiles: for every colour k, the four tiles that meet at a vertex of colour k
     (NW has BR = k, NE BL = k, SW TR = k, SE TL = k), and the pixel pairs across the cross they form; the
-    interior from ``np.diff`` of the exemplar. Nothing of tilesynth.omegaborders' gene arithmetic is used."""
+    interior from ``np.diff`` of the exemplar. Nothing of tilesynth.builder.genes.omega_borders' gene arithmetic is used."""
     t = np.asarray(ts.tiles, np.float64)
     tp = ts.tile_patches
     n, h = ts.tile_size, ts.tile_size // 2
@@ -154,7 +154,7 @@ def test_predicted_errors(small_exemplar):
 
 
 def test_cli_border_tries_and_info(small_exemplar, tmp_path, capsys):
-    from tilesynth.cli import main
+    from tilesynth.cli.main import main
 
     exemplar_png = tmp_path / "ex.png"
     tilesynth.save_image(exemplar_png, small_exemplar)

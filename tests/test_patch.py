@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth.cli import main
-from tilesynth.genes import energy
+from tilesynth.builder.genes.draws import energy
+from tilesynth.cli.main import main
 
 
 @pytest.fixture(scope="module")
@@ -38,7 +38,7 @@ def test_builds_a_corner_set_of_random_crops(patch_set, small_exemplar):
 def test_objective_is_the_ssd_to_the_crops(patch_set):
     ts = patch_set
     n = ts.tile_size
-    inter, _ = tilesynth.omega.intermediate_tiles(ts.exemplar, ts.genes, ts.tile_patches, n)
+    inter, _ = tilesynth.builder.omega.intermediate_tiles(ts.exemplar, ts.genes, ts.tile_patches, n)
     crops = np.stack([ts.exemplar[r : r + n, c : c + n] for r, c in ts.match_offsets])
     D = ((inter.astype(np.float64) - crops) ** 2).sum(axis=(1, 2, 3))
     np.testing.assert_allclose(ts.D, D, rtol=1e-12)

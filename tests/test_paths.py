@@ -1,4 +1,4 @@
-"""No output may be an input or another output (issue 16): the rule of tilesynth.paths, in general (property
+"""No output may be an input or another output (issue 16): the rule of tilesynth.io.paths, in general (property
 tests over generated path sets with symbolic and hard links) and on every CLI example of the issue."""
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import tilesynth
-from tilesynth.cli import main
+from tilesynth.cli.main import main
 from tilesynth.errors import ParameterError
-from tilesynth.paths import check_paths
+from tilesynth.io.paths import check_paths
 
 # ------------------------------------------------------------------------------------------ the rule itself
 N_FILES, N_MISSING = 3, 2
@@ -201,7 +201,7 @@ def test_sheet_and_report_and_demo(built_file, tmp_path, capsys):
 
 def test_report_failure_halfway_leaves_nothing(built_file, tmp_path, monkeypatch):
     """A failure after some figures were written leaves no report directory and no temporary one."""
-    from tilesynth import report
+    from tilesynth.measure import report
 
     def broken(*a, **k):
         raise OSError(28, "No space left on device")

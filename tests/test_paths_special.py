@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth.cli import main
+from tilesynth.cli.main import main
 
 
 @pytest.fixture
@@ -130,13 +130,13 @@ def test_sigint_during_a_build_takes_effect_within_seconds(tmp_path):
     tilesynth.save_image(ex, rng.integers(0, 256, (512, 512, 3), dtype=np.uint8))
     out = tmp_path / "x.tiles"
     code = (
-        "import sys, tilesynth.kernels as k\n"
+        "import sys, tilesynth.base.kernels as k\n"
         "orig = k._best_matches_in_chunks\n"
         "def noisy(*a, **kw):\n"
         "    print('MATCHING', flush=True)\n"
         "    return orig(*a, **kw)\n"
         "k._best_matches_in_chunks = noisy\n"
-        "from tilesynth.cli import main\n"
+        "from tilesynth.cli.main import main\n"
         f"sys.exit(main(['build', {str(ex)!r}, '-o', {str(out)!r}, '--tile-size', '32', '--seed', '1', '-q']))\n"
     )
     p = subprocess.Popen(

@@ -1,4 +1,4 @@
-"""Periodic exemplars in complete sets (issue 12, tilesynth.periodic): the tile size from the period, the
+"""Periodic exemplars in complete sets (issue 12, tilesynth.builder.periodic): the tile size from the period, the
 phase lock, and every other build unchanged."""
 
 from __future__ import annotations
@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 import tilesynth as ts
-from tilesynth.complete import default_complete_tile_size
-from tilesynth.errors import ParameterError
-from tilesynth.periodic import (
+from tilesynth.builder.periodic import (
     PERIODIC_MIN_CORR,
     periodic_tile_size,
     phase_locked_genes,
     tile_shift_correlation,
 )
+from tilesynth.errors import ParameterError
+from tilesynth.layouts.complete import default_complete_tile_size
 
 COURSE, BRICK = 20, 40  # the wall's lattice: (20, 20) and (0, 40) (row, col); pure periods 40 and 40
 
@@ -142,7 +142,7 @@ def _two_halves(size: int = 192) -> np.ndarray:
 
 
 def test_sample_stats_distance_sees_unrepresentative_patches():
-    from tilesynth.omegaborders import sample_colour_distance, sample_stats_distance
+    from tilesynth.builder.genes.omega_borders import sample_colour_distance, sample_stats_distance
 
     ex, n = _two_halves(), 48
     left = np.array([[0, 0], [60, 10], [120, 40], [140, 0]])
@@ -159,9 +159,9 @@ def test_sample_stats_distance_sees_unrepresentative_patches():
 def test_stats_draws_keep_the_most_representative_admissible_draw(monkeypatch):
     """The draw's choice; the move of salient vertex content that follows it is switched off here (cap 1) and
     tested in tests/test_saliency.py."""
-    import tilesynth.omegaborders as ob
-    from tilesynth.genes import random_genes
-    from tilesynth.omegaborders import (
+    import tilesynth.builder.genes.omega_borders as ob
+    from tilesynth.builder.genes.draws import random_genes
+    from tilesynth.builder.genes.omega_borders import (
         STATS_SEAM_CAP,
         border_aware_corner_genes,
         predicted_corner_border_seam,
@@ -198,7 +198,7 @@ def test_complete_sets_draw_representative_patches():
     measurement, in ``benches/repetition-results.md`` (9 textures): on this synthetic exemplar it did for all
     three seeds with the reward's q = 3, and for 2 of 3 (mean 0.0613 vs 0.0606) after q = 8 gave the matching
     patches more of each tile, so it is not asserted here."""
-    from tilesynth.omegaborders import sample_colour_distance, sample_stats_distance
+    from tilesynth.builder.genes.omega_borders import sample_colour_distance, sample_stats_distance
 
     ex = _two_halves()
     out = []

@@ -19,7 +19,7 @@ from PIL import Image
 
 import tilesynth as ts
 from tilesynth import _core
-from tilesynth.io import PNG_COMPRESSIONS, encode_png, load_raster, read_exr, read_png
+from tilesynth.io.images import PNG_COMPRESSIONS, encode_png, load_raster, read_exr, read_png
 
 SIG = b"\x89PNG\r\n\x1a\n"
 
@@ -121,7 +121,7 @@ def test_bad_write_arguments():
 def test_set_png_compression_is_the_default_of_save_image(tmp_path):
     import contextvars
 
-    from tilesynth.io import set_png_compression
+    from tilesynth.io.images import set_png_compression
 
     a = rng_image(64, 64, 3, np.uint8)
 

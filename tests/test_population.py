@@ -13,7 +13,7 @@ from tilesynth.errors import ParameterError, ShapeError
 
 
 def assemble(ex: np.ndarray, genes: np.ndarray, tile: np.ndarray, n: int) -> np.ndarray:
-    """Intermediate tile of one ⟨TL, BL, TR, BR⟩ gene-index tuple (the rule of tilesynth.omega)."""
+    """Intermediate tile of one ⟨TL, BL, TR, BR⟩ gene-index tuple (the rule of tilesynth.builder.omega)."""
     h = n // 2
     out = np.empty((n, n, ex.shape[2]), np.float64)
     (r0, c0), (r1, c1), (r2, c2), (r3, c3) = (genes[i] for i in tile)

@@ -1,4 +1,4 @@
-"""tilesynth._memory (issue 15): returning freed heap memory between build stages (issue 15, peak RSS)."""
+"""tilesynth.base.memory (issue 15): returning freed heap memory between build stages (issue 15, peak RSS)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 
-from tilesynth import _memory
+from tilesynth.base import memory as _memory
 
 
 def test_release_freed_memory_returns_memory_and_keeps_live_data():

@@ -10,9 +10,9 @@ import pytest
 from PIL import Image
 
 import tilesynth as ts
-from tilesynth import metrics as M
-from tilesynth import report as R
-from tilesynth.cli import main
+from tilesynth.cli.main import main
+from tilesynth.measure import metrics as M
+from tilesynth.measure import report as R
 
 
 @pytest.fixture(scope="module")

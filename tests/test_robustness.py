@@ -74,8 +74,8 @@ def test_scanline_index_map_accepts_a_set_name():
 
 # ------------------------------------------------------------------------------------------ build memory
 def test_build_memory_is_refused_up_front_with_the_figure(tmp_path, monkeypatch, capsys, small_exemplar):
-    from tilesynth._budget import build_bytes
-    from tilesynth.cli import main
+    from tilesynth.base.budget import build_bytes
+    from tilesynth.cli.main import main
 
     ex = tmp_path / "ex.png"
     tilesynth.save_image(ex, small_exemplar)
@@ -126,7 +126,7 @@ def test_build_estimate_is_above_a_measured_peak(options, selection, smooth):
     """)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     peak, n, k = map(int, out.split())
-    from tilesynth._budget import build_bytes
+    from tilesynth.base.budget import build_bytes
 
     need = build_bytes(512, 512, 3, n, k, selection=selection, smooth=smooth)
     assert peak <= need <= 3 * peak, (peak, need)
@@ -136,8 +136,8 @@ def test_build_estimate_is_above_a_measured_peak(options, selection, smooth):
 def test_sigterm_inside_an_atomic_write_removes_the_part_file(tmp_path):
     code = textwrap.dedent(f"""
         import os, signal, time
-        from tilesynth._signals import install_sigterm
-        from tilesynth.io import atomic_path
+        from tilesynth.base.signals import install_sigterm
+        from tilesynth.io.images import atomic_path
         install_sigterm()
         try:
             with atomic_path({str(tmp_path / "out.bin")!r}) as tmp:
@@ -152,7 +152,7 @@ def test_sigterm_inside_an_atomic_write_removes_the_part_file(tmp_path):
 
 
 def test_sigterm_during_synth_leaves_no_part_file(tmp_path, small_exemplar):
-    from tilesynth.cli import main
+    from tilesynth.cli.main import main
 
     ex = tmp_path / "ex.png"
     tilesynth.save_image(ex, small_exemplar)
@@ -233,7 +233,7 @@ def test_ctrl_c_during_a_ga_build_takes_effect_within_a_second(tmp_path, lettuce
 def test_ga_progress_says_converged(small_exemplar):
     import io as _io
 
-    from tilesynth.progress import Progress
+    from tilesynth.base.progress import Progress
 
     buf = _io.StringIO()
     ts = tilesynth.build(

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from tilesynth.errors import ParameterError, ShapeError
-from tilesynth.metrics import (
+from tilesynth.measure.metrics import (
     DiscSaliency,
     _disc_kernel,
     _disc_sums,
@@ -150,9 +150,9 @@ def test_calm_vertices_moves_only_the_salient_patches(monkeypatch):
     """A sample patch centred on a bright blob is moved within N/4 to where no disc around its centre is
     salient; plain patches stay; the predicted border seam stays within the slack; with the cap at 1 nothing
     moves."""
-    import tilesynth.omegaborders as ob
-    from tilesynth.metrics import DiscSaliency, vertex_disc_radius
-    from tilesynth.wangborders import _steps
+    import tilesynth.builder.genes.omega_borders as ob
+    from tilesynth.builder.genes.wang_borders import _steps
+    from tilesynth.measure.metrics import DiscSaliency, vertex_disc_radius
 
     ex, n = _blobs(), 48
     rng = np.random.default_rng(0)
@@ -186,8 +186,8 @@ def test_calm_vertices_moves_only_the_salient_patches(monkeypatch):
 def test_stats_draw_records_the_vertex_saliency(monkeypatch):
     """The "stats" draw keeps the most representative admissible draw, then calms its vertices: with the cap at
     1 the genes are those of before (the oracle of tests/test_periodic.py), and the record says what was left."""
-    import tilesynth.omegaborders as ob
-    from tilesynth.genes import random_genes
+    import tilesynth.builder.genes.omega_borders as ob
+    from tilesynth.builder.genes.draws import random_genes
 
     ex, n, tries = _blobs(), 48, 8
     moved = False

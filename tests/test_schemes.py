@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth import cli
+from tilesynth.cli import main as cli
 from tilesynth.schemes import REGISTRY, SCHEMES, Option, Scheme, get_scheme
 from tilesynth.schemes.patch import build_patch
 
@@ -118,7 +118,7 @@ def test_seed_int_seedsequence_generator_same_entropy_same_result(scheme, small_
 
 
 def test_seed_records_and_refusals():
-    from tilesynth.options import resolve_seed
+    from tilesynth.builder.options import resolve_seed
 
     ss = np.random.SeedSequence(7).spawn(2)[1]
     rec, rng = resolve_seed(ss)

@@ -1,4 +1,4 @@
-"""Sample-patch selection (tilesynth.select): random, best-of, GA (000), AIS (003), polish.
+"""Sample-patch selection (tilesynth.builder.genes.select): random, best-of, GA (000), AIS (003), polish.
 
 The objectives here are cheap synthetic, exact and vectorised (a fixed landscape over patch positions), so the
 tests do not depend on the Rust evaluator; one integration test uses ``tilesynth.PopulationEvaluator`` when the
@@ -18,9 +18,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import tilesynth
-from tilesynth.errors import ParameterError, ShapeError
-from tilesynth.omega import check_genes, random_genes
-from tilesynth.select import (
+from tilesynth.builder.genes.select import (
     AIS_DEFAULTS,
     GA_DEFAULTS,
     METHODS,
@@ -44,6 +42,8 @@ from tilesynth.select import (
     select_genes,
     stratified_genes,
 )
+from tilesynth.builder.omega import check_genes, random_genes
+from tilesynth.errors import ParameterError, ShapeError
 
 LAM = 0.8
 

@@ -9,8 +9,8 @@ import pytest
 from test_poisson import scipy_solution
 
 import tilesynth as ts
-from tilesynth.cli import main
-from tilesynth.omega import smooth_tiles
+from tilesynth.builder.omega import smooth_tiles
+from tilesynth.cli.main import main
 
 
 @pytest.fixture(scope="module")

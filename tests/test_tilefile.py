@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth.tilefile import FORMAT_VERSION, TileSet
+from tilesynth.tileset.tilefile import FORMAT_VERSION, TileSet
 
 ARRAYS = [
     "tiles",
@@ -256,7 +256,7 @@ def test_loading_never_executes_code(good, tmp_path):
 
 
 def test_zip_bomb_is_refused_by_declared_size(good, monkeypatch):
-    from tilesynth import tilefile
+    from tilesynth.tileset import tilefile
 
     assert tilefile.MAX_UNPACKED_BYTES == 8 << 30
     monkeypatch.setattr(tilefile, "MAX_UNPACKED_BYTES", 1000)

@@ -13,7 +13,7 @@ import zipfile
 import pytest
 
 import tilesynth
-from tilesynth.cli import main
+from tilesynth.cli.main import main
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tilesynth.tilesets import (
+from tilesynth.layouts.omega_sets import (
     PATCH_COLOURS,
     TILESET_NAMES,
     CornerTileSet,

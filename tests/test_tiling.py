@@ -9,8 +9,8 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from tilesynth.tilesets import PATCH_COLOURS, TILESET_NAMES, CornerTileSet, get_tileset
-from tilesynth.tiling import candidate_table, scanline_index_map, validate_index_map
+from tilesynth.layouts.omega_sets import PATCH_COLOURS, TILESET_NAMES, CornerTileSet, get_tileset
+from tilesynth.layouts.scanline import candidate_table, scanline_index_map, validate_index_map
 
 TL, BL, TR, BR = 0, 1, 2, 3
 

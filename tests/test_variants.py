@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth.tilesets import choices_summary, dead_ends, get_tileset, with_variants
+from tilesynth.layouts.omega_sets import choices_summary, dead_ends, get_tileset, with_variants
 
 
 @pytest.mark.parametrize("name", ["4x2", "8x2", "16bx2", "Bx3", "n1x2", "n2x2"])

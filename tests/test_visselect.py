@@ -1,4 +1,4 @@
-"""The visible objective (issue 15, :mod:`tilesynth.visselect`): the proxy measures, their estimates against the
+"""The visible objective (issue 15, :mod:`tilesynth.builder.genes.visible_objective`): the proxy measures, their estimates against the
 exact metrics, the rank-sum choice and the builds that use it."""
 
 from __future__ import annotations
@@ -7,11 +7,8 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth.cutselect import resolve_objective
-from tilesynth.errors import ParameterError
-from tilesynth.metrics import coherence_energy, cut_seam_score
-from tilesynth.quality import texture_stats_distance
-from tilesynth.visselect import (
+from tilesynth.builder.genes.cut_objective import resolve_objective
+from tilesynth.builder.genes.visible_objective import (
     PROXY_SEED,
     VISIBLE_RERANK,
     ProxyJudge,
@@ -21,6 +18,9 @@ from tilesynth.visselect import (
     proxy_side,
     texture_stats_estimate,
 )
+from tilesynth.errors import ParameterError
+from tilesynth.measure.metrics import coherence_energy, cut_seam_score
+from tilesynth.measure.quality import texture_stats_distance
 
 KW = dict(tileset="8", tile_size=24, threads=1, population=8)
 
@@ -117,7 +117,7 @@ def test_visible_objective_rules():
 
 
 def test_cli_visible_objective_and_info(small_exemplar, tmp_path, capsys):
-    from tilesynth.cli import main
+    from tilesynth.cli.main import main
 
     ex = tmp_path / "ex.png"
     tilesynth.save_image(ex, small_exemplar)

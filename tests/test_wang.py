@@ -10,7 +10,7 @@ import pytest
 from test_kernels_ssd import ssd_oracle
 
 import tilesynth
-from tilesynth.wang import (
+from tilesynth.builder.wang import (
     EAST,
     NORTH,
     SOUTH,
@@ -21,10 +21,10 @@ from tilesynth.wang import (
     sample_size,
     wang_energy,
 )
-from tilesynth.wangsets import get_wang_tileset
+from tilesynth.layouts.wang_sets import get_wang_tileset
 
 # --------------------------------------------------------------------------------------------------------------
-# A slow, obvious oracle of the Cohen construction, written from the geometry of tilesynth.wang's docstring.
+# A slow, obvious oracle of the Cohen construction, written from the geometry of tilesynth.builder.wang's docstring.
 
 CUT_ROLES = [(NORTH, EAST), (SOUTH, EAST), (SOUTH, WEST), (NORTH, WEST)]  # NE, ES, SW, WN
 OFFSETS = {NORTH: (1, 0), EAST: (0, -1), SOUTH: (-1, 0), WEST: (0, 1)}  # in units of h
@@ -375,7 +375,7 @@ def test_provenance_of_swang_tiles(swang, small_exemplar):
 
 
 def test_swang_supplementary_is_the_exact_best_ssd(swang, small_exemplar):
-    from tilesynth.wang import _initial_tiles
+    from tilesynth.builder.wang import _initial_tiles
 
     init, src, _ = _initial_tiles(small_exemplar, swang.genes, swang.tile_patches, 32)
     np.testing.assert_array_equal(init, small_exemplar[src[..., 0], src[..., 1]])
@@ -385,7 +385,7 @@ def test_swang_supplementary_is_the_exact_best_ssd(swang, small_exemplar):
         assert ref[tuple(swang.match_offsets[k])] == pytest.approx(ref.min(), rel=1e-9)
     assert swang.E == pytest.approx(0.8 * swang.D.sum() + 0.2 * swang.D.var(), rel=1e-12)
     # the cut is swang_cuts with the sample gradients, as for ω-tiles
-    from tilesynth.omega import patch_gradients
+    from tilesynth.builder.omega import patch_gradients
 
     O = np.stack([small_exemplar[r : r + 32, c : c + 32] for r, c in swang.match_offsets])
     masks, costs = tilesynth.swang_cuts(init, O, initial_grad=patch_gradients(small_exemplar, src))
@@ -610,7 +610,7 @@ def test_build_swang_errors(kwargs, words, small_exemplar):
 def test_build_swang_on_a_tiny_exemplar():
     # found by the fuzzers: the default tile size (4 at least) was not checked against a 1x1 exemplar, and
     # random_genes counted (1 - 4 + 1)^2 = 4 patch positions, so the initial tiles indexed outside it (IndexError)
-    from tilesynth.omega import random_genes
+    from tilesynth.builder.omega import random_genes
 
     for shape in [(1, 1, 3), (3, 30, 1)]:
         with pytest.raises(tilesynth.ParameterError, match="too small, at least 4x4"):
@@ -676,7 +676,7 @@ def test_ga_selection_lowers_E(small_exemplar):
     assert ga.E < np.median(rnd)
     assert len(sel["history"]["best"]) <= 15
     # the default is 001's 200 generations
-    from tilesynth.wang import GA_001
+    from tilesynth.builder.wang import GA_001
 
     assert GA_001["generations"] == 200 and GA_001["population"] == 50
     best = tilesynth.build_wang(ex, tile_size=32, seed=1, select="best-of", population=20)
@@ -695,7 +695,7 @@ def test_graph_cut_build_keeps_the_dp_objective(small_exemplar):
 
 
 def test_swang_selection(small_exemplar):
-    from tilesynth.wang import SwangEvaluator
+    from tilesynth.builder.wang import SwangEvaluator
 
     ex = small_exemplar
     ts = tilesynth.build_swang(ex, tile_size=32, seed=3, select="best-of", population=6)

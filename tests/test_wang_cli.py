@@ -11,7 +11,7 @@ import pytest
 from PIL import Image
 
 import tilesynth
-from tilesynth.cli import main
+from tilesynth.cli.main import main
 
 
 def read_png(path) -> np.ndarray:

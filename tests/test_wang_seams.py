@@ -1,5 +1,5 @@
 """Seamless tile borders by default for the Wang schemes (issue 14, item 6): pinned corners, border-aware draws
-(:mod:`tilesynth.wangborders`), and Cohen's literal construction kept as an option."""
+(:mod:`tilesynth.builder.genes.wang_borders`), and Cohen's literal construction kept as an option."""
 
 from __future__ import annotations
 
@@ -7,16 +7,16 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth import metrics
-from tilesynth.cli import main
-from tilesynth.genes import random_genes
-from tilesynth.wang import NORTH, SOUTH, corner_mismatch
-from tilesynth.wangborders import (
+from tilesynth.builder.genes.draws import random_genes
+from tilesynth.builder.genes.wang_borders import (
     DEFAULT_BORDER_TRIES,
     border_aware_genes,
     check_border_tries,
     predicted_border_seam,
 )
+from tilesynth.builder.wang import NORTH, SOUTH, corner_mismatch
+from tilesynth.cli.main import main
+from tilesynth.measure import metrics
 
 LITERAL = {"corners": "free", "border_tries": 1}  # Cohen et al.: free corners, one random draw
 
@@ -78,7 +78,7 @@ def test_default_border_seam_score_within_one_where_cohen_exceeds_it(tile_size, 
 
 def _line_oracle(ts, ex):
     """S_pred from the built pinned tiles themselves: the pixel pairs each border colour puts across a border,
-    read from a tile on either side (not from the gene arithmetic of tilesynth.wangborders)."""
+    read from a tile on either side (not from the gene arithmetic of tilesynth.builder.genes.wang_borders)."""
     tiles = ts.tiles.astype(np.float64)
     defn, n = ts.definition, ts.tile_size
 

@@ -13,11 +13,11 @@ import pytest
 import tilesynth as ts
 from tilesynth.engine import hash_layout
 from tilesynth.errors import ParameterError
-from tilesynth.io import load_image
-from tilesynth.lookup import cell_index_reference, hash_seed, lookup_scheme
-from tilesynth.metrics import seam_score
-from tilesynth.tilesets import tileset_from_dict
-from tilesynth.wangsets import WangTileSet, get_wang_tileset, is_wang_set_name
+from tilesynth.io.images import load_image
+from tilesynth.layouts.hashed import cell_index_reference, hash_seed, lookup_scheme
+from tilesynth.layouts.omega_sets import tileset_from_dict
+from tilesynth.layouts.wang_sets import WangTileSet, get_wang_tileset, is_wang_set_name
+from tilesynth.measure.metrics import seam_score
 
 
 @pytest.fixture(scope="module")

@@ -10,15 +10,15 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from tilesynth.tilesets import (
+from tilesynth.layouts.omega_sets import (
     TileSetLike,
     choices_summary,
     dead_ends,
     reachable_situations,
     tileset_from_dict,
 )
-from tilesynth.tiling import scanline_index_map, validate_index_map
-from tilesynth.wangsets import (
+from tilesynth.layouts.scanline import scanline_index_map, validate_index_map
+from tilesynth.layouts.wang_sets import (
     WANG_TILESET_NAMES,
     WangTileSet,
     complete_choice_set,

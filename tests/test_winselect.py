@@ -1,4 +1,4 @@
-"""The window objective of the complete sets (issue 15, :mod:`tilesynth.winselect`): the rules, the sub-plan of
+"""The window objective of the complete sets (issue 15, :mod:`tilesynth.builder.genes.window_objective`): the rules, the sub-plan of
 a window's tiles, and the build that keeps the rank-sum winner of the candidates' windows."""
 
 from __future__ import annotations
@@ -7,11 +7,9 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth.cutselect import resolve_objective
-from tilesynth.errors import ParameterError
-from tilesynth.layouts import CornerPlan, corner_set
-from tilesynth.visselect import PROXY_SEED, ProxyJudge, pick_by_ranks
-from tilesynth.winselect import (
+from tilesynth.builder.genes.cut_objective import resolve_objective
+from tilesynth.builder.genes.visible_objective import PROXY_SEED, ProxyJudge, pick_by_ranks
+from tilesynth.builder.genes.window_objective import (
     WINDOW_COUNT,
     WINDOW_MEASURES,
     window_candidates,
@@ -19,6 +17,8 @@ from tilesynth.winselect import (
     window_image,
     window_measures,
 )
+from tilesynth.errors import ParameterError
+from tilesynth.layouts.corners import CornerPlan, corner_set
 
 KW = dict(tileset="c3", threads=1, diversity=0)  # diversity 0: a window's tiles are the full set's tiles
 
@@ -52,13 +52,14 @@ def test_plan_subset_keeps_each_tiles_tuple_and_variant():
 
 
 def test_window_candidates_are_the_border_best_in_draw_order(small_exemplar):
-    from tilesynth.omegaborders import DEFAULT_CRITERION, _rank, predicted_corner_border_seam
+    from tilesynth.builder.genes.omega_borders import DEFAULT_CRITERION, _rank, predicted_corner_border_seam
 
-    first = tilesynth.genes.random_genes(small_exemplar.shape, 3, 24, np.random.default_rng(9))
+    first = tilesynth.builder.genes.draws.random_genes(small_exemplar.shape, 3, 24, np.random.default_rng(9))
     every = window_candidates(small_exemplar, 24, np.random.default_rng(3), first, count=7, draws=7)
     assert every[0] is not None and np.array_equal(every[0], first) and len(every) == 7
     assert np.array_equal(
-        every[1], tilesynth.genes.random_genes(small_exemplar.shape, 3, 24, np.random.default_rng(3))
+        every[1],
+        tilesynth.builder.genes.draws.random_genes(small_exemplar.shape, 3, 24, np.random.default_rng(3)),
     )
     rank = [_rank(predicted_corner_border_seam(small_exemplar, g, 24), DEFAULT_CRITERION) for g in every]
     kept = window_candidates(small_exemplar, 24, np.random.default_rng(3), first, count=3, draws=7)
@@ -79,7 +80,7 @@ def test_window_build_keeps_the_rank_sum_winner_of_its_recorded_windows(small_ex
     assert win["chosen"] == pick_by_ranks(rows, WINDOW_MEASURES)
     full = tilesynth.build_omega(small_exemplar, genes=ts.genes, **{**KW, "threads": 2})
     np.testing.assert_array_equal(full.tiles, ts.tiles)
-    imap = window_cells_map(tilesynth.lookup.lookup_scheme(full.definition))
+    imap = window_cells_map(tilesynth.layouts.hashed.lookup_scheme(full.definition))
     uniq, pos = np.unique(imap, return_inverse=True)
     pos = pos.reshape(imap.shape)
     assert win["window_tiles"] == uniq.size
@@ -106,7 +107,7 @@ def test_window_objective_refuses_other_sets_and_masks(small_exemplar):
 
 
 def test_cli_window_objective_and_info(small_exemplar, tmp_path, capsys):
-    from tilesynth.cli import main
+    from tilesynth.cli.main import main
 
     ex = tmp_path / "ex.png"
     tilesynth.save_image(ex, small_exemplar)

@@ -23,9 +23,7 @@ from __future__ import annotations
 
 from . import data  # noqa: F401 - tilesynth.data.example_path(): the bundled exemplar
 from ._version import __version__
-from .errors import InternalError, ParameterError, ShapeError, TileSetFormatError, TilesynthError
-from .io import load_image, load_raster, save_image
-from .kernels import (
+from .base.kernels import (
     PoissonInfo,
     PopulationEvaluator,
     SsdIndex,
@@ -41,18 +39,20 @@ from .kernels import (
     tile_copy,
     wang_tiles,
 )
-from .metrics import coherence_energy, image_metrics, seam_score, tileset_metrics
-from .omega import build_omega, energy
-from .render import contact_sheet
-from .report import write_report
+from .builder.omega import build_omega, energy
+from .builder.wang import build_swang, build_wang
+from .errors import InternalError, ParameterError, ShapeError, TileSetFormatError, TilesynthError
+from .io.images import load_image, load_raster, save_image
+from .layouts.omega_sets import TILESET_NAMES, get_tileset
+from .layouts.scanline import scanline_index_map, validate_index_map
+from .layouts.wang_sets import WANG_TILESET_NAMES, WangTileSet, get_wang_tileset
+from .measure.metrics import coherence_energy, image_metrics, seam_score, tileset_metrics
+from .measure.render import contact_sheet
+from .measure.report import write_report
 from .schemes import SCHEMES, build
 from .schemes.patch import build_patch
-from .synthesis import source_map, synthesize, synthesize_map
-from .tilefile import TileSet
-from .tilesets import TILESET_NAMES, get_tileset
-from .tiling import scanline_index_map, validate_index_map
-from .wang import build_swang, build_wang
-from .wangsets import WANG_TILESET_NAMES, WangTileSet, get_wang_tileset
+from .synth.synthesis import source_map, synthesize, synthesize_map
+from .tileset.tilefile import TileSet
 
 load = TileSet.load
 """Load a ``.tiles`` file (alias of :meth:`TileSet.load`)."""
@@ -122,11 +122,11 @@ __all__ = [
     "InputWarning",
 ]
 
-from .diagnose import InputWarning  # noqa: E402 - issue 14: warnings for suspicious inputs
-from .lookup import LookupScheme, ts_hash  # noqa: E402 - issue 12: the hashed lookup
-from .lookup import index_map as hashed_index_map  # noqa: E402
-from .materials import synthesize_maps  # noqa: E402 - issue 14: material builds
-from .metrics import (  # noqa: E402
+from .builder.materials import synthesize_maps  # noqa: E402 - issue 14: material builds
+from .layouts.hashed import LookupScheme, ts_hash  # noqa: E402 - issue 12: the hashed lookup
+from .layouts.hashed import index_map as hashed_index_map  # noqa: E402
+from .measure.diagnose import InputWarning  # noqa: E402 - issue 14: warnings for suspicious inputs
+from .measure.metrics import (  # noqa: E402
     detail_repetition,
     histogram_distance,
     inner_seam_score,

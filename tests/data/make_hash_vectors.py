@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from tilesynth.lookup import LookupScheme, cell_index_reference, pcg3d_reference, ts_hash_reference
+from tilesynth.layouts.hashed import LookupScheme, cell_index_reference, pcg3d_reference, ts_hash_reference
 
 COORDS = [0, 1, -1, 2**31 - 1, -(2**31), 12345, -54321]
 SEEDS = [0, 1, 2**32 - 1, 0xDEADBEEF]

@@ -7,7 +7,7 @@ JSON Schema, lookup shaders (GLSL ES 3.00 / 4.x, WGSL, HLSL, Godot) and an offli
 file                       content
 =========================  ========================================================================================
 ``atlas_<map>.png``        level 0 of each map's atlas (8 or 16 bit; ``albedo`` is the tile set's own colour);
-                           ``.exr`` (float32 OpenEXR, :func:`tilesynth.io.save_image`) for float maps
+                           ``.exr`` (float32 OpenEXR, :func:`tilesynth.io.images.save_image`) for float maps
 ``atlas_<map>_mip<L>.*``   level L = 1 .. ``max_level`` of the per-tile mip chains (see :mod:`.atlas`)
 ``index.png``              index-map lookup only: R16 (16-bit grey PNG) tile index of every cell of a toroidal
                            tiling, so it can be sampled with REPEAT (see :mod:`.periodic`)
@@ -18,7 +18,7 @@ file                       content
 =========================  ========================================================================================
 
 **Lookup modes.** ``hash``: the tile of cell (cx, cy) is computed from the pcg3d hash of its lattice vertices
-/ edges (``HASH-SPEC``, :mod:`tilesynth.lookup`), for *complete* sets whose tiles are stored in the hash's index
+/ edges (``HASH-SPEC``, :mod:`tilesynth.layouts.hashed`), for *complete* sets whose tiles are stored in the hash's index
 order; no index texture, an infinite non-periodic plane (or periodic with ``wrap``). ``index_map``: every other
 set (the scan-line sets 16a, n2, wang18, ...): the tiling is precomputed as a toroidal index map of
 ``index_size`` cells. ``lookup="auto"`` (default) picks ``hash`` when the set allows it.
@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from ..argtypes import normal_y_value
+from ..cli.argtypes import normal_y_value
 from ..errors import ParameterError, ShapeError
 from . import atlas as _atlas
 from .periodic import default_index_size, toroidal_index_map
@@ -47,14 +47,14 @@ from .sources import SHADER_FILES, shader_source
 
 EXPORT_FORMAT = "tilesynth-export"
 EXPORT_VERSION = 1
-HASH_NAME = "pcg3d"  # tilesynth.lookup.HASH_NAME
+HASH_NAME = "pcg3d"  # tilesynth.layouts.hashed.HASH_NAME
 HASH_CONSTANTS = {
     "lcg_multiplier": 1664525,
     "lcg_increment": 1013904223,
     "role_multiplier": 0x9E3779B9,
     "shift": 16,
 }
-"""The constants of the hash as the manifest records them (checked against :mod:`tilesynth.lookup` by the tests)."""
+"""The constants of the hash as the manifest records them (checked against :mod:`tilesynth.layouts.hashed` by the tests)."""
 
 __all__ = ["EXPORT_FORMAT", "export", "hash_layout", "manifest_schema", "shader_source", "validate_manifest"]
 
@@ -134,9 +134,9 @@ def _map_array(name: str, value: Any, exemplar_shape: tuple[int, int]) -> np.nda
 
 
 def _write_level(path: Path, arr: np.ndarray) -> None:
-    from ..io import save_image
+    from ..io.images import save_image
 
-    # float32 levels go to OpenEXR (float channels, values as they are) through tilesynth.io's exr-crate writer
+    # float32 levels go to OpenEXR (float channels, values as they are) through tilesynth.io.images's exr-crate writer
     save_image(path, arr, bits=16 if arr.dtype == np.uint16 else 8)
 
 
@@ -153,7 +153,7 @@ def build_maps(
     normal_y: str = "+y",
 ) -> dict[str, dict[str, Any]]:
     """Level-0 padded cells of every map: ``{name: {"cells": (K, S, S, C), "source": "tileset"|"map"}}``."""
-    from ..synthesis import _smooth_map_atlas, is_smoothed
+    from ..synth.synthesis import _smooth_map_atlas, is_smoothed
 
     out: dict[str, dict[str, Any]] = {}
     src = tileset.source
@@ -183,9 +183,9 @@ def build_maps(
 
 
 def _stored_maps(tileset: Any, padding: int, map_smooth: str, normal_y: str) -> dict[str, dict[str, Any]]:
-    """The padded cells of the maps a material tile set stores (:mod:`tilesynth.materials`): labels never
+    """The padded cells of the maps a material tile set stores (:mod:`tilesynth.builder.materials`): labels never
     smoothed, normals renormalised where smoothed and given in the export's ``normal_y`` convention."""
-    from ..materials import MapSpec, convert_normal_y, map_atlas
+    from ..builder.materials import MapSpec, convert_normal_y, map_atlas
 
     out: dict[str, dict[str, Any]] = {}
     smooth = {"auto": None, "on": True, "off": False}[map_smooth]
@@ -291,7 +291,7 @@ def _check_export_args(
 ) -> tuple[int, str, dict[str, Any] | None]:
     """Check the arguments of :func:`export` before anything is written; returns (padding, lookup mode, hash
     layout)."""
-    from ..tilefile import TileSet
+    from ..tileset.tilefile import TileSet
 
     if not isinstance(tileset, TileSet):
         raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet (tilesynth.load(path))")
@@ -300,7 +300,7 @@ def _check_export_args(
     padding = int(padding)
     _check_choice(bits, "bits", (8, 16))
     _check_choice(lookup, "lookup", ("auto", "hash", "index_map"))
-    normal_y_value(normal_y)  # up/+y or down/-y (tilesynth.argtypes); the manifest records +y or -y
+    normal_y_value(normal_y)  # up/+y or down/-y (tilesynth.cli.argtypes); the manifest records +y or -y
     _check_choice(map_smooth, "map_smooth", ("auto", "on", "off"))
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**32:
         raise ParameterError(f"seed = {seed!r}: must be an integer in [0, 2^32)")
@@ -360,7 +360,7 @@ def _write_atlases(
         srgb = (name == "albedo" or info.get("map_kind") == "colour") and cells.dtype != np.float32
         chain = _atlas.mip_chain(_atlas.pack(cells, cols, rows), levels, srgb)
         if info.get("map_kind") == "normal":  # issue 14: filtered normals renormalised
-            from ..materials import renormalise_image
+            from ..builder.materials import renormalise_image
 
             chain = [chain[0], *(renormalise_image(lv, info.get("encoding", "unorm")) for lv in chain[1:])]
         ext = "exr" if cells.dtype == np.float32 else "png"
@@ -411,7 +411,7 @@ def _write_index_map(
     if icols < 1 or irows < 1 or icols * irows > 1 << 22:
         raise ParameterError(f"index_size = {index_size!r}: (cols, rows) >= 1 and at most 4M cells")
     imap = toroidal_index_map(defn, irows, icols, index_seed)
-    from ..io import save_image
+    from ..io.images import save_image
 
     save_image(out / "index.png", imap.astype(np.uint16), bits=16)
     files.append("index.png")

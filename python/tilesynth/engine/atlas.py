@@ -144,7 +144,7 @@ def quantise(cells: np.ndarray, bits: int | None) -> np.ndarray:
     """float [0, 1] -> uint8/uint16 with rounding; uint data passes unchanged; ``bits=None`` keeps float32."""
     if cells.dtype in (np.uint8, np.uint16) or bits is None:
         return cells
-    from .._validate import to_uint
+    from ..base.validate import to_uint
 
     return to_uint(cells, bits)
 

@@ -14,7 +14,7 @@ sizes; 16b: multiples of 4; B, n1, n2: multiples of 3; 16a, 32: any size >= 2), 
 can thrash on large ones; after :data:`MAX_NODES` steps we solve a small torus whose size divides the requested
 one, repeat it, and randomise the result with recolouring moves that keep every tile in the set (a lattice
 vertex of a corner set, an edge of a Wang set, takes a random colour when its cells stay tiles of the set). The
-default size (:func:`default_index_size`) is the multiple of the set's period nearest 32. The result is checked with :func:`tilesynth.tiling.validate_index_map` on the map extended by its first
+default size (:func:`default_index_size`) is the multiple of the set's period nearest 32. The result is checked with :func:`tilesynth.layouts.scanline.validate_index_map` on the map extended by its first
 row and column, which is exactly the torus condition.
 """
 
@@ -210,7 +210,7 @@ def toroidal_index_map(tileset: Any, rows: int, cols: int, seed: int | None = 0)
                 f"index_size = {cols}x{rows}: no toroidal tiling of tile set {name!r} found; try a multiple of "
                 f"{torus_period(tileset) or '?'}"
             ) from None
-    from ..tiling import validate_index_map
+    from ..layouts.scanline import validate_index_map
 
     ext = np.concatenate([out, out[:1]], axis=0)
     validate_index_map(tileset, np.concatenate([ext, ext[:, :1]], axis=1))

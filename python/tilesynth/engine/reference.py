@@ -35,8 +35,8 @@ def index_function(
 
 
 def hashed_index_map_for(lookup: dict[str, Any], x0: int, y0: int, w: int, h: int) -> np.ndarray:
-    """int32 ``(h, w)`` tile indices of cells x0.., y0.. in hash mode (via :mod:`tilesynth.lookup`)."""
-    from .. import lookup as lk
+    """int32 ``(h, w)`` tile indices of cells x0.., y0.. in hash mode (via :mod:`tilesynth.layouts.hashed`)."""
+    from ..layouts import hashed as lk
 
     colours = (lookup["K"],) if lookup["kind"] == "corner" else (lookup["Kh"], lookup["Kv"])
     scheme = lk.LookupScheme(lookup["kind"], colours, lookup["V"])
@@ -48,7 +48,7 @@ def texture_window(
     tileset: Any, index_of: Callable, x0: int, y0: int, w: int, h: int, dtype: Any = np.uint8
 ) -> np.ndarray:
     """``(h, w, C)`` pixels [y0, y0+h) x [x0, x0+w) of the infinite texture, by :func:`tilesynth.synthesize`."""
-    from ..synthesis import synthesize
+    from ..synth.synthesis import synthesize
 
     n = tileset.tile_size
     cx0, cy0 = x0 // n, y0 // n

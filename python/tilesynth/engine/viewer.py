@@ -102,7 +102,7 @@ class Reference:
         self.levels = levels
 
     def texels(self, x0: int, y0: int, w: int, h: int) -> np.ndarray:
-        from .._validate import to_uint
+        from ..base.validate import to_uint
 
         img = ref.texture_window(self.tileset, self.index_of, x0, y0, w, h, dtype=np.float32)
         return ref.to_rgba8(to_uint(img, 8))
@@ -254,7 +254,7 @@ def read_index(out: Path, manifest: dict[str, Any]) -> np.ndarray | None:
 
 
 def albedo_levels(out: Path, manifest: dict[str, Any]) -> list[np.ndarray]:
-    from ..io import load_raster
+    from ..io.images import load_raster
 
     entry = next(m for m in manifest["maps"] if m["name"] == "albedo")
     return [np.asarray(load_raster(out / lv["file"])) for lv in entry["levels"]]

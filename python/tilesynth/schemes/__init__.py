@@ -3,13 +3,13 @@
 =========  ===========================================  ==================================================
 scheme     builder                                      tile sets (``tileset=``)
 =========  ===========================================  ==================================================
-"omega"    :func:`tilesynth.omega.build_omega`          corner sets: 4, 8, 16a, 16b, 32, B, n1, n2, nK
-"wang"     :func:`tilesynth.wang.build_wang`            edge sets: wang8, wang18, wang<2k²>
-"swang"    :func:`tilesynth.wang.build_swang`           edge sets: wang8 (004), wang18, ...
+"omega"    :func:`tilesynth.builder.omega.build_omega`          corner sets: 4, 8, 16a, 16b, 32, B, n1, n2, nK
+"wang"     :func:`tilesynth.builder.wang.build_wang`            edge sets: wang8, wang18, wang<2k²>
+"swang"    :func:`tilesynth.builder.wang.build_swang`           edge sets: wang8 (004), wang18, ...
 "patch"    :func:`tilesynth.schemes.patch.build_patch`  corner sets (a random-crop baseline)
 =========  ===========================================  ==================================================
 
-Every builder returns a :class:`~tilesynth.tilefile.TileSet`; :func:`tilesynth.synthesize`, the file format
+Every builder returns a :class:`~tilesynth.tileset.tilefile.TileSet`; :func:`tilesynth.synthesize`, the file format
 and the command line serve all of them alike.
 
 **Adding a square-grid scheme** is a module here defining a :class:`~tilesynth.schemes.base.Scheme` (name,
@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
-from ..tilefile import TileSet
+from ..tileset.tilefile import TileSet
 from . import omega, patch, swang, wang
 from .base import Option, Scheme
 
@@ -60,7 +60,7 @@ def build(exemplar: np.ndarray, scheme: str = "omega", *, maps: Any = None, **kw
 
     ``maps={name: array}`` (with optional ``map_kinds``, ``map_weights``, ``normal_y``) makes a material build:
     matching and cuts on the exemplar and every map jointly, every map stored in the set
-    (:func:`tilesynth.materials.build_material`).
+    (:func:`tilesynth.builder.materials.build_material`).
 
     Raises
     ------
@@ -84,7 +84,7 @@ def build_material(
     **kwargs: Any,
 ) -> TileSet:
     """Build a tile set of ``scheme`` from ``exemplar`` (the albedo) and its pixel-aligned ``maps``, matched and
-    cut jointly (issue 14; the method, the kinds and the defaults: :mod:`tilesynth.materials`); ``kwargs`` go to
+    cut jointly (issue 14; the method, the kinds and the defaults: :mod:`tilesynth.builder.materials`); ``kwargs`` go to
     the scheme's builder. :func:`build` with ``maps=`` calls it.
 
     Parameters
@@ -96,7 +96,7 @@ def build_material(
     normal_y : "up" (OpenGL, default) or "down" (DirectX): the Y convention of the input normal maps.
     map_suffixes : the file suffix of each map (".png", ".exr", ".npy"), recorded to name the outputs alike.
     """
-    from ..materials import build_with_maps
+    from ..builder.materials import build_with_maps
 
     sc = get_scheme(scheme)
     return build_with_maps(

@@ -14,13 +14,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
-from ..argtypes import parse_int
+from ..cli.argtypes import parse_int
 from ..errors import ParameterError
 
 if TYPE_CHECKING:
     import numpy as np
 
-    from ..tilefile import TileSet
+    from ..tileset.tilefile import TileSet
 
 __all__ = [
     "LAYOUT_KINDS",
@@ -46,18 +46,18 @@ def layout_kind(layout: dict[str, Any]) -> str:
 
 
 def nonneg_int_text(text: str) -> int:
-    """argparse type: an integer >= 0 (ASCII digits, :mod:`tilesynth.argtypes`)."""
+    """argparse type: an integer >= 0 (ASCII digits, :mod:`tilesynth.cli.argtypes`)."""
     return parse_int(text, 0)
 
 
 def positive_int_text(text: str) -> int:
-    """argparse type: an integer >= 1 (ASCII digits, :mod:`tilesynth.argtypes`)."""
+    """argparse type: an integer >= 1 (ASCII digits, :mod:`tilesynth.cli.argtypes`)."""
     return parse_int(text, 1)
 
 
 def layout_of_set(name: str) -> str:
     """``"edge"`` for an edge-coloured set name (wang8, wang18, wang<2k²>), else ``"corner"``."""
-    from ..wangsets import is_wang_set_name
+    from ..layouts.wang_sets import is_wang_set_name
 
     return "edge" if is_wang_set_name(name) else "corner"
 
@@ -131,9 +131,9 @@ class Scheme:
     options : the scheme's own options (beyond those every builder takes).
     describe : ``info``'s lines about a tile set of this scheme (its matching, its objective E).
     selects : whether the scheme has an objective to select genes by (``--select`` other than random).
-    material_options : builder options that a *joint* material build (:func:`tilesynth.materials.build_with_maps`:
+    material_options : builder options that a *joint* material build (:func:`tilesynth.builder.materials.build_with_maps`:
         maps of weight > 0, cut on the feature image) uses unless the caller gives them; a colour-only build
-        never sees them (ω, s-Wang: the cut's ``eps``, :data:`tilesynth.materials.MATERIAL_CUT_EPS`).
+        never sees them (ω, s-Wang: the cut's ``eps``, :data:`tilesynth.builder.materials.MATERIAL_CUT_EPS`).
     """
 
     name: str
@@ -182,8 +182,8 @@ class Scheme:
 
     def build(self, exemplar: np.ndarray, **kwargs: Any) -> TileSet:
         """Build a tile set of this scheme (``kwargs`` go to :attr:`builder`); a build that would not fit in
-        memory is refused up front with the figure (:func:`tilesynth._budget.check_build_memory`)."""
-        from .._budget import check_build_memory
+        memory is refused up front with the figure (:func:`tilesynth.base.budget.check_build_memory`)."""
+        from ..base.budget import check_build_memory
 
         default = inspect.signature(self.builder).parameters.get("tileset")
         default_set = (

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..argtypes import float_text
-from ..materials import MATERIAL_CUT_EPS
-from ..omega import build_omega
+from ..builder.materials import MATERIAL_CUT_EPS
+from ..builder.omega import build_omega
+from ..cli.argtypes import float_text
 from .base import Option, Scheme, lambda_energy_line, nonneg_int_text, positive_int_text
 from .common import CORNER_BORDER_TRIES, GRADIENTS, LITERAL_BORDER
 
@@ -153,7 +153,7 @@ SCHEME = Scheme(
             "augment",
             "--augment",
             "matching patches may also be mirrored / rotated exemplar windows (for isotropic textures; issue 12, "
-            "tilesynth.augment): none (default), flip (4 mirrors), rotate (4 rotations), all (8); costs one "
+            "tilesynth.builder.matching.augment): none (default), flip (4 mirrors), rotate (4 rotations), all (8); costs one "
             "matching search per orientation; only with --match ssd --metric color and no mask",
             choices=("none", "flip", "rotate", "all"),
         ),
@@ -161,7 +161,7 @@ SCHEME = Scheme(
             "periodic",
             "--periodic",
             "complete sets at the default tile size: auto (default) takes the tile size from the exemplar's "
-            "period when it repeats at a shift of one tile (a brick wall; tilesynth.periodic), lock also puts "
+            "period when it repeats at a shift of one tile (a brick wall; tilesynth.builder.periodic), lock also puts "
             "every sample patch at one phase of it (continuous courses, more copies), off never",
             choices=("auto", "lock", "off"),
         ),

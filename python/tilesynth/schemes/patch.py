@@ -24,19 +24,19 @@ from typing import Any
 
 import numpy as np
 
-from .. import kernels
-from .._validate import finite_float
-from ..diagnose import finish_build
+from ..base import kernels
+from ..base.validate import finite_float
+from ..builder.compose import cut_and_compose, finish_tileset, patches_at
+from ..builder.genes.draws import LAMBDA, energy
+from ..builder.genes.omega_borders import DEFAULT_BORDER_TRIES, corner_border_draws
+from ..builder.genes.select import choose_genes
+from ..builder.genes.wang_borders import check_border_tries
+from ..builder.masking import active
+from ..builder.options import Progress, SeedLike, common_options
 from ..errors import ParameterError
-from ..genes import LAMBDA, energy
-from ..layouts import CornerPlan, corner_set, intermediate_tiles
-from ..masking import active
-from ..omegaborders import DEFAULT_BORDER_TRIES, corner_border_draws
-from ..options import Progress, SeedLike, common_options
-from ..select import choose_genes
-from ..stages.compose import cut_and_compose, finish_tileset, patches_at
-from ..tilefile import TileSet
-from ..wangborders import check_border_tries
+from ..layouts.corners import CornerPlan, corner_set, intermediate_tiles
+from ..measure.diagnose import finish_build
+from ..tileset.tilefile import TileSet
 from .base import Scheme, lambda_energy_line
 from .common import CORNER_BORDER_TRIES, GRADIENTS, LITERAL_BORDER
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..materials import MATERIAL_CUT_EPS
-from ..wang import build_swang
+from ..builder.materials import MATERIAL_CUT_EPS
+from ..builder.wang import build_swang
 from .base import Option, Scheme, lambda_energy_line, positive_int_text
 from .common import GRADIENTS
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..wang import build_wang
+from ..builder.wang import build_wang
 from .base import Option, Scheme, positive_int_text
 
 

@@ -1,0 +1,751 @@
+"""Material builds: an exemplar with pixel-aligned maps (normal, height, roughness, ...) cut as one material.
+
+A colour-only build chooses its matching patches and cuts on the albedo alone; a height map sent through the
+same cuts afterwards (``synth --with``) is discontinuous wherever the albedo hid a seam that the height does not
+(issue 14: height cliffs along every cut). A **material build** (:func:`tilesynth.build_material`, ``tilesynth.build(img,
+maps={...})``, ``tilesynth build EX --map height=H.png``) chooses them on every map jointly:
+
+1. **Features.** Each map (and the albedo) is centred and divided by its own standard deviation (the square
+   root of the sum of its channels' variances), then multiplied by ``sqrt(weight)``: a map of weight w
+   contributes w times the albedo's share of every SSD and every cut weight, whatever its range or channel
+   count. A normal map enters as its decoded vectors (``2·v − 1`` for unsigned encodings), a constant map not at
+   all (it has nothing to match).
+2. **Projection.** The stacked channels (3 + 3 + 1 + 1 = 8 for albedo, normal, height, roughness) are projected
+   on their first :data:`FEATURE_CHANNELS` principal components (exact when there are no more channels than
+   that), and the result is mapped into [0, 1] by one affine map common to all channels. Why: the FFT matching
+   search, the objective and the cut weights cost in proportion to the channel count; 4 components keep the
+   build at 1.1-1.3x the CPU time of a colour-only build (target: at most 1.5x, ``benches/materials.py``)
+   while keeping most of the joint variance (recorded as ``params["material"]["variance_kept"]``: 0.90-0.96 on
+   the bench's materials). One affine map for every channel keeps SSD rankings exactly (a common scale and offset
+   change every SSD by the same factor); the Kwatra ``eps`` is then relative to features of an image's range.
+   The feature image reaches the builder as an ordinary 4-channel float image: its 4th channel is a feature,
+   never an alpha channel or a mask.
+3. **Build.** The scheme's own builder runs on the feature image, unchanged: genes, matching patches, D_j, E and
+   cut costs are all in feature units (recorded as such). The tile set then gets the real albedo: the exemplar
+   is the albedo, and the tiles are the albedo copied through the provenance (or Poisson-smoothed in the same
+   regions, for ``smooth=True``).
+4. **Maps travel with the set.** Every map is stored in the tile set (``map_<name>.npy`` in its own sample type,
+   with its kind and weight in ``manifest.json`` ``maps``), and :func:`synthesize_maps` lays each out through the
+   same provenance and cuts as the colour (``synth``, ``export`` and ``report`` write all of them). Scalar and
+   normal maps are fused across every seam of the tile in the gradient domain by default (:func:`smooths`,
+   :mod:`tilesynth.builder.fusion`: a smooth map shows the level offset of two patches as a cliff that no cut
+   avoids; a first stage moves the exemplar's levels by one smooth correction shared by every copy of a pixel,
+   :func:`~tilesynth.builder.fusion.exemplar_levels`, then the tile interior is fused with the border ring kept as
+   the first stage left it, so tilings stay seamless; ``level=False`` skips the first stage); ``smooth=False`` /
+   ``--map-smooth off`` gives pure copies.
+
+**Default weights** (0.5 for scalar and normal maps, :data:`DEFAULT_WEIGHTS`). Measured on the bench's 4 derived
+materials with 2 seeds each (``benches/materials.py``): with the fusion, the maps' cut seams are 0.85-1.34 whatever
+the weight (0, 0.25, 0.5, 1), since the cut no longer has to hide a level offset; the albedo's cut seam (copies)
+grows with the maps' weight (weight 1: 5.0-10.5, 0.5: 4.4-9.6, colour-only 4.1-8.2), and at weight 1 the cut
+follows the normal map's edges so closely (the Kwatra weight divides by the feature gradients) that the normal's
+score rose to 1.48-1.57 on the brick material, though its seam itself is fused away (the *reference* column: the
+patches' own steps there). 0.5 keeps the maps in the joint matching and cut at about a third of the features'
+variance and costs the albedo less.
+
+**The cut of a material build** (:data:`MATERIAL_CUT_EPS`, issue 14). The cut weights of ω and s-Wang are
+Kwatra's, ``(‖a − b‖(s) + ‖a − b‖(t)) / (Σ‖g‖ + eps)``: the gradient normalisation makes a step along an edge of
+the exemplar cheap, because a colour seam there hides in the edge. In a joint build the gradients are those of the
+feature image, so the cut is drawn along the *maps'* own edges too (a normal map's crease, a roughness step), and
+there nothing hides it: the maps are fused across the cut afterwards, and where the cut follows an edge that one
+patch has and the other does not, the fusion's guidance is not integrable. Measured (``benches/map_levels.py``):
+with the default ``eps`` = 1e-6 the s-Wang normals of pbr:tiles and bricks-red scored 1.46 / 1.45 with a
+*reference* (the patches' own steps where the cut runs) of 1.14 / 1.22, most of it more than 8 px from the tile
+borders; ω ``c5``'s pbr:tiles maps scored 1.52-3.14 (roughness reference 3.15: the cut along the grout). A
+joint ω or s-Wang build therefore uses ``eps`` = 1, the feature image's range (typical feature gradients are
+0.02-0.1, so the denominator varies by tens of per cent instead of orders of magnitude: a capped normalisation,
+close to the plain difference): on seeds 1-3 of the bench's six materials (``c5``: seeds 1-2) the s-Wang maps
+fall to 0.4-1.2 and ω's to 0.5-1.1, their references with them (the cut leaves the maps' edges), and so does the
+albedo's own cut seam, on nearly every material (``benches/materials-results.md``, "Material cuts with a capped
+gradient normalisation"); eps = 0.03 / 0.1 / 0.3 / 3 were measured too (0.3 already helps, 3 is as good as 1).
+A caller's ``eps`` is kept; colour-only builds are unchanged; so are Cohen's Wang tiles (their DP path has no
+gradient term) and the patch baseline (not measured).
+
+**Map kinds** (:data:`KINDS`), inferred from the name (:func:`infer_kind`) unless given:
+
+=========  =====================================================  ==============  ====================================
+kind       meaning                                                default weight  in synthesis
+=========  =====================================================  ==============  ====================================
+colour     sRGB colour (albedo, base colour, emissive)            1               copied; smoothed with the colour
+scalar     linear data (height, roughness, metallic, AO, ...)     0.5             fused across the seams
+normal     tangent-space normal, 3 channels, Y up or down         0.5             fused, renormalised, unit codes
+label      mask, material ID, segmentation (any integer value)    0               exact copies, never smoothed
+=========  =====================================================  ==============  ====================================
+
+Names containing ``normal``/``nrm``/``nor`` are normals; ``mask``, ``label``, ``id``, ``segment``, ``class`` labels;
+``albedo``, ``color``/``colour``, ``diffuse``, ``base``, ``emissive`` colours; everything else (``height``,
+``roughness``, ``ao``, ``metallic``, ``disp``, ...) linear scalars. Labels get weight 0 by default (their values are
+categories, not distances); a positive ``map_weights`` entry makes them count numerically.
+
+**What is left in smooth maps.** The ω construction keeps the tile border ring of the intermediate tile, whose
+central cross (where two sample patches meet) reaches the border at the four side midpoints; a few pixels of that
+cross are outside every cut region (in every scheme with a kept border). The fusion of scalar and normal maps
+treats them as seams like the cut, so inside the tile they are fused too; what is left is the cross's one pixel
+pair on the border ring itself (the ring is shared with the neighbouring tile and kept by the interior fusion),
+about which the fused interior bends back within a few pixels; the first (level) stage lowers that pair's step,
+since it corrects the exemplar itself, every copy of a ring pixel by the same amount. With the colour's Pérez smoothing (``synth --with`` on a
+``--smooth`` set, and the albedo) they stay as they are: invisible in an albedo, a small dot at each tile side
+midpoint in a smooth height map.
+
+**Normal maps.** ``normal_y`` records the Y convention of the input normals: ``"up"`` (OpenGL, green up, the
+default) or ``"down"`` (DirectX). Outputs can be converted (:func:`convert_normal_y`, ``synth --normal-y``): the
+green channel is negated (``max − g`` for unsigned encodings: exact for 8- and 16-bit). A normal map is *unsigned*
+(values in [0, 1] encode ``2·v − 1``; every PNG) unless it has negative values (a float map of signed vectors).
+Inputs whose vectors are far from unit length are refused (:data:`NORMAL_TOLERANCE`): they are not normal maps
+(a height map given as ``normal``, a map in the wrong encoding). After smoothing, every smoothed vector is
+renormalised to unit length, and every vector of every output (copies too) is re-encoded by
+:func:`tilesynth.io.normal_codes.encode_unit`: decoded as ``v = code / 255 · 2 − 1`` (16-bit: ``/ 65535``), each
+8- or 16-bit pixel gets the code nearest its vector among the floor / ceiling combinations whose decoded length is
+within 0.0049 of 1, so 100 % of output vectors are within 1 ± 0.005 (plain rounding leaves 0.1-0.8 % outside,
+up to 0.007) while the direction moves no more than rounding may.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError, ShapeError
+
+__all__ = [
+    "DEFAULT_WEIGHTS",
+    "FEATURE_CHANNELS",
+    "KINDS",
+    "MATERIAL_CUT_EPS",
+    "MapSpec",
+    "NORMAL_TOLERANCE",
+    "build_with_maps",
+    "check_maps",
+    "convert_normal_y",
+    "feature_image",
+    "infer_kind",
+    "normal_lengths",
+    "renormalise_image",
+    "smooths",
+    "synthesize_maps",
+]
+
+#: The map kinds.
+KINDS: tuple[str, ...] = ("colour", "scalar", "normal", "label")
+#: Other spellings accepted for a kind.
+KIND_ALIASES: dict[str, str] = {
+    "color": "colour",
+    "srgb": "colour",
+    "linear": "scalar",
+    "mask": "label",
+    "labels": "label",
+    "id": "label",
+}
+#: The weight of a map of each kind when ``map_weights`` does not name it (its share of the distance relative to
+#: the albedo's, which is 1).
+DEFAULT_WEIGHTS: dict[str, float] = {"colour": 1.0, "scalar": 0.5, "normal": 0.5, "label": 0.0}
+#: Channels of the feature image the scheme is built on (see the module docstring, step 2).
+FEATURE_CHANNELS = 4
+#: Kwatra's ``eps`` of the ω and s-Wang cuts in a joint material build (``Scheme.material_options``), in the units
+#: of the feature image (range 1): a capped gradient normalisation, so the cut does not follow the maps' own edges
+#: (module docstring, "The cut of a material build").
+MATERIAL_CUT_EPS: float = 1.0
+#: A normal map is refused when more than :data:`NORMAL_BAD_SHARE` of its vectors have a length outside
+#: 1 ± NORMAL_TOLERANCE (8-bit quantisation alone stays within 0.007).
+NORMAL_TOLERANCE = 0.1
+NORMAL_BAD_SHARE = 0.01
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}")
+_DTYPES = ("uint8", "uint16", "float32")
+
+
+@dataclass(frozen=True)
+class MapSpec:
+    """One map of a material: its name, kind, weight, sample type and channels, and for normals the Y
+    convention and encoding. :meth:`to_dict` is its ``manifest.json`` entry."""
+
+    name: str
+    kind: str
+    weight: float
+    dtype: str
+    channels: int
+    normal_y: str | None = None
+    encoding: str | None = None
+    suffix: str = ".png"
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "name": self.name,
+            "kind": self.kind,
+            "weight": float(self.weight),
+            "dtype": self.dtype,
+            "channels": int(self.channels),
+            "suffix": self.suffix,
+        }
+        if self.kind == "normal":
+            d["normal_y"] = self.normal_y
+            d["encoding"] = self.encoding
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> MapSpec:
+        return cls(
+            name=d["name"], kind=d["kind"], weight=float(d["weight"]), dtype=d["dtype"], channels=int(d["channels"]),
+            normal_y=d.get("normal_y"), encoding=d.get("encoding"), suffix=d.get("suffix", ".png"),
+        )  # fmt: skip
+
+
+def infer_kind(name: str) -> str:
+    """The kind of a map called ``name`` (see the module docstring)."""
+    low = name.lower()
+    words = set(re.split(r"[^a-z]+", low))  # "rock_nrm16" -> {"rock", "nrm"}
+    if "normal" in low or words & {"nrm", "nor", "n", "nml", "normals"}:
+        return "normal"
+    if any(w in low for w in ("mask", "label", "segment", "class")) or words & {"id", "ids", "matid"}:
+        return "label"
+    if any(w in low for w in ("albedo", "colour", "color", "diffuse", "basecolor", "base_color", "emissive")):
+        return "colour"
+    return "scalar"
+
+
+def _kind(value: Any, name: str) -> str:
+    k = KIND_ALIASES.get(str(value).lower(), str(value).lower()) if isinstance(value, str) else None
+    if k not in KINDS:
+        raise ParameterError(
+            f"map {name!r}: unknown map kind {value!r}; expected one of {', '.join(KINDS)} "
+            f"(or {', '.join(sorted(KIND_ALIASES))})"
+        )
+    return k
+
+
+def _as_map_array(name: str, value: Any, shape: tuple[int, int]) -> np.ndarray:
+    """The map as ``(H, W, C)`` uint8 / uint16 / float32 (float16 / float64 converted after the finiteness
+    check), checked: pixel-aligned with the exemplar, 1-4 channels, finite."""
+    try:
+        a = np.asarray(value)
+    except (ValueError, TypeError) as exc:
+        raise ShapeError(f"map {name!r} is not an array ({exc})") from None
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
+        raise ShapeError(
+            f"map {name!r} has shape {np.shape(value)}, expected (H, W) or (H, W, C) with C in 1..4"
+        )
+    if a.shape[:2] != shape:
+        raise ShapeError(
+            f"map {name!r} is {a.shape[1]}x{a.shape[0]}, the exemplar {shape[1]}x{shape[0]}: every map must be "
+            "pixel-aligned with the exemplar (same width and height)"
+        )
+    if a.dtype.kind == "f":
+        if a.dtype not in (np.float16, np.float32, np.float64):
+            raise TypeError(f"map {name!r} has dtype {a.dtype}, expected uint8, uint16 or float32")
+        bad = ~np.isfinite(a)
+        if bad.any():
+            y, x, c = (int(v) for v in np.argwhere(bad)[0])
+            raise ParameterError(
+                f"map {name!r} has {int(bad.sum())} NaN or infinite value(s) (the first {a[y, x, c]!r} at row {y}, "
+                f"column {x}, channel {c}); a map must be finite"
+            )
+        if a.dtype != np.float32:
+            with np.errstate(over="ignore"):
+                f = a.astype(np.float32)
+            if not np.isfinite(f).all():
+                raise ParameterError(f"map {name!r} has values beyond the float32 range")
+            a = f
+    elif a.dtype not in (np.uint8, np.uint16):
+        raise TypeError(
+            f"map {name!r} has dtype {a.dtype}, expected uint8, uint16 or float32 (convert explicitly: "
+            "arr.astype(np.uint8) for data in [0, 255])"
+        )
+    return np.ascontiguousarray(a)
+
+
+def _decoded_normals(a: np.ndarray, encoding: str) -> np.ndarray:
+    """The vectors of a normal map as float64 ``(H, W, 3)``."""
+    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(a.dtype, 1.0)
+    v = a.astype(np.float64) / scale
+    return 2.0 * v - 1.0 if encoding == "unorm" else v
+
+
+def normal_lengths(a: np.ndarray, encoding: str = "unorm") -> np.ndarray:
+    """The vector lengths of a normal map ``(H, W, 3)`` (``encoding`` "unorm": values in [0, 1] or uint encode
+    ``2·v − 1``; "snorm": the vectors themselves): float64 ``(H, W)``."""
+    return np.sqrt((_decoded_normals(np.asarray(a), encoding) ** 2).sum(axis=-1))
+
+
+def _check_normal(name: str, a: np.ndarray) -> str:
+    """Refuse a normal map that is not one; returns its encoding ("unorm" or "snorm")."""
+    if a.shape[2] != 3:
+        raise ParameterError(f"map {name!r} (kind normal) has {a.shape[2]} channel(s), expected 3 (x, y, z)")
+    encoding = "snorm" if a.dtype == np.float32 and float(a.min()) < 0.0 else "unorm"
+    length = normal_lengths(a, encoding)
+    bad = np.abs(length - 1.0) > NORMAL_TOLERANCE
+    if bad.mean() > NORMAL_BAD_SHARE:
+        raise ParameterError(
+            f"map {name!r} (kind normal): {100 * bad.mean():.1f}% of its vectors have a length outside "
+            f"1 ± {NORMAL_TOLERANCE} (median length {float(np.median(length)):.3f}, read as {encoding}: "
+            f"{'2·value − 1' if encoding == 'unorm' else 'the values themselves'}); not a unit normal map. Give "
+            "its kind (--map NAME:scalar=FILE, map_kinds) if it is not a normal map"
+        )
+    return encoding
+
+
+def check_maps(
+    exemplar_shape: tuple[int, ...],
+    maps: Any,
+    map_kinds: Any = None,
+    map_weights: Any = None,
+    normal_y: Any = "up",
+    suffixes: dict[str, str] | None = None,
+) -> list[tuple[MapSpec, np.ndarray]]:
+    """Validate the maps of a material build before any work: ``[(spec, array)]`` in the given order.
+
+    Raises :class:`ShapeError` (not pixel-aligned), :class:`ParameterError` (bad name, duplicate name, NaN or
+    infinity, unknown kind, a normal map far from unit length, a bad weight) or ``TypeError`` (dtype), each naming
+    the map and the value.
+    """
+    if not isinstance(maps, dict) or not maps:
+        raise ParameterError(f"maps = {type(maps).__name__}: expected a non-empty dict {{name: array}}")
+    from ..cli.argtypes import normal_y_value
+
+    normal_y = normal_y_value(normal_y)  # 'up' / '+y' (OpenGL) or 'down' / '-y' (DirectX)
+    kinds = {} if map_kinds is None else map_kinds
+    weights = {} if map_weights is None else map_weights
+    for what, d in (("map_kinds", kinds), ("map_weights", weights)):
+        if not isinstance(d, dict):
+            raise ParameterError(f"{what} = {d!r}: expected a dict {{map name: value}}")
+    seen: dict[str, str] = {}
+    for name in maps:
+        if not isinstance(name, str) or not _NAME.fullmatch(name):
+            raise ParameterError(
+                f"map name {name!r}: 1-64 letters, digits, '-' and '_', starting with a letter or digit"
+            )
+        if name.lower() == "albedo":
+            raise ParameterError("map name 'albedo' is the exemplar itself; give the map another name")
+        if name.lower() in seen:
+            raise ParameterError(
+                f"duplicate map name {name!r} (and {seen[name.lower()]!r}): map names must differ (ignoring case), "
+                "since each names an output file"
+            )
+        seen[name.lower()] = name
+    for what, d in (("map_kinds", kinds), ("map_weights", weights)):
+        for key in d:
+            if key not in maps and not (what == "map_weights" and key == "albedo"):
+                raise ParameterError(f"{what}: {key!r} is not one of the maps ({', '.join(maps)})")
+    out = []
+    shape = tuple(int(v) for v in exemplar_shape[:2])
+    for name, value in maps.items():
+        kind = _kind(kinds[name], name) if name in kinds else infer_kind(name)
+        a = _as_map_array(name, value, shape)  # type: ignore[arg-type]
+        w = _weight(weights.get(name, DEFAULT_WEIGHTS[kind]), name)
+        encoding = _check_normal(name, a) if kind == "normal" else None
+        suffix = str((suffixes or {}).get(name, "")).lower()
+        if suffix not in (".png", ".exr", ".npy", ".tif", ".tiff"):
+            suffix = ".exr" if a.dtype == np.float32 else ".png"
+        spec = MapSpec(
+            name,
+            kind,
+            w,
+            str(a.dtype),
+            int(a.shape[2]),
+            normal_y if kind == "normal" else None,
+            encoding,
+            suffix,
+        )
+        out.append((spec, a))
+    _weight(weights.get("albedo", 1.0), "albedo")
+    return out
+
+
+def _weight(value: Any, name: str) -> float:
+    try:
+        w = float(value)
+    except (TypeError, ValueError):
+        w = float("nan")
+    if isinstance(value, bool) or not np.isfinite(w) or w < 0:
+        raise ParameterError(f"map weight of {name!r} = {value!r}: expected a finite number >= 0")
+    return w
+
+
+def _normalised(x: np.ndarray, w: float) -> np.ndarray | None:
+    """``(P, C)`` float64 centred, divided by its total standard deviation and scaled by ``sqrt(w)``; None for a
+    constant map or weight 0."""
+    if w == 0.0:
+        return None
+    x = x - x.mean(axis=0)
+    s = float(np.sqrt((x * x).sum(axis=0).sum() / x.shape[0]))
+    if s <= 1e-12:
+        return None
+    return x * (np.sqrt(w) / s)
+
+
+def feature_image(
+    albedo: np.ndarray,
+    specs: list[tuple[MapSpec, np.ndarray]],
+    albedo_weight: float = 1.0,
+    channels: int = FEATURE_CHANNELS,
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """The feature image a material is built on (module docstring, steps 1-2): float32 ``(H, W, k)`` in [0, 1],
+    ``k <= channels``, and its record (channels, variance kept, the maps' weights)."""
+    h, w = albedo.shape[:2]
+    cols = []
+    a = _normalised(albedo.reshape(h * w, -1).astype(np.float64), albedo_weight)
+    if a is not None:
+        cols.append(a)
+    for spec, arr in specs:
+        if spec.kind == "normal":
+            x = _decoded_normals(arr, spec.encoding or "unorm").reshape(h * w, 3)
+        else:
+            scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(arr.dtype, 1.0)
+            x = arr.reshape(h * w, -1).astype(np.float64) / scale
+        z = _normalised(x, spec.weight)
+        if z is not None:
+            cols.append(z)
+    if not cols:
+        raise ParameterError(
+            "material: the albedo and every map are constant or have weight 0; nothing to match"
+        )
+    f = np.concatenate(cols, axis=1)
+    total = float((f * f).sum())
+    kept = 1.0
+    if f.shape[1] > channels:
+        # sums in numpy's own pairwise order, not BLAS (whose result may depend on its thread count): the same
+        # bytes in every run and on any number of threads, as every tilesynth build
+        d = f.shape[1]
+        cov = np.empty((d, d))
+        for i in range(d):
+            for j in range(i, d):
+                cov[i, j] = cov[j, i] = float((f[:, i] * f[:, j]).sum())
+        vals, vecs = np.linalg.eigh(cov)
+        order = np.argsort(vals)[::-1][:channels]
+        vecs = vecs[:, order]
+        vecs *= np.where(vecs[np.abs(vecs).argmax(axis=0), np.arange(vecs.shape[1])] < 0, -1.0, 1.0)
+        proj = np.zeros((f.shape[0], vecs.shape[1]))
+        for i in range(d):
+            proj += f[:, i : i + 1] * vecs[i]
+        f = proj
+        kept = min(1.0, float(vals[order].sum() / total)) if total > 0 else 1.0
+    lo, hi = float(f.min()), float(f.max())
+    scale = 1.0 / (hi - lo) if hi > lo else 1.0
+    feats = np.clip((f - lo) * scale, 0.0, 1.0).astype(np.float32).reshape(h, w, -1)
+    record = {
+        "feature_channels": int(feats.shape[2]),
+        "variance_kept": kept,
+        "feature_scale": scale,
+        "albedo_weight": float(albedo_weight),
+    }
+    return np.ascontiguousarray(feats), record
+
+
+def build_with_maps(
+    build: Any,
+    exemplar: Any,
+    *,
+    maps: Any,
+    map_kinds: Any = None,
+    map_weights: Any = None,
+    normal_y: str = "up",
+    map_suffixes: dict[str, str] | None = None,
+    material_options: dict[str, Any] | None = None,
+    **kwargs: Any,
+) -> Any:
+    """A material build with the scheme builder ``build`` (``Scheme.build``): the body of
+    :func:`tilesynth.build_material` (which looks the scheme up; this module does not import the registry).
+    ``material_options`` (``Scheme.material_options``): builder options a joint build uses unless ``kwargs``
+    give them (ω, s-Wang: ``eps`` = :data:`MATERIAL_CUT_EPS`); a colour-only build (only weight-0 maps) ignores
+    them."""
+    from ..base.validate import as_image
+    from ..synth.synthesis import is_smoothed
+    from .compose import exemplar_record
+    from .masking import build_mask
+    from .smoothing import smooth_tiles
+
+    albedo = as_image(exemplar, "exemplar")
+    if np.may_share_memory(albedo, exemplar):
+        albedo = albedo.copy()
+    # The mask (an alpha channel or mask=) is resolved on the albedo here, and goes to the builder as an
+    # ExemplarMask: the feature image's 4th channel is a feature, never an alpha channel.
+    albedo, emask = build_mask(albedo, kwargs.pop("mask", None), kwargs.pop("alpha", "auto"))
+    kwargs["mask"], kwargs["alpha"] = emask, "colour"
+    specs = check_maps(albedo.shape, maps, map_kinds, map_weights, normal_y, map_suffixes)
+    aw = _weight((map_weights or {}).get("albedo", 1.0), "albedo")
+    joint = aw != 1.0 or any(s.weight > 0 for s, _ in specs)
+    if joint:
+        # with a mask the search adds a penalty channel, and the image index takes at most 4 channels
+        k = FEATURE_CHANNELS - (emask is not None)
+        feats, record = feature_image(albedo, specs, aw, channels=k)
+        for key, value in (material_options or {}).items():  # the scheme's joint-build defaults
+            kwargs.setdefault(key, value)
+    else:  # only weight-0 maps (labels): the colour-only build, plus the maps
+        feats, record = albedo, {"feature_channels": int(albedo.shape[2]), "variance_kept": 1.0,
+                                 "feature_scale": 1.0, "albedo_weight": aw}  # fmt: skip
+    info = kwargs.pop("exemplar_info", None)
+    ts = build(feats, exemplar_info=info, **kwargs)
+    if joint:
+        src = ts.source
+        tiles = albedo[src[..., 0], src[..., 1]]
+        if is_smoothed(ts):
+            from .matching.augment import matching_patches  # issue 12: transformed matching patches (augment)
+
+            matching = matching_patches(albedo, ts)
+            tiles, _ = smooth_tiles(tiles, matching, ts.cut_masks, threads=kwargs.get("threads"))
+        ts.tiles = np.ascontiguousarray(tiles, dtype=np.float32)
+        ts.exemplar = albedo
+        ts.exemplar_info = exemplar_record(albedo, info)
+    ts.params = {**ts.params, "material": {**record, "joint": bool(joint), "units": "feature"}}
+    ts.maps = {spec.name: arr for spec, arr in specs}
+    ts.map_specs = [spec.to_dict() for spec, _ in specs]
+    return ts
+
+
+def convert_normal_y(a: np.ndarray, encoding: str) -> np.ndarray:
+    """A normal map with its Y (green) channel flipped between OpenGL and DirectX: ``max − g`` for unsigned
+    encodings (exact for uint8 / uint16), ``−g`` for signed float vectors."""
+    out = np.array(a, copy=True)
+    if encoding == "snorm":
+        out[..., 1] = -out[..., 1]
+    elif out.dtype == np.uint8:
+        out[..., 1] = 255 - out[..., 1]
+    elif out.dtype == np.uint16:
+        out[..., 1] = 65535 - out[..., 1]
+    else:
+        out[..., 1] = np.float32(1.0) - out[..., 1]
+    return out
+
+
+def _renormalise(tiles: np.ndarray, where: np.ndarray, encoding: str) -> np.ndarray:
+    """``tiles`` (K, N, N, 3) with the vectors at ``where`` (K, N, N) set to unit length (re-encoded in the
+    tiles' own sample type)."""
+    from ..io.normal_codes import encode_unit
+
+    out = tiles.copy()
+    out[where] = encode_unit(_decoded_normals(tiles[where], encoding), tiles.dtype, encoding)
+    return out
+
+
+def renormalise_image(a: np.ndarray, encoding: str) -> np.ndarray:
+    """A normal image ``(..., 3)`` (any leading shape) with every vector set to unit length and re-encoded in
+    its own sample type (:func:`tilesynth.io.normal_codes.encode_unit`; for smoothed and filtered normals: map
+    atlases, mip levels, resampled atlases). Vectors shorter than 1e-3 (empty float cells) have no direction and
+    are left as they are."""
+    flat = np.ascontiguousarray(a).reshape(-1, 1, a.shape[-1])
+    length = normal_lengths(flat[:, 0], encoding)
+    return _renormalise(flat, length > 1e-3, encoding).reshape(a.shape)
+
+
+#: The kinds whose maps are smoothed (fused across the seams, :func:`fuse_map_atlas`) by default, even when the
+#: albedo is not.
+SMOOTH_KINDS: tuple[str, ...] = ("scalar", "normal")
+
+
+def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
+    """Whether map ``spec`` of ``tileset`` is smoothed (scalar and normal maps: fused across their seams,
+    :func:`fuse_map_atlas`; colour maps: the colour's Poisson smoothing): never for labels; for ``smooth=None``
+    (the default) when the colour tiles were smoothed, and for every scalar and normal map (:data:`SMOOTH_KINDS`)
+    of every scheme (the fusion reads only the provenance's seams, so Cohen's Wang sets, without matching patches,
+    are fused too). Why the maps without the albedo: the cuts of the joint build make the maps
+    agree along the cut as well as the matching allows, but a smooth map (a height field) still shows the *level*
+    offset between the two patches as a cliff along the curve (measured: ``benches/materials.py``, cut seam 4-15
+    as copies), while the albedo, whose pixel steps are large, hides the same offset; the gradient-domain fusion
+    removes the offset (cut seam 0.85-1.34) and keeps every border pixel, so tilings stay seamless.
+    ``smooth=False`` gives pure copies."""
+    from ..synth.synthesis import is_smoothed
+
+    if spec.kind == "label":
+        return False
+    if spec.kind in SMOOTH_KINDS:  # the fusion needs only the provenance's seams: every scheme (issue 14:
+        return True if smooth is None else bool(smooth)  # Wang maps' seams were 4-43 as copies, 0.9-3.3 fused
+    if smooth is None:  # a colour map: as the colour tiles were
+        return bool(is_smoothed(tileset))
+    if smooth and (np.asarray(tileset.match_offsets) == -1).all():  # no matching patches
+        raise ParameterError(
+            f"map {spec.name!r}: the tile set has no matching patches (scheme {tileset.scheme!r}), so there is "
+            "no smoothing to follow; use map smoothing off"
+        )
+    return bool(smooth)
+
+
+def fuse_map_atlas(tileset: Any, arr: np.ndarray, atlas: np.ndarray, level: bool = True) -> np.ndarray:
+    """The tiles ``atlas`` of map ``arr`` fused across their seams in the gradient domain, in the map's own
+    sample type (:mod:`tilesynth.builder.fusion`), in two stages: ``level=True`` (the default) first adds the
+    exemplar's smooth level correction (:func:`~tilesynth.builder.fusion.exemplar_levels`: every copy of an
+    exemplar pixel moves alike, so tilings stay seamless and tile borders do not crease), then each tile's
+    interior is fused with its border ring kept (:func:`~tilesynth.builder.fusion.fuse_tiles`); ``level=False``:
+    the second stage alone (the border ring as copied, bit for bit). The continued steps across a seam only
+    read exemplar pixels the tile set uses somewhere (so never a masked one)."""
+    from ..synth.synthesis import check_smoothable
+    from .fusion import LEVEL_BLOCK, exemplar_levels, fuse_tiles
+
+    check_smoothable(arr)
+    src = tileset.source
+    used = np.zeros(arr.shape[:2], bool)
+    used[src[..., 0], src[..., 1]] = True
+    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(arr.dtype)
+    f = arr.astype(np.float64) / (scale or 1.0)
+    copies = atlas.astype(np.float64) / (scale or 1.0)
+    if level:  # the exemplar's smooth level correction first (ring included), then each tile's interior
+        phi = exemplar_levels(f, copies, src, used, LEVEL_BLOCK)
+        f = f + phi
+        copies = copies + phi[src[..., 0], src[..., 1]]
+    fused = fuse_tiles(f, copies, src, used)
+    if scale:
+        return np.ascontiguousarray(np.rint(np.clip(fused, 0.0, 1.0) * scale).astype(arr.dtype))
+    return np.ascontiguousarray(fused, dtype=np.float32)
+
+
+def map_atlas(
+    tileset: Any, spec: MapSpec, arr: np.ndarray, smooth: bool | None = None, threads: int | None = None
+) -> np.ndarray:
+    """The tiles ``(K, N, N, C)`` of one map of ``tileset``: copied through the provenance, Poisson-smoothed in
+    the cut regions when :func:`smooths` says so (never for labels), normals renormalised where smoothed."""
+    from ..synth.synthesis import _smooth_map_atlas
+
+    src = tileset.source
+    atlas = np.ascontiguousarray(arr[src[..., 0], src[..., 1]])
+    if smooths(tileset, spec, smooth):
+        if spec.kind in SMOOTH_KINDS:
+            atlas = fuse_map_atlas(tileset, arr, atlas)
+        else:  # colour maps follow the colour's own smoothing
+            atlas = _smooth_map_atlas(tileset, arr, atlas, threads)
+    if spec.kind == "normal":  # every vector, copies too: unit length after decoding (normal_codes)
+        atlas = renormalise_image(atlas, spec.encoding or "unorm")
+    return atlas
+
+
+def synthesize_maps(
+    tileset: Any,
+    index_map: np.ndarray,
+    width: int,
+    height: int,
+    *,
+    threads: int | None = None,
+    smooth: bool | None = None,
+    normal_y: str | None = None,
+) -> dict[str, np.ndarray]:
+    """Every map stored in a material tile set, laid out like the colour output of ``index_map``:
+    ``{name: (height, width, C)}`` in each map's own sample type. ``smooth``: None (:func:`smooths`: scalar and
+    normal maps, and every map of a smoothed set), True or False (labels are never smoothed); ``normal_y``: "up" / "down" converts normal maps recorded in the other
+    convention (None: as recorded)."""
+    from ..base import kernels
+    from ..base.validate import MAX_BYTES_ENV, fmt_bytes, memory_limit, positive_int, threads_arg
+    from ..tileset.tilefile import TileSet
+
+    if not isinstance(tileset, TileSet):
+        raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet")
+    if normal_y not in (None, "up", "down"):
+        raise ParameterError(f"normal_y = {normal_y!r}: must be None, 'up' or 'down'")
+    if smooth is not None and not isinstance(smooth, (bool, np.bool_)):
+        raise ParameterError(f"smooth = {smooth!r}: must be None, True or False")
+    threads = threads_arg(threads)
+    w, h = positive_int(width, "width"), positive_int(height, "height")
+    specs = tileset.map_specs or []
+    need = sum(h * w * int(d["channels"]) * np.dtype(d["dtype"]).itemsize for d in specs)
+    if need > memory_limit(None):
+        raise ParameterError(
+            f"width x height = {w}x{h}: the maps need {fmt_bytes(need)}, more than the limit of "
+            f"{fmt_bytes(memory_limit(None))} ({MAX_BYTES_ENV})"
+        )
+    imap = kernels._index_map(index_map)
+    n = tileset.tile_size
+    if imap.ndim != 2 or imap.shape[0] * n < h or imap.shape[1] * n < w:
+        raise ShapeError(
+            f"index_map has shape {imap.shape}, expected at least ({-(-h // n)}, {-(-w // n)}) to cover {w}x{h} "
+            f"pixels with {n}x{n} tiles"
+        )
+    if imap.size and (imap.min() < 0 or imap.max() >= tileset.n_tiles):
+        raise ParameterError(f"index_map has tile indices outside [0, {tileset.n_tiles})")
+    out = {}
+    for d in specs:
+        spec = MapSpec.from_dict(d)
+        arr = tileset.maps[spec.name]
+        atlas = map_atlas(tileset, spec, arr, smooth, threads)
+        if spec.kind == "normal" and normal_y is not None and normal_y != spec.normal_y:
+            atlas = convert_normal_y(atlas, spec.encoding or "unorm")
+        img = np.empty((h, w, arr.shape[2]), arr.dtype)
+        kernels.tile_copy(np.ascontiguousarray(atlas), imap, img, threads=threads)
+        out[spec.name] = img
+    return out
+
+
+def _float_atlas(tileset: Any, spec: MapSpec, atlas: np.ndarray) -> np.ndarray:
+    """A map's tiles as float64 for measuring (normals decoded to vectors, uint scaled to [0, 1])."""
+    if spec.kind == "normal":
+        return _decoded_normals(atlas, spec.encoding or "unorm")
+    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(atlas.dtype, 1.0)
+    return atlas.astype(np.float64) / scale
+
+
+def map_cut_seams(tileset: Any, smooth: bool | None = None) -> dict[str, float | None]:
+    """The cut seam score (:func:`tilesynth.measure.metrics.cut_seam_score`) of every stored map of ``tileset``, on its
+    tiles as :func:`synthesize_maps` lays them out (normals as vectors): ``{name: score or None}``."""
+    from types import SimpleNamespace
+
+    from ..measure.metrics import cut_seam_score
+
+    out: dict[str, float | None] = {}
+    for d in getattr(tileset, "map_specs", None) or []:
+        spec = MapSpec.from_dict(d)
+        atlas = map_atlas(tileset, spec, tileset.maps[spec.name], smooth)
+        cs = cut_seam_score(
+            SimpleNamespace(tiles=_float_atlas(tileset, spec, atlas), cut_masks=tileset.cut_masks)
+        )
+        out[spec.name] = None if cs is None else cs["score"]
+    return out
+
+
+def report_maps(
+    tileset: Any, index_map: np.ndarray, shape: tuple[int, ...]
+) -> list[tuple[str, np.ndarray, str]]:
+    """For ``tilesynth report``: ``[(map name, displayable image, caption)]`` of every stored map, laid out
+    like the report's sample (float maps scaled to [0, 1] for display), captions with each map's cut seam."""
+    maps = synthesize_maps(tileset, index_map, int(shape[1]), int(shape[0]))
+    seams = map_cut_seams(tileset)
+    out = []
+    for d in tileset.map_specs or []:
+        a = maps[d["name"]]
+        if a.dtype == np.float32:
+            lo, hi = float(a.min()), float(a.max())
+            a = ((a - lo) / (hi - lo) if hi > lo else np.zeros_like(a)).astype(np.float32)
+        if a.shape[2] == 2:
+            a = np.concatenate([a, np.zeros_like(a[..., :1])], axis=2)
+        s = seams[d["name"]]
+        caption = (
+            f"Map {d['name']} ({d['kind']}, weight {d['weight']:g}), laid out through the same cuts as the sample; "
+            f"cut seam score {'n/a' if s is None else format(s, '.3f')} (≈ 1: the cuts do not show in it)."
+        )
+        out.append((d["name"], a, caption))
+    return out
+
+
+def _with_normal_encoding(name: str, a: np.ndarray) -> str | None:
+    """The encoding of a ``synth --with`` map if its name says it is a normal map and it is one, else None."""
+    if infer_kind(name) != "normal" or a.ndim != 3 or a.shape[2] != 3:
+        return None
+    try:
+        return _check_normal(name, a)
+    except ParameterError:
+        return None  # not unit vectors: not ours to change
+
+
+def requantise_with_map(name: str, aligned: np.ndarray) -> np.ndarray:
+    """For ``synth --with``: a map whose name says it is a normal map (:func:`infer_kind`), with 3 channels and
+    unit vectors, with every vector re-encoded at unit length (:mod:`tilesynth.io.normal_codes`) before it is sent
+    through the cuts, so that its copied pixels are within 1 ± 0.005 too; any other map is returned as it is."""
+    a = np.asarray(aligned)
+    encoding = _with_normal_encoding(name, a)
+    return a if encoding is None else renormalise_image(a, encoding)
+
+
+def renormalise_with_map(
+    tileset: Any, name: str, aligned: np.ndarray, out: np.ndarray, index_map: np.ndarray
+) -> np.ndarray:
+    """For ``synth --with``: a smoothed map whose name says it is a normal map (:func:`infer_kind`), with 3
+    channels and unit vectors, gets its smoothed output vectors renormalised (the pixels inside the cuts);
+    any other map is returned as it is."""
+    from ..base import kernels
+
+    a = np.asarray(aligned)
+    encoding = _with_normal_encoding(name, a)
+    if encoding is None or out.shape[2] != 3:
+        return out
+    masks = np.ascontiguousarray(np.asarray(tileset.cut_masks, np.uint8)[..., None])
+    inside = np.empty((*out.shape[:2], 1), np.uint8)
+    kernels.tile_copy(masks, kernels._index_map(index_map), inside)
+    return _renormalise(out[None], inside[None, ..., 0] == 1, encoding)[0]

@@ -1,0 +1,1 @@
+"""Measures: quality metrics, the measures stored with each build, input diagnostics, reports and pictures."""

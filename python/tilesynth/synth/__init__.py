@@ -1,0 +1,1 @@
+"""Synthesis: laying a tile set's tiles into an image of any size."""
