@@ -194,7 +194,7 @@ def table2(found: list, seeds: list[int], threads: int, log: Callable[[str], Non
             t0 = time.perf_counter()
             ev = ts.PopulationEvaluator(ex, n, tp, n_col, normalise=True)
             rng = np.random.default_rng(10_000 + s)
-            pop = np.stack([ts.omega.random_genes(ex.shape, n_col, n, rng) for _ in range(100)])
+            pop = np.stack([ts.builder.omega.random_genes(ex.shape, n_col, n, rng) for _ in range(100)])
             E, _ = ev.evaluate(pop, threads)
             dt = time.perf_counter() - t0
             f["random"].append(1.0 / float(E.mean()))

@@ -62,7 +62,7 @@ def test_material_job_equals_the_cli_build_and_writes_every_map(mat_dir: Path) -
     (job,) = lib.jobs
     assert set(job.material) == {"normal", "height"} and set(job.maps) == {"ao"}
     assert job.material["normal"]["weight"] == 0.75 and job.material["height"]["kind"] == "scalar"
-    assert job.material["height"]["weight"] == ts.materials.DEFAULT_WEIGHTS["scalar"]
+    assert job.material["height"]["weight"] == ts.builder.materials.DEFAULT_WEIGHTS["scalar"]
     assert (
         job.mask == (mat_dir / "rock-mask.png").resolve() and job.alpha == "colour" and job.normal_y == "down"
     )

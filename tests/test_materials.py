@@ -120,7 +120,7 @@ def test_smoothed_normals_are_renormalised_and_labels_stay_exact():
     n16 = np.round((nf * 0.5 + 0.5) * 65535).astype(np.uint16)  # unit vectors to 16-bit precision
     t = _build(albedo, {"normal": nf.astype(np.float32), "nrm16": n16,
                         "labels": label, "height": height}, smooth=True)  # fmt: skip
-    assert ts.synthesis.is_smoothed(t)
+    assert ts.synth.synthesis.is_smoothed(t)
     img, imap = ts.synthesize(t, 96, 96, seed=2)
     out = materials.synthesize_maps(t, imap, 96, 96)
     for name, enc in (("normal", "snorm"), ("nrm16", "unorm")):
@@ -325,10 +325,10 @@ def test_joint_builds_cut_with_the_material_eps_and_a_given_eps_wins():
     assert np.array_equal(explicit.source, joint.source)
     colour = ts.build(albedo, **kw)
     labels = ts.build(albedo, maps={"mask": (albedo[..., 0] > 128).astype(np.uint8)}, **kw)
-    assert colour.params["eps"] == labels.params["eps"] == ts.kernels.DEFAULT_EPS
+    assert colour.params["eps"] == labels.params["eps"] == ts.base.kernels.DEFAULT_EPS
     assert np.array_equal(colour.source, labels.source)
     assert _build(albedo, maps).params["eps"] == materials.MATERIAL_CUT_EPS
-    assert ts.build(albedo, tileset="4", tile_size=16, seed=1).params["eps"] == ts.kernels.DEFAULT_EPS
+    assert ts.build(albedo, tileset="4", tile_size=16, seed=1).params["eps"] == ts.base.kernels.DEFAULT_EPS
 
 
 @pytest.mark.parametrize("scheme, tileset", [("wang", "wang8"), ("swang", "wang8"), ("patch", "4")])
