@@ -37,8 +37,9 @@ coins, beans, letters). Segmentation: the exemplar's luminance is split at its O
 foreground is the side with fewer pixels (objects on a background) unless ``polarity`` says "bright" or
 "dark"; the output is split at the *exemplar's* threshold (so a synthesis that shifts the grey levels is not
 re-segmented in its favour). Components are 4-connected. *Reference objects*: the exemplar's components that
-do not touch its border with an area within [½, 2] x the median area of those components (one object, not a
-cluster of touching objects or a speck). An output component is *intact* when, aligned at its centroid
+do not touch its border with an area within [½, 2] x the area-weighted median area of those components (the
+size at which half of their pixels lie in smaller ones: one object, not a cluster of touching objects or a
+speck; a plain median would be decided by the threshold specks, which far outnumber the objects of a photo). An output component is *intact* when, aligned at its centroid
 (rounded to a pixel), its mask has an intersection over union ≥ ``iou`` (default 0.75) with some reference
 object's mask in one of the 8 orientations of the square (flips, quarter turns: an object mirrored is still
 whole). The score is Σ area of the intact output components / Σ area of the counted output components, where
@@ -48,7 +49,8 @@ slivers too small to see). A half disc fails (IoU ≤ ½), and so does a disc gr
 its neighbour; two halves of equally sized discs joined along their cut pass (their outline is a whole disc:
 the measure is about shapes, not colours). ``exemplar_share`` is the same score on the exemplar itself (below
 1 where the exemplar holds clusters of touching objects): compare outputs against it. ``applies`` is true when
-the exemplar has at least 4 reference objects and its own score is at least ½; otherwise the exemplar is not
+the exemplar has at least 4 reference objects of a typical area of at least 16 pixels and its own score is at
+least ½; otherwise the exemplar is not
 one of separate objects and the score means little. Cost O(H·W) for the labelling plus one small matrix
 product per batch of candidate components.
 """
@@ -67,6 +69,9 @@ from .metrics import _finite, _ratio, luminance
 
 OBJECT_IOU = 0.75
 """Intersection over union at or above which an output component counts as one intact exemplar object."""
+MIN_OBJECT_AREA = 16
+"""Typical object area (pixels) below which an exemplar is not one of separate objects (``applies`` False):
+a 4x4 blob is texture grain, not an object a tile cut could visibly chop."""
 MAX_REFERENCES = 256
 """Reference objects compared at most (evenly spaced in label order): bounds the cost on busy exemplars."""
 
@@ -316,7 +321,10 @@ def objects_intact(
     nan_result = ObjectsIntact(math.nan, math.nan, False, 0, math.nan, 0, 0, t, polarity)
     if not interior.size:
         return nan_result
-    med = float(np.median(ce.areas[interior]))
+    # the typical object: the area-weighted median (half the interior foreground pixels lie in components at
+    # most this large), so that threshold specks, however many, do not decide what one object is
+    areas = np.sort(ce.areas[interior]).astype(np.float64)
+    med = float(areas[np.searchsorted(np.cumsum(areas), areas.sum() / 2)])
     ref = interior[(ce.areas[interior] >= med / 2) & (ce.areas[interior] <= med * 2)]
     if ref.size > MAX_REFERENCES:
         ref = ref[np.linspace(0, ref.size - 1, MAX_REFERENCES).round().astype(np.int64)]
@@ -360,7 +368,7 @@ def objects_intact(
     return ObjectsIntact(
         share=out_share,
         exemplar_share=ex_share,
-        applies=bool(ref.size >= 4 and ex_share >= 0.5),
+        applies=bool(ref.size >= 4 and ex_share >= 0.5 and ref_area >= MIN_OBJECT_AREA),
         n_reference=int(ref.size),
         reference_area=ref_area,
         n_counted=n_counted,
