@@ -208,3 +208,17 @@ def test_exported_from_the_package():
     assert ts.lattice_gradient is lattice_gradient
     assert ts.lattice_folded is lattice_folded
     assert ts.objects_intact is objects_intact
+
+
+# ------------------------------------------------------------------------------------------ tile scale
+def test_feature_tile_size_grows_with_objects_only():
+    from tilesynth.builder.tile_scale import feature_tile_size
+
+    ex = _discs_on_white(256, 9, 40, seed=14)  # d = 2·√(A/π) ≈ 18 px: 4·d ≈ 72 → 72 or 80 (multiple of 8)
+    n, info = feature_tile_size(ex)
+    assert info["kind"] == "objects" and info["default"] == 64
+    assert n in (72, 80) and n % 8 == 0
+    big = _discs_on_white(256, 30, 12, seed=20)  # 4·d ≈ 240: capped at half the shorter side
+    assert feature_tile_size(big)[0] == 128
+    n2, info2 = feature_tile_size(_noise(256, 256, seed=21))  # no objects: the default, unchanged
+    assert n2 == 64 and info2["kind"] is None
