@@ -220,5 +220,8 @@ def test_feature_tile_size_grows_with_objects_only():
     assert n in (72, 80) and n % 8 == 0
     big = _discs_on_white(256, 30, 12, seed=20)  # 4·d ≈ 240: capped at half the shorter side
     assert feature_tile_size(big)[0] == 128
-    n2, info2 = feature_tile_size(_noise(256, 256, seed=21))  # no objects: the default, unchanged
-    assert n2 == 64 and info2["kind"] is None
+    n2, info2 = feature_tile_size(_noise(256, 256, seed=21))  # no objects: the build's default, unchanged
+    assert n2 is None and info2["kind"] is None and info2["size"] == 64
+    small = _discs_on_white(256, 4, 150, seed=22)  # objects that fit the default tile: no change either
+    n3, info3 = feature_tile_size(small)
+    assert n3 is None and info3["kind"] == "objects"

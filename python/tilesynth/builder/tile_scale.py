@@ -18,8 +18,9 @@ sample patches) and 256. Factor 4: an object of diameter d survives a grid of cu
 probability about (1 − d/s)² (two families of lines); the cuts of an ω-tile come at about s ≈ N/2 (borders and
 the intermediate tile's cross seam), so N = 4·d keeps about a quarter of the objects whole (N = 2·d none).
 More would be better for objects and worse for repetition (fewer, larger sample patches: more copies); the
-cap keeps it within what the exemplar can feed. Exemplars that are not of separate objects keep the default
-N, so their builds are unchanged byte for byte.
+cap keeps it within what the exemplar can feed. Exemplars that are not of separate objects, or whose objects
+ask for no more than the default, get None (the build's own default, periodic rule included), so their builds
+are unchanged byte for byte.
 """
 
 from __future__ import annotations
@@ -39,15 +40,19 @@ MAX_TILE = 256
 """Largest tile size :func:`feature_tile_size` asks for (as the default's cap)."""
 
 
-def feature_tile_size(exemplar: np.ndarray) -> tuple[int, dict[str, Any]]:
+def feature_tile_size(exemplar: np.ndarray) -> tuple[int | None, dict[str, Any]]:
     """Tile size for ``build_omega(..., tile_size=...)`` from the exemplar's feature scale (module docstring),
-    and how it was chosen: ``{"default", "kind" ("objects" or None), "scale", "size"}``."""
+    and how it was chosen: ``{"default", "kind" ("objects" or None), "scale", "size"}``.
+
+    None where the objects ask for no more than the default (or there are none): an explicit tile size turns
+    off the build's own choices (the periodic-exemplar rule of :mod:`tilesynth.builder.periodic`), so the
+    default is left to the build rather than passed back."""
     ex = as_image(exemplar, "exemplar")
     h, w = ex.shape[:2]
     n0 = default_complete_tile_size(ex.shape)
     cap = min(MAX_TILE, 8 * (min(h, w) // 2 // 8))
     obj = objects_intact(ex, ex)
     kind, scale = ("objects", 2 * math.sqrt(obj.reference_area / math.pi)) if obj.applies else (None, 0.0)
-    want = 8 * math.ceil(FEATURES_PER_TILE * scale / 8)
-    n = max(n0, min(cap, want))
-    return n, {"default": n0, "kind": kind, "scale": scale, "size": n}
+    want = min(cap, 8 * math.ceil(FEATURES_PER_TILE * scale / 8))
+    n = want if kind is not None and want > n0 else None
+    return n, {"default": n0, "kind": kind, "scale": scale, "size": n0 if n is None else n}
