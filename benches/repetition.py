@@ -321,7 +321,7 @@ def run(textures: list[str], size: int, seed: int, methods: list[str], out_png: 
             img, imap = ts.synthesize(tset, size, size, seed=seed)
             src = source_map(tset, imap, size, size)
             r = measure(img, ex, src, tset.tile_size)
-            cs = ts.metrics.cut_seam_score(tset)
+            cs = tilesynth.measure.metrics.cut_seam_score(tset)
             r["cut_seam"] = cs["score"] if cs else None
             r.update(
                 texture=name,

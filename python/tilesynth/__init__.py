@@ -120,12 +120,16 @@ __all__ = [
     "synthesize_maps",
     "inner_seam_score",
     "InputWarning",
+    "lattice_gradient",
+    "lattice_folded",
+    "objects_intact",
 ]
 
 from .builder.materials import synthesize_maps  # noqa: E402 - issue 14: material builds
 from .layouts.hashed import LookupScheme, ts_hash  # noqa: E402 - issue 12: the hashed lookup
 from .layouts.hashed import index_map as hashed_index_map  # noqa: E402
 from .measure.diagnose import InputWarning  # noqa: E402 - issue 14: warnings for suspicious inputs
+from .measure.lattice import lattice_folded, lattice_gradient, objects_intact  # noqa: E402
 from .measure.metrics import (  # noqa: E402
     detail_repetition,
     histogram_distance,
