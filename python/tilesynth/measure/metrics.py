@@ -91,6 +91,7 @@ import numpy as np
 
 from ..base.validate import as_image, positive_int
 from ..errors import ParameterError, ShapeError
+from .energy import LAMBDA, energy
 from .quality import _fast_len as _fft_size  # smallest 2^a·3^b·5^c >= n (fast FFT lengths)
 
 DEFAULT_PATCH = 8
@@ -573,8 +574,6 @@ def objective(tileset: Any) -> dict[str, Any]:
     E is over the intermediate tiles, i.e. the D_j of the variant-0 tile of every distinct corner tuple (a
     tile set's variants share their intermediate tile); it equals the stored ``tileset.E``.
     """
-    from ..builder.genes.draws import LAMBDA, energy
-
     lam = float(tileset.params.get("lambda", LAMBDA))
     variants = getattr(tileset.definition, "variants", None)
     if variants is None:  # a set without variants: every tile has its own D_j
