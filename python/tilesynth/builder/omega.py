@@ -61,6 +61,7 @@ from ..base import kernels
 from ..base.memory import release_freed_memory
 from ..base.validate import finite_float
 from ..errors import ParameterError
+from ..layouts.complete import complete_defaults
 from ..layouts.corners import CornerPlan, IntermediateTiles, corner_set, intermediate_tiles
 from ..measure.diagnose import finish_build
 from ..tileset.tilefile import TileSet
@@ -452,9 +453,7 @@ def _periodic_rule(b: BuildOptions, periodic: Any, eligible: bool) -> dict[str, 
         raise ParameterError(f"periodic = {periodic!r}: must be one of {', '.join(PERIODIC_MODES)}")
     if periodic == "off" or not eligible or active(b.mask) is not None:
         return None
-    from .periodic import periodic_tile_size
-
-    found = periodic_tile_size(b.exemplar, b.tile_size)
+    found = b.source.period(b.tile_size)
     if found is None:
         return None
     return {"tile_size": int(found[0]), "shift_correlation": round(float(found[1]), 6)}
@@ -629,137 +628,140 @@ def build_omega(
         exemplar, tileset=tileset, resolve_set=corner_set, tile_size=tile_size, seed=seed, threads=threads,
         progress=progress, exemplar_info=exemplar_info, mask=mask, alpha=alpha,
     )  # fmt: skip
-    from ..layouts.complete import complete_defaults  # issue 12: complete sets default to the measured levers
-
-    complete = complete_defaults(b.definition, b.exemplar.shape, match, metric)
-    if complete is not None:
-        if tile_size is None:  # (with a mask: no larger than what fits, issue 14)
-            n_c = complete["tile_size"] if b.mask is None else min(complete["tile_size"], b.tile_size)
-            b = dataclasses.replace(b, tile_size=n_c)
-        cut_region = complete["cut_region"] if cut_region is None else cut_region
-        diversity = complete["diversity"] if diversity is None else diversity
-    lock = _periodic_rule(
-        b, periodic,
-        complete is not None and tile_size is None and genes is None and objective is None
-        and not wants_selection(select, polish, select_params, extra=normalise),
-    )  # fmt: skip
-    if lock is not None:  # issue 12: a periodic exemplar's tile size (tilesynth.builder.periodic)
-        b = dataclasses.replace(b, tile_size=lock["tile_size"])
-    opts = omega_options(
-        eps=eps, gradients=gradients, keep_border=keep_border, match=match, match_k=match_k, metric=metric,
-        smooth=smooth, normalise=normalise, cut_region="circle" if cut_region is None else cut_region,
-        cut_bias=cut_bias, diversity=diversity, augment=augment,
-    )  # fmt: skip
-    if opts.augment != "none" and active(b.mask) is not None:
-        raise ParameterError(
-            f"augment = {opts.augment!r} with a mask: the masked search takes untransformed windows only; "
-            "use augment='none' with a mask"
-        )
-    tries = check_border_tries(border_tries)
-    plan = CornerPlan.of(b.definition)
-    if opts.metric == "eq2" and wants_selection(select, polish, select_params, extra=normalise):
-        raise ParameterError(
-            "metric = 'eq2' with select: eq. 2 has no FFT or quadrant structure (a direct sum over every "
-            "translation, ~50 M operations per 80x80 tile), too slow for a population search; select with "
-            "metric 'color' or 'eq3', or use eq2 only for the matching patches of given or random genes"
-        )
-    from .genes.cut_objective import TopK, cut_polish, resolve_objective, selection_record
-    from .genes.cut_objective import rerank as rerank_by_cut
-
-    if rerank is not None:
-        select_params = {**(select_params or {}), "rerank": rerank}
-    select, objective, select_params, n_rerank = resolve_objective(
-        select, objective, genes, polish, select_params, population, complete=complete is not None
-    )
-    lam = LAMBDA if objective in (None, "E") else 1.0
-    top = TopK(max(n_rerank, 1))
-    genes_arr, sel = choose_genes(
-        genes, n=plan.n_colours, size=b.tile_size, shape=b.exemplar.shape, rng=b.rng,
-        evaluator=lambda: top.wrap(
-            omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads, lam, mask=active(b.mask))
-        ),
-        select=select, polish=polish and objective != "cut", generations=generations, population=population,
-        select_params=select_params or None, selection=selection, optimise=opts.normalise,
-        record={"normalise": opts.normalise, **({"objective": objective} if objective else {})},
-        progress=b.progress, mask=b.mask,
-    )  # fmt: skip
-    genes_arr, sel = corner_border_draws(  # issue 14: border-aware random draws (tilesynth.builder.genes.omega_borders)
-        b.exemplar, b.tile_size, b.rng, genes_arr, sel, tries,
-        genes is None
-        and not wants_selection(select, polish, select_params, extra=normalise)
-        and active(b.mask) is None  # the draws are not mask-aware: a masked build keeps its one clear draw
-        and objective != "window",
-        # issue 12: complete sets keep the admissible draw whose sample patches are most like the exemplar
-        criterion=(("stats" if complete is not None else DEFAULT_CRITERION) if border_criterion is None
-                   else check_criterion(border_criterion)),
-    )  # fmt: skip
-    if (
-        objective == "window"
-    ):  # issue 15: the cheap choice of the complete sets (tilesynth.builder.genes.window_objective)
-        genes_arr, sel = _window_selection(b, opts, plan, genes_arr, sel, n_rerank)
-    if lock is not None:  # issue 12: the periodic rule's record (and with "lock" one phase for every patch)
-        if periodic == "lock":
-            from .periodic import phase_locked_genes
-
-            genes_arr = phase_locked_genes(b.exemplar, genes_arr, b.tile_size)
-        sel = {**sel, "periodic": {**lock, "mode": periodic}}
-    t_sel = time.perf_counter()
-    release_freed_memory()  # issue 15: the selection's freed buffers do not add to the later stages' peak
-    if objective in ("cut", "visible") and sel.get("method") not in ("given", "random"):  # issue 15
-        quiet = dataclasses.replace(b, progress=lambda *a: None)
-        cands = top.best()
-        m = active(b.mask)
-        if (
-            m is not None
-        ):  # issue 14: the evaluator saw the genes projected onto clear windows; keep distinct ones
-            cands = [
-                g for g in cands if m.windows_ok(g, b.tile_size).all() and len(np.unique(g, axis=0)) == len(g)
-            ]
-            cands = cands or [genes_arr]
-        if (
-            objective == "visible"
-        ):  # the visible measures on a proxy synthesis (tilesynth.builder.genes.visible_objective)
-            from .genes.visible_objective import visible_choice
-
-            genes_arr, res, sel["visible"] = visible_choice(
-                cands, lambda g: _stages(quiet, opts, plan, g, smooth=False),
-                lambda g, r: _trial_tileset(b, opts, plan, sel, g, r), b.exemplar, b.tile_size, b.threads,
-                b.report,
-            )  # fmt: skip
-            i, scores = 0, []
-        else:
-            i, scores, res = rerank_by_cut(
-                cands, lambda g: _stages(quiet, opts, plan, g, smooth=False), b.tile_size, b.report
+    with b.source.validated():  # the stages take the exemplar as validated here
+        complete = complete_defaults(b.definition, b.exemplar.shape, match, metric)
+        if complete is not None:
+            if tile_size is None:  # (with a mask: no larger than what fits, issue 14)
+                n_c = complete["tile_size"] if b.mask is None else min(complete["tile_size"], b.tile_size)
+                b = dataclasses.replace(b, tile_size=n_c)
+            cut_region = complete["cut_region"] if cut_region is None else cut_region
+            diversity = complete["diversity"] if diversity is None else diversity
+        lock = _periodic_rule(
+            b, periodic,
+            complete is not None and tile_size is None and genes is None and objective is None
+            and not wants_selection(select, polish, select_params, extra=normalise),
+        )  # fmt: skip
+        if lock is not None:  # issue 12: a periodic exemplar's tile size (tilesynth.builder.periodic)
+            b = dataclasses.replace(b, tile_size=lock["tile_size"])
+        opts = omega_options(
+            eps=eps, gradients=gradients, keep_border=keep_border, match=match, match_k=match_k, metric=metric,
+            smooth=smooth, normalise=normalise, cut_region="circle" if cut_region is None else cut_region,
+            cut_bias=cut_bias, diversity=diversity, augment=augment,
+        )  # fmt: skip
+        if opts.augment != "none" and active(b.mask) is not None:
+            raise ParameterError(
+                f"augment = {opts.augment!r} with a mask: the masked search takes untransformed windows only; "
+                "use augment='none' with a mask"
             )
-            genes_arr = cands[i]
-            sel["cut"] = selection_record(scores, i, b.tile_size)
-        if polish and objective == "cut":
-            stage1 = omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads, 1.0, mask=m)
-            genes_arr, score, res, info = cut_polish(
-                genes_arr, scores[i], res, stage1, lambda g: _stages(quiet, opts, plan, g, smooth=False),
-                b.exemplar.shape, b.tile_size, progress=b.report,
-                allowed=None if m is None else m.valid(b.tile_size),
-            )  # fmt: skip
-            sel["cut"]["score"] = score if np.isfinite(score) else None
-            sel["cut"]["polish"] = info
-        if opts.smooth:
-            res = _stages(b, opts, plan, genes_arr, smooth=True)
+        tries = check_border_tries(border_tries)
+        plan = CornerPlan.of(b.definition)
+        if opts.metric == "eq2" and wants_selection(select, polish, select_params, extra=normalise):
+            raise ParameterError(
+                "metric = 'eq2' with select: eq. 2 has no FFT or quadrant structure (a direct sum over every "
+                "translation, ~50 M operations per 80x80 tile), too slow for a population search; select with "
+                "metric 'color' or 'eq3', or use eq2 only for the matching patches of given or random genes"
+            )
+        from .genes.cut_objective import TopK, cut_polish, resolve_objective, selection_record
+        from .genes.cut_objective import rerank as rerank_by_cut
+
+        if rerank is not None:
+            select_params = {**(select_params or {}), "rerank": rerank}
+        select, objective, select_params, n_rerank = resolve_objective(
+            select, objective, genes, polish, select_params, population, complete=complete is not None
+        )
+        lam = LAMBDA if objective in (None, "E") else 1.0
+        top = TopK(max(n_rerank, 1))
+        genes_arr, sel = choose_genes(
+            genes, n=plan.n_colours, size=b.tile_size, shape=b.exemplar.shape, rng=b.rng,
+            evaluator=lambda: top.wrap(
+                omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads, lam, mask=active(b.mask))
+            ),
+            select=select, polish=polish and objective != "cut", generations=generations, population=population,
+            select_params=select_params or None, selection=selection, optimise=opts.normalise,
+            record={"normalise": opts.normalise, **({"objective": objective} if objective else {})},
+            progress=b.progress, mask=b.mask,
+        )  # fmt: skip
+        genes_arr, sel = corner_border_draws(  # issue 14: border-aware random draws (tilesynth.builder.genes.omega_borders)
+            b.source, b.tile_size, b.rng, genes_arr, sel, tries,
+            genes is None
+            and not wants_selection(select, polish, select_params, extra=normalise)
+            and active(b.mask) is None  # the draws are not mask-aware: a masked build keeps its one clear draw
+            and objective != "window",
+            # issue 12: complete sets keep the admissible draw whose sample patches are most like the exemplar
+            criterion=(("stats" if complete is not None else DEFAULT_CRITERION) if border_criterion is None
+                       else check_criterion(border_criterion)),
+        )  # fmt: skip
+        if (
+            objective == "window"
+        ):  # issue 15: the cheap choice of the complete sets (tilesynth.builder.genes.window_objective)
+            genes_arr, sel = _window_selection(b, opts, plan, genes_arr, sel, n_rerank)
+        if (
+            lock is not None
+        ):  # issue 12: the periodic rule's record (and with "lock" one phase for every patch)
+            if periodic == "lock":
+                from .periodic import phase_locked_genes
+
+                genes_arr = phase_locked_genes(b.exemplar, genes_arr, b.tile_size)
+            sel = {**sel, "periodic": {**lock, "mode": periodic}}
         t_sel = time.perf_counter()
-    else:
-        res = _stages(b, opts, plan, genes_arr, smooth=opts.smooth)
-    ts = finish_tileset(
-        scheme="omega", definition=b.definition, exemplar=b.exemplar, tiles=res.tiles, source=res.source,
-        cut_masks=res.masks, genes=genes_arr, tile_patches=plan.tile_patches, match_offsets=res.offsets,
-        D=res.D, cut_costs=res.costs, E=energy(res.best_D),
-        params={**_omega_params(b, opts, plan, sel, res.smooth_info),
-                **({"border_tries": tries} if "border_tries" in sel else {}),
-                **({"augment": opts.augment, "match_transforms": res.transforms.tolist()}
-                   if res.transforms is not None else {})},
-        exemplar_info=b.exemplar_info,
-        timing={"selection_s": t_sel - b.started, **res.timing},
-        started=b.started,
-    )  # fmt: skip
-    return finish_build(ts, b)  # issue 14: the mask record and the input warnings
+        release_freed_memory()  # issue 15: the selection's freed buffers do not add to the later stages' peak
+        if objective in ("cut", "visible") and sel.get("method") not in ("given", "random"):  # issue 15
+            quiet = dataclasses.replace(b, progress=lambda *a: None)
+            cands = top.best()
+            m = active(b.mask)
+            if (
+                m is not None
+            ):  # issue 14: the evaluator saw the genes projected onto clear windows; keep distinct ones
+                cands = [
+                    g
+                    for g in cands
+                    if m.windows_ok(g, b.tile_size).all() and len(np.unique(g, axis=0)) == len(g)
+                ]
+                cands = cands or [genes_arr]
+            if (
+                objective == "visible"
+            ):  # the visible measures on a proxy synthesis (tilesynth.builder.genes.visible_objective)
+                from .genes.visible_objective import visible_choice
+
+                genes_arr, res, sel["visible"] = visible_choice(
+                    cands, lambda g: _stages(quiet, opts, plan, g, smooth=False),
+                    lambda g, r: _trial_tileset(b, opts, plan, sel, g, r), b.exemplar, b.tile_size, b.threads,
+                    b.report,
+                )  # fmt: skip
+                i, scores = 0, []
+            else:
+                i, scores, res = rerank_by_cut(
+                    cands, lambda g: _stages(quiet, opts, plan, g, smooth=False), b.tile_size, b.report
+                )
+                genes_arr = cands[i]
+                sel["cut"] = selection_record(scores, i, b.tile_size)
+            if polish and objective == "cut":
+                stage1 = omega_evaluator(b.exemplar, b.tile_size, plan, opts, b.threads, 1.0, mask=m)
+                genes_arr, score, res, info = cut_polish(
+                    genes_arr, scores[i], res, stage1, lambda g: _stages(quiet, opts, plan, g, smooth=False),
+                    b.exemplar.shape, b.tile_size, progress=b.report,
+                    allowed=None if m is None else m.valid(b.tile_size),
+                )  # fmt: skip
+                sel["cut"]["score"] = score if np.isfinite(score) else None
+                sel["cut"]["polish"] = info
+            if opts.smooth:
+                res = _stages(b, opts, plan, genes_arr, smooth=True)
+            t_sel = time.perf_counter()
+        else:
+            res = _stages(b, opts, plan, genes_arr, smooth=opts.smooth)
+        ts = finish_tileset(
+            scheme="omega", definition=b.definition, exemplar=b.exemplar, tiles=res.tiles, source=res.source,
+            cut_masks=res.masks, genes=genes_arr, tile_patches=plan.tile_patches, match_offsets=res.offsets,
+            D=res.D, cut_costs=res.costs, E=energy(res.best_D),
+            params={**_omega_params(b, opts, plan, sel, res.smooth_info),
+                    **({"border_tries": tries} if "border_tries" in sel else {}),
+                    **({"augment": opts.augment, "match_transforms": res.transforms.tolist()}
+                       if res.transforms is not None else {})},
+            exemplar_info=b.exemplar_info,
+            timing={"selection_s": t_sel - b.started, **res.timing},
+            started=b.started,
+        )  # fmt: skip
+        return finish_build(ts, b)  # issue 14: the mask record and the input warnings
 
 
 def _window_selection(

@@ -700,6 +700,9 @@ def _gaussian_blur(x: np.ndarray, sigma: float) -> np.ndarray:
     return out
 
 
+_luminance = luminance  # for the methods whose keyword arguments are named luminance
+
+
 def detail_layer(image: np.ndarray, sigma: float = DETAIL_SIGMA) -> np.ndarray:
     """Luminance minus its Gaussian blur (σ = ``sigma``): ``(H, W)`` float64, the texture's fine structure."""
     y = luminance(image)
@@ -1391,7 +1394,16 @@ class DiscSaliency:
     exemplar's size and a sort; then O(1) per look-up (:meth:`at`).
     """
 
-    def __init__(self, exemplar: np.ndarray, radius: int) -> None:
+    def __init__(
+        self,
+        exemplar: np.ndarray,
+        radius: int,
+        *,
+        luminance: np.ndarray | None = None,
+        detail: np.ndarray | None = None,
+    ) -> None:
+        """``luminance`` / ``detail``: the exemplar's :func:`luminance` and :func:`detail_layer` when the caller
+        has them already (a build's :class:`~tilesynth.builder.exemplar.Exemplar`), else computed here."""
         img = as_image(exemplar, "exemplar").astype(np.float64)
         r = positive_int(radius, "radius")
         h, w, c = img.shape
@@ -1399,8 +1411,8 @@ class DiscSaliency:
             raise ParameterError(f"radius = {r}: a disc of {2 * r} px does not fit the {w}x{h} exemplar")
         k = _disc_kernel(r)
         area = float(k.sum())
-        lum = luminance(img)
-        det = detail_layer(img)
+        lum = _luminance(img) if luminance is None else luminance
+        det = detail_layer(img) if detail is None else detail
         nc = min(c, 3)
         planes = np.concatenate([np.moveaxis(img[..., :nc], -1, 0), np.stack([lum, lum * lum, det * det])])
         sums = _disc_sums(planes, k) / area  # the channel means, then E[lum], E[lum²], E[det²] over each disc

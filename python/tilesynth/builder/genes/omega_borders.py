@@ -56,6 +56,7 @@ import numpy as np
 
 from ...base.validate import as_image
 from ...errors import ParameterError
+from ..exemplar import Exemplar
 from .draws import check_genes, check_tile_size
 from .wang_borders import _steps, best_of_draws, check_border_tries
 
@@ -237,7 +238,8 @@ def border_aware_corner_genes(
     (``border_tries``, ``border_criterion``, the predicted score of the first draw and of the kept one)."""
     tries = check_border_tries(tries)
     criterion = check_criterion(criterion)
-    ex = np.asarray(exemplar, dtype=np.float64)
+    source = exemplar if isinstance(exemplar, Exemplar) else None
+    ex = np.asarray(exemplar.image if source is not None else exemplar, dtype=np.float64)
     steps = _steps(ex)
     if criterion == "stats":
         return _stats_draws(exemplar, ex, steps, np.asarray(first), tile_size, rng, tries)
@@ -272,14 +274,18 @@ def _stats_draws(
     ok = [i for i, v in enumerate(scores) if v <= STATS_SEAM_CAP]
     rec: dict[str, Any] = {}
     if ok:  # the statistics on the [0, 1] scale of the builds, whatever the caller's dtype
-        unit = as_image(exemplar, "exemplar").astype(np.float64)
+        if isinstance(exemplar, Exemplar):  # validated float32 already: its float64 copy is ``ex``
+            unit, saliency = ex, exemplar.saliency
+        else:
+            unit = as_image(exemplar, "exemplar").astype(np.float64)
+            saliency = None
         unit = unit if unit.ndim == 3 else unit[..., None]
         maps = _window_responses(unit)
         ref = _quantiles(unit.reshape(-1, unit.shape[2]))
         stats = {i: _stats_distance(maps, cands[i], tile_size) for i in ok}
         colour = {i: _colour_distance(unit, ref, cands[i], tile_size) for i in ok}
         best = min(ok, key=lambda i: (stats[i] + colour[i], i))
-        kept, moved, vsal = _calm_vertices(unit, steps, cands[best], tile_size)
+        kept, moved, vsal = _calm_vertices(unit, steps, cands[best], tile_size, saliency)
         if moved:
             cands[best] = kept
             scores[best] = _predict(steps, kept, tile_size)
@@ -324,6 +330,7 @@ def _calm_vertices(
     steps: tuple[np.ndarray, np.ndarray, float, float],
     genes: np.ndarray,
     tile_size: int,
+    saliency: Any = None,
 ) -> tuple[np.ndarray, int, float]:
     """Move each sample patch of ``genes`` whose vertex content is salient to the nearest position (Chebyshev
     distance up to N / :data:`VERTEX_MOVE` in steps of 2 px, then Euclidean, then row-major) where it is not,
@@ -352,7 +359,7 @@ def _calm_vertices(
     h, w = unit.shape[:2]
     if 2 * r > min(h, w):
         return g, 0, 0.0
-    sal = DiscSaliency(unit, r)
+    sal = DiscSaliency(unit, r) if saliency is None else saliency(r)  # the build's Exemplar caches its own
     hy, hx = sal.shape
     half = max(1, r // 2)
 
