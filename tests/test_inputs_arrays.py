@@ -237,7 +237,7 @@ def test_huge_output_is_refused_up_front(ex):
     with pytest.raises(ts.ParameterError, match="1000000x1000000: the output needs about"):
         ts.synthesize(tiles, 10**6, 10**6)
     # the estimate is checked against the limit, and a small enough output passes the same limit
-    need = ts.synthesis.synthesis_bytes(tiles, 64, 64, np.uint8)
+    need = ts.synth.synthesis.synthesis_bytes(tiles, 64, 64, np.uint8)
     with pytest.raises(ts.ParameterError, match="more than the limit"):
         ts.synthesize(tiles, 64, 64, dtype=np.uint8, max_bytes=need - 1)
     img, _ = ts.synthesize(tiles, 64, 64, dtype=np.uint8, max_bytes=need)
