@@ -5,7 +5,7 @@ scheme     builder                                      tile sets (``tileset=``)
 =========  ===========================================  ==================================================
 "omega"    :func:`tilesynth.builder.omega.build_omega`          corner sets: 4, 8, 16a, 16b, 32, B, n1, n2, nK
 "wang"     :func:`tilesynth.builder.wang.build_wang`            edge sets: wang8, wang18, wang<2k²>
-"swang"    :func:`tilesynth.builder.wang.build_swang`           edge sets: wang8 (004), wang18, ...
+"swang"    :func:`tilesynth.builder.swang.build_swang`          edge sets: wang8 (004), wang18, ...
 "patch"    :func:`tilesynth.schemes.patch.build_patch`  corner sets (a random-crop baseline)
 =========  ===========================================  ==================================================
 

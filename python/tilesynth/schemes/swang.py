@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..builder.materials import MATERIAL_CUT_EPS
-from ..builder.wang import build_swang
+from ..builder.swang import build_swang
 from .base import Option, Scheme, lambda_energy_line, positive_int_text
 from .common import GRADIENTS
 
