@@ -1,4 +1,4 @@
-"""The memory a build needs, estimated and refused up front (issue 16), like synthesis's
+"""The memory a build needs, estimated and refused up front, like synthesis's
 :func:`tilesynth.synth.synthesis.check_size`.
 
 The estimate is a fixed interpreter/library share, a term linear in the exemplar's pixels (its float32 copy, the
@@ -10,7 +10,7 @@ the whole set's intermediate and matching patches) and, when the genes are selec
 (the cut re-ranking keeps the best build while the next is made).
 
 The constants are measured peaks (VmHWM above the interpreter's, 2 threads, lettuce exemplar tiled to
-size, this tree after the chunked cut stage of issue 12), rounded up so the estimate stays above every one and
+size, this tree with the chunked cut stage), rounded up so the estimate stays above every one and
 within about 1.5-2x of it (estimate / peak): c5 default 125 MB at 256² (1.5x), 359 MB at 512² (1.4x),
 1371 MB at 1024² (1.5x), c5 smoothed 725 MB at 512² (1.3x); 16a at 128 px by the default selection 395 MB at
 512², 582 MB at 1024², 1438 MB at 2048² (1.3-1.4x); 16a random 364 MB at 2048² (2.1x); n2 GA 378 MB at 512²,

@@ -50,7 +50,7 @@ class SsdIndex:
         self.image = as_features(image) if self.features else as_image(image)
         self._index = _core.SsdIndex(self.image, threads_arg(threads))
 
-    def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from the image (issue 17)
+    def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from the image (process pools)
         return (type(self), (self.image, None, self.features))
 
     @property
@@ -96,7 +96,7 @@ class SsdIndex:
 def _best_matches_in_chunks(index, t, k, r, mask, threads) -> tuple[np.ndarray, np.ndarray]:
     """``index.best_matches`` of the templates ``t`` ``(K, h, w, C)`` in consecutive chunks of about
     :data:`tilesynth.base.chunks.TARGET_SECONDS` x 5 each, so that Ctrl-C and SIGTERM take effect between two chunks
-    instead of after the whole stack (issue 16: 18 s for the 256 templates of a 1024² build). Each template's
+    instead of after the whole stack (which took 18 s for the 256 templates of a 1024² build). Each template's
     matches are computed independently, so the result is bit-identical to one call; the columns are cut to the
     fewest matches any template has, as the one call does."""
     import time
@@ -403,7 +403,7 @@ class PopulationEvaluator:
             bool(features),
         )
 
-    def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from its inputs, cache empty (issue 17)
+    def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from its inputs, cache empty (process pools)
         return (type(self), self._init_args)
 
     def evaluate(self, genes: np.ndarray, threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:

@@ -105,7 +105,7 @@ class WangEvaluator:
             eps,
         )
 
-    def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from its inputs (issue 17)
+    def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from its inputs (process pools)
         return (type(self), self._init_args)
 
     def evaluate(self, genes: np.ndarray, threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:

@@ -1,5 +1,5 @@
 """Periodic exemplars in complete corner sets: a tile size from the exemplar's period and phase-locked sample
-patches (issue 12, "no loss in texture statistics against 16a").
+patches ("no loss in texture statistics against 16a").
 
 A complete set's lookup draws every vertex colour independently, and every vertex of colour c shows sample
 patch c centred on it (:mod:`tilesynth.builder.genes.omega_borders`). On a periodic exemplar (a brick wall) the c5 default

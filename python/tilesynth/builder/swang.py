@@ -75,7 +75,7 @@ class SwangEvaluator:
         self.tile_size = int(tile_size)
         self.tile_patches = np.asarray(tile_patches, dtype=np.int64)
         self.lam = float(lam)
-        # issue 14: with a mask (tilesynth.builder.masking.ExemplarMask), D_j is the best match among valid windows
+        # with a mask (tilesynth.builder.masking.ExemplarMask), D_j is the best match among valid windows
         self._mask = mask
         self._scale = 1.0 if mask is None else mask.search_scale(self.exemplar, self.tile_size)
         search = self.exemplar if mask is None else mask.search_image(self.exemplar, self.tile_size, True)
@@ -143,7 +143,7 @@ def _supplementary_candidates(
     b: BuildOptions, o: SwangOptions, I_tiles: np.ndarray, n_variants: int = 1
 ) -> tuple[np.ndarray, np.ndarray]:
     """Candidate supplementary patches ``(K, c, 2)`` of every initial tile and their SSD ``(K, c)``; at least
-    ``n_variants`` of them, N/4 apart (issue 12: the variants of an edge tuple take different ones)."""
+    ``n_variants`` of them, N/4 apart (so that the variants of an edge tuple take different ones)."""
     ex, n = b.exemplar, b.tile_size
     if o.given is not None:
         ssd = np.array(
@@ -157,7 +157,7 @@ def _supplementary_candidates(
             f"candidates = {o.candidates}: fewer than the {n_variants} variants per edge tuple of the set"
         )
     want = max(want, n_variants)
-    m = active(b.mask)  # issue 14: supplementary patches only from windows clear of the mask
+    m = active(b.mask)  # a masked pixel is no data: supplementary patches only from clear windows
     search, tpl, unscale = (ex, I_tiles, 1.0) if m is None else masked_search(m, ex, I_tiles, n, True)
     index = kernels.SsdIndex(search, b.threads, features=m is not None)
     offsets, ssd = index.best_matches(
@@ -185,7 +185,7 @@ def _closed_cuts(
     rank: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The closed cut of every tile against each candidate; per tile the cheapest (ties: the better SSD), or
-    with ``rank`` ``(K,)`` the ``rank[j]``-th cheapest (issue 12: variant v of an edge tuple takes its
+    with ``rank`` ``(K,)`` the ``rank[j]``-th cheapest (variant v of an edge tuple takes its
     (v+1)-th cheapest candidate). Returns ``(choice (K,), masks (K, N, N), costs (K,))``."""
     ex, n, k = b.exemplar, b.tile_size, I_tiles.shape[0]
     grad = patch_gradients(ex, I_src) if o.gradients == "patch" else None
@@ -283,7 +283,7 @@ def build_swang(
     I_tiles, I_src, I_lab = _initial_tiles(ex, genes_arr, tile_patches, n)
     b.report("initial tiles", 1, 1)
     b.report("supplementary patches", 0, 1)
-    variants = np.asarray(defn.variants, np.int64)  # issue 12: wc<K>x<V>, variants of one edge tuple
+    variants = np.asarray(defn.variants, np.int64)  # wc<K>x<V>: the variants of one edge tuple differ
     nv = int(variants.max()) + 1
     offsets, ssd = _supplementary_candidates(b, o, I_tiles, nv)
     rank = None
@@ -313,4 +313,4 @@ def build_swang(
         timing={"selection_s": t_sel - b.started, "matching_s": t_match - t_sel, "cutting_s": t_cut - t_match},
         started=b.started, labels=np.where(masks, SUPPLEMENTARY, I_lab),
     )  # fmt: skip
-    return finish_build(ts, b)  # issue 14: the mask record and the input warnings
+    return finish_build(ts, b)  # the mask record and the input warnings

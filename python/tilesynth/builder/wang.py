@@ -65,7 +65,7 @@ the overlap of Cohen's diamonds does, the path ends anywhere on its last line an
 generally crosses the tile edge a few pixels from the corner, and there the edge shows the wrong sample —
 004's *corner problem*, measured by :func:`corner_mismatch`.
 
-**Pinned is the default** (issue 14) because a demanding user expects tile borders to be invisible: measured by
+**Pinned is the default** because a demanding user expects tile borders to be invisible: measured by
 ``benches/seams.py`` (``benches/seams-results.md``), free corners leave 7-13 % of the pixel pairs across tile
 borders discontinuous (border seam score 0.9-3.6 on 12 textures), pinned corners only the junction pairs at the
 ends of every vertical edge (0.8-1.6 %). Where the borders then fall in the exemplar is chosen by the
@@ -276,7 +276,7 @@ def wang_options(
             )
         corners, ov = "pinned", n
     else:
-        # issue 14: pinned by default (Cohen's free corners leave 7-13 % of the border pairs discontinuous, border
+        # pinned by default (Cohen's free corners leave 7-13 % of the border pairs discontinuous, border
         # seam score 0.9-3.6, benches/seams-results.md); "free" stays for the literal construction.
         corners = "pinned" if corners is None else corners
         if corners not in ("free", "pinned"):
@@ -398,7 +398,7 @@ def build_wang(
     selection : how given genes were chosen (recorded), default ``{"method": "given"}``.
     exemplar_info : extra facts about the exemplar to record.
     mask, alpha : pixels never to use, as for :func:`tilesynth.build_omega`: the P x P squares of the samples
-        avoid the mask (issue 14).
+        avoid the mask.
 
     Returns
     -------
@@ -411,7 +411,7 @@ def build_wang(
     o = wang_options(b, overlap=overlap, corners=corners, samples=samples, cut=cut, omega=omega, eps=eps)
     tries = check_border_tries(border_tries)
     defn, n = b.definition, b.tile_size
-    if defn.n_variants > 1:  # issue 12: a Cohen tile is its four edge samples: its variants would be copies
+    if defn.n_variants > 1:  # a Cohen tile is its four edge samples: its variants would be copies
         raise ParameterError(
             f"tileset = {defn.name!r} has {defn.n_variants} variants per edge tuple: Cohen's Wang tiles are made "
             "from their four edge samples alone, so variants would be identical; use --scheme swang (strict "
@@ -449,4 +449,4 @@ def build_wang(
         timing={"selection_s": t_sel - b.started, "cutting_s": t_cut - t_sel}, started=b.started,
         labels=labels, cut_stats=stats,
     )  # fmt: skip
-    return finish_build(ts, b)  # issue 14: the mask record and the input warnings
+    return finish_build(ts, b)  # the mask record and the input warnings

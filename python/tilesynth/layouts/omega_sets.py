@@ -179,7 +179,7 @@ def with_variants(base: CornerTileSet, k: int) -> CornerTileSet:
     )
 
 
-# ------------------------------------------------------------------ complete sets (issue 12, tilesynth.layouts.complete)
+# ------------------------------------------------------------------ complete sets (tilesynth.layouts.complete)
 @functools.cache
 def complete_corner_set(k: int, v: int = 1):
     """The complete corner set over ``k`` colours with ``v`` variants per tuple, in the spec's index order."""

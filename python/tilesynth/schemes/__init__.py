@@ -68,7 +68,9 @@ def build(exemplar: np.ndarray, scheme: str = "omega", *, maps: Any = None, **kw
         If ``scheme`` is unknown (and whatever the builder raises for its parameters).
     """
     if maps is not None or any(k in kwargs for k in ("map_kinds", "map_weights", "normal_y")):
-        return build_material(exemplar, scheme=scheme, maps=maps, **kwargs)  # issue 14
+        return build_material(
+            exemplar, scheme=scheme, maps=maps, **kwargs
+        )  # the maps are cut with the colour
     return get_scheme(scheme).build(exemplar, **kwargs)
 
 
@@ -84,7 +86,7 @@ def build_material(
     **kwargs: Any,
 ) -> TileSet:
     """Build a tile set of ``scheme`` from ``exemplar`` (the albedo) and its pixel-aligned ``maps``, matched and
-    cut jointly (issue 14; the method, the kinds and the defaults: :mod:`tilesynth.builder.materials`); ``kwargs`` go to
+    cut jointly (the method, the kinds and the defaults: :mod:`tilesynth.builder.materials`); ``kwargs`` go to
     the scheme's builder. :func:`build` with ``maps=`` calls it.
 
     Parameters

@@ -39,6 +39,6 @@ SCHEME = Scheme(
         ),
     ),
     describe=_describe,
-    # issue 14: joint material builds cut with a capped gradient normalisation (materials.MATERIAL_CUT_EPS)
+    # joint material builds cut with a capped gradient normalisation (materials.MATERIAL_CUT_EPS)
     material_options={"eps": MATERIAL_CUT_EPS},
 )

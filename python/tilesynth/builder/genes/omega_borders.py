@@ -25,7 +25,7 @@ mean, so S_pred is a little above the measured S: measured / predicted 0.94 (ω)
 over the rows of ``benches/seams.py --corner``, Pearson r 0.95 and 0.90 against the measured score). Every colour counts equally: the hashed lookup of the
 complete sets and the stochastic tilers of the papers' sets give every vertex colour about equally often.
 
-**Border-aware draws** (``border_tries``, the default of ω and patch, issue 14): of ``border_tries`` random gene
+**Border-aware draws** (``border_tries``, the default of ω and patch): of ``border_tries`` random gene
 vectors from the build's generator (the first is the single draw of ``border_tries=1``), the one whose S_pred
 is closest to 0.8 on a log scale among those with S_pred <= 1 is kept (criterion ``"cap"``; the smallest S_pred
 when no draw is at or below 1). Why not the smallest S_pred, as the Wang schemes do: a border grid far flatter
@@ -37,7 +37,7 @@ S_pred, so a target of 1 leaves some tilings above it (a synthetic brick wall in
 patch baseline draws the same sample patches with the same seed, so it stays ω's baseline. Cost: a few array
 reductions per try, nothing next to the matching.
 
-**Vertex saliency** (issue 12, the ``"stats"`` criterion of complete sets): every vertex of colour k shows the
+**Vertex saliency** (the ``"stats"`` criterion of complete sets): every vertex of colour k shows the
 centre disc of sample patch k whole (radius about 0.22·N, :func:`tilesynth.measure.metrics.vertex_disc_radius`), at a fifth
 of the vertices of a c5 tiling. After the most representative admissible draw is kept, each of its patches whose
 centre disc, or a disc half a radius from it, is a salient outlier among the exemplar's discs of that size
@@ -78,7 +78,7 @@ DEFAULT_BORDER_TRIES = 32
 CRITERIA = ("cap", "log", "min", "stats")
 """How a draw is ranked: ``"min"`` smallest S_pred; ``"log"`` smallest ``|log S_pred|`` (closest to 1);
 ``"cap"`` (the default) closest to :data:`CAP_TARGET` on a log scale among the draws with S_pred <= 1 (the
-smallest S_pred when there is none); ``"stats"`` (the default of complete sets, issue 12) the smallest
+smallest S_pred when there is none); ``"stats"`` (the default of complete sets) the smallest
 :func:`sample_stats_distance` + :func:`sample_colour_distance` among the draws with S_pred <=
 :data:`STATS_SEAM_CAP` (``"cap"``'s choice when there is none), its salient vertex content then moved off
 the vertices (:func:`_calm_vertices`)."""
@@ -167,7 +167,7 @@ def sample_stats_distance(exemplar: np.ndarray, genes: np.ndarray, tile_size: in
     of the rectified filter responses, mean over scales 1 and 2) between the union of the patches' own valid
     responses and the exemplar's.
 
-    Why (issue 12): with a complete set every vertex shows its colour's sample patch, and that vertex content
+    Why: with a complete set every vertex shows its colour's sample patch, and that vertex content
     is a third or more of the output; on a non-stationary exemplar (grass with clover on one side and straw on
     the other) five randomly drawn patches often over-represent one kind of content, and the output's texture
     statistics follow them (the texture-statistics distance of c5 outputs varied 2-3x between seeds, more than
@@ -208,7 +208,7 @@ def sample_colour_distance(exemplar: np.ndarray, genes: np.ndarray, tile_size: i
     Wasserstein-1 distance, values in [0, 1]) between the pixels of the sample patches of ``genes`` together and
     the exemplar's. The texture statistics' filters are zero-mean and blind to colour: drawn by
     :func:`sample_stats_distance` alone, the patches of sea foam were the darker water, and the output's
-    histogram distance rose from 0.021 to 0.067 (issue 12)."""
+    histogram distance rose from 0.021 to 0.067 (``benches/repetition-results.md``)."""
     img = as_image(exemplar, "exemplar")
     n = check_tile_size(tile_size, img.shape)
     g = check_genes(np.asarray(genes), np.asarray(genes).shape[0], img.shape, n)
@@ -340,7 +340,7 @@ def _calm_vertices(
     along the axes and diagonals is above the :data:`VERTEX_SALIENCY_CAP` percentile of the exemplar's discs
     (:class:`tilesynth.measure.metrics.DiscSaliency`). Returns (genes, patches moved, largest percentile left).
 
-    Why (issue 12): every vertex of colour k shows the centre disc of sample patch k, at a fifth of the vertices
+    Why: every vertex of colour k shows the centre disc of sample patch k, at a fifth of the vertices
     of a c5 tiling, and the cut never reaches it. When that disc is one of the exemplar's outliers (a bright
     curled lettuce leaf, a cluster of grey stones on dry soil) the eye finds it again at every such vertex,
     although the periodic copies and the autocorrelation peak stay low. Three versions were tried on lettuce

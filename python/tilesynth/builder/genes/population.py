@@ -167,7 +167,7 @@ class _Evaluator:
         self.best_genes: np.ndarray | None = None
         self.best_E = math.inf
         self.best_D: np.ndarray | None = None
-        # tilesynth's own evaluators: batches in chunks of ~0.1 s, so Ctrl-C acts within ~1 s (issue 16)
+        # tilesynth's own evaluators: batches in chunks of ~0.1 s, so Ctrl-C acts within ~1 s
         self.sizer = ChunkSizer() if getattr(evaluate, "_tilesynth_chunkable", False) else None
 
     def _call(self, genes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -242,7 +242,9 @@ class _Run:
             self.stall += 1
         if self.progress is not None:
             self.progress(self.stage, len(self.best), self.total)
-            if self.stop_reason() == "stagnation" and self.generations < self.total:  # issue 16: say so
+            if (
+                self.stop_reason() == "stagnation" and self.generations < self.total
+            ):  # a run cut short says so
                 note = f"converged at generation {self.generations} of {self.total} (stagnation rule)"
                 finish = getattr(self.progress, "finish", None)  # a plain callable gets no extra call
                 if finish is not None:

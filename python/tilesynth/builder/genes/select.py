@@ -343,7 +343,7 @@ def choose_genes(
 
     ``optimise`` lets a scheme count one of its own options as a selection request (ω's ``normalise``).
 
-    ``mask`` (a :class:`tilesynth.builder.masking.ExemplarMask`, issue 14): only windows clear of the mask are used
+    ``mask`` (a :class:`tilesynth.builder.masking.ExemplarMask`): only windows clear of the mask are used
     (random genes drawn over them, given genes checked, a selection run on the projection onto them; see
     :mod:`tilesynth.builder.masking`); ``tile_size`` (default ``size``) names the build's tile size in its errors.
     """
@@ -382,7 +382,7 @@ def choose_genes(
     if evaluator is None:
         raise ParameterError(f"select = {select!r}: this scheme has no objective to select genes by")
     from ...base.chunks import (
-        chunkable,  # the scheme's own evaluator: safe to evaluate in chunks (Ctrl-C, issue 16)
+        chunkable,  # the scheme's own evaluator: safe to evaluate in chunks (so Ctrl-C acts promptly)
     )
 
     res = select_genes(
