@@ -56,9 +56,11 @@ import numpy as np
 
 from ...base.validate import as_image
 from ...errors import ParameterError
+from ...measure import quality as q
+from ...measure.metrics import DiscSaliency, vertex_disc_radius
 from ..exemplar import Exemplar
 from .draws import check_genes, check_tile_size
-from .wang_borders import _steps, best_of_draws, check_border_tries
+from .wang_borders import _steps, best_of_draws, check_border_tries, random_genes
 
 __all__ = [
     "CRITERIA",
@@ -130,8 +132,6 @@ def _window_responses(ex: np.ndarray) -> dict[int, np.ndarray]:
     """The 'valid' responses ``(F, H − 6, W − 6)`` of the texture-statistics filters to the exemplar at every
     scale of :func:`tilesynth.measure.quality.texture_stats_distance` (entry (y, x) is the response of the 7 x 7
     window with top-left (y, x), so a sample window's own valid responses are a sub-block)."""
-    from ...measure import quality as q
-
     k = q.TEXSTATS_SIZE
     out = {}
     for f in q.TEXSTATS_SCALES:
@@ -143,8 +143,6 @@ def _window_responses(ex: np.ndarray) -> dict[int, np.ndarray]:
 
 
 def _stats_distance(maps: dict[int, np.ndarray], genes: np.ndarray, n: int) -> float:
-    from ...measure import quality as q
-
     k = q.TEXSTATS_SIZE
     out = []
     for f, rmap in maps.items():
@@ -267,8 +265,6 @@ def _stats_draws(
     """The ``"stats"`` criterion of :func:`border_aware_corner_genes`: the same draws from ``rng`` as the other
     criteria, the admissible one (S_pred <= :data:`STATS_SEAM_CAP`) of smallest :func:`sample_stats_distance` +
     :func:`sample_colour_distance` kept (the first of equals), else ``"cap"``'s choice."""
-    from .wang_borders import random_genes
-
     cands = [first] + [random_genes(ex.shape, len(first), tile_size, rng) for _ in range(int(tries) - 1)]
     scores = [_predict(steps, g, tile_size) for g in cands]
     ok = [i for i, v in enumerate(scores) if v <= STATS_SEAM_CAP]
@@ -298,11 +294,9 @@ def _stats_draws(
             "vertex_moves": moved,
         }
         del maps
-        from ...measure import quality
-
         # the filter spectra cached for this exemplar's FFT size (~200 MB at 512²) would otherwise stay
         # through the build's heavier stages (the smoothed c5 build measured 953 MB against a 928 MB estimate)
-        quality._filter_spectra.cache_clear()
+        q._filter_spectra.cache_clear()
     else:
         best = int(np.argmin([_rank(v, "cap") for v in scores]))
     return cands[best], {
@@ -351,8 +345,6 @@ def _calm_vertices(
     plainly visible; (3) this one: the 9 discs keep the motif out of the whole vertex content, and a move of at
     most N/4 keeps at least 3/4 of the patch along each axis (its statistics) while the content at its centre
     changes. Cost: five FFT correlations of the exemplar for the discs' features, then look-ups."""
-    from ...measure.metrics import DiscSaliency, vertex_disc_radius
-
     n = int(tile_size)
     g = np.asarray(genes, dtype=np.int64).copy()
     r = vertex_disc_radius(n)
