@@ -95,7 +95,7 @@ class C5Builder:
         return np.asarray(index_map(self.scheme, seed, (cells, cells)))
 
     def build_tiles(self, genes: np.ndarray, tile_idx: np.ndarray) -> Any:
-        from tilesynth.builder.omega import _stages
+        from tilesynth.builder.omega import tile_stages
         from tilesynth.layouts.corners import CornerPlan
 
         rows = self.plan.inverse[tile_idx]
@@ -104,7 +104,7 @@ class C5Builder:
             self.plan.tile_patches[tile_idx], self.plan.unique[rows], np.arange(k), np.zeros(k, np.int64), 1,
             self.plan.n_colours,
         )  # fmt: skip
-        return _stages(self.b, self.opts, sub, np.asarray(genes), smooth=False)
+        return tile_stages(self.b, self.opts, sub, np.asarray(genes), smooth=False)
 
 
 class WindowJudge:

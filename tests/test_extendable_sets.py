@@ -11,6 +11,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from tilesynth.layouts.extendable import _complete_supersets
 from tilesynth.layouts.omega_sets import (
     BASIC_SET_NAME,
     EXTENDABLE_TILESET_NAMES,
@@ -18,7 +19,6 @@ from tilesynth.layouts.omega_sets import (
     TILESET_NAMES,
     BasicSetCandidate,
     CornerTileSet,
-    _complete_supersets,
     candidate_basic_sets,
     check_properties,
     choices_summary,

@@ -375,7 +375,7 @@ def test_provenance_of_swang_tiles(swang, small_exemplar):
 
 
 def test_swang_supplementary_is_the_exact_best_ssd(swang, small_exemplar):
-    from tilesynth.builder.wang import _initial_tiles
+    from tilesynth.builder.swang import _initial_tiles
 
     init, src, _ = _initial_tiles(small_exemplar, swang.genes, swang.tile_patches, 32)
     np.testing.assert_array_equal(init, small_exemplar[src[..., 0], src[..., 1]])
@@ -695,7 +695,7 @@ def test_graph_cut_build_keeps_the_dp_objective(small_exemplar):
 
 
 def test_swang_selection(small_exemplar):
-    from tilesynth.builder.wang import SwangEvaluator
+    from tilesynth.builder.swang import SwangEvaluator
 
     ex = small_exemplar
     ts = tilesynth.build_swang(ex, tile_size=32, seed=3, select="best-of", population=6)

@@ -40,7 +40,8 @@ from .base.kernels import (
     wang_tiles,
 )
 from .builder.omega import build_omega, energy
-from .builder.wang import build_swang, build_wang
+from .builder.swang import build_swang
+from .builder.wang import build_wang
 from .errors import InternalError, ParameterError, ShapeError, TileSetFormatError, TilesynthError
 from .io.images import load_image, load_raster, save_image
 from .layouts.omega_sets import TILESET_NAMES, get_tileset

@@ -1,4 +1,4 @@
-"""The memory a build needs, estimated and refused up front (issue 16), like synthesis's
+"""The memory a build needs, estimated and refused up front, like synthesis's
 :func:`tilesynth.synth.synthesis.check_size`.
 
 The estimate is a fixed interpreter/library share, a term linear in the exemplar's pixels (its float32 copy, the
@@ -10,7 +10,7 @@ the whole set's intermediate and matching patches) and, when the genes are selec
 (the cut re-ranking keeps the best build while the next is made).
 
 The constants are measured peaks (VmHWM above the interpreter's, 2 threads, lettuce exemplar tiled to
-size, this tree after the chunked cut stage of issue 12), rounded up so the estimate stays above every one and
+size, this tree with the chunked cut stage), rounded up so the estimate stays above every one and
 within about 1.5-2x of it (estimate / peak): c5 default 125 MB at 256² (1.5x), 359 MB at 512² (1.4x),
 1371 MB at 1024² (1.5x), c5 smoothed 725 MB at 512² (1.3x); 16a at 128 px by the default selection 395 MB at
 512², 582 MB at 1024², 1438 MB at 2048² (1.3-1.4x); 16a random 364 MB at 2048² (2.1x); n2 GA 378 MB at 512²,
@@ -66,50 +66,23 @@ def _selects(kwargs: dict[str, Any], complete: bool) -> bool:
     return select != "random"
 
 
-def check_build_memory(exemplar: Any, default_set: str, layout: str, kwargs: dict[str, Any]) -> None:
-    """Raise :class:`ParameterError` with the figures if the build of ``exemplar`` would exceed the memory
-    limit. ``default_set`` is the set the builder takes when ``kwargs`` name none, ``layout`` "corner" or
-    "edge" (:class:`tilesynth.schemes.Scheme`). Arguments it cannot interpret are left to the builder's own
-    checks."""
-    shape = getattr(exemplar, "shape", None)
-    if shape is None or len(shape) not in (2, 3) or not all(isinstance(v, int) and v > 0 for v in shape):
-        return
-    h, w = int(shape[0]), int(shape[1])
-    c = int(shape[2]) if len(shape) == 3 else 1
-    n = kwargs.get("tile_size")
-    if not isinstance(n, int) or isinstance(n, bool) or n < 1:
-        n = None
-    complete = False
-    try:
-        name = kwargs.get("tileset") or default_set
-        if layout == "corner":
-            from ..layouts.hashed import lookup_scheme
-            from ..layouts.omega_sets import get_tileset
-
-            defn = get_tileset(name)
-            k = len(defn.tiles)
-            complete = lookup_scheme(defn) is not None
-            if n is None and complete:  # complete sets default to quarter-side tiles
-                from ..layouts.complete import default_complete_tile_size
-
-                n = default_complete_tile_size((h, w))
-        else:
-            from ..layouts.wang_sets import get_wang_tileset
-
-            k = len(get_wang_tileset(name).tiles)
-    except Exception:  # noqa: BLE001 - a bad name is the builder's to report, with its own message
-        return
-    n = min(256, min(h, w) // 2) if n is None else n
-    if n > min(h, w):  # a tile larger than the exemplar is the builder's error to report (it names the size)
-        return
+def check_build_memory(
+    shape: tuple[int, int, int], tile_size: int, n_tiles: int, complete: bool, kwargs: dict[str, Any]
+) -> None:
+    """Raise :class:`ParameterError` with the figures if building ``n_tiles`` tiles of ``tile_size`` from an
+    exemplar of ``shape`` (h, w, c) would exceed the memory limit. ``complete``: the set is a complete one
+    (its default is random genes, see :func:`_selects`); ``kwargs`` are the builder's (selection, smoothing,
+    ``max_bytes``). The caller resolves the set and the tile size (:meth:`tilesynth.schemes.base.Scheme.build`):
+    the budget knows figures, not tile sets."""
+    h, w, c = shape
     selection, smooth = _selects(kwargs, complete), bool(kwargs.get("smooth"))
     need, limit = (
-        build_bytes(h, w, c, n, k, selection=selection, smooth=smooth),
+        build_bytes(h, w, c, tile_size, n_tiles, selection=selection, smooth=smooth),
         memory_limit(kwargs.get("max_bytes")),
     )
     if need > limit:
         raise ParameterError(
-            f"exemplar = {w}x{h}x{c}: building {k} tiles of {n}x{n} needs about {fmt_bytes(need)}, more than the "
-            f"limit of {fmt_bytes(limit)} ({MAX_BYTES_ENV}; default half the physical memory); use a smaller "
-            "exemplar (crop or downscale it) or raise the limit"
+            f"exemplar = {w}x{h}x{c}: building {n_tiles} tiles of {tile_size}x{tile_size} needs about "
+            f"{fmt_bytes(need)}, more than the limit of {fmt_bytes(limit)} ({MAX_BYTES_ENV}; default half the "
+            "physical memory); use a smaller exemplar (crop or downscale it) or raise the limit"
         )

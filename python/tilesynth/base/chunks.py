@@ -1,4 +1,4 @@
-"""Evaluating a population in chunks, so that Ctrl-C takes effect promptly (issue 16).
+"""Evaluating a population in chunks, so that Ctrl-C takes effect promptly.
 
 A kernel call releases the GIL and runs in Rust; Python runs its signal handlers (``KeyboardInterrupt``) only
 between bytecodes, so a single call for the whole population of a GA/AIS generation (8-16 s on large

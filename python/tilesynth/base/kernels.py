@@ -6,86 +6,29 @@ new numpy arrays; no input is ever modified (``tile_copy`` writes only into ``ou
 :class:`ShapeError` / :class:`ParameterError` (``ValueError``) or ``TypeError`` naming the parameter.
 ``threads=None`` uses ``TILESYNTH_NUM_THREADS`` or all cores (at most 1024); results never depend on the thread
 count.
+
+The Poisson solver and the Wang kernels have their own modules (:mod:`tilesynth.base.poisson`,
+:mod:`tilesynth.base.wang_kernels`), the shared argument conversions :mod:`tilesynth.base.kernel_args`; this
+module re-exports them.
 """
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 
 from .. import _core
 from ..errors import ParameterError, ShapeError
+from .kernel_args import DEFAULT_EPS, _asarray, _grad, _index_map, _int_array, _mask, _real, _templates
+from .poisson import DEFAULT_POISSON_TOL, PoissonInfo, poisson_smooth
 from .validate import (
     as_features,
     as_image,
-    as_image_stack,
-    asarray_aligned,
     finite_float,
     nonneg_int,
     positive_int,
     threads_arg,
 )
-
-DEFAULT_EPS: float = _core.DEFAULT_EPS
-"""Epsilon in the denominator of the Kwatra edge weight (guards flat regions); defined in the core
-(``rust/seams.rs``) and exported from there."""
-
-DEFAULT_POISSON_TOL: float = _core.DEFAULT_POISSON_TOL
-"""Default relative residual ‖b − A f‖₂ / ‖b‖₂ at which :func:`poisson_smooth` stops."""
-
-
-def _templates(
-    templates: np.ndarray, name: str = "templates", features: bool = False
-) -> tuple[np.ndarray, bool]:
-    if not features:
-        return as_image_stack(templates, name)
-    t = asarray_aligned(templates)
-    single = t.ndim in (2, 3)
-    if t.ndim == 2:
-        t = t[:, :, None]
-    if single:
-        t = t[None]
-    if t.ndim != 4:
-        raise ShapeError(f"{name} has shape {np.shape(templates)}, expected (h, w, C) or (K, h, w, C)")
-    return np.stack([as_features(x, name) for x in t]), single
-
-
-def _asarray(value: object, name: str) -> np.ndarray:
-    try:
-        a = asarray_aligned(value)
-    except (ValueError, TypeError) as exc:
-        raise ShapeError(f"{name} is not an array ({exc})") from None
-    return a
-
-
-def _mask(mask: object, name: str = "mask") -> np.ndarray | None:
-    """A bool ``(h, w)`` mask: bool arrays as they are, integer or float arrays only if every value is 0 or 1
-    (anything else is more likely a weight map passed by mistake than a mask)."""
-    if mask is None:
-        return None
-    m = _asarray(mask, name)
-    if m.ndim != 2:
-        raise ShapeError(f"{name} has shape {m.shape}, expected a 2-d (h, w) mask")
-    if m.dtype != np.bool_:
-        if m.dtype.kind not in "iuf":
-            raise TypeError(f"{name} has dtype {m.dtype}, expected bool")
-        if m.size and not np.isin(m, (0, 1)).all():
-            raise ParameterError(
-                f"{name} has dtype {m.dtype} with values other than 0 and 1, expected a bool mask"
-            )
-    return np.ascontiguousarray(m, dtype=bool)
-
-
-def _real(value: object, name: str, ndim: int, shape_text: str) -> np.ndarray:
-    """A C-contiguous float64 array of ``ndim`` dimensions from any real (bool, integer, float) input; the
-    kernels check the values (finite, >= 0, ...)."""
-    a = _asarray(value, name)
-    if a.ndim != ndim:
-        raise ShapeError(f"{name} has shape {a.shape}, expected {shape_text}")
-    if a.dtype.kind not in "biuf":
-        raise TypeError(f"{name} has dtype {a.dtype}, expected real numbers (float64)")
-    return np.ascontiguousarray(a, dtype=np.float64)
+from .wang_kernels import WangEvaluator, swang_cuts, wang_tiles
 
 
 class SsdIndex:
@@ -107,7 +50,7 @@ class SsdIndex:
         self.image = as_features(image) if self.features else as_image(image)
         self._index = _core.SsdIndex(self.image, threads_arg(threads))
 
-    def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from the image (issue 17)
+    def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from the image (process pools)
         return (type(self), (self.image, None, self.features))
 
     @property
@@ -153,7 +96,7 @@ class SsdIndex:
 def _best_matches_in_chunks(index, t, k, r, mask, threads) -> tuple[np.ndarray, np.ndarray]:
     """``index.best_matches`` of the templates ``t`` ``(K, h, w, C)`` in consecutive chunks of about
     :data:`tilesynth.base.chunks.TARGET_SECONDS` x 5 each, so that Ctrl-C and SIGTERM take effect between two chunks
-    instead of after the whole stack (issue 16: 18 s for the 256 templates of a 1024² build). Each template's
+    instead of after the whole stack (which took 18 s for the 256 templates of a 1024² build). Each template's
     matches are computed independently, so the result is bit-identical to one call; the columns are cut to the
     fewest matches any template has, as the one call does."""
     import time
@@ -259,10 +202,6 @@ def grid_mincut(
     if wd is None:
         return _core.grid_mincut(f64(wx, "wx"), f64(wy, "wy"), *terminals)
     return _core.grid_mincut8(f64(wx, "wx"), f64(wy, "wy"), f64(wd, "wd"), f64(wa, "wa"), *terminals)
-
-
-def _grad(g: np.ndarray | None, name: str, ndim: int, shape_text: str) -> np.ndarray | None:
-    return None if g is None else _real(g, name, ndim, shape_text)
 
 
 def kwatra_weights(
@@ -398,151 +337,6 @@ def tile_copy(
     return out
 
 
-def _index_map(value: object) -> np.ndarray:
-    """An int32 ``(rows, cols)`` tile index map; integers only, none beyond the int32 range (no silent wrap)."""
-    m = _asarray(value, "index_map")
-    if m.ndim != 2:
-        raise ShapeError(f"index_map has shape {m.shape}, expected (rows, cols)")
-    if m.dtype.kind not in "iu":
-        if m.size or m.dtype.kind not in "bf":
-            raise TypeError(f"index_map has dtype {m.dtype}, expected integers")
-    if m.size and m.dtype.kind in "iu" and m.dtype.itemsize >= 4:
-        lo, hi = int(m.min()), int(m.max())
-        if lo < -(2**31) or hi >= 2**31:
-            raise ParameterError(f"index_map has values in [{lo}, {hi}], expected tile indices")
-    return np.ascontiguousarray(m, dtype=np.int32)
-
-
-def _float_tiles(value: object, name: str) -> np.ndarray:
-    """``value`` as C-contiguous float32: floats as they are (any finite values; the kernel checks), uint8 /
-    uint16 scaled by their maximum, bool as 0 / 1."""
-    a = _asarray(value, name)
-    if a.dtype == np.uint8:
-        a = a.astype(np.float32) / np.float32(255)
-    elif a.dtype == np.uint16:
-        a = a.astype(np.float32) / np.float32(65535)
-    elif a.dtype == np.bool_:
-        a = a.astype(np.float32)
-    elif a.dtype in (np.float16, np.float32, np.float64):
-        a = a.astype(np.float32, copy=False)
-    else:
-        raise TypeError(f"{name} has dtype {a.dtype}, expected float, uint8, uint16 or bool")
-    return np.ascontiguousarray(a)
-
-
-@dataclass(frozen=True)
-class PoissonInfo:
-    """What :func:`poisson_smooth` did, per tile (scalars / ``(C,)`` for a single tile, arrays for a stack).
-
-    Attributes
-    ----------
-    iterations : PCG iterations, the largest over the channels (0 when nothing had to be solved); int or int64
-        ``(K,)``.
-    residual : the final relative residual ‖b − A f‖₂ / ‖b‖₂ of each channel, recomputed from the float64
-        solution (≤ ``tol``; 0 for an empty or whole-image region and for a channel with b = 0); float64 ``(C,)``
-        or ``(K, C)``.
-    unknowns : the number of region pixels; int or int64 ``(K,)``.
-    """
-
-    iterations: int | np.ndarray
-    residual: np.ndarray
-    unknowns: int | np.ndarray
-
-
-def poisson_smooth(
-    dst: np.ndarray,
-    src: np.ndarray,
-    region: np.ndarray,
-    threads: int | None = None,
-    tol: float = DEFAULT_POISSON_TOL,
-    *,
-    info: bool = False,
-) -> np.ndarray | tuple[np.ndarray, PoissonInfo]:
-    """Poisson smoothing of the region of a tile: guided interpolation (Pérez, Gangnet and Blake 2003).
-
-    ``dst`` is the destination (the intermediate tile I of an ω-tile), ``src`` the source whose gradients guide
-    the interpolation (the matching patch O), ``region`` the unknown pixels Ω (inside the cutting curve). For every
-    pixel p of Ω and every channel, the result f solves the discrete Poisson equation with guidance field
-    v_pq = src_p − src_q (Pérez eqs. (7)–(11))::
-
-        Σ_{q ∈ N(p)} (f_p − f_q) = Σ_{q ∈ N(p)} (src_p − src_q),   f_q = dst_q for q ∉ Ω,
-
-    N(p) the 4-neighbours of p inside the image. Outside Ω the result is ``dst``, bit for bit: the pixels of
-    ``dst`` next to Ω are the Dirichlet boundary, so the tile border (never in an ω region) is untouched and
-    ω-tiles stay seamless with each other.
-
-    - Where Ω touches the image border, the missing neighbours are simply absent: a zero-normal-derivative
-      (Neumann) condition on ``f − src`` there.
-    - Ω covering the whole image has no Dirichlet pixel and f is determined only up to a constant: the result is
-      ``src`` (the solution with the mean of ``src``). An empty Ω returns ``dst``.
-    - The result is **not clipped** to [0, 1]: guided interpolation can overshoot near strong seams, and the
-      result is the exact solution (clip it before storing it as an image).
-
-    Solver: conjugate gradients in float64 on f − src (initial guess f = src), preconditioned by one symmetric
-    geometric-multigrid V-cycle (float32, red-black Gauss–Seidel, the pixels outside Ω held fixed) per
-    iteration; each channel stops once its true relative residual ‖b − A f‖₂ / ‖b‖₂ is at most ``tol`` (about
-    8–10 iterations at 1e-6 for ω regions), which is reported. Rounding the solution to float32 adds at most half
-    an ulp per pixel. Channels and tiles are solved in parallel; the result does not depend on ``threads``.
-
-    Parameters
-    ----------
-    dst, src : a tile ``(N, M, C)`` or a stack ``(K, N, M, C)``: float (converted to float32, any finite
-        values), or uint8 / uint16 (scaled to [0, 1]).
-    region : bool ``(N, M)`` or ``(K, N, M)`` (integers: nonzero = unknown); its number of axes decides
-        between one tile and a stack.
-    threads : worker threads (None: ``TILESYNTH_NUM_THREADS`` or all cores).
-    tol : the relative residual to reach, in [1e-12, 1).
-    info : also return a :class:`PoissonInfo`.
-
-    Returns
-    -------
-    The smoothed float32 tile(s), shaped like ``dst``; with ``info=True``, ``(tiles, PoissonInfo)``. The inputs are
-    never modified.
-    """
-    r = _asarray(region, "region")
-    if r.dtype != np.bool_:
-        if not np.issubdtype(r.dtype, np.integer):
-            raise TypeError(f"region has dtype {r.dtype}, expected bool (or integers, nonzero = unknown)")
-        r = r != 0
-    if r.ndim not in (2, 3):
-        raise ShapeError(f"region has shape {r.shape}, expected (N, M) or (K, N, M)")
-    single = r.ndim == 2
-    d = _float_tiles(dst, "dst")
-    s = _float_tiles(src, "src")
-    if d.ndim != r.ndim + 1 or d.shape[:-1] != r.shape:
-        raise ShapeError(
-            f"dst has shape {d.shape}, expected {r.shape} + (C,) (the shape of region, then channels)"
-        )
-    if s.shape != d.shape:
-        raise ShapeError(f"src has shape {s.shape}, expected {d.shape} (the shape of dst)")
-    if isinstance(tol, (bool, np.bool_)) or not isinstance(tol, (int, float, np.integer, np.floating)):
-        raise ParameterError(f"tol = {tol!r}: must be a number in [1e-12, 1)")
-    r = np.ascontiguousarray(r)
-    if single:
-        d, s, r = d[None], s[None], r[None]
-    out, iterations, residual, unknowns = _core.poisson_smooth(d, s, r, float(tol), threads_arg(threads))
-    if single:
-        out = out[0]
-    if not info:
-        return out
-    if single:
-        return out, PoissonInfo(int(iterations[0]), residual[0], int(unknowns[0]))
-    return out, PoissonInfo(iterations, residual, unknowns)
-
-
-def _int_array(value: object, name: str, ndim: int, shape_text: str) -> np.ndarray:
-    a = _asarray(value, name)
-    if a.ndim != ndim:
-        raise ShapeError(f"{name} has shape {a.shape}, expected {shape_text}")
-    if a.size and not (np.issubdtype(a.dtype, np.integer) or a.dtype == np.bool_):
-        raise ParameterError(f"{name} has dtype {a.dtype}, expected integers")
-    if a.size == 0 and a.dtype.kind not in "biuf":
-        raise ParameterError(f"{name} has dtype {a.dtype}, expected integers")
-    if a.size and a.dtype.kind == "u" and a.dtype.itemsize == 8 and int(a.max()) >= 2**63:
-        raise ParameterError(f"{name} has values up to {int(a.max())}, beyond int64")
-    return np.ascontiguousarray(a, dtype=np.int64)
-
-
 class PopulationEvaluator:
     """The ω-tile objective E for whole populations of gene vectors, exact, with cached partial SSD maps.
 
@@ -609,7 +403,7 @@ class PopulationEvaluator:
             bool(features),
         )
 
-    def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from its inputs, cache empty (issue 17)
+    def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from its inputs, cache empty (process pools)
         return (type(self), self._init_args)
 
     def evaluate(self, genes: np.ndarray, threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -648,126 +442,6 @@ def evaluate_population(
         raise ShapeError(f"genes has shape {g.shape}, expected (P, n, 2) with n >= 1")
     ev = PopulationEvaluator(exemplar, tile_size, tile_patches, g.shape[1], lam, normalise, cache_bytes=0)
     return ev.evaluate(g, threads)
-
-
-def _wang_args(tile_size: int, overlap: int, corners: str, samples: str, cut: str, omega: float) -> tuple:
-    tile_size = positive_int(tile_size, "tile_size")
-    overlap = positive_int(overlap, "overlap", minimum=0)
-    for name, value in (("corners", corners), ("samples", samples), ("cut", cut)):
-        if not isinstance(value, str):
-            raise ParameterError(f"{name} = {value!r}: must be a string")
-    if isinstance(omega, (bool, np.bool_)) or not isinstance(omega, (int, float, np.integer, np.floating)):
-        raise ParameterError(f"omega = {omega!r}: must be a number in [0, 1]")
-    return tile_size, overlap, corners, samples, cut, float(omega)
-
-
-def wang_tiles(
-    exemplar: np.ndarray,
-    genes: np.ndarray,
-    tile_samples: np.ndarray,
-    tile_size: int,
-    overlap: int,
-    corners: str = "free",
-    samples: str = "diamond",
-    cut: str = "dp",
-    omega: float = _core.DEFAULT_OMEGA,
-    eps: float = DEFAULT_EPS,
-    threads: int | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """The cuts of Wang tiles (Cohen / Burke; geometry in :mod:`tilesynth.builder.wang`).
-
-    ``genes`` ``(n, 2)``: top-left corners of the sample squares (side ``tile_size + overlap`` for free-corner
-    diamonds, ``tile_size`` otherwise); ``tile_samples`` ``(K, 4)``: gene index of every tile's N, E, S, W
-    sample. Returns uint8 labels ``(K, N, N)`` (0 N, 1 E, 2 S, 3 W: the sample each pixel takes) and float64
-    ``(K, 4, 6)``: for the cuts NE, ES, SW, WN ``[D_overlap, n_overlap, D_path, n_path, D_boundary, cost]``.
-    """
-    args = _wang_args(tile_size, overlap, corners, samples, cut, omega)
-    return _core.wang_tiles(
-        as_image(exemplar, "exemplar"),
-        _int_array(genes, "genes", 2, "(n, 2)"),
-        _int_array(tile_samples, "tile_samples", 2, "(K, 4)"),
-        *args,
-        finite_float(eps, "eps", positive=True),
-        threads_arg(threads),
-    )
-
-
-class WangEvaluator:
-    """001's objective for whole populations of Wang gene vectors, in Rust, parallel, thread-count independent.
-
-    For each individual (``n_samples`` top-left corners of sample squares), every distinct cut of the tile set
-    is solved (DP or graph cut, see :mod:`tilesynth.builder.wang`) and
-
-    - D_boundary = ω·D_overlap/n_overlap + C(1−ω)·D_path/n_path (C channels; 3 for RGB);
-    - D_sum of a tile = the sum of its four D_boundary (NE, ES, SW, WN, in that order);
-    - E = ω·Σ D_sum + (1−ω)·Var(D_sum), population variance.
-
-    Exact (no approximation beyond float64 rounding, in a fixed order); positions need not be distinct.
-    """
-
-    def __init__(
-        self,
-        exemplar: np.ndarray,
-        tile_samples: np.ndarray,
-        n_samples: int,
-        tile_size: int,
-        overlap: int,
-        corners: str = "free",
-        samples: str = "diamond",
-        cut: str = "dp",
-        omega: float = _core.DEFAULT_OMEGA,
-        eps: float = DEFAULT_EPS,
-    ) -> None:
-        self.exemplar = as_image(exemplar, "exemplar")
-        self.tile_samples = _int_array(tile_samples, "tile_samples", 2, "(K, 4)")
-        n_samples = positive_int(n_samples, "n_samples")
-        args = _wang_args(tile_size, overlap, corners, samples, cut, omega)
-        self.omega = args[-1]
-        eps = finite_float(eps, "eps", positive=True)
-        self._ev = _core.WangEvaluator(self.exemplar, self.tile_samples, n_samples, *args, eps)
-        self.sample_size, self.n_samples, self.n_tiles = self._ev.dims
-        self._init_args = (
-            self.exemplar,
-            self.tile_samples,
-            n_samples,
-            tile_size,
-            overlap,
-            corners,
-            samples,
-            cut,
-            omega,
-            eps,
-        )
-
-    def __reduce__(self):  # noqa: ANN204 - pickles by rebuilding from its inputs (issue 17)
-        return (type(self), self._init_args)
-
-    def evaluate(self, genes: np.ndarray, threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """E ``(P,)`` and D_sum ``(P, m)`` of ``genes`` ``(P, n_samples, 2)``."""
-        g = _int_array(genes, "genes", 3, f"(P, {self.n_samples}, 2)")
-        return self._ev.evaluate(g, threads_arg(threads))
-
-
-def swang_cuts(
-    initial: np.ndarray,
-    supplementary: np.ndarray,
-    eps: float = DEFAULT_EPS,
-    threads: int | None = None,
-    initial_grad: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """004's closed cuts for a stack of initial tiles and their supplementary patches, ``(K, N, N, C)`` each.
-
-    Kwatra weights (:func:`kwatra_weights`, ``initial_grad`` ``(K, N, N, 2)`` optionally replacing the initial
-    tiles' gradients), the one-pixel border ring tied to the initial tile, both diagonals (corner pixels
-    excepted) to the supplementary patch, min-cut by :func:`grid_mincut`'s solver. Returns bool masks
-    ``(K, N, N)`` (True = the pixel takes the supplementary patch) and float64 cut costs.
-    """
-    i, _ = _templates(initial, "initial")
-    o, _ = _templates(supplementary, "supplementary")
-    eps = finite_float(eps, "eps", positive=True)
-    return _core.swang_cuts(
-        i, o, eps, threads_arg(threads), _grad(initial_grad, "initial_grad", 4, "(K, N, N, 2)")
-    )
 
 
 __all__ = [

@@ -1,4 +1,5 @@
-"""Returning freed heap memory to the operating system between the stages of a build (issue 15, peak RSS).
+"""Returning freed heap memory to the operating system between the stages of a build, so that
+the selection's freed buffers do not add to the peak RSS of the stages after it.
 
 The selection stage's Rust kernels (the population evaluator, the matching maps) allocate and free hundreds of
 megabytes of transient buffers from several threads. glibc keeps freed memory in its per-thread arenas for

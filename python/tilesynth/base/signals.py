@@ -1,6 +1,6 @@
 """SIGTERM in the command line: raised as :class:`Terminated`, so that every atomic write in progress removes
 its ``.part`` file (``tilesynth.io.images.atomic_path`` removes it on any exception) and a report's temporary
-directory is deleted, as on Ctrl-C (issue 16).
+directory is deleted, as on Ctrl-C.
 
 SIGKILL cannot be caught: a ``tilesynth`` killed with ``kill -9`` (or by the kernel's OOM killer) can leave a
 ``.NAME.XXXX.part`` file (or a ``.DIR.XXXX.part`` directory of a report) next to the output. Such files are

@@ -20,7 +20,10 @@ Rust core only ever receives such arrays (or other validated, contiguous, native
 
 from __future__ import annotations
 
+import contextvars
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -39,8 +42,29 @@ def asarray_aligned(value: Any) -> np.ndarray:
     return a if aligned else a.copy()
 
 
+_TRUSTED: contextvars.ContextVar[tuple[np.ndarray, ...]] = contextvars.ContextVar(
+    "tilesynth_trusted", default=()
+)
+
+
+@contextmanager
+def validated_image(image: np.ndarray) -> Iterator[None]:
+    """Within the block, :func:`as_image` returns ``image`` itself at once (it is the object, not a copy)
+    instead of checking it again: for a build, which validates its exemplar once
+    (:class:`tilesynth.builder.exemplar.Exemplar`) and then hands the same array to kernels and measures that
+    each check what they are given. ``image`` must be what :func:`as_image` returned (C-contiguous float32 in
+    [0, 1], which :func:`as_image` passes through uncopied), owned by the caller and not written to in the
+    block; the promise holds for this thread (or task) only."""
+    token = _TRUSTED.set((*_TRUSTED.get(), image))
+    try:
+        yield
+    finally:
+        _TRUSTED.reset(token)
+
+
 def as_image(image: Any, name: str = "image") -> np.ndarray:
-    """Return ``image`` as a C-contiguous float32 ``(H, W, C)`` array in [0, 1].
+    """Return ``image`` as a C-contiguous float32 ``(H, W, C)`` array in [0, 1] (``image`` itself, unchecked,
+    inside a :func:`validated_image` block of it).
 
     Raises
     ------
@@ -51,6 +75,14 @@ def as_image(image: Any, name: str = "image") -> np.ndarray:
     ParameterError
         For float input with NaN, infinity or values outside [0, 1].
     """
+    for trusted in _TRUSTED.get():
+        if image is trusted:
+            return trusted
+    return _check_image(image, name)
+
+
+def _check_image(image: Any, name: str) -> np.ndarray:
+    """:func:`as_image`'s conversion and checks."""
     try:
         arr = asarray_aligned(image)
     except (ValueError, TypeError) as exc:  # ragged nested lists and the like

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..base import kernels
+from ..base.gradients import patch_gradients as _rust_patch_gradients  # the numpy formula, in Rust
 from ..tileset.tilefile import TileSet, exemplar_digest
 from .smoothing import smooth_tiles
 
@@ -36,8 +37,6 @@ def patch_gradients(exemplar: np.ndarray, source: np.ndarray) -> np.ndarray:
     These are the gradients "of the patch a pixel came from" that the Kwatra seam weights of the ω and s-Wang
     cuts use (``gradients="patch"``).
     """
-    from ..base.gradients import patch_gradients as _rust_patch_gradients  # in Rust, bit-identical (issue 15)
-
     return _rust_patch_gradients(exemplar, source)
 
 
@@ -84,7 +83,7 @@ def finish_tileset(
     and ``timing`` completed with ``total_s`` (seconds since ``started``, a :func:`time.perf_counter` value)."""
     from .._version import __version__
     from ..measure.build_measures import (
-        build_measures,  # issue 15: the cheap visible measures, stored in the manifest
+        build_measures,  # the cheap visible measures, stored in the manifest
     )
 
     ts = TileSet(
@@ -126,16 +125,16 @@ def _cut(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The cut of intermediate tiles ``I_tiles`` (provenance ``I_src``) against their matching patches at
     ``offsets``: ``(patches, their provenance, masks, costs)``, for the whole set or one chunk of it. The seam
-    gradients live only inside this call (issue 15, peak RSS: ``K x n x n x 2`` float64)."""
+    gradients live only inside this call (they would dominate the peak RSS: ``K x n x n x 2`` float64)."""
     ex, n = b.exemplar, b.tile_size
     O_tiles = patches_at(ex, offsets, n)
     o_src = offset_source(offsets, n)
-    if transforms is not None:  # issue 12: augmented matching patches
+    if transforms is not None:  # mirrored / rotated matching patches
         from .matching.augment import transform_tiles
 
         O_tiles, o_src = transform_tiles(O_tiles, transforms), transform_tiles(o_src, transforms)
     grad = patch_gradients(ex, I_src) if grad_from_patches else None
-    from .matching.levers import FREE_REGIONS, free_cuts  # issue 12: the free cut regions
+    from .matching.levers import FREE_REGIONS, free_cuts  # the free cut regions
 
     if cut_region in FREE_REGIONS:
         masks, costs = free_cuts(I_tiles, O_tiles, eps, grad, bias=cut_bias, cut_region=cut_region)
@@ -174,7 +173,7 @@ def cut_and_compose(
 
     Returns ``(tiles, source, masks, costs, smooth_info, timing)``.
     """
-    if not smooth:  # issue 12: tile chunks into preallocated outputs, the same bytes at a fraction of the RSS
+    if not smooth:  # tile chunks into preallocated outputs, the same bytes at a fraction of the RSS
         return _cut_and_compose_chunked(
             b, I_tiles, I_src, offsets, eps=eps, grad_from_patches=grad_from_patches, keep_border=keep_border,
             cut_region=cut_region, cut_bias=cut_bias, transforms=transforms, index=index,
@@ -224,7 +223,7 @@ def _cut_and_compose_chunked(
     transforms: np.ndarray | None,
     index: np.ndarray | None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, None, dict[str, float]]:
-    """:func:`cut_and_compose` without smoothing, a chunk of tiles at a time (issue 12: the c5 default's 625
+    """:func:`cut_and_compose` without smoothing, a chunk of tiles at a time (the c5 default's 625
     tiles held the matching patches, their int64 provenance, float64 gradients, a copy of the intermediate tiles
     and two casts of the composed tiles at once, a 1.1 GB peak for a 512² exemplar). Every cut is per tile
     (its own Kwatra weights, mean edge weight and min cut), so the masks, costs, tiles and provenance are the

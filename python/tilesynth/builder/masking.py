@@ -1,4 +1,4 @@
-"""Exemplar masks: pixels that no sample patch, matching patch or cut region may ever take (issue 14).
+"""Exemplar masks: pixels that no sample patch, matching patch or cut region may ever take.
 
 A mask comes from the exemplar's alpha channel or from a separate image / array, pixel-aligned with the exemplar
 (:func:`resolve_mask`). It is *binary*: a pixel is masked or it is not.

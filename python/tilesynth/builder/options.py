@@ -25,9 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from ..base.validate import as_image, seed_int, threads_arg
+from ..base.validate import seed_int, threads_arg
 from ..errors import ParameterError
-from .genes.draws import check_exemplar_size, check_tile_size, default_tile_size
+from ..layouts.tile_size import check_tile_size, default_tile_size
+from .exemplar import Exemplar
 
 __all__ = ["BuildOptions", "Progress", "SeedLike", "common_options", "resolve_seed"]
 
@@ -74,7 +75,9 @@ class BuildOptions:
     started: float
     """:func:`time.perf_counter` at the entry (the build's ``total_s`` counts from here)."""
     mask: Any = None
-    """The exemplar's :class:`~tilesynth.builder.masking.ExemplarMask` (issue 14), None without one."""
+    """The exemplar's :class:`~tilesynth.builder.masking.ExemplarMask`, None without one."""
+    source: Exemplar | None = None
+    """The validated exemplar with its cached derived layers (:attr:`exemplar` is its image)."""
 
     def report(self, stage: str, done: int, total: int) -> None:
         self.progress(stage, done, total)
@@ -100,16 +103,13 @@ def common_options(
 ) -> BuildOptions:
     """Validate the options every builder takes; ``resolve_set`` turns ``tileset`` into its definition.
 
-    ``mask`` / ``alpha``: the exemplar's mask (:func:`tilesynth.builder.masking.build_mask`); the exemplar loses its alpha
-    channel when that is read as a mask."""
+    ``exemplar``: an image array or an :class:`~tilesynth.builder.exemplar.Exemplar` (validated once, here:
+    :meth:`~tilesynth.builder.exemplar.Exemplar.of`). ``mask`` / ``alpha``: the exemplar's mask
+    (:func:`tilesynth.builder.masking.build_mask`); the exemplar loses its alpha channel when that is read as a
+    mask."""
     t0 = time.perf_counter() if started is None else started
-    ex = as_image(exemplar, "exemplar")
-    if np.may_share_memory(ex, exemplar):
-        ex = ex.copy()  # the tile set keeps the exemplar: never alias the caller's array
-    check_exemplar_size(ex.shape)
-    from .masking import build_mask  # issue 14: masks
-
-    ex, exemplar_mask = build_mask(ex, mask, alpha)
+    source = Exemplar.of(exemplar, mask=mask, alpha=alpha)
+    ex, exemplar_mask = source.image, source.mask
     defn = resolve_set(tileset)
     n = default_tile_size(ex.shape) if tile_size is None else check_tile_size(tile_size, ex.shape)
     if tile_size is None and exemplar_mask is not None:
@@ -120,6 +120,8 @@ def common_options(
         raise ParameterError(f"progress = {progress!r}: must be a callable (stage, done, total) or None")
     if exemplar_info is not None and not isinstance(exemplar_info, dict):
         raise ParameterError(f"exemplar_info = {exemplar_info!r}: must be a dict or None")
+    if exemplar_info is not None:
+        source = Exemplar(source.image, source.mask, exemplar_info)
     return BuildOptions(
-        ex, defn, n, recorded, rng, threads, progress or _no_progress, exemplar_info, t0, exemplar_mask
+        ex, defn, n, recorded, rng, threads, progress or _no_progress, source.info, t0, exemplar_mask, source
     )

@@ -1,5 +1,5 @@
 """Periodic exemplars in complete corner sets: a tile size from the exemplar's period and phase-locked sample
-patches (issue 12, "no loss in texture statistics against 16a").
+patches ("no loss in texture statistics against 16a").
 
 A complete set's lookup draws every vertex colour independently, and every vertex of colour c shows sample
 patch c centred on it (:mod:`tilesynth.builder.genes.omega_borders`). On a periodic exemplar (a brick wall) the c5 default
@@ -36,6 +36,8 @@ from typing import Any
 
 import numpy as np
 
+from ..measure.metrics import autocorrelation, detail_layer
+
 __all__ = ["PERIODIC_MIN_CORR", "periodic_tile_size", "phase_locked_genes", "tile_shift_correlation"]
 
 PERIODIC_MIN_CORR = 0.5
@@ -45,13 +47,12 @@ PERIODIC_MIN_CORR = 0.5
 at most 0.06; only bricks-red is taken."""
 
 
-def tile_shift_correlation(exemplar: np.ndarray, sizes: Any) -> np.ndarray:
+def tile_shift_correlation(exemplar: np.ndarray, sizes: Any, detail: np.ndarray | None = None) -> np.ndarray:
     """``min(r(N, 0), r(0, N))`` for every N of ``sizes``: r the normalised autocorrelation
-    (:func:`tilesynth.measure.metrics.autocorrelation`) of the exemplar's detail layer. NaN where N is not below both
-    sides of the exemplar."""
-    from ..measure.metrics import autocorrelation, detail_layer
-
-    d = detail_layer(np.asarray(exemplar))
+    (:func:`tilesynth.measure.metrics.autocorrelation`) of the exemplar's detail layer (``detail`` when the
+    caller has it, :attr:`tilesynth.builder.exemplar.Exemplar.detail`). NaN where N is not below both sides of
+    the exemplar."""
+    d = detail_layer(np.asarray(exemplar)) if detail is None else detail
     h, w = d.shape
     sizes = np.asarray(list(sizes), dtype=np.int64)
     out = np.full(sizes.shape, np.nan)
@@ -69,15 +70,18 @@ def tile_shift_correlation(exemplar: np.ndarray, sizes: Any) -> np.ndarray:
     return out
 
 
-def periodic_tile_size(exemplar: np.ndarray, default: int) -> tuple[int, float] | None:
+def periodic_tile_size(
+    exemplar: np.ndarray, default: int, detail: np.ndarray | None = None
+) -> tuple[int, float] | None:
     """``(N, correlation)`` of the module docstring's rule, or None when no candidate reaches
-    :data:`PERIODIC_MIN_CORR` (ties: the N nearest the default, then the smaller)."""
+    :data:`PERIODIC_MIN_CORR` (ties: the N nearest the default, then the smaller); ``detail``: see
+    :func:`tile_shift_correlation`."""
     h, w = np.asarray(exemplar).shape[:2]
     lo, hi = -(-3 * default // 4), min(3 * default // 2, min(h, w) // 2)
     sizes = [n for n in range(8 * (-(-lo // 8)), hi + 1, 8) if n >= 16]
     if not sizes:
         return None
-    corr = tile_shift_correlation(exemplar, sizes)
+    corr = tile_shift_correlation(exemplar, sizes, detail)
     best = None
     for n, c in zip(sizes, corr):
         if not np.isfinite(c):

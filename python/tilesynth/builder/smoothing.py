@@ -11,7 +11,7 @@ from ..base import kernels
 __all__ = ["POISSON_TOL", "smooth_tiles"]
 
 POISSON_TOL = kernels.DEFAULT_POISSON_TOL
-"""Relative residual to which :func:`smooth_tiles` solves the Poisson equation (issue 5: 1e-6)."""
+"""Relative residual to which :func:`smooth_tiles` solves the Poisson equation: 1e-6, the core's default."""
 
 
 def smooth_tiles(

@@ -812,7 +812,7 @@ def _file_sha256(path: Path) -> str:
 
 def job_key(job: Job) -> tuple[str, dict[str, Any]]:
     """The up-to-date key of ``job`` and what went into it (input digests, parameter hash, version)."""
-    from .. import __version__
+    from .._version import __version__
 
     inputs = {"exemplar": _file_sha256(job.exemplar)}
     inputs.update({f"map:{k}": _file_sha256(p) for k, (p, _) in sorted(job.maps.items())})

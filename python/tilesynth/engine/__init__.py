@@ -495,6 +495,6 @@ def _manifest(
 
 
 def _version() -> str:
-    from .. import __version__
+    from .._version import __version__
 
     return __version__

@@ -46,6 +46,7 @@ import re
 from typing import Any
 
 from .hashed import lookup_scheme
+from .tile_size import default_tile_size
 
 __all__ = [
     "COMPLETE_COLOURS",
@@ -91,8 +92,6 @@ def default_complete_tile_size(shape: tuple[int, ...]) -> int:
     side is not a multiple of 8 (c4, 1024², seed 1), lettuce 88 / 94 / 96 px gave border seam scores 0.75 /
     0.94 / 0.98 and pebbles 56 / 60 / 64 px 0.62 / 0.78 / 2.33 (copies 0.09 / 0.10 / 0.15), the other measures
     within the spread between textures."""
-    from ..builder.genes.draws import default_tile_size
-
     side = min(shape[0], shape[1])
     if side < 32:
         return default_tile_size(shape)

@@ -52,7 +52,7 @@ class CornerPlan:
 
     def subset(self, tiles: np.ndarray) -> CornerPlan:
         """The plan of the tiles ``tiles`` (indices into :attr:`tile_patches`) alone, in that order: their
-        distinct tuples in first-appearance order (issue 15, :mod:`tilesynth.builder.genes.window_objective`)."""
+        distinct tuples in first-appearance order (:mod:`tilesynth.builder.genes.window_objective`)."""
         idx = np.asarray(tiles, dtype=np.int64).reshape(-1)
         rows = self.inverse[idx]
         _, first, inv = np.unique(rows, return_index=True, return_inverse=True)
@@ -99,8 +99,7 @@ class IntermediateTiles:
     """The intermediate tiles of ``tile_patches`` ``(U, 4)``, assembled on demand: :meth:`take` returns what
     ``intermediate_tiles(...)`` rows ``ii`` hold (the same bytes: each tile is a copy of four exemplar
     quadrants). The cut stage takes them a chunk at a time (:func:`tilesynth.builder.compose.cut_and_compose`),
-    so a 625-tile c5 set does not keep 205 MB of intermediate tiles and provenance after its matching search
-    (issue 12)."""
+    so a 625-tile c5 set does not keep 205 MB of intermediate tiles and provenance after its matching search."""
 
     def __init__(self, exemplar: np.ndarray, genes: np.ndarray, tile_patches: np.ndarray, tile_size: int):
         self.exemplar, self.genes, self.tile_patches, self.tile_size = (

@@ -240,7 +240,7 @@ def index_map(
     cols, rows = _pair(size, "size")
     cols, rows = _int(cols, "size", 0), _int(rows, "size", 0)
     if cols * rows > MAX_MAP_CELLS or max(cols, rows) > MAX_MAP_CELLS:
-        # each side too: (0, 2**63 - 1) has no cells, but numpy cannot make that shape (issue 16's SIGSEGV)
+        # each side too: (0, 2**63 - 1) has no cells, but numpy cannot make that shape (it crashed the process)
         raise ParameterError(
             f"size = ({cols}, {rows}): more than {MAX_MAP_CELLS} cells in one index map, or a side longer than that"
         )
@@ -354,7 +354,7 @@ def lookup_scheme(defn: Any) -> LookupScheme | None:
     """The hashed-lookup scheme of a tile-set definition if it is complete and in the spec's index order
     (whatever its name), else None (the scan-line tiler's sets)."""
     if hasattr(defn, "colours") and hasattr(defn, "variants") and not hasattr(defn, "horizontal"):  # a corner
-        # set (duck-typed: no import; edge sets have variants too since issue 12)
+        # set (duck-typed: no import; edge sets have variants too)
         k = len(defn.colours)
         n = len(defn)
         if k < 1 or n % (k**4) != 0:
@@ -372,7 +372,7 @@ def lookup_scheme(defn: Any) -> LookupScheme | None:
         if n % (kh * kh * kv * kv) != 0:
             return None
         v = n // (kh * kh * kv * kv)
-        variants = getattr(defn, "variants", None) or (0,) * n  # issue 12: edge sets with variants
+        variants = getattr(defn, "variants", None) or (0,) * n  # edge sets have variants too
         hi = {c: i for i, c in enumerate(defn.horizontal)}
         vi = {c: i for i, c in enumerate(defn.vertical)}
         scheme = LookupScheme("edge", (kh, kv), v)

@@ -346,7 +346,7 @@ def validate_index_map(tileset: TileSetLike, index_map: Any) -> None:
 
 def _as_definition(tileset: Any) -> Any:
     """A set name ("16a", "wang8", ...) as its definition, a built :class:`~tilesynth.TileSet` as its layout's
-    definition; anything else as given (issue 16: a name used to raise ``AttributeError``)."""
+    definition; anything else as given (so that a name gives the set, not an ``AttributeError``)."""
     if isinstance(tileset, str):
         from .omega_sets import get_tileset
         from .wang_sets import get_wang_tileset, is_wang_set_name

@@ -95,7 +95,7 @@ class WangTileSet:
         One ⟨N, E, S, W⟩ tuple per tile (a 4-letter string is accepted when colours are single letters).
     variants : sequence of int, optional
         Variant number of every tile (default all 0): tiles may share an edge tuple when their variants differ
-        (issue 12: the complete edge sets ``wc<K>x<V>``, whose variants have different content and are chosen
+        (the complete edge sets ``wc<K>x<V>``, whose variants have different content and are chosen
         per cell by the hashed lookup). Serialised only when some variant is not 0.
 
     Raises
@@ -316,7 +316,7 @@ def _named_set(name: str) -> WangTileSet:
     return complete_choice_set(int(round((size / 2) ** 0.5)), name=name)
 
 
-# ------------------------------------------------------------------ complete sets (issue 12, tilesynth.layouts.complete)
+# ------------------------------------------------------------------ complete sets (tilesynth.layouts.complete)
 @functools.cache
 def complete_edge_set(kh: int, kv: int, v: int = 1):
     """The complete Wang set over ``kh`` horizontal and ``kv`` vertical edge colours with ``v`` variants per

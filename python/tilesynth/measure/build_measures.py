@@ -1,4 +1,4 @@
-"""The visible measures stored with every build (issue 15): computed at build time into ``params["quality"]``
+"""The visible measures stored with every build: computed at build time into ``params["quality"]``
 and shown by ``tilesynth info``. The measures themselves are :mod:`tilesynth.measure.quality`'s and
 :mod:`tilesynth.measure.metrics`'s (this module joins them, so that neither imports the other)."""
 

@@ -1,4 +1,4 @@
-"""Warnings for suspicious inputs (issue 14): what a build noticed about its exemplar and its result.
+"""Warnings for suspicious inputs: what a build noticed about its exemplar and its result.
 
 Every build ends with :func:`finish_build`, which runs the checks below, stores what they found in the tile set
 (``params["warnings"]``: a list of ``{"code", "message", "value", "threshold"}``, shown by ``tilesynth info`` and

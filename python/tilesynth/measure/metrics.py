@@ -91,6 +91,7 @@ import numpy as np
 
 from ..base.validate import as_image, positive_int
 from ..errors import ParameterError, ShapeError
+from .energy import LAMBDA, energy
 from .quality import _fast_len as _fft_size  # smallest 2^a·3^b·5^c >= n (fast FFT lengths)
 
 DEFAULT_PATCH = 8
@@ -573,8 +574,6 @@ def objective(tileset: Any) -> dict[str, Any]:
     E is over the intermediate tiles, i.e. the D_j of the variant-0 tile of every distinct corner tuple (a
     tile set's variants share their intermediate tile); it equals the stored ``tileset.E``.
     """
-    from ..builder.genes.draws import LAMBDA, energy
-
     lam = float(tileset.params.get("lambda", LAMBDA))
     variants = getattr(tileset.definition, "variants", None)
     if variants is None:  # a set without variants: every tile has its own D_j
@@ -699,6 +698,9 @@ def _gaussian_blur(x: np.ndarray, sigma: float) -> np.ndarray:
             acc += w * (padded[i : i + n] if axis == 0 else padded[:, i : i + n])
         out = acc
     return out
+
+
+_luminance = luminance  # for the methods whose keyword arguments are named luminance
 
 
 def detail_layer(image: np.ndarray, sigma: float = DETAIL_SIGMA) -> np.ndarray:
@@ -1392,7 +1394,16 @@ class DiscSaliency:
     exemplar's size and a sort; then O(1) per look-up (:meth:`at`).
     """
 
-    def __init__(self, exemplar: np.ndarray, radius: int) -> None:
+    def __init__(
+        self,
+        exemplar: np.ndarray,
+        radius: int,
+        *,
+        luminance: np.ndarray | None = None,
+        detail: np.ndarray | None = None,
+    ) -> None:
+        """``luminance`` / ``detail``: the exemplar's :func:`luminance` and :func:`detail_layer` when the caller
+        has them already (a build's :class:`~tilesynth.builder.exemplar.Exemplar`), else computed here."""
         img = as_image(exemplar, "exemplar").astype(np.float64)
         r = positive_int(radius, "radius")
         h, w, c = img.shape
@@ -1400,8 +1411,8 @@ class DiscSaliency:
             raise ParameterError(f"radius = {r}: a disc of {2 * r} px does not fit the {w}x{h} exemplar")
         k = _disc_kernel(r)
         area = float(k.sum())
-        lum = luminance(img)
-        det = detail_layer(img)
+        lum = _luminance(img) if luminance is None else luminance
+        det = detail_layer(img) if detail is None else detail
         nc = min(c, 3)
         planes = np.concatenate([np.moveaxis(img[..., :nc], -1, 0), np.stack([lum, lum * lum, det * det])])
         sums = _disc_sums(planes, k) / area  # the channel means, then E[lum], E[lum²], E[det²] over each disc

@@ -1,4 +1,4 @@
-"""Visible quality of a tile set (issue 15): the robust cut score that selection can optimise and the
+"""Visible quality of a tile set: the robust cut score that selection can optimise and the
 texture-statistics distance (the measures stored with every build are joined in :mod:`tilesynth.measure.build_measures`).
 
 **The cut score** (:func:`cut_score`). The selection papers' E = λ·ΣD_j + (1−λ)·Var(D_j) follows what users see

@@ -5,7 +5,7 @@ scheme     builder                                      tile sets (``tileset=``)
 =========  ===========================================  ==================================================
 "omega"    :func:`tilesynth.builder.omega.build_omega`          corner sets: 4, 8, 16a, 16b, 32, B, n1, n2, nK
 "wang"     :func:`tilesynth.builder.wang.build_wang`            edge sets: wang8, wang18, wang<2k²>
-"swang"    :func:`tilesynth.builder.wang.build_swang`           edge sets: wang8 (004), wang18, ...
+"swang"    :func:`tilesynth.builder.swang.build_swang`          edge sets: wang8 (004), wang18, ...
 "patch"    :func:`tilesynth.schemes.patch.build_patch`  corner sets (a random-crop baseline)
 =========  ===========================================  ==================================================
 
@@ -68,7 +68,9 @@ def build(exemplar: np.ndarray, scheme: str = "omega", *, maps: Any = None, **kw
         If ``scheme`` is unknown (and whatever the builder raises for its parameters).
     """
     if maps is not None or any(k in kwargs for k in ("map_kinds", "map_weights", "normal_y")):
-        return build_material(exemplar, scheme=scheme, maps=maps, **kwargs)  # issue 14
+        return build_material(
+            exemplar, scheme=scheme, maps=maps, **kwargs
+        )  # the maps are cut with the colour
     return get_scheme(scheme).build(exemplar, **kwargs)
 
 
@@ -84,7 +86,7 @@ def build_material(
     **kwargs: Any,
 ) -> TileSet:
     """Build a tile set of ``scheme`` from ``exemplar`` (the albedo) and its pixel-aligned ``maps``, matched and
-    cut jointly (issue 14; the method, the kinds and the defaults: :mod:`tilesynth.builder.materials`); ``kwargs`` go to
+    cut jointly (the method, the kinds and the defaults: :mod:`tilesynth.builder.materials`); ``kwargs`` go to
     the scheme's builder. :func:`build` with ``maps=`` calls it.
 
     Parameters

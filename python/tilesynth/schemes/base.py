@@ -14,8 +14,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
+from ..base.budget import check_build_memory
 from ..cli.argtypes import parse_int
 from ..errors import ParameterError
+from ..layouts.complete import default_complete_tile_size
+from ..layouts.hashed import lookup_scheme
+from ..layouts.omega_sets import get_tileset
+from ..layouts.wang_sets import get_wang_tileset, is_wang_set_name
 
 if TYPE_CHECKING:
     import numpy as np
@@ -57,8 +62,6 @@ def positive_int_text(text: str) -> int:
 
 def layout_of_set(name: str) -> str:
     """``"edge"`` for an edge-coloured set name (wang8, wang18, wang<2k²>), else ``"corner"``."""
-    from ..layouts.wang_sets import is_wang_set_name
-
     return "edge" if is_wang_set_name(name) else "corner"
 
 
@@ -182,15 +185,44 @@ class Scheme:
 
     def build(self, exemplar: np.ndarray, **kwargs: Any) -> TileSet:
         """Build a tile set of this scheme (``kwargs`` go to :attr:`builder`); a build that would not fit in
-        memory is refused up front with the figure (:func:`tilesynth.base.budget.check_build_memory`)."""
-        from ..base.budget import check_build_memory
-
+        memory is refused up front with the figure (:func:`_check_build_memory`)."""
         default = inspect.signature(self.builder).parameters.get("tileset")
         default_set = (
             default.default if default is not None and isinstance(default.default, str) else self.default_set
         )
-        check_build_memory(exemplar, default_set, self.layout, kwargs)
+        _check_build_memory(exemplar, default_set, self.layout, kwargs)
         return self.builder(exemplar, **kwargs)
+
+
+def _check_build_memory(exemplar: Any, default_set: str, layout: str, kwargs: dict[str, Any]) -> None:
+    """:func:`tilesynth.base.budget.check_build_memory` for ``exemplar`` and the builder's ``kwargs``, the set
+    resolved here (``default_set`` when ``kwargs`` name none; ``layout`` "corner" or "edge") with its tile
+    count and default tile size. Arguments it cannot interpret are left to the builder's own checks."""
+    shape = getattr(exemplar, "shape", None)
+    if shape is None or len(shape) not in (2, 3) or not all(isinstance(v, int) and v > 0 for v in shape):
+        return
+    h, w = int(shape[0]), int(shape[1])
+    c = int(shape[2]) if len(shape) == 3 else 1
+    n = kwargs.get("tile_size")
+    if not isinstance(n, int) or isinstance(n, bool) or n < 1:
+        n = None
+    complete = False
+    try:
+        name = kwargs.get("tileset") or default_set
+        if layout == "corner":
+            defn = get_tileset(name)
+            k = len(defn.tiles)
+            complete = lookup_scheme(defn) is not None
+            if n is None and complete:  # complete sets default to quarter-side tiles
+                n = default_complete_tile_size((h, w))
+        else:
+            k = len(get_wang_tileset(name).tiles)
+    except Exception:  # noqa: BLE001 - a bad name is the builder's to report, with its own message
+        return
+    n = min(256, min(h, w) // 2) if n is None else n
+    if n > min(h, w):  # a tile larger than the exemplar is the builder's error to report (it names the size)
+        return
+    check_build_memory((h, w, c), n, k, complete, kwargs)
 
 
 def lambda_energy_line(p: dict[str, Any], E: float, what: str) -> str:

@@ -34,7 +34,7 @@ def _describe(ts: Any) -> list[str]:
     )
     sm = p.get("smooth")
     aug = p.get("augment")
-    if aug not in (None, "none"):  # issue 12: how many tiles took a transformed matching patch
+    if aug not in (None, "none"):  # how many tiles took a transformed matching patch
         t = p.get("match_transforms") or []
         moved = sum(1 for v in t if v != 0)
         match += f", augment {aug} ({moved} of {len(t)} matching patches transformed)"
@@ -61,7 +61,7 @@ SCHEME = Scheme(
     title="ω-tiles",
     summary="ω-tiles (002; default)",
     layout="corner",
-    default_set="c5",  # issue 12: measured with benches/repetition.py (complete set, hashed lookup; c4 before)
+    default_set="c5",  # measured with benches/repetition.py (complete set, hashed lookup; c4 before)
     builder=build_omega,
     options=(
         GRADIENTS,
@@ -167,6 +167,6 @@ SCHEME = Scheme(
         ),
     ),
     describe=_describe,
-    # issue 14: joint material builds cut with a capped gradient normalisation (materials.MATERIAL_CUT_EPS)
+    # joint material builds cut with a capped gradient normalisation (materials.MATERIAL_CUT_EPS)
     material_options={"eps": MATERIAL_CUT_EPS},
 )

@@ -96,7 +96,7 @@ def build_patch(
         select=select, polish=polish, generations=generations, population=population,
         select_params=select_params, selection=selection, progress=b.progress, mask=b.mask,
     )  # fmt: skip
-    genes_arr, sel = corner_border_draws(  # issue 14: border-aware random draws, as ω's
+    genes_arr, sel = corner_border_draws(  # border-aware random draws, as ω's
         b.exemplar, b.tile_size, b.rng, genes_arr, sel, tries,
         genes is None and active(b.mask) is None,  # not mask-aware: a masked build keeps its one clear draw
     )  # fmt: skip
@@ -107,7 +107,7 @@ def build_patch(
     m = active(b.mask)
     if m is None:
         flat = b.rng.integers(0, (h - n + 1) * cols, size=plan.tile_patches.shape[0])
-    else:  # issue 14: random crops among the windows clear of the mask
+    else:  # a masked pixel is no data: random crops among the clear windows
         valid = np.flatnonzero(m.valid(n))
         flat = valid[b.rng.integers(0, valid.size, size=plan.tile_patches.shape[0])]
     crops = np.stack([flat // cols, flat % cols], axis=1).astype(np.int64)
@@ -141,7 +141,7 @@ def build_patch(
         cut_costs=costs, E=energy(D), params=params, exemplar_info=b.exemplar_info, timing=timing,
         started=b.started,
     )  # fmt: skip
-    return finish_build(ts, b)  # issue 14: the mask record and the input warnings
+    return finish_build(ts, b)  # the mask record and the input warnings
 
 
 def _describe(ts: Any) -> list[str]:

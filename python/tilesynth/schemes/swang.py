@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..builder.materials import MATERIAL_CUT_EPS
-from ..builder.wang import build_swang
+from ..builder.swang import build_swang
 from .base import Option, Scheme, lambda_energy_line, positive_int_text
 from .common import GRADIENTS
 
@@ -39,6 +39,6 @@ SCHEME = Scheme(
         ),
     ),
     describe=_describe,
-    # issue 14: joint material builds cut with a capped gradient normalisation (materials.MATERIAL_CUT_EPS)
+    # joint material builds cut with a capped gradient normalisation (materials.MATERIAL_CUT_EPS)
     material_options={"eps": MATERIAL_CUT_EPS},
 )

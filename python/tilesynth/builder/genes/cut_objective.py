@@ -1,4 +1,4 @@
-"""Selection by the real cut cost (issue 15): objectives, the re-ranking of a selection's best candidates and the
+"""Selection by the real cut cost: objectives, the re-ranking of a selection's best candidates and the
 cut polish.
 
 **Objectives** (``objective=``, ``--objective``):

@@ -3,9 +3,11 @@
 A *gene vector* is an int64 ``(n, 2)`` array of distinct top-left (row, col) positions of ``size x size``
 patches inside an H x W exemplar. This module holds what every scheme needs about them:
 
-* the tile-size rules (:func:`default_tile_size`, :func:`check_tile_size`, :func:`check_exemplar_size`);
+* the tile-size rules (:func:`default_tile_size`, :func:`check_tile_size`, :func:`check_exemplar_size`, defined
+  in :mod:`tilesynth.layouts.tile_size`, which the complete sets' default builds on);
 * :func:`random_genes` and :func:`check_genes`;
-* the objective of the selection papers, :func:`energy` (E = λ·ΣD_j + (1−λ)·Var(D_j), λ = :data:`LAMBDA`);
+* the objective of the selection papers, :func:`energy` (E = λ·ΣD_j + (1−λ)·Var(D_j), λ = :data:`LAMBDA`,
+  defined in :mod:`tilesynth.measure.energy`, which the measures report);
 * :class:`Region`, the valid top-left positions of the patches.
 
 Nothing here knows a scheme or a selection method: the one path every builder takes from its options to a
@@ -21,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from ... import _core
-from ...base.validate import finite_float, positive_int
 from ...errors import ParameterError
+from ...layouts.tile_size import MIN_TILE_SIZE, check_exemplar_size, check_tile_size, default_tile_size
+from ...measure.energy import LAMBDA, energy
 
 __all__ = [
     "LAMBDA",
@@ -36,44 +38,6 @@ __all__ = [
     "energy",
     "random_genes",
 ]
-
-LAMBDA: float = _core.DEFAULT_LAMBDA
-"""Default λ of E = λ·ΣD + (1−λ)·Var(D) (paper 000: 0.8), defined in the core (``rust/population.rs``)."""
-
-MIN_TILE_SIZE = 4
-"""The smallest tile: 4 x 4 (2 x 2 quadrants; the cut needs a border ring and a cross inside it)."""
-
-
-def default_tile_size(shape: tuple[int, ...]) -> int:
-    """Half the exemplar's shorter side, rounded down to even, capped at 256 (002 used 64 on 128 inputs), and
-    at least :data:`MIN_TILE_SIZE` (exemplars of 4 to 7 pixels a side get 4: the whole-side tile)."""
-    n = min(shape[0], shape[1]) // 2
-    n -= n % 2
-    return max(MIN_TILE_SIZE, min(n, 256))
-
-
-def check_exemplar_size(shape: tuple[int, ...]) -> None:
-    """Refuse exemplars smaller than the smallest tile (a 1x1 image is a valid file, not a texture)."""
-    if min(shape[0], shape[1]) < MIN_TILE_SIZE:
-        raise ParameterError(
-            f"exemplar has shape {tuple(shape)}: too small, at least {MIN_TILE_SIZE}x{MIN_TILE_SIZE} pixels are "
-            f"needed (the smallest tile is {MIN_TILE_SIZE}x{MIN_TILE_SIZE})"
-        )
-
-
-def check_tile_size(tile_size: Any, shape: tuple[int, ...]) -> int:
-    """Validate ``tile_size`` against an exemplar of ``shape`` (even, >= 4, fits inside the exemplar)."""
-    n = positive_int(tile_size, "tile_size", minimum=MIN_TILE_SIZE)
-    if n % 2:
-        raise ParameterError(
-            f"tile_size = {n}: must be even (the tile is cut from the centre of a 2x2 block)"
-        )
-    if n > shape[0] or n > shape[1]:
-        raise ParameterError(
-            f"tile_size = {n}: larger than the exemplar ({shape[1]}x{shape[0]} pixels); "
-            f"use at most {min(shape[0], shape[1]) - min(shape[0], shape[1]) % 2}"
-        )
-    return n
 
 
 def int_param(name: str, value: Any, minimum: int, maximum: int | None = None) -> int:
@@ -170,20 +134,3 @@ def check_genes(genes: Any, n: int, shape: tuple[int, ...], tile_size: int) -> n
     if len({tuple(r) for r in g.tolist()}) != n:
         raise ParameterError("genes: positions must be distinct")
     return g
-
-
-def energy(D: np.ndarray, lam: float = LAMBDA) -> float:
-    """E = λ·ΣD_j + (1−λ)·Var(D_j) with the population variance."""
-    try:
-        d = np.asarray(D)
-    except (ValueError, TypeError) as exc:
-        raise ParameterError(f"D: expected real numbers ({exc})") from None
-    if d.dtype.kind not in "biuf":
-        raise TypeError(f"D has dtype {d.dtype}, expected real numbers")
-    d = d.astype(np.float64)
-    if d.ndim != 1 or d.size == 0 or not np.isfinite(d).all():
-        raise ParameterError(f"D has shape {d.shape}: expected a non-empty 1-d array of finite values")
-    lam = finite_float(lam, "lam")
-    if not 0.0 <= lam <= 1.0:
-        raise ParameterError(f"lam = {lam}: must be in [0, 1]")
-    return float(lam * d.sum() + (1.0 - lam) * d.var())

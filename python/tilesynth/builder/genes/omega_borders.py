@@ -25,7 +25,7 @@ mean, so S_pred is a little above the measured S: measured / predicted 0.94 (ω)
 over the rows of ``benches/seams.py --corner``, Pearson r 0.95 and 0.90 against the measured score). Every colour counts equally: the hashed lookup of the
 complete sets and the stochastic tilers of the papers' sets give every vertex colour about equally often.
 
-**Border-aware draws** (``border_tries``, the default of ω and patch, issue 14): of ``border_tries`` random gene
+**Border-aware draws** (``border_tries``, the default of ω and patch): of ``border_tries`` random gene
 vectors from the build's generator (the first is the single draw of ``border_tries=1``), the one whose S_pred
 is closest to 0.8 on a log scale among those with S_pred <= 1 is kept (criterion ``"cap"``; the smallest S_pred
 when no draw is at or below 1). Why not the smallest S_pred, as the Wang schemes do: a border grid far flatter
@@ -37,7 +37,7 @@ S_pred, so a target of 1 leaves some tilings above it (a synthetic brick wall in
 patch baseline draws the same sample patches with the same seed, so it stays ω's baseline. Cost: a few array
 reductions per try, nothing next to the matching.
 
-**Vertex saliency** (issue 12, the ``"stats"`` criterion of complete sets): every vertex of colour k shows the
+**Vertex saliency** (the ``"stats"`` criterion of complete sets): every vertex of colour k shows the
 centre disc of sample patch k whole (radius about 0.22·N, :func:`tilesynth.measure.metrics.vertex_disc_radius`), at a fifth
 of the vertices of a c5 tiling. After the most representative admissible draw is kept, each of its patches whose
 centre disc, or a disc half a radius from it, is a salient outlier among the exemplar's discs of that size
@@ -56,8 +56,11 @@ import numpy as np
 
 from ...base.validate import as_image
 from ...errors import ParameterError
+from ...measure import quality as q
+from ...measure.metrics import DiscSaliency, vertex_disc_radius
+from ..exemplar import Exemplar
 from .draws import check_genes, check_tile_size
-from .wang_borders import _steps, best_of_draws, check_border_tries
+from .wang_borders import _steps, best_of_draws, check_border_tries, random_genes
 
 __all__ = [
     "CRITERIA",
@@ -77,7 +80,7 @@ DEFAULT_BORDER_TRIES = 32
 CRITERIA = ("cap", "log", "min", "stats")
 """How a draw is ranked: ``"min"`` smallest S_pred; ``"log"`` smallest ``|log S_pred|`` (closest to 1);
 ``"cap"`` (the default) closest to :data:`CAP_TARGET` on a log scale among the draws with S_pred <= 1 (the
-smallest S_pred when there is none); ``"stats"`` (the default of complete sets, issue 12) the smallest
+smallest S_pred when there is none); ``"stats"`` (the default of complete sets) the smallest
 :func:`sample_stats_distance` + :func:`sample_colour_distance` among the draws with S_pred <=
 :data:`STATS_SEAM_CAP` (``"cap"``'s choice when there is none), its salient vertex content then moved off
 the vertices (:func:`_calm_vertices`)."""
@@ -129,8 +132,6 @@ def _window_responses(ex: np.ndarray) -> dict[int, np.ndarray]:
     """The 'valid' responses ``(F, H − 6, W − 6)`` of the texture-statistics filters to the exemplar at every
     scale of :func:`tilesynth.measure.quality.texture_stats_distance` (entry (y, x) is the response of the 7 x 7
     window with top-left (y, x), so a sample window's own valid responses are a sub-block)."""
-    from ...measure import quality as q
-
     k = q.TEXSTATS_SIZE
     out = {}
     for f in q.TEXSTATS_SCALES:
@@ -142,8 +143,6 @@ def _window_responses(ex: np.ndarray) -> dict[int, np.ndarray]:
 
 
 def _stats_distance(maps: dict[int, np.ndarray], genes: np.ndarray, n: int) -> float:
-    from ...measure import quality as q
-
     k = q.TEXSTATS_SIZE
     out = []
     for f, rmap in maps.items():
@@ -166,7 +165,7 @@ def sample_stats_distance(exemplar: np.ndarray, genes: np.ndarray, tile_size: in
     of the rectified filter responses, mean over scales 1 and 2) between the union of the patches' own valid
     responses and the exemplar's.
 
-    Why (issue 12): with a complete set every vertex shows its colour's sample patch, and that vertex content
+    Why: with a complete set every vertex shows its colour's sample patch, and that vertex content
     is a third or more of the output; on a non-stationary exemplar (grass with clover on one side and straw on
     the other) five randomly drawn patches often over-represent one kind of content, and the output's texture
     statistics follow them (the texture-statistics distance of c5 outputs varied 2-3x between seeds, more than
@@ -207,7 +206,7 @@ def sample_colour_distance(exemplar: np.ndarray, genes: np.ndarray, tile_size: i
     Wasserstein-1 distance, values in [0, 1]) between the pixels of the sample patches of ``genes`` together and
     the exemplar's. The texture statistics' filters are zero-mean and blind to colour: drawn by
     :func:`sample_stats_distance` alone, the patches of sea foam were the darker water, and the output's
-    histogram distance rose from 0.021 to 0.067 (issue 12)."""
+    histogram distance rose from 0.021 to 0.067 (``benches/repetition-results.md``)."""
     img = as_image(exemplar, "exemplar")
     n = check_tile_size(tile_size, img.shape)
     g = check_genes(np.asarray(genes), np.asarray(genes).shape[0], img.shape, n)
@@ -237,7 +236,8 @@ def border_aware_corner_genes(
     (``border_tries``, ``border_criterion``, the predicted score of the first draw and of the kept one)."""
     tries = check_border_tries(tries)
     criterion = check_criterion(criterion)
-    ex = np.asarray(exemplar, dtype=np.float64)
+    source = exemplar if isinstance(exemplar, Exemplar) else None
+    ex = np.asarray(exemplar.image if source is not None else exemplar, dtype=np.float64)
     steps = _steps(ex)
     if criterion == "stats":
         return _stats_draws(exemplar, ex, steps, np.asarray(first), tile_size, rng, tries)
@@ -265,21 +265,23 @@ def _stats_draws(
     """The ``"stats"`` criterion of :func:`border_aware_corner_genes`: the same draws from ``rng`` as the other
     criteria, the admissible one (S_pred <= :data:`STATS_SEAM_CAP`) of smallest :func:`sample_stats_distance` +
     :func:`sample_colour_distance` kept (the first of equals), else ``"cap"``'s choice."""
-    from .wang_borders import random_genes
-
     cands = [first] + [random_genes(ex.shape, len(first), tile_size, rng) for _ in range(int(tries) - 1)]
     scores = [_predict(steps, g, tile_size) for g in cands]
     ok = [i for i, v in enumerate(scores) if v <= STATS_SEAM_CAP]
     rec: dict[str, Any] = {}
     if ok:  # the statistics on the [0, 1] scale of the builds, whatever the caller's dtype
-        unit = as_image(exemplar, "exemplar").astype(np.float64)
+        if isinstance(exemplar, Exemplar):  # validated float32 already: its float64 copy is ``ex``
+            unit, saliency = ex, exemplar.saliency
+        else:
+            unit = as_image(exemplar, "exemplar").astype(np.float64)
+            saliency = None
         unit = unit if unit.ndim == 3 else unit[..., None]
         maps = _window_responses(unit)
         ref = _quantiles(unit.reshape(-1, unit.shape[2]))
         stats = {i: _stats_distance(maps, cands[i], tile_size) for i in ok}
         colour = {i: _colour_distance(unit, ref, cands[i], tile_size) for i in ok}
         best = min(ok, key=lambda i: (stats[i] + colour[i], i))
-        kept, moved, vsal = _calm_vertices(unit, steps, cands[best], tile_size)
+        kept, moved, vsal = _calm_vertices(unit, steps, cands[best], tile_size, saliency)
         if moved:
             cands[best] = kept
             scores[best] = _predict(steps, kept, tile_size)
@@ -292,11 +294,9 @@ def _stats_draws(
             "vertex_moves": moved,
         }
         del maps
-        from ...measure import quality
-
         # the filter spectra cached for this exemplar's FFT size (~200 MB at 512²) would otherwise stay
         # through the build's heavier stages (the smoothed c5 build measured 953 MB against a 928 MB estimate)
-        quality._filter_spectra.cache_clear()
+        q._filter_spectra.cache_clear()
     else:
         best = int(np.argmin([_rank(v, "cap") for v in scores]))
     return cands[best], {
@@ -324,6 +324,7 @@ def _calm_vertices(
     steps: tuple[np.ndarray, np.ndarray, float, float],
     genes: np.ndarray,
     tile_size: int,
+    saliency: Any = None,
 ) -> tuple[np.ndarray, int, float]:
     """Move each sample patch of ``genes`` whose vertex content is salient to the nearest position (Chebyshev
     distance up to N / :data:`VERTEX_MOVE` in steps of 2 px, then Euclidean, then row-major) where it is not,
@@ -333,7 +334,7 @@ def _calm_vertices(
     along the axes and diagonals is above the :data:`VERTEX_SALIENCY_CAP` percentile of the exemplar's discs
     (:class:`tilesynth.measure.metrics.DiscSaliency`). Returns (genes, patches moved, largest percentile left).
 
-    Why (issue 12): every vertex of colour k shows the centre disc of sample patch k, at a fifth of the vertices
+    Why: every vertex of colour k shows the centre disc of sample patch k, at a fifth of the vertices
     of a c5 tiling, and the cut never reaches it. When that disc is one of the exemplar's outliers (a bright
     curled lettuce leaf, a cluster of grey stones on dry soil) the eye finds it again at every such vertex,
     although the periodic copies and the autocorrelation peak stay low. Three versions were tried on lettuce
@@ -344,15 +345,13 @@ def _calm_vertices(
     plainly visible; (3) this one: the 9 discs keep the motif out of the whole vertex content, and a move of at
     most N/4 keeps at least 3/4 of the patch along each axis (its statistics) while the content at its centre
     changes. Cost: five FFT correlations of the exemplar for the discs' features, then look-ups."""
-    from ...measure.metrics import DiscSaliency, vertex_disc_radius
-
     n = int(tile_size)
     g = np.asarray(genes, dtype=np.int64).copy()
     r = vertex_disc_radius(n)
     h, w = unit.shape[:2]
     if 2 * r > min(h, w):
         return g, 0, 0.0
-    sal = DiscSaliency(unit, r)
+    sal = DiscSaliency(unit, r) if saliency is None else saliency(r)  # the build's Exemplar caches its own
     hy, hx = sal.shape
     half = max(1, r // 2)
 

@@ -1,4 +1,4 @@
-"""Selection by the visible measures themselves, on a proxy synthesis (issue 15): the ``visible`` objective.
+"""Selection by the visible measures themselves, on a proxy synthesis: the ``visible`` objective.
 
 The cheap objectives (ΣD, the papers' E, the cut score) follow what users see only weakly: over random gene
 vectors the best by each of the visible measures is 12-28 % better than the median, but the best by ΣD or the cut

@@ -26,7 +26,7 @@ with I_x, I_y the exemplar's mean squared step along x and y (the tiles' interio
 cuts, which raise the measured interior mean, are left out, so S_pred is a little above the measured S), every
 colour and every ordered pair of horizontal colours weighted equally (the tilers use them about equally).
 
-**Border-aware draws** (``border_tries``, the default of the Wang schemes, issue 14): instead of one random gene
+**Border-aware draws** (``border_tries``, the default of the Wang schemes): instead of one random gene
 vector, :func:`border_aware_genes` draws ``border_tries`` random vectors from the build's generator (the first
 is the one a single draw gives) and keeps the one with the smallest S_pred: the tile borders are put where the
 exemplar is quiet and the samples' ends agree, as every cut of tilesynth is put where the error is smallest.

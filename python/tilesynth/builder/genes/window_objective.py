@@ -1,4 +1,4 @@
-"""Cheap selection for the complete corner sets (c5, the default set; issue 15): the ``window`` objective.
+"""Cheap selection for the complete corner sets (c5, the default set): the ``window`` objective.
 
 A complete set's default is one border-aware random draw (:mod:`tilesynth.builder.genes.omega_borders`). Its tiles are many
 (625 for c5) and one candidate build costs as much as the whole default, so the re-rankings of the papers' sets

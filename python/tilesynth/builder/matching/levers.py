@@ -1,4 +1,4 @@
-"""Levers against repetition in ω-tiles (issue 12, item 6): a free cut region and diverse matching patches.
+"""Levers against repetition in ω-tiles: a free cut region and diverse matching patches.
 
 Every vertex of colour c shows the centre of the same sample patch, so the content that tiles share (what the
 ω cut keeps of the intermediate tile) sits on the lattice and repeats; the content unique to a tile is its
@@ -26,7 +26,7 @@ matching patch O. Two build options of :func:`tilesynth.build_omega` move that b
       multiplied by 1 + :data:`RING_PENALTY`·(1 − t)², t = (depth − ring) / (N/4) clipped to [0, 1] (depth =
       pixels from that border), smooth at both ends so that no depth is a preferred resting line.
 
-    Measured (``benches/repetition.py``, issue 12): with a uniform reward over the whole free region (the
+    Measured (``benches/repetition.py``): with a uniform reward over the whole free region (the
     first version, kept as ``cut_region="ring"``, reward 0.02) the cut lay on the ring along most of every
     tile side and drew a square grid of straight seams two pixels inside the tile borders (inner-lattice seam
     score :func:`tilesynth.measure.metrics.inner_seam_score` 4.7 on cracked mud, a normal pixel step is 1); the
@@ -38,8 +38,8 @@ matching patch O. Two build options of :func:`tilesynth.build_omega` move that b
     approximates the Euclidean length of the cut instead of its L1 length. On the 4-connected grid every
     monotone staircase between two points costs as much as the straight diagonal, so the cut follows
     content edges in long axis-aligned runs joined by right-angle steps of a few pixels, and tiles are hard
-    copies: where a bright part of O meets darker vertex content each step shows as a notch (issue 12,
-    ``benches/repetition-results.md``). The edge weights are Boykov & Kolmogorov's geo-cut weights
+    copies: where a bright part of O meets darker vertex content each step shows as a notch
+    (``benches/repetition-results.md``). The edge weights are Boykov & Kolmogorov's geo-cut weights
     ("Computing geodesics and minimal surfaces via graph cuts", ICCV 2003: ``w_k = δ² Δφ_k / (2 |e_k|)``,
     Δφ = π/4 for the 8-neighbourhood) times the local seam cost, scaled so that a straight axis-aligned cut
     through content of unit Kwatra weight costs 1 per pixel as on the 4-connected grid (the reward and the
@@ -106,7 +106,7 @@ FREE_BETA = 16.0
 (a reward that beats a cut moved outwards by one pixel along a circle of radius ρ·N/2 where FREE_BETA·ρ·f(ρ)
 > 1). Chosen with the bench among 4, 8 and 16 (16: the largest share of O without a lattice seam)."""
 RING_BIAS = 0.02
-"""Uniform area reward of ``cut_region="ring"`` (the first free region of issue 12, kept for comparison)."""
+"""Uniform area reward of ``cut_region="ring"`` (the first free region, kept for comparison)."""
 RING_PENALTY = 3.0
 """Extra weight factor, at the ring, of the cut edges parallel to a nearby tile border (see the module
 docstring); it falls to 0 at N/4 inside. 3 and 6 were measured: 6 shrinks O with no further gain."""
@@ -118,7 +118,7 @@ the corner region the cut leaves to the intermediate tile, at a fifth of the ver
 the reward is zero over a corner region of about 0.2·N, and the cut kept the vertex content out to about 0.3·N
 from each corner (c5 on dry-soil: 0.5 % of the pixels within 0.19·N of a corner, 37 % within 0.375·N belong to
 the matching patch). Measured on the 9 textures of ``benches/repetition.py`` (c5 defaults, 1024² outputs, seed
-1; issue 12, ``benches/repetition-results.md``), q = 3 → 8 (means): matching-patch share of the tiles 0.648 →
+1; ``benches/repetition-results.md``), q = 3 → 8 (means): matching-patch share of the tiles 0.648 →
 0.684, periodic copies 0.056 → 0.039, coverage 0.835 → 0.845, texture statistics 0.0136 → 0.0132, histogram
 and border seam equal, cut seam +0.3 %, inner-lattice seam +2.5 % (worst: cracked mud 1.77 → 1.91); q = 16
 bought nothing more than 8, and a doubled reward (FREE_BETA 32) halved copies again but raised the inner seam
@@ -263,8 +263,8 @@ def diverse_matches_augmented(
     exclude: np.ndarray | None = None,
     transforms: tuple[int, ...] = (0,),
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`diverse_matches` over the candidates of every orientation in ``transforms`` (issue 12,
-    ``augment``, :mod:`tilesynth.builder.matching.augment`): also returns the chosen transform numbers ``(U, V)``. A region's
+    """:func:`diverse_matches` over the candidates of every orientation in ``transforms``
+    (``augment``, :mod:`tilesynth.builder.matching.augment`): also returns the chosen transform numbers ``(U, V)``. A region's
     uses are counted per orientation, and self-matches are excluded only untransformed (see
     :mod:`tilesynth.builder.matching.augment`). ``transforms=(0,)`` is :func:`diverse_matches` exactly."""
     check_max_uses(max_uses)

@@ -1,0 +1,90 @@
+"""The build's exemplar (:class:`tilesynth.builder.exemplar.Exemplar`): validated once, derived layers once."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import tilesynth
+from tilesynth.base import validate
+from tilesynth.builder.exemplar import Exemplar
+from tilesynth.errors import ParameterError
+from tilesynth.measure import metrics
+
+
+@pytest.fixture
+def crop(small_exemplar):
+    return np.ascontiguousarray(small_exemplar[:96, :96])
+
+
+def test_a_default_build_validates_its_exemplar_once_and_derives_its_luminance_once(crop, monkeypatch):
+    """The default build (a complete set: periodic rule, the stats draw and its vertex saliency, the diverse
+    matching search) checks the exemplar once (was 7 times, and 3 luminances: issue's count of 8 scans of
+    exemplar-sized arrays included the detail layer's autocorrelation, still checked as a derived array)."""
+    scans: list[str] = []
+    check = validate._check_image
+
+    def counting(image, name):
+        if np.shape(image) == crop.shape:
+            scans.append(name)
+        return check(image, name)
+
+    lums: list[int] = []
+    lum = metrics.luminance
+
+    def counting_lum(image):
+        lums.append(1)
+        return lum(image)
+
+    monkeypatch.setattr(validate, "_check_image", counting)
+    monkeypatch.setattr(metrics, "luminance", counting_lum)
+    ts = tilesynth.build_omega(crop, seed=1)
+    assert ts.params["selection"].get("border_criterion") == "stats"  # the path that reads the derived layers
+    assert scans == ["exemplar"]
+    assert len(lums) == 1
+
+
+def test_a_build_from_an_exemplar_equals_the_build_from_its_array(crop):
+    a = tilesynth.build_omega(crop, tileset="c3", seed=4)
+    b = tilesynth.build_omega(Exemplar.of(crop), tileset="c3", seed=4)
+    assert np.array_equal(a.tiles, b.tiles)
+    assert a.params == b.params
+
+
+def test_exemplar_of_converts_once_and_never_aliases(crop):
+    u8 = (crop * 255).round().astype(np.uint8)
+    ex = Exemplar.of(u8, info={"bit_depth": 8})
+    assert ex.image.dtype == np.float32 and ex.image.flags.c_contiguous
+    assert ex.shape == crop.shape and ex.bit_depth == 8 and ex.mask is None
+    f = Exemplar.of(crop)
+    assert not np.shares_memory(f.image, crop)
+    assert Exemplar.of(f) is f
+    with pytest.raises(ParameterError, match="Exemplar carries its own mask"):
+        Exemplar.of(f, alpha="mask")
+    with pytest.raises(ParameterError, match="exemplar_info"):
+        Exemplar.of(crop, info=3)
+
+
+def test_exemplar_layers_equal_the_measures_and_are_kept(crop):
+    ex = Exemplar.of(crop)
+    assert np.array_equal(ex.luminance, metrics.luminance(crop))
+    assert np.array_equal(ex.detail, metrics.detail_layer(crop))
+    assert ex.detail is ex.detail
+    s = ex.saliency(8)
+    assert s is ex.saliency(8)
+    ref = metrics.DiscSaliency(crop, 8)
+    rows, cols = np.arange(0, 80, 7), np.arange(0, 80, 5)[: len(np.arange(0, 80, 7))]
+    assert np.array_equal(s.at(rows, cols)[0], ref.at(rows, cols)[0])
+
+
+def test_validated_image_trusts_only_that_object_and_only_inside(crop):
+    ex = Exemplar.of(crop)
+    bad = ex.image.copy()
+    bad[0, 0, 0] = np.nan
+    with ex.validated():
+        assert validate.as_image(ex.image) is ex.image
+        with pytest.raises(ParameterError, match="NaN"):
+            validate.as_image(bad)  # an equal-shaped other array is still checked
+    ex.image[0, 0, 0] = np.nan  # outside the block the promise is gone: the array is checked again
+    with pytest.raises(ParameterError, match="NaN"):
+        validate.as_image(ex.image)
