@@ -647,3 +647,41 @@ def test_job_with_export_writes_a_valid_manifest(lib_dir: Path) -> None:
     lib = load_library(f)
     assert "export" not in lib.jobs[0].outputs and lib.jobs[0].export is None
     assert batch.job_key(lib.jobs[0])[0] != stamp2["key"]
+
+
+# ------------------------------------------------------------------ the log, masks and material maps as inputs
+@pytest.mark.parametrize(
+    ("text", "cli_log", "expected"),
+    [
+        ('output_dir = "out"\nlog = "lib.toml"\n', None, "the log"),  # the log over the batch file itself
+        ('output_dir = "out"\nlog = "tex/bread.png"\n', None, "the log"),  # ... over an exemplar
+        ('output_dir = "out"\n', "lib.toml", "the batch file"),  # --log lib.toml
+        ('output_dir = "out"\n', "tex/bread.png", "(exemplar)"),  # --log tex/g.png
+        ('output_dir = "tex"\nmask_file = "tex/bread-sheet.png"\n', None, "(mask)"),
+        ('output_dir = "tex"\nmat_file = "tex/bread-sheet.png"\n', None, "(material map 'height')"),
+    ],
+)
+def test_log_mask_and_material_maps_are_inputs_of_the_check(
+    lib_dir: Path, tmp_path: Path, text: str, cli_log: str | None, expected: str
+) -> None:
+    """The log (`log =` or `--log`) is compared with every input (the batch file, exemplars, maps, masks), and a
+    job's mask and material maps (`maps.x.file`) are inputs: refused before any work, every file unchanged."""
+    shutil.copytree(lib_dir / "tex", tmp_path / "tex")
+    shutil.copy(tmp_path / "tex" / "bread.png", tmp_path / "tex" / "bread-sheet.png")
+    job = '[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = 16\nset = "4"\n'
+    if "mask_file" in text:
+        job += 'mask = "tex/bread-sheet.png"\n'
+    if "mat_file" in text:
+        job += 'maps = { height = { file = "tex/bread-sheet.png" } }\n'
+    head = "\n".join(line for line in text.splitlines() if not line.startswith(("mask_file", "mat_file")))
+    f = tmp_path / "lib.toml"
+    f.write_text(head + "\n" + job)
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    log = None if cli_log is None else str(tmp_path / cli_log)
+    with pytest.raises(BatchError) as err:
+        build_many(f, quiet=True, log=log)
+    assert expected in str(err.value), str(err.value)
+    args = ["batch", str(f), "-q"] + ([] if log is None else ["--log", log])
+    assert cli_main(args) == 2
+    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
+    assert not (tmp_path / "out").exists()

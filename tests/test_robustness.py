@@ -248,3 +248,63 @@ def test_ga_progress_says_converged(small_exemplar):
     sel = ts.params["selection"]
     assert sel["stop_reason"] == "stagnation" and sel["generations"] < 50
     assert f"converged at generation {sel['generations']} of 50" in buf.getvalue()
+
+
+# ------------------------------------------------------------------------ a material synth is one unit
+@pytest.mark.parametrize("error", ["interrupt", "enospc"])
+def test_interrupted_material_synth_keeps_the_previous_colour_and_maps(
+    tmp_path, small_exemplar, monkeypatch, error
+):
+    """Ctrl-C or a full disk while the maps of a material synth are written (the colour already encoded): the
+    previous colour and maps stay as they were, side by side; no new colour beside old maps, no temporary."""
+    import errno
+
+    import tilesynth.io.images as images
+    from tilesynth.cli.main import main
+
+    ex, h = tmp_path / "ex.png", tmp_path / "h.png"
+    tilesynth.save_image(ex, small_exemplar)
+    tilesynth.save_image(h, small_exemplar[..., :1])
+    ts = tmp_path / "m.tiles"
+    assert (
+        main(
+            [
+                "build",
+                str(ex),
+                "--map",
+                f"height={h}",
+                "-o",
+                str(ts),
+                "--tile-size",
+                "24",
+                "--seed",
+                "1",
+                "-q",
+            ]
+        )
+        == 0
+    )
+    out = tmp_path / "o.png"
+    assert main(["synth", str(ts), "-o", str(out), "--size", "64x64", "--seed", "1", "-q"]) == 0
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert "o-height.png" in before
+    real = images.save_image
+    calls = []
+
+    def failing(path, *a, **k):
+        calls.append(path)
+        if len(calls) == 2:  # the first map, after the colour
+            if error == "enospc":
+                raise OSError(errno.ENOSPC, "No space left on device", str(path))
+            raise KeyboardInterrupt
+        return real(path, *a, **k)
+
+    monkeypatch.setattr(images, "save_image", failing)
+    rc = main(["synth", str(ts), "-o", str(out), "--size", "64x64", "--seed", "2", "-q"])
+    assert rc == (130 if error == "interrupt" else 2)
+    assert len(calls) == 2
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    monkeypatch.undo()
+    assert main(["synth", str(ts), "-o", str(out), "--size", "64x64", "--seed", "2", "-q"]) == 0
+    after = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert after["o.png"] != before["o.png"] and after["o-height.png"] != before["o-height.png"]

@@ -761,7 +761,22 @@ def _outputs(
     return o
 
 
+def _job_inputs(j: Job) -> list[tuple[str, Path]]:
+    """Every file a job reads: its exemplar, maps, material maps and mask."""
+    ins = [("exemplar", j.exemplar)]
+    ins += [(f"map {k!r}", mp) for k, (mp, _) in j.maps.items()]
+    ins += [(f"material map {k!r}", m["path"]) for k, m in j.material.items()]
+    if j.mask is not None:
+        ins.append(("mask", j.mask))
+    return ins
+
+
 def _check_collisions(jobs: list[Job], log: Path, source: str) -> None:
+    """No output of the batch (a job's, or the log) may be an input (a job's exemplar, map or mask, or the batch
+    file itself) or another output: the rule of :mod:`tilesynth.io.paths` (same inode, or same resolved path
+    for a file not there yet), with messages that name the jobs."""
+    from ..io.paths import file_identity
+
     names: dict[str, Job] = {}
     for j in jobs:
         key = os.path.normcase(j.name)
@@ -772,12 +787,22 @@ def _check_collisions(jobs: list[Job], log: Path, source: str) -> None:
                 f"exemplar {o.exemplar.name}); give one of them another name"
             )
         names[key] = j
-    inputs = {os.path.normcase(str(j.exemplar)): j for j in jobs}
-    inputs.update({os.path.normcase(str(mp)): j for j in jobs for mp, _ in j.maps.values()})
-    writers: dict[str, tuple[Job, str]] = {os.path.normcase(str(log.resolve())): (None, "the log")}  # type: ignore[dict-item]
+    inputs: dict[tuple, str] = {}
+    if Path(source).is_file():
+        inputs[file_identity(source)] = "the batch file"
+    for j in jobs:
+        for role, p in _job_inputs(j):
+            inputs.setdefault(file_identity(p), f"{j.where} ({role})")
+    log_id = file_identity(log)
+    if log_id in inputs:
+        raise BatchError(
+            f"{source}: the log {str(log)!r} is an input: {inputs[log_id]}; choose another log file"
+        )
+    writers: dict[tuple, tuple[Job, str]] = {log_id: (None, "the log")}  # type: ignore[dict-item]
+    by_path: dict[str, tuple[Job, str]] = {os.path.normcase(str(log.resolve())): (None, "the log")}  # type: ignore[dict-item]
     for j in jobs:
         for role, p in [*j.outputs.items(), ("stamp", j.stamp)]:
-            key = os.path.normcase(str(p.resolve()))
+            key = file_identity(p)
             if key in writers:
                 oj, orole = writers[key]
                 other = "the batch log" if oj is None else f"{oj.where} ({orole})"
@@ -787,14 +812,15 @@ def _check_collisions(jobs: list[Job], log: Path, source: str) -> None:
             if key in inputs:
                 raise BatchError(
                     f"{j.where}: field 'name': its {role} output {str(p)!r} would overwrite an input "
-                    f"of {inputs[key].where}"
+                    f"of {inputs[key]}"
                 )
             writers[key] = (j, role)
-    for key, (j, role) in writers.items():  # a file where another job needs a directory
+            by_path[os.path.normcase(str(p.resolve()))] = (j, role)
+    for key, (j, role) in by_path.items():  # a file where another job needs a directory
         for parent in Path(key).parents:
             pk = str(parent)
-            if pk in writers:
-                oj, orole = writers[pk]
+            if pk in by_path:
+                oj, orole = by_path[pk]
                 raise BatchError(
                     f"{j.where if j else source}: field 'name': its {role} output lies inside "
                     f"{orole} output {pk!r} of {oj.where if oj else 'the batch'}"
@@ -1309,6 +1335,8 @@ def build_many(
     lib = _as_library(jobs)
     _check_run_args(executor, workers, threads, scheduler)
     log_path = Path(log) if log is not None else lib.log
+    if log is not None:  # the log given here goes through the same check as the batch file's own
+        _check_collisions(lib.jobs, log_path, lib.source)
     run_id = (
         datetime.datetime.now(datetime.timezone.utc).strftime("%Y%m%dT%H%M%SZ") + f"-{uuid.uuid4().hex[:8]}"
     )

@@ -494,9 +494,86 @@ def check_writable(path: str | os.PathLike[str], label: str = "output") -> Path:
     return parent
 
 
+# The files written inside a file_set() block: [(temporary path, target)], renamed into place together at its end.
+_file_set: contextvars.ContextVar[list[tuple[Path, Path]] | None] = contextvars.ContextVar(
+    "file_set", default=None
+)
+
+
+@contextlib.contextmanager
+def file_set() -> Iterator[None]:
+    """Commit every atomic write inside the block as a unit: each file is written to its temporary name as
+    usual, but renamed over its target only when the whole block succeeds, all at the end, with SIGINT and
+    SIGTERM held back during the renames; on any error (Ctrl-C, SIGTERM, a full disk) every temporary file is
+    removed and the previous files stay as they were.
+
+    Why: a command that writes a set of files that belong together (an export: atlases, mips and the manifest
+    that lists them; a material synth: the colour and its maps) must never leave new files beside old ones.
+    The renames are quick metadata operations in one directory; only SIGKILL or a crash between two of them
+    can leave a mixed set. A block inside another joins the outer one."""
+    if _file_set.get() is not None:
+        yield
+        return
+    pending: list[tuple[Path, Path]] = []
+    token = _file_set.set(pending)
+    try:
+        yield
+    except BaseException:
+        _file_set.reset(token)
+        _discard(pending)
+        raise
+    _file_set.reset(token)
+    with _signals_held():
+        for k, (tmp, target) in enumerate(pending):
+            try:
+                os.replace(tmp, target)
+            except BaseException:
+                _discard(pending[k:])
+                raise
+
+
+def pending_path(path: str | os.PathLike[str]) -> Path:
+    """Where the content of ``path`` is now: its temporary file if it was written in the current
+    :func:`file_set` block and not yet committed, else ``path`` itself (for a writer that reads back a file
+    it wrote in the same set)."""
+    target = _write_target(path)
+    for tmp, t in _file_set.get() or []:
+        if t == target:
+            return tmp
+    return Path(path)
+
+
+def _discard(pending: list[tuple[Path, Path]]) -> None:
+    for tmp, _ in pending:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back (delivered when the block ends) in the main thread; elsewhere a no-op
+    (signals are delivered to the main thread)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    held = {signal.SIGINT, signal.SIGTERM}
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
-    """Yield a temporary path next to ``path``; on success move it into place, on any error remove it."""
+    """Yield a temporary path next to ``path``; on success move it into place (at the end of the enclosing
+    :func:`file_set` block, if any), on any error remove it.
+
+    An ``OSError`` without a file name (``write`` on a full disk says only "No space left on device") gets the
+    output's name, so that the message says which file could not be written."""
     parent = check_writable(path)
     target = _write_target(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=parent)
@@ -508,10 +585,22 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp_path, 0o666 & ~umask)
-        os.replace(tmp_path, target)
-    except BaseException:
+        pending = _file_set.get()
+        if pending is None:
+            os.replace(tmp_path, target)
+        else:
+            for k, (old, t) in enumerate(pending):
+                if t == target:  # written twice in one set: the last write wins
+                    with contextlib.suppress(OSError):
+                        old.unlink()
+                    del pending[k]
+                    break
+            pending.append((tmp_path, target))
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             tmp_path.unlink()
+        if isinstance(exc, OSError) and exc.filename in (None, str(tmp_path)):
+            exc.filename = str(path)
         raise
 
 
