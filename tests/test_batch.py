@@ -685,3 +685,34 @@ def test_log_mask_and_material_maps_are_inputs_of_the_check(
     assert cli_main(args) == 2
     assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("pattern", "out_dir", "extra"),
+    [
+        ("tex/**/*.png", "tex/out", "report = true\n"),  # the output folder below the glob's folder
+        (
+            "tex/b*.png",
+            "tex",
+            'maps = { h = "tex/{stem}.png" }\npreviews = [{ size = "32x32" }]\n',
+        ),  # the same
+    ],
+)
+def test_a_glob_never_takes_the_outputs_as_exemplars(
+    lib_dir: Path, tmp_path: Path, pattern: str, out_dir: str, extra: str
+) -> None:
+    """A glob that also matches the output folder (`exemplar = "tex/**/*.png"`, `output_dir = "tex/out"`, or the
+    outputs written beside the exemplars) excludes the outputs: the second run finds the same jobs, all up to
+    date (every later run failed, or built the outputs of the first)."""
+    (tmp_path / "tex").mkdir()
+    for t in ("bread", "beans"):
+        shutil.copy(lib_dir / "tex" / f"{t}.png", tmp_path / "tex" / f"{t}.png")
+    f = tmp_path / "lib.toml"
+    f.write_text(
+        f'output_dir = "{out_dir}"\n[[jobs]]\nexemplar = "{pattern}"\ntile_size = 16\nset = "4"\n{extra}'
+    )
+    first = build_many(f, executor="serial", quiet=True)
+    assert [r["status"] for r in first.records] == ["built", "built"]
+    assert len(load_library(f).jobs) == 2
+    second = build_many(f, executor="serial", quiet=True)
+    assert [(r["job"], r["status"]) for r in second.records] == [("beans", "skipped"), ("bread", "skipped")]

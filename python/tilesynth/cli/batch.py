@@ -341,8 +341,15 @@ def parse_library(
         raise BatchError(f"{source}: no jobs (add [[jobs]] tables with an 'exemplar' each)")
     jobs_raw = _typed(jobs_raw, list, f"{source}: field 'jobs'")
     jobs: list[Job] = []
+    globbed: set[int] = set()
+    failed: list[tuple[Path, BatchError]] = []
     for k, body in enumerate(jobs_raw, start=1):
-        jobs.extend(_expand_job(k, body, presets, base, out_dir, source))
+        expanded, is_glob, bad = _expand_job(k, body, presets, base, out_dir, source)
+        jobs.extend(expanded)
+        failed.extend(bad)
+        if is_glob:
+            globbed.update(id(j) for j in expanded)
+    jobs = _without_outputs(jobs, globbed, failed)
     if not jobs:
         raise BatchError(f"{source}: no jobs (add [[jobs]] tables with an 'exemplar' each)")
     _check_collisions(jobs, log_path, source)
@@ -460,9 +467,42 @@ def _effective(
     return opts, origin
 
 
+def _without_outputs(
+    jobs: list[Job], globbed: set[int], failed: list[tuple[Path, BatchError]] = ()
+) -> list[Job]:
+    """The jobs without those a glob made of another job's output (a sheet, a preview, a file inside a report
+    or export folder): a glob over a folder that also receives the outputs (``exemplar = "tex/*.png"``,
+    ``output_dir = "tex"``) would otherwise make the second run build the first run's outputs, and collide.
+    ``failed``: glob matches whose job could not be made (``(file, error)``): the first that is not an output
+    is raised."""
+    written = {os.path.normcase(str(p.resolve())) for j in jobs for p in (*j.outputs.values(), j.stamp)}
+
+    def is_output(ex: Path) -> bool:
+        ex = ex.resolve()
+        return os.path.normcase(str(ex)) in written or any(
+            os.path.normcase(str(d)) in written for d in ex.parents
+        )
+
+    for ex, exc in failed:
+        if not is_output(ex):
+            raise exc
+    return [j for j in jobs if id(j) not in globbed or not is_output(j.exemplar)]
+
+
+def _glob_root(base: Path, pattern: str) -> Path:
+    """The folder a glob starts from: its leading components without wildcards."""
+    parts = Path(pattern).parts
+    fixed = []
+    for part in parts[:-1]:
+        if glob.has_magic(part):
+            break
+        fixed.append(part)
+    return (base.joinpath(*fixed) if fixed else base).resolve()
+
+
 def _expand_job(
     k: int, body: Any, presets: dict[str, dict[str, Any]], base: Path, out_dir: Path, source: str
-) -> list[Job]:
+) -> tuple[list[Job], bool, list[tuple[Path, BatchError]]]:
     where = f"{source}: job {k}"
     body = _typed(body, dict, where)
     if "exemplar" in body and isinstance(body["exemplar"], str):
@@ -490,47 +530,78 @@ def _expand_job(
     for e in exclude:
         _typed(e, str, f"{where}: field 'exclude' entry")
     name_t = _typed(body.get("name", "{stem}"), str, f"{where}: field 'name'")
-    found, is_glob = _exemplars(base, pattern, exclude, name_t, where)
-    jobs = []
+    found, is_glob = _exemplars(base, pattern, exclude, name_t, where, out_dir)
+    jobs: list[Job] = []
+    failed: list[tuple[Path, BatchError]] = []
     for ex in found:
-        stem = ex.stem
         try:
-            name = name_t.format(stem=stem)
-        except (KeyError, IndexError, ValueError, AttributeError) as exc:
-            raise BatchError(
-                f"{where}: field 'name' = {name_t!r}: bad placeholder ({exc}); only {{stem}} exists"
-            ) from None
-        wj = f"{where} -> {name!r}" if is_glob else where
-        _check_name(name, f"{wj}: field 'name'")
-        maps = _job_maps(maps_raw, stem, base, kinds, wj)
-        try:
-            mat = _material_keys({**preset, **own}, material_raw, kinds, stem, base, wj)
-        except ParameterError as exc:
-            raise BatchError(str(exc)) from None
-        if export is not None and export["maps"] and "albedo" in maps:
-            raise BatchError(
-                f"{wj}: field 'maps' entry 'albedo': the engine export names the colour atlas 'albedo'; "
-                "rename the map (or set export.maps = false)"
-            )
-        outputs = _outputs(out_dir, name, sheet, previews, report, maps, export, mat["material"])
-        jobs.append(
-            Job(
-                k,
-                name,
-                ex.resolve(),
-                options,
-                maps,
-                sheet,
-                tuple(previews),
-                report,
-                outputs,
-                out_dir / (name + STAMP_SUFFIX),
-                wj,
-                export,
-                **mat,
-            )
+            job = _job_of(
+                k, ex, name_t, where, is_glob, options, preset, own, sheet, previews, report, export,
+                maps_raw, material_raw, kinds, base, out_dir,
+            )  # fmt: skip
+            jobs.append(job)
+        except BatchError as exc:
+            if not is_glob:
+                raise
+            failed.append((ex, exc))  # raised unless the file turns out to be an output (_without_outputs)
+    return jobs, is_glob, failed
+
+
+def _job_of(
+    k: int,
+    ex: Path,
+    name_t: str,
+    where: str,
+    is_glob: bool,
+    options: dict[str, Any],
+    preset: dict[str, Any],
+    own: dict[str, Any],
+    sheet: bool,
+    previews: list[dict[str, Any]],
+    report: dict[str, Any] | None,
+    export: dict[str, Any] | None,
+    maps_raw: dict[str, Any],
+    material_raw: dict[str, Any],
+    kinds: dict[str, Any],
+    base: Path,
+    out_dir: Path,
+) -> Job:
+    """The job of one exemplar file of a ``[[jobs]]`` table."""
+    stem = ex.stem
+    try:
+        name = name_t.format(stem=stem)
+    except (KeyError, IndexError, ValueError, AttributeError) as exc:
+        raise BatchError(
+            f"{where}: field 'name' = {name_t!r}: bad placeholder ({exc}); only {{stem}} exists"
+        ) from None
+    wj = f"{where} -> {name!r}" if is_glob else where
+    _check_name(name, f"{wj}: field 'name'")
+    maps = _job_maps(maps_raw, stem, base, kinds, wj)
+    try:
+        mat = _material_keys({**preset, **own}, material_raw, kinds, stem, base, wj)
+    except ParameterError as exc:
+        raise BatchError(str(exc)) from None
+    if export is not None and export["maps"] and "albedo" in maps:
+        raise BatchError(
+            f"{wj}: field 'maps' entry 'albedo': the engine export names the colour atlas 'albedo'; "
+            "rename the map (or set export.maps = false)"
         )
-    return jobs
+    outputs = _outputs(out_dir, name, sheet, previews, report, maps, export, mat["material"])
+    return Job(
+        k,
+        name,
+        ex.resolve(),
+        options,
+        maps,
+        sheet,
+        tuple(previews),
+        report,
+        outputs,
+        out_dir / (name + STAMP_SUFFIX),
+        wj,
+        export,
+        **mat,
+    )
 
 
 def _job_preset(
@@ -577,13 +648,21 @@ def _output_options(
 
 
 def _exemplars(
-    base: Path, pattern: str, exclude: list[str], name_t: str, where: str
+    base: Path, pattern: str, exclude: list[str], name_t: str, where: str, out_dir: Path | None = None
 ) -> tuple[list[Path], bool]:
-    """The exemplar files of a job (its glob expanded, sorted, without the excluded) and whether it is a glob."""
+    """The exemplar files of a job (its glob expanded, sorted, without the excluded) and whether it is a glob.
+
+    A glob never reaches into the output folder when that folder lies below where the glob starts
+    (``exemplar = "tex/**/*.png"``, ``output_dir = "tex/out"``): its files are this batch's outputs. (When the
+    outputs share the exemplars' folder, :func:`_without_outputs` drops the outputs by name.)"""
     is_glob = glob.has_magic(pattern)
     if is_glob:
         found = sorted(Path(p) for p in glob.glob(str(base / pattern), recursive=True) if Path(p).is_file())
         found = [p for p in found if not any(fnmatch.fnmatch(p.name, e) for e in exclude)]
+        if out_dir is not None:
+            out_r, root = out_dir.resolve(), _glob_root(base, pattern)
+            if out_r != root and root in out_r.parents:
+                found = [p for p in found if out_r not in p.resolve().parents]
         if not found:
             raise BatchError(f"{where}: field 'exemplar' = {pattern!r}: the glob matches no file (in {base})")
         if "{stem}" not in name_t and len(found) > 1:
