@@ -6,11 +6,13 @@ with an aligned map, one Wang job, one glob job; a contact sheet and a preview p
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
 import pickle
 import shutil
+import signal
 import zipfile
 from pathlib import Path
 
@@ -716,3 +718,107 @@ def test_a_glob_never_takes_the_outputs_as_exemplars(
     assert len(load_library(f).jobs) == 2
     second = build_many(f, executor="serial", quiet=True)
     assert [(r["job"], r["status"]) for r in second.records] == [("beans", "skipped"), ("bread", "skipped")]
+
+
+# ------------------------------------------------------------------------------------ signals and processes
+def _marked(marker: str) -> list[int]:
+    """Processes whose environment holds ``marker`` (the batch process, its forkserver, workers and resource
+    tracker all inherit it)."""
+    pids = []
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit() and int(d.name) != os.getpid():
+            try:
+                if marker.encode() in (d / "environ").read_bytes():
+                    stat = (d / "stat").read_text().rsplit(")", 1)[1].split()
+                    if stat[0] != "Z":  # a zombie has ended; only its parent has not reaped it yet
+                        pids.append(int(d.name))
+            except OSError:
+                continue
+    return pids
+
+
+def _wait_gone(marker: str, seconds: float) -> list[int]:
+    import time
+
+    deadline = time.monotonic() + seconds
+    while (left := _marked(marker)) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    return left
+
+
+def _ga_library(d: Path, exemplar: np.ndarray, n: int, population: int, generations: int, tile: int) -> Path:
+    (d / "tex").mkdir()
+    for k in range(n):
+        ts.save_image(d / "tex" / f"t{k}.png", np.roll(exemplar, k, axis=0))
+    f = d / "lib.toml"
+    f.write_text(
+        f'output_dir = "out"\n[[jobs]]\nexemplar = "tex/t*.png"\ntile_size = {tile}\nset = "16a"\nsheet = false\n'
+        f'select = "ga"\npopulation = {population}\ngenerations = {generations}\n'
+    )
+    return f
+
+
+@pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="needs /proc")
+def test_sigterm_stops_a_local_batch_as_ctrl_c_does(tmp_path: Path, small_exemplar: np.ndarray) -> None:
+    """SIGTERM during a batch on the local pool: no queued job is built after it (it waited for all of them),
+    the jobs finished before it are in the log, exit 143, and no process of the batch is left."""
+    import subprocess
+    import sys
+    import time
+    import uuid
+
+    f = _ga_library(tmp_path, small_exemplar, 5, 400, 4, 32)  # about 3 s per job on one thread
+    marker = f"TILESYNTH_TEST_MARK={uuid.uuid4().hex}"
+    env = {**os.environ, marker.split("=")[0]: marker.split("=")[1]}
+    p = subprocess.Popen(
+        [sys.executable, "-m", "tilesynth", "batch", str(f), "--workers", "1", "--threads", "1", "-q"],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    log = tmp_path / "out" / "batch-log.jsonl"
+    deadline = time.monotonic() + 120
+    while not (log.is_file() and log.read_text().count("\n") >= 1):
+        assert p.poll() is None and time.monotonic() < deadline, "no job finished"
+        time.sleep(0.05)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 128 + signal.SIGTERM, err
+    logged = [json.loads(line)["job"] for line in log.read_text().splitlines()]
+    built = sorted(q.stem for q in (tmp_path / "out").glob("*.tiles"))
+    assert sorted(logged) == built and 1 <= len(built) < 5, (logged, built)
+    assert not _wait_gone(marker.split("=")[1], 20)
+
+
+@pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="needs /proc")
+def test_workers_die_with_a_killed_batch(tmp_path: Path, lettuce: np.ndarray) -> None:
+    """SIGKILL of the batch process while a worker runs a long job (a GA of 800 tiles of 128 px, a minute or
+    more): the worker, the forkserver and the resource tracker are gone within seconds (they ran for minutes)."""
+    import subprocess
+    import sys
+    import time
+    import uuid
+
+    big = np.tile(lettuce, (2, 2, 1))[:512, :512]
+    f = _ga_library(tmp_path, big, 1, 800, 3, 128)
+    tag = uuid.uuid4().hex
+    env = {**os.environ, "TILESYNTH_TEST_MARK": tag}
+    p = subprocess.Popen(
+        [sys.executable, "-m", "tilesynth", "batch", str(f), "--workers", "1", "--threads", "1", "-q"],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    deadline = time.monotonic() + 120
+    while not list((tmp_path / "out").glob(".tilesynth-batch-*")):  # the worker has started the job
+        assert p.poll() is None and time.monotonic() < deadline
+        time.sleep(0.05)
+    time.sleep(2.0)  # into the build
+    assert p.poll() is None and len(_marked(tag)) >= 2  # the batch process and its pool
+    p.kill()
+    p.wait(timeout=30)
+    left = _wait_gone(tag, 20)
+    for pid in left:  # do not leave them running if the test fails
+        with contextlib.suppress(OSError):
+            os.kill(pid, signal.SIGKILL)
+    assert not left, f"processes of the killed batch still running: {left}"

@@ -157,6 +157,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, TextIO
 
+from ..base.signals import Terminated
 from ..errors import ParameterError, TilesynthError
 from .batch_materials import params as _material_params  # issue 14: material maps, mask, alpha
 from .batch_materials import parse_material_keys as _material_keys
@@ -1310,8 +1311,51 @@ def _start_method() -> str:
     return "forkserver" if "forkserver" in methods else "spawn"
 
 
-def _init_worker(threads: int) -> None:
+def _init_worker(threads: int, parent: int | None = None) -> None:
     os.environ["TILESYNTH_NUM_THREADS"] = str(threads)
+    if parent is not None:
+        _die_with(parent)
+
+
+def _die_with(parent: int) -> None:
+    """End this worker process as soon as ``parent`` (the process that runs the batch) is gone.
+
+    Why: a pool's workers are children of the forkserver, not of the batch process; when the batch process is
+    killed (SIGKILL, the OOM killer) nothing tells a worker busy with a job, and it ran on for minutes, keeping
+    the forkserver and the resource tracker alive too. A thread waits on a pidfd of the parent (Linux >= 5.3;
+    elsewhere it polls every half second) and ends the process at once; ``PR_SET_PDEATHSIG`` also covers the
+    death of the forkserver."""
+    import threading
+
+    with contextlib.suppress(Exception):  # Linux only
+        import ctypes
+        import signal
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
+    try:
+        fd = os.pidfd_open(parent)  # type: ignore[attr-defined]
+    except ProcessLookupError:
+        os._exit(1)
+    except (AttributeError, OSError):
+        fd = None
+
+    def watch() -> None:
+        if fd is not None:
+            import select
+
+            select.select([fd], [], [])  # readable when the process ends
+            os._exit(1)
+        while True:
+            time.sleep(0.5)
+            try:
+                os.kill(parent, 0)
+            except ProcessLookupError:
+                os._exit(1)
+            except OSError:
+                pass
+
+    threading.Thread(target=watch, name="tilesynth-parent-watch", daemon=True).start()
 
 
 class _JobProgress:
@@ -1437,6 +1481,7 @@ def build_many(
     results: dict[int, dict[str, Any]] = {}
     futures: dict[cf.Future, dict[str, Any]] = {}
     log_fh = open(log_path, "a", encoding="utf-8") if log_path is not None else None  # noqa: SIM115
+    order: dict[int, int] = {}
     try:
         for k, (_, _unused, rec) in enumerate(plan):
             if rec is not None:
@@ -1447,12 +1492,24 @@ def build_many(
             _run_serial(to_run, order, results, log_fh, run_id, progress)
         elif to_run:
             _run_on_executor(executor, to_run, futures, slots, order, results, log_fh, run_id, progress)
-    except KeyboardInterrupt:
-        # stop now: cancel what has not started (Dask cancels on the cluster too) and end the local workers, which
-        # would otherwise run the calls already queued to them; a job cut short leaves only its temporary
-        # directory, removed when it next runs
+    except (KeyboardInterrupt, Terminated):
+        # stop now (Ctrl-C, or SIGTERM in the command line): cancel what has not started (Dask cancels on the
+        # cluster too) and end the local workers, which would otherwise run the calls already queued to them; a
+        # job cut short leaves only its temporary directory, removed when it next runs. Jobs that finished
+        # before the signal but were not collected yet are logged.
         for f in futures:
             f.cancel()
+        for f, spec in futures.items():
+            k = order.get(id(spec))
+            if (
+                k is not None
+                and k not in results
+                and f.done()
+                and not f.cancelled()
+                and f.exception() is None
+            ):
+                results[k] = f.result()
+                _log(log_fh, results[k], run_id)
         if own_pool is not None:
             procs = list((getattr(own_pool, "_processes", None) or {}).values())
             own_pool.shutdown(wait=False, cancel_futures=True)
@@ -1543,7 +1600,7 @@ def _start_executor(
             max_workers=n,
             mp_context=multiprocessing.get_context(_start_method()),
             initializer=_init_worker,
-            initargs=(per,),
+            initargs=(per, os.getpid()),
         )
         executor, slots = own_pool, n
     elif executor is not None and not isinstance(executor, str):
