@@ -822,3 +822,38 @@ def test_workers_die_with_a_killed_batch(tmp_path: Path, lettuce: np.ndarray) ->
         with contextlib.suppress(OSError):
             os.kill(pid, signal.SIGKILL)
     assert not left, f"processes of the killed batch still running: {left}"
+
+
+def test_a_run_never_removes_the_live_temporary_folder_of_another(lib_dir: Path, tmp_path: Path) -> None:
+    """Two batch runs on one library: a run's clean-up of stale temporary folders removes those whose owner
+    (pid and start time in the name) has ended, and an old-style one, but not the folder of a run still going
+    (it deleted it, and that run's job failed)."""
+    import subprocess
+    import sys
+
+    (tmp_path / "tex").mkdir()
+    shutil.copy(lib_dir / "tex" / "bread.png", tmp_path / "tex" / "bread.png")
+    f = tmp_path / "lib.toml"
+    f.write_text('output_dir = "out"\n[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = 16\nset = "4"\n')
+    out = tmp_path / "out"
+    out.mkdir()
+    other = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)"])  # the other run
+    try:
+        prefix = f"{batch.TMP_PREFIX}bread.batch.json."
+        live = out / f"{prefix}aaaaaaaaaaaa-{batch._owner_tag(other.pid)}"
+        gone_pid = max(int(p) for p in os.listdir("/proc") if p.isdigit()) + 10_000  # no such process
+        dead = out / f"{prefix}bbbbbbbbbbbb-{gone_pid}-123-{batch._host_tag()}"
+        reused = out / f"{prefix}cccccccccccc-{other.pid}-1-{batch._host_tag()}"  # same pid, another start
+        old = out / f"{prefix}abc123"
+        for d in (live, dead, reused, old):
+            d.mkdir()
+            (d / "bread.tiles").write_bytes(b"partial")
+        res = build_many(f, executor="serial", quiet=True, force=True)
+        assert _run(res.records) == {"bread": "built"}
+        assert live.is_dir() and (live / "bread.tiles").read_bytes() == b"partial"
+        assert not dead.exists() and not reused.exists() and not old.exists()
+    finally:
+        other.kill()
+        other.wait()
+    build_many(f, executor="serial", quiet=True, force=True)
+    assert not live.exists()  # its owner has ended: stale now

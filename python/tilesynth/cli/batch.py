@@ -999,7 +999,8 @@ def run_job(spec: dict[str, Any]) -> dict[str, Any]:
         warnings.simplefilter("always")
         try:
             tmp = (
-                Path(spec["stamp"]).parent / f"{TMP_PREFIX}{Path(spec['stamp']).name}.{uuid.uuid4().hex[:12]}"
+                Path(spec["stamp"]).parent
+                / f"{TMP_PREFIX}{Path(spec['stamp']).name}.{uuid.uuid4().hex[:12]}-{_owner_tag(os.getpid())}"
             )
             _clean_stale(Path(spec["stamp"]))
             tmp.mkdir(parents=True)
@@ -1038,10 +1039,62 @@ def _message(exc: BaseException) -> str:
     return str(exc)
 
 
+#: A temporary directory of another machine (a cluster on a shared file system) is removed after this many
+#: seconds without change: its owner cannot be asked whether it still runs.
+FOREIGN_TMP_AGE = 24 * 3600
+
+
+def _host_tag() -> str:
+    return hashlib.sha256(socket.gethostname().encode()).hexdigest()[:8]
+
+
+def _start_time(pid: int) -> str:
+    """When process ``pid`` started (clock ticks since boot, from /proc), or "" where that is unknown: with the
+    pid it names one process even after the pid is reused."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as fh:
+            return fh.read().rsplit(b")", 1)[1].split()[19].decode()
+    except (OSError, IndexError):
+        return ""
+
+
+def _owner_tag(pid: int) -> str:
+    """``<pid>-<start time>-<host hash>``: the process that owns a temporary directory."""
+    return f"{pid}-{_start_time(pid) or 0}-{_host_tag()}"
+
+
+def _owner_alive(name: str) -> bool:
+    """Whether the process named in a temporary directory's name (:func:`_owner_tag`) may still be running:
+    on this machine, a process of that pid and start time exists; on another machine, always (the caller
+    decides by age). Names without an owner (made by an older version) have none alive."""
+    tail = name.rsplit(".", 1)[-1].split("-")
+    if len(tail) != 4 or not tail[1].isdigit():
+        return False
+    _, pid, start, host = tail
+    if host != _host_tag():
+        return True
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        pass  # exists, owned by another user
+    now = _start_time(int(pid))
+    return not now or start in ("0", now)
+
+
 def _clean_stale(stamp: Path) -> None:
-    """Remove temporary directories an interrupted run of this job left behind."""
+    """Remove the temporary directories an interrupted run of this job left behind, never one that a run still
+    going (another ``tilesynth batch`` on the same library, another worker) is writing: a directory is stale
+    when its owner process (pid and start time, in its name) has ended on this machine, or, made on another
+    machine, when it has not changed for :data:`FOREIGN_TMP_AGE` seconds."""
     with contextlib.suppress(OSError):
         for p in stamp.parent.glob(f"{glob.escape(TMP_PREFIX + stamp.name)}.*"):
+            if _owner_alive(p.name):
+                foreign = p.name.rsplit("-", 1)[-1] != _host_tag()
+                with contextlib.suppress(OSError):
+                    if not foreign or time.time() - p.stat().st_mtime < FOREIGN_TMP_AGE:
+                        continue
             shutil.rmtree(p, ignore_errors=True)
 
 
