@@ -308,3 +308,33 @@ def test_interrupted_material_synth_keeps_the_previous_colour_and_maps(
     assert main(["synth", str(ts), "-o", str(out), "--size", "64x64", "--seed", "2", "-q"]) == 0
     after = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
     assert after["o.png"] != before["o.png"] and after["o-height.png"] != before["o-height.png"]
+
+
+def test_ctrl_c_during_an_exr_encode_takes_effect_at_once(tmp_path, small_exemplar):
+    """`synth -o x.exr` spends seconds in one OpenEXR encode (28 s at 9000^2) that does not look at signals; the
+    main thread now waits for it in slices, so Ctrl-C ends the command at once (it ran the encode to its end:
+    8-18 s at 9000^2). Measured as the CPU the child spends after the signal (tests/signal_timing.py), which the
+    load of a shared machine does not inflate; an encode left to finish would cost several CPU seconds."""
+    from tilesynth.cli.main import main
+
+    ex = tmp_path / "ex.png"
+    tilesynth.save_image(ex, small_exemplar)
+    ts = tmp_path / "ex.tiles"
+    assert main(["build", str(ex), "-o", str(ts), "--tile-size", "24", "--seed", "1", "-q"]) == 0
+    p = subprocess.Popen(
+        [sys.executable, "-m", "tilesynth", "synth", str(ts), "-o", str(tmp_path / "big.exr")]
+        + ["--size", "4000", "--seed", "1", "-q"],
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "TILESYNTH_NUM_THREADS": "1"},
+    )
+    deadline = time.monotonic() + 120
+    while not any(n.endswith(".part") for n in os.listdir(tmp_path)):  # the encode has begun
+        assert p.poll() is None, "synth ended before its output was being written"
+        assert time.monotonic() < deadline
+        time.sleep(0.005)
+    time.sleep(0.5)
+    rc, err, wall, cpu = interrupt(p, signal.SIGINT)
+    assert rc == 130 and "interrupted" in err, err
+    assert cpu < 1.5, f"{cpu:.1f} CPU s after Ctrl-C (wall {wall:.1f} s)"
+    assert sorted(os.listdir(tmp_path)) == ["ex.png", "ex.tiles"]

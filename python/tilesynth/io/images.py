@@ -712,7 +712,36 @@ def _encode_exr(arr: np.ndarray) -> bytes:
         data, half = arr.astype(np.float32), True
     else:
         raise TypeError(f"image has dtype {arr.dtype}, expected float, uint8, uint16 or bool for OpenEXR")
-    return _core.exr_encode(np.ascontiguousarray(data), bool(half))
+    return _interruptible(_core.exr_encode, np.ascontiguousarray(data), bool(half))
+
+
+def _interruptible(fn: Any, *args: Any) -> Any:
+    """``fn(*args)``, a Rust call that releases the GIL and runs for seconds without looking at signals (the
+    OpenEXR encoder: 28 s for 9000 x 9000, one call of the exr crate), run so that Ctrl-C and SIGTERM take
+    effect within a twentieth of a second: in the main thread, the call runs in a helper thread while the main
+    thread waits in slices, where Python runs its signal handlers. On an interrupt the exception propagates at
+    once (the atomic write removes its temporary file; a command exits); the abandoned call finishes in its
+    daemon thread, or ends with the process, and its result is dropped. Elsewhere (not the main thread, which
+    receives no signals) the call is made directly."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return fn(*args)
+    box: dict[str, Any] = {}
+
+    def run() -> None:
+        try:
+            box["value"] = fn(*args)
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
+            box["error"] = exc
+
+    worker = threading.Thread(target=run, name="tilesynth-encode", daemon=True)
+    worker.start()
+    while worker.is_alive():
+        worker.join(0.05)
+    if "error" in box:
+        raise box["error"]
+    return box["value"]
 
 
 def _format_for(path: Path) -> str:
