@@ -364,3 +364,15 @@ def test_re_export_removes_the_files_the_new_manifest_does_not_list(tmp_path, om
     (tmp_path / "outside.txt").write_text("keep")
     export(omega_set, out, padding=4)
     assert (out / "notes.txt").read_text() == "mine" and (tmp_path / "outside.txt").read_text() == "keep"
+
+
+def test_index_map_search_reports_progress(tmp_path, omega_set):
+    """`export --index-size 2048x2048` ran for minutes without a word: the toroidal search and the recolouring
+    sweeps report to the progress (here a recorder; the CLI passes its Progress line)."""
+    calls = []
+    export(omega_set, tmp_path / "e", index_size=(96, 80), progress=lambda *a: calls.append(a))
+    stages = {c[0] for c in calls}
+    assert "atlases" in stages and stages & {"index map: search", "index map: recolouring"}, stages
+    for stage in stages:
+        done = [c for c in calls if c[0] == stage]
+        assert done[-1][1] == done[-1][2]  # each stage ends complete

@@ -338,3 +338,28 @@ def test_ctrl_c_during_an_exr_encode_takes_effect_at_once(tmp_path, small_exempl
     assert rc == 130 and "interrupted" in err, err
     assert cpu < 1.5, f"{cpu:.1f} CPU s after Ctrl-C (wall {wall:.1f} s)"
     assert sorted(os.listdir(tmp_path)) == ["ex.png", "ex.tiles"]
+
+
+def test_a_huge_manifest_is_refused_before_it_is_read(tmp_path, small_exemplar):
+    """A tile set whose manifest.json unpacks to more than MAX_MANIFEST_BYTES (whitespace compresses ~1000:1, so
+    a small file could make the loader read gigabytes) is refused on its declared size, with the limit."""
+    import zipfile
+
+    from tilesynth.cli.main import main
+    from tilesynth.tileset import tilefile
+
+    src = tmp_path / "s.tiles"
+    tilesynth.build_omega(small_exemplar, tileset="16a", tile_size=24, seed=1).save(src)
+    bad = tmp_path / "bad.tiles"
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(bad, "w", zipfile.ZIP_DEFLATED) as zout:
+        for info in zin.infolist():
+            data = zin.read(info)
+            if info.filename == "manifest.json":
+                data = b" " * (tilefile.MAX_MANIFEST_BYTES + 1) + data  # still valid JSON
+            zout.writestr(info.filename, data)
+    assert bad.stat().st_size < 2 << 20
+    with pytest.raises(
+        tilesynth.TileSetFormatError, match=r"manifest\.json unpacks to \d+ bytes.*MAX_MANIFEST"
+    ):
+        tilesynth.load(bad)
+    assert main(["info", str(bad)]) == 2

@@ -676,7 +676,7 @@ def _exemplars(
             raise BatchError(f"{where}: field 'exclude': only used when 'exemplar' is a glob")
         p = base / pattern
         if not p.is_file():
-            raise BatchError(f"{where}: field 'exemplar' = {pattern!r}: no such file ({p})")
+            raise BatchError(f"{where}: field 'exemplar' = {pattern!r}: {_not_a_file(p)} ({p})")
         found = [p]
     return found, is_glob
 
@@ -696,9 +696,20 @@ def _job_maps(
             raise BatchError(f"{wm} = {mval!r}: bad placeholder ({exc}); only {{stem}} exists") from None
         mp = (base / mpath).resolve()
         if not mp.is_file():
-            raise BatchError(f"{wm} = {mpath!r}: no such file ({mp})")
+            raise BatchError(f"{wm} = {mpath!r}: {_not_a_file(mp)} ({mp})")
         maps[mname] = (mp, kinds.get(mname, "auto"))
     return maps
+
+
+def _not_a_file(p: Path) -> str:
+    """What an input path that is not a regular file is (as :func:`tilesynth.io.images.check_input_file`)."""
+    if not p.exists():
+        return "no such file"
+    return (
+        "is a directory, expected a file"
+        if p.is_dir()
+        else "is not a regular file (a FIFO, device or socket)"
+    )
 
 
 def _check_name(name: str, where: str, slash: bool = True) -> None:

@@ -176,9 +176,22 @@ def read_exr(
     return arr, list(names), bool(half)
 
 
-def _read_bytes(p: Path, where: str) -> bytes:
+def check_input_file(path: str | os.PathLike[str], where: str) -> Path:
+    """Raise :class:`ParameterError` starting with ``where`` unless ``path`` is a regular file, saying what it
+    is instead: missing, a directory, or a FIFO, device or socket (reading a FIFO would block, a device could
+    be endless). The one check of every image, map, mask and array input."""
+    p = Path(path)
+    if not p.exists():
+        raise ParameterError(f"{where}: no such file")
+    if p.is_dir():
+        raise ParameterError(f"{where}: is a directory, expected a file")
     if not p.is_file():
-        raise ParameterError(f"{where}: no such file" if not p.exists() else f"{where}: not a regular file")
+        raise ParameterError(f"{where}: is not a regular file (a FIFO, device or socket)")
+    return p
+
+
+def _read_bytes(p: Path, where: str) -> bytes:
+    check_input_file(p, where)
     try:
         return p.read_bytes()
     except OSError as exc:
@@ -210,8 +223,7 @@ def load_raster(path: str | os.PathLike[str], max_pixels: int | None = None) -> 
     p = Path(path)
     name = str(p)
     where = f"map = {name!r}"
-    if not p.is_file():
-        raise ParameterError(f"{where}: no such file")
+    check_input_file(p, where)
     if p.suffix.lower() == ".npy":
         arr = read_npy(p, where)
         if arr.dtype not in (np.uint8, np.uint16, np.float32) or arr.ndim not in (2, 3) or arr.size == 0:
@@ -263,6 +275,7 @@ def read_npy(path: str | os.PathLike[str], where: str) -> np.ndarray:
     """
     import tokenize
 
+    check_input_file(path, where)
     try:
         with np.errstate(over="ignore"):  # numpy's size of an absurd declared shape overflows, then raises
             return np.array(np.load(path, mmap_mode="r", allow_pickle=False))
@@ -315,12 +328,7 @@ def load_image(path: str | os.PathLike[str], max_pixels: int | None = None) -> t
     limit = pixel_limit(max_pixels)
     p = Path(path)
     where = f"input = {str(p)!r}"
-    if not p.exists():
-        raise ParameterError(f"{where}: no such file")
-    if p.is_dir():
-        raise ParameterError(f"{where}: is a directory, expected an image file")
-    if not p.is_file():
-        raise ParameterError(f"{where}: not a regular file")
+    check_input_file(p, where)
     if not os.access(p, os.R_OK):
         raise ParameterError(f"{where}: cannot read (permission denied)")
     with warnings.catch_warnings():
