@@ -364,6 +364,12 @@ def test_re_export_removes_the_files_the_new_manifest_does_not_list(tmp_path, om
     (tmp_path / "outside.txt").write_text("keep")
     export(omega_set, out, padding=4)
     assert (out / "notes.txt").read_text() == "mine" and (tmp_path / "outside.txt").read_text() == "keep"
+    # an input now stored under a name the previous export listed is never removed
+    export(omega_set, out, padding=8)  # lists atlas_albedo_mip3.png
+    src = out / "atlas_albedo_mip3.png"
+    omega_set.save(src)  # the user's tile set under that name; a padding-4 export does not write it
+    export(ts.load(src), out, padding=4, source_path=src)
+    assert src.is_file() and ts.load(src).n_tiles == omega_set.n_tiles
 
 
 def test_index_map_search_reports_progress(tmp_path, omega_set):

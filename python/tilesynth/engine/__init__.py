@@ -272,6 +272,11 @@ def export(
     if lookup == "index_map":  # checked before any work
         _index_size(tileset.definition, index_size)
     previous = previous_export_files(out)
+    from ..io.paths import file_identity
+
+    # an input now stored under a name the previous export wrote (and this one does not) is not removed
+    taken = {file_identity(p) for _, p in ins if p is not None}
+    previous = {n for n in previous if file_identity(out / n) not in taken}
     out.mkdir(parents=True, exist_ok=True)
     (out / "shaders").mkdir(exist_ok=True)
     from ..io.images import file_set
