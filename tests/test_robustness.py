@@ -363,3 +363,31 @@ def test_a_huge_manifest_is_refused_before_it_is_read(tmp_path, small_exemplar):
     ):
         tilesynth.load(bad)
     assert main(["info", str(bad)]) == 2
+
+
+def test_sigterm_during_a_re_export_leaves_the_previous_export_whole(tmp_path, small_exemplar):
+    """A real SIGTERM (the CLI's handler) in the middle of a re-export, after some atlas levels were written:
+    exit 143, and the previous export is byte for byte as it was, with no temporary file."""
+    src = tmp_path / "s.tiles"
+    tilesynth.build_omega(small_exemplar, tileset="16a", tile_size=24, seed=1).save(src)
+    out = tmp_path / "exp"
+    from tilesynth.cli.main import main
+
+    assert main(["export", str(src), "-o", str(out), "--index-seed", "1"]) == 0
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    code = textwrap.dedent(f"""
+        import os, signal, sys
+        import tilesynth.engine as engine
+        from tilesynth.cli.main import main
+        real, calls = engine._write_level, []
+        def level(path, arr):
+            calls.append(path)
+            real(path, arr)
+            if len(calls) == 2:
+                os.kill(os.getpid(), signal.SIGTERM)
+        engine._write_level = level
+        sys.exit(main(["export", {str(src)!r}, "-o", {str(out)!r}, "--index-seed", "2", "--padding", "4"]))
+    """)
+    r = subprocess.run([sys.executable, "-c", code], check=False, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 128 + signal.SIGTERM and "terminated" in r.stderr, r.stderr
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
