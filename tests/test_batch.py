@@ -6,11 +6,13 @@ with an aligned map, one Wang job, one glob job; a contact sheet and a preview p
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
 import pickle
 import shutil
+import signal
 import zipfile
 from pathlib import Path
 
@@ -647,3 +649,211 @@ def test_job_with_export_writes_a_valid_manifest(lib_dir: Path) -> None:
     lib = load_library(f)
     assert "export" not in lib.jobs[0].outputs and lib.jobs[0].export is None
     assert batch.job_key(lib.jobs[0])[0] != stamp2["key"]
+
+
+# ------------------------------------------------------------------ the log, masks and material maps as inputs
+@pytest.mark.parametrize(
+    ("text", "cli_log", "expected"),
+    [
+        ('output_dir = "out"\nlog = "lib.toml"\n', None, "the log"),  # the log over the batch file itself
+        ('output_dir = "out"\nlog = "tex/bread.png"\n', None, "the log"),  # ... over an exemplar
+        ('output_dir = "out"\n', "lib.toml", "the batch file"),  # --log lib.toml
+        ('output_dir = "out"\n', "tex/bread.png", "(exemplar)"),  # --log tex/g.png
+        ('output_dir = "tex"\nmask_file = "tex/bread-sheet.png"\n', None, "(mask)"),
+        ('output_dir = "tex"\nmat_file = "tex/bread-sheet.png"\n', None, "(material map 'height')"),
+    ],
+)
+def test_log_mask_and_material_maps_are_inputs_of_the_check(
+    lib_dir: Path, tmp_path: Path, text: str, cli_log: str | None, expected: str
+) -> None:
+    """The log (`log =` or `--log`) is compared with every input (the batch file, exemplars, maps, masks), and a
+    job's mask and material maps (`maps.x.file`) are inputs: refused before any work, every file unchanged."""
+    shutil.copytree(lib_dir / "tex", tmp_path / "tex")
+    shutil.copy(tmp_path / "tex" / "bread.png", tmp_path / "tex" / "bread-sheet.png")
+    job = '[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = 16\nset = "4"\n'
+    if "mask_file" in text:
+        job += 'mask = "tex/bread-sheet.png"\n'
+    if "mat_file" in text:
+        job += 'maps = { height = { file = "tex/bread-sheet.png" } }\n'
+    head = "\n".join(line for line in text.splitlines() if not line.startswith(("mask_file", "mat_file")))
+    f = tmp_path / "lib.toml"
+    f.write_text(head + "\n" + job)
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    log = None if cli_log is None else str(tmp_path / cli_log)
+    with pytest.raises(BatchError) as err:
+        build_many(f, quiet=True, log=log)
+    assert expected in str(err.value), str(err.value)
+    args = ["batch", str(f), "-q"] + ([] if log is None else ["--log", log])
+    assert cli_main(args) == 2
+    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("pattern", "out_dir", "extra"),
+    [
+        ("tex/**/*.png", "tex/out", "report = true\n"),  # the output folder below the glob's folder
+        (
+            "tex/b*.png",
+            "tex",
+            'maps = { h = "tex/{stem}.png" }\npreviews = [{ size = "32x32" }]\n',
+        ),  # the same
+    ],
+)
+def test_a_glob_never_takes_the_outputs_as_exemplars(
+    lib_dir: Path, tmp_path: Path, pattern: str, out_dir: str, extra: str
+) -> None:
+    """A glob that also matches the output folder (`exemplar = "tex/**/*.png"`, `output_dir = "tex/out"`, or the
+    outputs written beside the exemplars) excludes the outputs: the second run finds the same jobs, all up to
+    date (every later run failed, or built the outputs of the first)."""
+    (tmp_path / "tex").mkdir()
+    for t in ("bread", "beans"):
+        shutil.copy(lib_dir / "tex" / f"{t}.png", tmp_path / "tex" / f"{t}.png")
+    f = tmp_path / "lib.toml"
+    f.write_text(
+        f'output_dir = "{out_dir}"\n[[jobs]]\nexemplar = "{pattern}"\ntile_size = 16\nset = "4"\n{extra}'
+    )
+    first = build_many(f, executor="serial", quiet=True)
+    assert [r["status"] for r in first.records] == ["built", "built"]
+    assert len(load_library(f).jobs) == 2
+    second = build_many(f, executor="serial", quiet=True)
+    assert [(r["job"], r["status"]) for r in second.records] == [("beans", "skipped"), ("bread", "skipped")]
+
+
+# ------------------------------------------------------------------------------------ signals and processes
+def _marked(marker: str) -> list[int]:
+    """Processes whose environment holds ``marker`` (the batch process, its forkserver, workers and resource
+    tracker all inherit it)."""
+    pids = []
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit() and int(d.name) != os.getpid():
+            try:
+                if marker.encode() in (d / "environ").read_bytes():
+                    stat = (d / "stat").read_text().rsplit(")", 1)[1].split()
+                    if stat[0] != "Z":  # a zombie has ended; only its parent has not reaped it yet
+                        pids.append(int(d.name))
+            except OSError:
+                continue
+    return pids
+
+
+def _wait_gone(marker: str, seconds: float) -> list[int]:
+    import time
+
+    deadline = time.monotonic() + seconds
+    while (left := _marked(marker)) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    return left
+
+
+def _ga_library(d: Path, exemplar: np.ndarray, n: int, population: int, generations: int, tile: int) -> Path:
+    (d / "tex").mkdir()
+    for k in range(n):
+        ts.save_image(d / "tex" / f"t{k}.png", np.roll(exemplar, k, axis=0))
+    f = d / "lib.toml"
+    f.write_text(
+        f'output_dir = "out"\n[[jobs]]\nexemplar = "tex/t*.png"\ntile_size = {tile}\nset = "16a"\nsheet = false\n'
+        f'select = "ga"\npopulation = {population}\ngenerations = {generations}\n'
+    )
+    return f
+
+
+@pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="needs /proc")
+def test_sigterm_stops_a_local_batch_as_ctrl_c_does(tmp_path: Path, small_exemplar: np.ndarray) -> None:
+    """SIGTERM during a batch on the local pool: no queued job is built after it (it waited for all of them),
+    the jobs finished before it are in the log, exit 143, and no process of the batch is left."""
+    import subprocess
+    import sys
+    import time
+    import uuid
+
+    f = _ga_library(tmp_path, small_exemplar, 5, 400, 4, 32)  # about 3 s per job on one thread
+    marker = f"TILESYNTH_TEST_MARK={uuid.uuid4().hex}"
+    env = {**os.environ, marker.split("=")[0]: marker.split("=")[1]}
+    p = subprocess.Popen(
+        [sys.executable, "-m", "tilesynth", "batch", str(f), "--workers", "1", "--threads", "1", "-q"],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    log = tmp_path / "out" / "batch-log.jsonl"
+    deadline = time.monotonic() + 120
+    while not (log.is_file() and log.read_text().count("\n") >= 1):
+        assert p.poll() is None and time.monotonic() < deadline, "no job finished"
+        time.sleep(0.05)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 128 + signal.SIGTERM, err
+    logged = [json.loads(line)["job"] for line in log.read_text().splitlines()]
+    built = sorted(q.stem for q in (tmp_path / "out").glob("*.tiles"))
+    assert sorted(logged) == built and 1 <= len(built) < 5, (logged, built)
+    assert not _wait_gone(marker.split("=")[1], 20)
+
+
+@pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="needs /proc")
+def test_workers_die_with_a_killed_batch(tmp_path: Path, lettuce: np.ndarray) -> None:
+    """SIGKILL of the batch process while a worker runs a long job (a GA of 800 tiles of 128 px, a minute or
+    more): the worker, the forkserver and the resource tracker are gone within seconds (they ran for minutes)."""
+    import subprocess
+    import sys
+    import time
+    import uuid
+
+    big = np.tile(lettuce, (2, 2, 1))[:512, :512]
+    f = _ga_library(tmp_path, big, 1, 800, 3, 128)
+    tag = uuid.uuid4().hex
+    env = {**os.environ, "TILESYNTH_TEST_MARK": tag}
+    p = subprocess.Popen(
+        [sys.executable, "-m", "tilesynth", "batch", str(f), "--workers", "1", "--threads", "1", "-q"],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    deadline = time.monotonic() + 120
+    while not list((tmp_path / "out").glob(".tilesynth-batch-*")):  # the worker has started the job
+        assert p.poll() is None and time.monotonic() < deadline
+        time.sleep(0.05)
+    time.sleep(2.0)  # into the build
+    assert p.poll() is None and len(_marked(tag)) >= 2  # the batch process and its pool
+    p.kill()
+    p.wait(timeout=30)
+    left = _wait_gone(tag, 20)
+    for pid in left:  # do not leave them running if the test fails
+        with contextlib.suppress(OSError):
+            os.kill(pid, signal.SIGKILL)
+    assert not left, f"processes of the killed batch still running: {left}"
+
+
+def test_a_run_never_removes_the_live_temporary_folder_of_another(lib_dir: Path, tmp_path: Path) -> None:
+    """Two batch runs on one library: a run's clean-up of stale temporary folders removes those whose owner
+    (pid and start time in the name) has ended, and an old-style one, but not the folder of a run still going
+    (it deleted it, and that run's job failed)."""
+    import subprocess
+    import sys
+
+    (tmp_path / "tex").mkdir()
+    shutil.copy(lib_dir / "tex" / "bread.png", tmp_path / "tex" / "bread.png")
+    f = tmp_path / "lib.toml"
+    f.write_text('output_dir = "out"\n[[jobs]]\nexemplar = "tex/bread.png"\ntile_size = 16\nset = "4"\n')
+    out = tmp_path / "out"
+    out.mkdir()
+    other = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)"])  # the other run
+    try:
+        prefix = f"{batch.TMP_PREFIX}bread.batch.json."
+        live = out / f"{prefix}aaaaaaaaaaaa-{batch._owner_tag(other.pid)}"
+        gone_pid = max(int(p) for p in os.listdir("/proc") if p.isdigit()) + 10_000  # no such process
+        dead = out / f"{prefix}bbbbbbbbbbbb-{gone_pid}-123-{batch._host_tag()}"
+        reused = out / f"{prefix}cccccccccccc-{other.pid}-1-{batch._host_tag()}"  # same pid, another start
+        old = out / f"{prefix}abc123"
+        for d in (live, dead, reused, old):
+            d.mkdir()
+            (d / "bread.tiles").write_bytes(b"partial")
+        res = build_many(f, executor="serial", quiet=True, force=True)
+        assert _run(res.records) == {"bread": "built"}
+        assert live.is_dir() and (live / "bread.tiles").read_bytes() == b"partial"
+        assert not dead.exists() and not reused.exists() and not old.exists()
+    finally:
+        other.kill()
+        other.wait()
+    build_many(f, executor="serial", quiet=True, force=True)
+    assert not live.exists()  # its owner has ended: stale now

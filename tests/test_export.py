@@ -281,3 +281,104 @@ def test_cli_export_and_view(tmp_path, omega_set):
         and "http" not in html.split("<script")[0]
     )
     assert main(["export", str(src), "-o", str(tmp_path / "o2"), "--lookup", "hash"]) == 2
+
+
+# ------------------------------------------------------------------------ a re-export is committed as a unit
+def _snapshot(d: Path) -> dict[str, bytes]:
+    return {p.relative_to(d).as_posix(): p.read_bytes() for p in d.rglob("*") if p.is_file()}
+
+
+@pytest.mark.parametrize("error", [KeyboardInterrupt, "enospc"])
+def test_interrupted_re_export_leaves_the_previous_export_whole(tmp_path, omega_set, monkeypatch, error):
+    """Ctrl-C or a full disk halfway through a re-export (after some atlas levels were written): the previous
+    export is byte for byte as it was, with no temporary file beside it; the CLI says which file and exits 2."""
+    import errno
+
+    import tilesynth.engine as engine
+
+    out = tmp_path / "exp"
+    extra = {"h": (np.arange(96 * 96, dtype=np.uint32).reshape(96, 96) % 251).astype(np.uint8)}
+    export(omega_set, out, maps=extra, seed=0, padding=8)
+    before = _snapshot(out)
+    real = engine._write_level
+    calls = []
+
+    def failing(path, arr):
+        calls.append(path)
+        if len(calls) == 3:
+            if error == "enospc":
+                # as a real full disk: the write fails with no file name, atomic_path names the output
+                from tilesynth.io.images import atomic_open
+
+                with atomic_open(path) as fh:
+                    fh.write(b"partial")
+                    raise OSError(errno.ENOSPC, "No space left on device")
+            raise KeyboardInterrupt
+        real(path, arr)
+
+    monkeypatch.setattr(engine, "_write_level", failing)
+    with pytest.raises(KeyboardInterrupt if error is KeyboardInterrupt else OSError) as exc:
+        export(omega_set, out, maps=extra, padding=4, index_seed=5)
+    if error == "enospc":
+        assert exc.value.filename == str(calls[-1])  # the file is named
+    assert _snapshot(out) == before
+    assert not [p for p in out.rglob("*") if p.name.endswith(".part")]
+
+
+def test_cli_full_disk_during_export_names_the_file(tmp_path, omega_set, monkeypatch, capsys):
+    import errno
+
+    import tilesynth.engine as engine
+    from tilesynth.cli.main import main
+
+    src = tmp_path / "s.tiles"
+    omega_set.save(src)
+
+    def full(path, arr):
+        from tilesynth.io.images import atomic_open
+
+        with atomic_open(path):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(engine, "_write_level", full)
+    assert main(["export", str(src), "-o", str(tmp_path / "exp")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "No space left on device" in err and "atlas_albedo.png" in err, err
+    assert not [p for p in (tmp_path / "exp").rglob("*") if p.is_file()]
+
+
+def test_re_export_removes_the_files_the_new_manifest_does_not_list(tmp_path, omega_set):
+    out = tmp_path / "exp"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")  # not the export's: kept
+    extra = {"h": np.zeros((96, 96), np.uint8)}
+    m1 = export(omega_set, out, maps=extra, viewer=True, padding=8)
+    assert "viewer.html" in m1["files"] and "atlas_h_mip3.png" in m1["files"]
+    m2 = export(omega_set, out, padding=4)
+    assert _all_files(out) == {*m2["files"], "manifest.json", "notes.txt"}
+    assert not (out / "viewer.html").exists() and not (out / "atlas_h.png").exists()
+    # a tampered manifest cannot make a re-export delete anything but export files
+    man = json.loads((out / "manifest.json").read_text())
+    man["files"] += ["notes.txt", "../outside.txt", "shaders/../../x"]
+    (out / "manifest.json").write_text(json.dumps(man))
+    (tmp_path / "outside.txt").write_text("keep")
+    export(omega_set, out, padding=4)
+    assert (out / "notes.txt").read_text() == "mine" and (tmp_path / "outside.txt").read_text() == "keep"
+    # an input now stored under a name the previous export listed is never removed
+    export(omega_set, out, padding=8)  # lists atlas_albedo_mip3.png
+    src = out / "atlas_albedo_mip3.png"
+    omega_set.save(src)  # the user's tile set under that name; a padding-4 export does not write it
+    export(ts.load(src), out, padding=4, source_path=src)
+    assert src.is_file() and ts.load(src).n_tiles == omega_set.n_tiles
+
+
+def test_index_map_search_reports_progress(tmp_path, omega_set):
+    """`export --index-size 2048x2048` ran for minutes without a word: the toroidal search and the recolouring
+    sweeps report to the progress (here a recorder; the CLI passes its Progress line)."""
+    calls = []
+    export(omega_set, tmp_path / "e", index_size=(96, 80), progress=lambda *a: calls.append(a))
+    stages = {c[0] for c in calls}
+    assert "atlases" in stages and stages & {"index map: search", "index map: recolouring"}, stages
+    for stage in stages:
+        done = [c for c in calls if c[0] == stage]
+        assert done[-1][1] == done[-1][2]  # each stage ends complete

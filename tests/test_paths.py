@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import tilesynth
@@ -221,3 +221,158 @@ def _umask() -> int:
     m = os.umask(0)
     os.umask(m)
     return m
+
+
+# ------------------------------------------------------- every input and every output of every command
+def test_build_mask_is_an_input(exemplar_png, tmp_path, capsys):
+    ex = _copy(exemplar_png, tmp_path / "in.png")
+    mask = tmp_path / "m.png"
+    tilesynth.save_image(mask, np.zeros((8, 8), np.uint8))
+    _refused(
+        ["build", str(ex), "--mask", str(mask), "-o", str(tmp_path / "x.tiles"), "--sheet", str(mask), "-q"],
+        capsys,
+        mask,
+    )
+    _refused(["build", str(ex), "--mask", str(mask), "-o", str(mask), "-q"], capsys, mask)
+    assert sorted(os.listdir(tmp_path)) == ["in.png", "m.png"]
+
+
+@pytest.fixture(scope="module")
+def material_file(tmp_path_factory, exemplar_png, small_exemplar):
+    d = tmp_path_factory.mktemp("mat")
+    h = d / "h.png"
+    tilesynth.save_image(h, small_exemplar[..., :1])
+    out = d / "mat.tiles"
+    args = ["build", str(exemplar_png), "--map", f"height={h}", "-o", str(out), "--tile-size", "24"]
+    assert main([*args, "--seed", "3", "-q"]) == 0
+    return out
+
+
+def test_synth_of_a_material_set_never_writes_over_a_with_input(
+    material_file, exemplar_png, tmp_path, capsys
+):
+    """The stored map 'height' is written as OUT-height.png: a --with input of that name is refused up front,
+    and so are the tile set itself and --save-map under that name."""
+    ts = _copy(material_file, tmp_path / "m.tiles")
+    w = _copy(exemplar_png, tmp_path / "o-height.png")
+    base = ["synth", str(ts), "--size", "48x48", "--seed", "1", "-q", "-o", str(tmp_path / "o.png")]
+    err = _refused([*base, "--with", str(w)], capsys, w, ts)
+    assert "map 'height' of the tile set" in err
+    _refused([*base, "--save-map", str(tmp_path / "o-height.png")], capsys, w)
+    ts2 = _copy(material_file, tmp_path / "p-height.png")  # the tile set itself under that name
+    _refused(["synth", str(ts2), "--size", "48x48", "-q", "-o", str(tmp_path / "p.png")], capsys, ts2)
+    assert sorted(os.listdir(tmp_path)) == ["m.tiles", "o-height.png", "p-height.png"]
+
+
+@pytest.fixture(scope="module")
+def set16a_file(tmp_path_factory, small_exemplar):
+    """A small index-map set (16a: the export writes index.png)."""
+    p = tmp_path_factory.mktemp("s16a") / "s.tiles"
+    tilesynth.build_omega(small_exemplar, tileset="16a", tile_size=24, seed=1).save(p)
+    return p
+
+
+def test_export_compares_every_file_it_writes_with_its_inputs(set16a_file, exemplar_png, tmp_path, capsys):
+    """A tile set or --with map named like a mip level, a map atlas, the index map or a shader in the output
+    folder: refused before anything is written."""
+    out = tmp_path / "exp"
+    (out / "shaders").mkdir(parents=True)
+    cases = [
+        (_copy(set16a_file, out / "atlas_albedo_mip2.png"), []),
+        (_copy(set16a_file, out / "shaders" / "tilesynth.wgsl"), []),
+        (_copy(set16a_file, out / "index.png"), []),
+    ]
+    ts = _copy(set16a_file, tmp_path / "in.tiles")
+    h = _copy(exemplar_png, tmp_path / "h.png")
+    cases.append(
+        (ts, ["--with", str(_copy(exemplar_png, out / "atlas_albedo_mip1.png"))])
+    )  # named like a mip
+    cases.append((ts, ["--with", str(_copy(exemplar_png, out / "atlas_h_mip3.png")), "--with", str(h)]))
+    for tiles, extra in cases:
+        before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+        assert main(["export", str(tiles), "-o", str(out), *extra]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "same file" in err, err
+        assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+
+
+EXPORT_NAMES = [
+    "atlas_albedo.png",
+    "atlas_albedo_mip1.png",
+    "atlas_albedo_mip2.png",
+    "atlas_albedo_mip3.png",
+    "atlas_albedo_mip4.png",
+    "atlas_albedo.exr",
+    "atlas_ex.png",
+    "atlas_ex_mip3.png",
+    "atlas_m.png",
+    "index.png",
+    "index.html",
+    "manifest.json",
+    "viewer.html",
+    "shaders/tilesynth.glsl",
+    "shaders/tilesynth.gdshader",
+    "shaders/other.glsl",
+    "ex.png",
+    "x.tiles",
+]
+
+
+@settings(max_examples=25)
+@given(
+    tiles_name=st.sampled_from(EXPORT_NAMES),
+    map_names=st.lists(st.sampled_from(EXPORT_NAMES), max_size=2, unique=True),
+    viewer=st.booleans(),
+)
+def test_export_collision_property(tiles_name, map_names, viewer):
+    """Over generated names of the inputs (the tile set and --with maps placed in the output folder): the
+    export is refused exactly when an input is one of the files it writes (the oracle lists them from the
+    documented layout: level 0 to 3 of atlas_<map> for 24-pixel tiles and padding 8, index.png for this
+    index-map set, the four shaders, viewer.html with --viewer, manifest.json), and then nothing changes."""
+    import shutil
+
+    from tilesynth.engine import export
+
+    if tiles_name in map_names:
+        return
+    with tempfile.TemporaryDirectory() as d:
+        out = Path(d) / "exp"
+        (out / "shaders").mkdir(parents=True)
+        tiles_path = out / tiles_name
+        shutil.copyfile(_BUILT[0], tiles_path)
+        maps, inputs = {}, [("--with", None)]
+        for k, n in enumerate(map_names):
+            p = out / n
+            p.write_bytes(b"map")
+            maps[f"m{k}"] = _MAP[0]
+            inputs.append(("--with", str(p)))
+        stems = ["albedo", *maps]
+        writes = {f"atlas_{s}.png" for s in stems} | {
+            f"atlas_{s}_mip{lv}.png" for s in stems for lv in (1, 2, 3)
+        }
+        writes |= {"index.png", "manifest.json"} | {
+            f"shaders/tilesynth.{e}" for e in ("glsl", "wgsl", "hlsl", "gdshader")
+        }
+        if viewer:
+            writes.add("viewer.html")
+        ts = tilesynth.load(tiles_path)
+        clash = {tiles_name, *map_names} & writes
+        before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+        if clash:
+            with pytest.raises(ParameterError, match="same file as the input"):
+                export(ts, out, maps=maps, viewer=viewer, source_path=tiles_path, inputs=inputs)
+            assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+        else:
+            export(ts, out, maps=maps, viewer=viewer, source_path=tiles_path, inputs=inputs)
+            written = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()}
+            assert written == writes | {tiles_name, *map_names}
+
+
+_BUILT: list[Path] = []
+_MAP: list[np.ndarray] = []
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _property_inputs(set16a_file, small_exemplar):
+    _BUILT[:] = [set16a_file]
+    _MAP[:] = [(small_exemplar[..., :1] * 255).astype(np.uint8)]

@@ -151,3 +151,31 @@ def test_sigint_during_a_build_takes_effect_within_seconds(tmp_path):
     # CPU after the signal (tests/signal_timing.py), not wall time, which the machine's load inflates
     assert cpu < 5, f"the build did {cpu:.1f} CPU s of work after Ctrl-C (wall {wall:.1f} s)"
     assert not out.exists() and not list(tmp_path.glob(".*part"))
+
+
+@pytest.mark.parametrize("kind", ["fifo", "directory"])
+def test_a_fifo_or_folder_given_as_an_input_says_what_it_is(tmp_path, exemplar, tiles, capsys, kind):
+    """A FIFO or a folder given as an exemplar, a map (build --map, synth --with, export --with) or an index
+    map (synth --map): one line saying what it is, never "no such file" (and never blocking on the FIFO)."""
+    from tilesynth.io.images import load_image, load_raster
+
+    bad = tmp_path / f"bad-{kind}.png"
+    os.mkfifo(bad) if kind == "fifo" else bad.mkdir()
+    npy = tmp_path / f"bad-{kind}.npy"
+    os.mkfifo(npy) if kind == "fifo" else npy.mkdir()
+    said = "is not a regular file (a FIFO" if kind == "fifo" else "is a directory"
+    for fn in (load_image, load_raster):
+        with pytest.raises(tilesynth.ParameterError, match=said.replace("(", r"\(")):
+            fn(bad)
+    out = str(tmp_path / "o.png")
+    for args in (
+        ["build", str(bad), "-o", str(tmp_path / "x.tiles"), "-q"],
+        ["build", str(exemplar), "--map", f"height={bad}", "-o", str(tmp_path / "x.tiles"), "-q"],
+        ["synth", str(tiles), "-o", out, "--size", "48x48", "--with", str(bad), "-q"],
+        ["synth", str(tiles), "-o", out, "--size", "48x48", "--map", str(npy), "-q"],
+        ["export", str(tiles), "-o", str(tmp_path / "exp"), "--with", str(bad)],
+    ):
+        assert main(args) == 2, args
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and said in err and "no such file" not in err, (args, err)
+    assert not (tmp_path / "x.tiles").exists() and not (tmp_path / "o.png").exists()

@@ -248,3 +248,146 @@ def test_ga_progress_says_converged(small_exemplar):
     sel = ts.params["selection"]
     assert sel["stop_reason"] == "stagnation" and sel["generations"] < 50
     assert f"converged at generation {sel['generations']} of 50" in buf.getvalue()
+
+
+# ------------------------------------------------------------------------ a material synth is one unit
+@pytest.mark.parametrize("error", ["interrupt", "enospc"])
+def test_interrupted_material_synth_keeps_the_previous_colour_and_maps(
+    tmp_path, small_exemplar, monkeypatch, error
+):
+    """Ctrl-C or a full disk while the maps of a material synth are written (the colour already encoded): the
+    previous colour and maps stay as they were, side by side; no new colour beside old maps, no temporary."""
+    import errno
+
+    import tilesynth.io.images as images
+    from tilesynth.cli.main import main
+
+    ex, h = tmp_path / "ex.png", tmp_path / "h.png"
+    tilesynth.save_image(ex, small_exemplar)
+    tilesynth.save_image(h, small_exemplar[..., :1])
+    ts = tmp_path / "m.tiles"
+    assert (
+        main(
+            [
+                "build",
+                str(ex),
+                "--map",
+                f"height={h}",
+                "-o",
+                str(ts),
+                "--tile-size",
+                "24",
+                "--seed",
+                "1",
+                "-q",
+            ]
+        )
+        == 0
+    )
+    out = tmp_path / "o.png"
+    assert main(["synth", str(ts), "-o", str(out), "--size", "64x64", "--seed", "1", "-q"]) == 0
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert "o-height.png" in before
+    real = images.save_image
+    calls = []
+
+    def failing(path, *a, **k):
+        calls.append(path)
+        if len(calls) == 2:  # the first map, after the colour
+            if error == "enospc":
+                raise OSError(errno.ENOSPC, "No space left on device", str(path))
+            raise KeyboardInterrupt
+        return real(path, *a, **k)
+
+    monkeypatch.setattr(images, "save_image", failing)
+    rc = main(["synth", str(ts), "-o", str(out), "--size", "64x64", "--seed", "2", "-q"])
+    assert rc == (130 if error == "interrupt" else 2)
+    assert len(calls) == 2
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    monkeypatch.undo()
+    assert main(["synth", str(ts), "-o", str(out), "--size", "64x64", "--seed", "2", "-q"]) == 0
+    after = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert after["o.png"] != before["o.png"] and after["o-height.png"] != before["o-height.png"]
+
+
+def test_ctrl_c_during_an_exr_encode_takes_effect_at_once(tmp_path, small_exemplar):
+    """`synth -o x.exr` spends seconds in one OpenEXR encode (28 s at 9000^2) that does not look at signals; the
+    main thread now waits for it in slices, so Ctrl-C ends the command at once (it ran the encode to its end:
+    8-18 s at 9000^2). Measured as the CPU the child spends after the signal (tests/signal_timing.py), which the
+    load of a shared machine does not inflate; an encode left to finish would cost several CPU seconds."""
+    from tilesynth.cli.main import main
+
+    ex = tmp_path / "ex.png"
+    tilesynth.save_image(ex, small_exemplar)
+    ts = tmp_path / "ex.tiles"
+    assert main(["build", str(ex), "-o", str(ts), "--tile-size", "24", "--seed", "1", "-q"]) == 0
+    p = subprocess.Popen(
+        [sys.executable, "-m", "tilesynth", "synth", str(ts), "-o", str(tmp_path / "big.exr")]
+        + ["--size", "4000", "--seed", "1", "-q"],
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "TILESYNTH_NUM_THREADS": "1"},
+    )
+    deadline = time.monotonic() + 120
+    while not any(n.endswith(".part") for n in os.listdir(tmp_path)):  # the encode has begun
+        assert p.poll() is None, "synth ended before its output was being written"
+        assert time.monotonic() < deadline
+        time.sleep(0.005)
+    time.sleep(0.5)
+    rc, err, wall, cpu = interrupt(p, signal.SIGINT)
+    assert rc == 130 and "interrupted" in err, err
+    assert cpu < 1.5, f"{cpu:.1f} CPU s after Ctrl-C (wall {wall:.1f} s)"
+    assert sorted(os.listdir(tmp_path)) == ["ex.png", "ex.tiles"]
+
+
+def test_a_huge_manifest_is_refused_before_it_is_read(tmp_path, small_exemplar):
+    """A tile set whose manifest.json unpacks to more than MAX_MANIFEST_BYTES (whitespace compresses ~1000:1, so
+    a small file could make the loader read gigabytes) is refused on its declared size, with the limit."""
+    import zipfile
+
+    from tilesynth.cli.main import main
+    from tilesynth.tileset import tilefile
+
+    src = tmp_path / "s.tiles"
+    tilesynth.build_omega(small_exemplar, tileset="16a", tile_size=24, seed=1).save(src)
+    bad = tmp_path / "bad.tiles"
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(bad, "w", zipfile.ZIP_DEFLATED) as zout:
+        for info in zin.infolist():
+            data = zin.read(info)
+            if info.filename == "manifest.json":
+                data = b" " * (tilefile.MAX_MANIFEST_BYTES + 1) + data  # still valid JSON
+            zout.writestr(info.filename, data)
+    assert bad.stat().st_size < 2 << 20
+    with pytest.raises(
+        tilesynth.TileSetFormatError, match=r"manifest\.json unpacks to \d+ bytes.*MAX_MANIFEST"
+    ):
+        tilesynth.load(bad)
+    assert main(["info", str(bad)]) == 2
+
+
+def test_sigterm_during_a_re_export_leaves_the_previous_export_whole(tmp_path, small_exemplar):
+    """A real SIGTERM (the CLI's handler) in the middle of a re-export, after some atlas levels were written:
+    exit 143, and the previous export is byte for byte as it was, with no temporary file."""
+    src = tmp_path / "s.tiles"
+    tilesynth.build_omega(small_exemplar, tileset="16a", tile_size=24, seed=1).save(src)
+    out = tmp_path / "exp"
+    from tilesynth.cli.main import main
+
+    assert main(["export", str(src), "-o", str(out), "--index-seed", "1"]) == 0
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    code = textwrap.dedent(f"""
+        import os, signal, sys
+        import tilesynth.engine as engine
+        from tilesynth.cli.main import main
+        real, calls = engine._write_level, []
+        def level(path, arr):
+            calls.append(path)
+            real(path, arr)
+            if len(calls) == 2:
+                os.kill(os.getpid(), signal.SIGTERM)
+        engine._write_level = level
+        sys.exit(main(["export", {str(src)!r}, "-o", {str(out)!r}, "--index-seed", "2", "--padding", "4"]))
+    """)
+    r = subprocess.run([sys.executable, "-c", code], check=False, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 128 + signal.SIGTERM and "terminated" in r.stderr, r.stderr
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before

@@ -157,6 +157,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, TextIO
 
+from ..base.signals import Terminated
 from ..errors import ParameterError, TilesynthError
 from .batch_materials import params as _material_params  # issue 14: material maps, mask, alpha
 from .batch_materials import parse_material_keys as _material_keys
@@ -341,8 +342,15 @@ def parse_library(
         raise BatchError(f"{source}: no jobs (add [[jobs]] tables with an 'exemplar' each)")
     jobs_raw = _typed(jobs_raw, list, f"{source}: field 'jobs'")
     jobs: list[Job] = []
+    globbed: set[int] = set()
+    failed: list[tuple[Path, BatchError]] = []
     for k, body in enumerate(jobs_raw, start=1):
-        jobs.extend(_expand_job(k, body, presets, base, out_dir, source))
+        expanded, is_glob, bad = _expand_job(k, body, presets, base, out_dir, source)
+        jobs.extend(expanded)
+        failed.extend(bad)
+        if is_glob:
+            globbed.update(id(j) for j in expanded)
+    jobs = _without_outputs(jobs, globbed, failed)
     if not jobs:
         raise BatchError(f"{source}: no jobs (add [[jobs]] tables with an 'exemplar' each)")
     _check_collisions(jobs, log_path, source)
@@ -460,9 +468,42 @@ def _effective(
     return opts, origin
 
 
+def _without_outputs(
+    jobs: list[Job], globbed: set[int], failed: list[tuple[Path, BatchError]] = ()
+) -> list[Job]:
+    """The jobs without those a glob made of another job's output (a sheet, a preview, a file inside a report
+    or export folder): a glob over a folder that also receives the outputs (``exemplar = "tex/*.png"``,
+    ``output_dir = "tex"``) would otherwise make the second run build the first run's outputs, and collide.
+    ``failed``: glob matches whose job could not be made (``(file, error)``): the first that is not an output
+    is raised."""
+    written = {os.path.normcase(str(p.resolve())) for j in jobs for p in (*j.outputs.values(), j.stamp)}
+
+    def is_output(ex: Path) -> bool:
+        ex = ex.resolve()
+        return os.path.normcase(str(ex)) in written or any(
+            os.path.normcase(str(d)) in written for d in ex.parents
+        )
+
+    for ex, exc in failed:
+        if not is_output(ex):
+            raise exc
+    return [j for j in jobs if id(j) not in globbed or not is_output(j.exemplar)]
+
+
+def _glob_root(base: Path, pattern: str) -> Path:
+    """The folder a glob starts from: its leading components without wildcards."""
+    parts = Path(pattern).parts
+    fixed = []
+    for part in parts[:-1]:
+        if glob.has_magic(part):
+            break
+        fixed.append(part)
+    return (base.joinpath(*fixed) if fixed else base).resolve()
+
+
 def _expand_job(
     k: int, body: Any, presets: dict[str, dict[str, Any]], base: Path, out_dir: Path, source: str
-) -> list[Job]:
+) -> tuple[list[Job], bool, list[tuple[Path, BatchError]]]:
     where = f"{source}: job {k}"
     body = _typed(body, dict, where)
     if "exemplar" in body and isinstance(body["exemplar"], str):
@@ -490,47 +531,78 @@ def _expand_job(
     for e in exclude:
         _typed(e, str, f"{where}: field 'exclude' entry")
     name_t = _typed(body.get("name", "{stem}"), str, f"{where}: field 'name'")
-    found, is_glob = _exemplars(base, pattern, exclude, name_t, where)
-    jobs = []
+    found, is_glob = _exemplars(base, pattern, exclude, name_t, where, out_dir)
+    jobs: list[Job] = []
+    failed: list[tuple[Path, BatchError]] = []
     for ex in found:
-        stem = ex.stem
         try:
-            name = name_t.format(stem=stem)
-        except (KeyError, IndexError, ValueError, AttributeError) as exc:
-            raise BatchError(
-                f"{where}: field 'name' = {name_t!r}: bad placeholder ({exc}); only {{stem}} exists"
-            ) from None
-        wj = f"{where} -> {name!r}" if is_glob else where
-        _check_name(name, f"{wj}: field 'name'")
-        maps = _job_maps(maps_raw, stem, base, kinds, wj)
-        try:
-            mat = _material_keys({**preset, **own}, material_raw, kinds, stem, base, wj)
-        except ParameterError as exc:
-            raise BatchError(str(exc)) from None
-        if export is not None and export["maps"] and "albedo" in maps:
-            raise BatchError(
-                f"{wj}: field 'maps' entry 'albedo': the engine export names the colour atlas 'albedo'; "
-                "rename the map (or set export.maps = false)"
-            )
-        outputs = _outputs(out_dir, name, sheet, previews, report, maps, export, mat["material"])
-        jobs.append(
-            Job(
-                k,
-                name,
-                ex.resolve(),
-                options,
-                maps,
-                sheet,
-                tuple(previews),
-                report,
-                outputs,
-                out_dir / (name + STAMP_SUFFIX),
-                wj,
-                export,
-                **mat,
-            )
+            job = _job_of(
+                k, ex, name_t, where, is_glob, options, preset, own, sheet, previews, report, export,
+                maps_raw, material_raw, kinds, base, out_dir,
+            )  # fmt: skip
+            jobs.append(job)
+        except BatchError as exc:
+            if not is_glob:
+                raise
+            failed.append((ex, exc))  # raised unless the file turns out to be an output (_without_outputs)
+    return jobs, is_glob, failed
+
+
+def _job_of(
+    k: int,
+    ex: Path,
+    name_t: str,
+    where: str,
+    is_glob: bool,
+    options: dict[str, Any],
+    preset: dict[str, Any],
+    own: dict[str, Any],
+    sheet: bool,
+    previews: list[dict[str, Any]],
+    report: dict[str, Any] | None,
+    export: dict[str, Any] | None,
+    maps_raw: dict[str, Any],
+    material_raw: dict[str, Any],
+    kinds: dict[str, Any],
+    base: Path,
+    out_dir: Path,
+) -> Job:
+    """The job of one exemplar file of a ``[[jobs]]`` table."""
+    stem = ex.stem
+    try:
+        name = name_t.format(stem=stem)
+    except (KeyError, IndexError, ValueError, AttributeError) as exc:
+        raise BatchError(
+            f"{where}: field 'name' = {name_t!r}: bad placeholder ({exc}); only {{stem}} exists"
+        ) from None
+    wj = f"{where} -> {name!r}" if is_glob else where
+    _check_name(name, f"{wj}: field 'name'")
+    maps = _job_maps(maps_raw, stem, base, kinds, wj)
+    try:
+        mat = _material_keys({**preset, **own}, material_raw, kinds, stem, base, wj)
+    except ParameterError as exc:
+        raise BatchError(str(exc)) from None
+    if export is not None and export["maps"] and "albedo" in maps:
+        raise BatchError(
+            f"{wj}: field 'maps' entry 'albedo': the engine export names the colour atlas 'albedo'; "
+            "rename the map (or set export.maps = false)"
         )
-    return jobs
+    outputs = _outputs(out_dir, name, sheet, previews, report, maps, export, mat["material"])
+    return Job(
+        k,
+        name,
+        ex.resolve(),
+        options,
+        maps,
+        sheet,
+        tuple(previews),
+        report,
+        outputs,
+        out_dir / (name + STAMP_SUFFIX),
+        wj,
+        export,
+        **mat,
+    )
 
 
 def _job_preset(
@@ -577,13 +649,21 @@ def _output_options(
 
 
 def _exemplars(
-    base: Path, pattern: str, exclude: list[str], name_t: str, where: str
+    base: Path, pattern: str, exclude: list[str], name_t: str, where: str, out_dir: Path | None = None
 ) -> tuple[list[Path], bool]:
-    """The exemplar files of a job (its glob expanded, sorted, without the excluded) and whether it is a glob."""
+    """The exemplar files of a job (its glob expanded, sorted, without the excluded) and whether it is a glob.
+
+    A glob never reaches into the output folder when that folder lies below where the glob starts
+    (``exemplar = "tex/**/*.png"``, ``output_dir = "tex/out"``): its files are this batch's outputs. (When the
+    outputs share the exemplars' folder, :func:`_without_outputs` drops the outputs by name.)"""
     is_glob = glob.has_magic(pattern)
     if is_glob:
         found = sorted(Path(p) for p in glob.glob(str(base / pattern), recursive=True) if Path(p).is_file())
         found = [p for p in found if not any(fnmatch.fnmatch(p.name, e) for e in exclude)]
+        if out_dir is not None:
+            out_r, root = out_dir.resolve(), _glob_root(base, pattern)
+            if out_r != root and root in out_r.parents:
+                found = [p for p in found if out_r not in p.resolve().parents]
         if not found:
             raise BatchError(f"{where}: field 'exemplar' = {pattern!r}: the glob matches no file (in {base})")
         if "{stem}" not in name_t and len(found) > 1:
@@ -596,7 +676,7 @@ def _exemplars(
             raise BatchError(f"{where}: field 'exclude': only used when 'exemplar' is a glob")
         p = base / pattern
         if not p.is_file():
-            raise BatchError(f"{where}: field 'exemplar' = {pattern!r}: no such file ({p})")
+            raise BatchError(f"{where}: field 'exemplar' = {pattern!r}: {_not_a_file(p)} ({p})")
         found = [p]
     return found, is_glob
 
@@ -616,9 +696,20 @@ def _job_maps(
             raise BatchError(f"{wm} = {mval!r}: bad placeholder ({exc}); only {{stem}} exists") from None
         mp = (base / mpath).resolve()
         if not mp.is_file():
-            raise BatchError(f"{wm} = {mpath!r}: no such file ({mp})")
+            raise BatchError(f"{wm} = {mpath!r}: {_not_a_file(mp)} ({mp})")
         maps[mname] = (mp, kinds.get(mname, "auto"))
     return maps
+
+
+def _not_a_file(p: Path) -> str:
+    """What an input path that is not a regular file is (as :func:`tilesynth.io.images.check_input_file`)."""
+    if not p.exists():
+        return "no such file"
+    return (
+        "is a directory, expected a file"
+        if p.is_dir()
+        else "is not a regular file (a FIFO, device or socket)"
+    )
 
 
 def _check_name(name: str, where: str, slash: bool = True) -> None:
@@ -761,7 +852,22 @@ def _outputs(
     return o
 
 
+def _job_inputs(j: Job) -> list[tuple[str, Path]]:
+    """Every file a job reads: its exemplar, maps, material maps and mask."""
+    ins = [("exemplar", j.exemplar)]
+    ins += [(f"map {k!r}", mp) for k, (mp, _) in j.maps.items()]
+    ins += [(f"material map {k!r}", m["path"]) for k, m in j.material.items()]
+    if j.mask is not None:
+        ins.append(("mask", j.mask))
+    return ins
+
+
 def _check_collisions(jobs: list[Job], log: Path, source: str) -> None:
+    """No output of the batch (a job's, or the log) may be an input (a job's exemplar, map or mask, or the batch
+    file itself) or another output: the rule of :mod:`tilesynth.io.paths` (same inode, or same resolved path
+    for a file not there yet), with messages that name the jobs."""
+    from ..io.paths import file_identity
+
     names: dict[str, Job] = {}
     for j in jobs:
         key = os.path.normcase(j.name)
@@ -772,12 +878,22 @@ def _check_collisions(jobs: list[Job], log: Path, source: str) -> None:
                 f"exemplar {o.exemplar.name}); give one of them another name"
             )
         names[key] = j
-    inputs = {os.path.normcase(str(j.exemplar)): j for j in jobs}
-    inputs.update({os.path.normcase(str(mp)): j for j in jobs for mp, _ in j.maps.values()})
-    writers: dict[str, tuple[Job, str]] = {os.path.normcase(str(log.resolve())): (None, "the log")}  # type: ignore[dict-item]
+    inputs: dict[tuple, str] = {}
+    if Path(source).is_file():
+        inputs[file_identity(source)] = "the batch file"
+    for j in jobs:
+        for role, p in _job_inputs(j):
+            inputs.setdefault(file_identity(p), f"{j.where} ({role})")
+    log_id = file_identity(log)
+    if log_id in inputs:
+        raise BatchError(
+            f"{source}: the log {str(log)!r} is an input: {inputs[log_id]}; choose another log file"
+        )
+    writers: dict[tuple, tuple[Job, str]] = {log_id: (None, "the log")}  # type: ignore[dict-item]
+    by_path: dict[str, tuple[Job, str]] = {os.path.normcase(str(log.resolve())): (None, "the log")}  # type: ignore[dict-item]
     for j in jobs:
         for role, p in [*j.outputs.items(), ("stamp", j.stamp)]:
-            key = os.path.normcase(str(p.resolve()))
+            key = file_identity(p)
             if key in writers:
                 oj, orole = writers[key]
                 other = "the batch log" if oj is None else f"{oj.where} ({orole})"
@@ -787,14 +903,15 @@ def _check_collisions(jobs: list[Job], log: Path, source: str) -> None:
             if key in inputs:
                 raise BatchError(
                     f"{j.where}: field 'name': its {role} output {str(p)!r} would overwrite an input "
-                    f"of {inputs[key].where}"
+                    f"of {inputs[key]}"
                 )
             writers[key] = (j, role)
-    for key, (j, role) in writers.items():  # a file where another job needs a directory
+            by_path[os.path.normcase(str(p.resolve()))] = (j, role)
+    for key, (j, role) in by_path.items():  # a file where another job needs a directory
         for parent in Path(key).parents:
             pk = str(parent)
-            if pk in writers:
-                oj, orole = writers[pk]
+            if pk in by_path:
+                oj, orole = by_path[pk]
                 raise BatchError(
                     f"{j.where if j else source}: field 'name': its {role} output lies inside "
                     f"{orole} output {pk!r} of {oj.where if oj else 'the batch'}"
@@ -893,7 +1010,8 @@ def run_job(spec: dict[str, Any]) -> dict[str, Any]:
         warnings.simplefilter("always")
         try:
             tmp = (
-                Path(spec["stamp"]).parent / f"{TMP_PREFIX}{Path(spec['stamp']).name}.{uuid.uuid4().hex[:12]}"
+                Path(spec["stamp"]).parent
+                / f"{TMP_PREFIX}{Path(spec['stamp']).name}.{uuid.uuid4().hex[:12]}-{_owner_tag(os.getpid())}"
             )
             _clean_stale(Path(spec["stamp"]))
             tmp.mkdir(parents=True)
@@ -932,10 +1050,62 @@ def _message(exc: BaseException) -> str:
     return str(exc)
 
 
+#: A temporary directory of another machine (a cluster on a shared file system) is removed after this many
+#: seconds without change: its owner cannot be asked whether it still runs.
+FOREIGN_TMP_AGE = 24 * 3600
+
+
+def _host_tag() -> str:
+    return hashlib.sha256(socket.gethostname().encode()).hexdigest()[:8]
+
+
+def _start_time(pid: int) -> str:
+    """When process ``pid`` started (clock ticks since boot, from /proc), or "" where that is unknown: with the
+    pid it names one process even after the pid is reused."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as fh:
+            return fh.read().rsplit(b")", 1)[1].split()[19].decode()
+    except (OSError, IndexError):
+        return ""
+
+
+def _owner_tag(pid: int) -> str:
+    """``<pid>-<start time>-<host hash>``: the process that owns a temporary directory."""
+    return f"{pid}-{_start_time(pid) or 0}-{_host_tag()}"
+
+
+def _owner_alive(name: str) -> bool:
+    """Whether the process named in a temporary directory's name (:func:`_owner_tag`) may still be running:
+    on this machine, a process of that pid and start time exists; on another machine, always (the caller
+    decides by age). Names without an owner (made by an older version) have none alive."""
+    tail = name.rsplit(".", 1)[-1].split("-")
+    if len(tail) != 4 or not tail[1].isdigit():
+        return False
+    _, pid, start, host = tail
+    if host != _host_tag():
+        return True
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        pass  # exists, owned by another user
+    now = _start_time(int(pid))
+    return not now or start in ("0", now)
+
+
 def _clean_stale(stamp: Path) -> None:
-    """Remove temporary directories an interrupted run of this job left behind."""
+    """Remove the temporary directories an interrupted run of this job left behind, never one that a run still
+    going (another ``tilesynth batch`` on the same library, another worker) is writing: a directory is stale
+    when its owner process (pid and start time, in its name) has ended on this machine, or, made on another
+    machine, when it has not changed for :data:`FOREIGN_TMP_AGE` seconds."""
     with contextlib.suppress(OSError):
         for p in stamp.parent.glob(f"{glob.escape(TMP_PREFIX + stamp.name)}.*"):
+            if _owner_alive(p.name):
+                foreign = p.name.rsplit("-", 1)[-1] != _host_tag()
+                with contextlib.suppress(OSError):
+                    if not foreign or time.time() - p.stat().st_mtime < FOREIGN_TMP_AGE:
+                        continue
             shutil.rmtree(p, ignore_errors=True)
 
 
@@ -1205,8 +1375,51 @@ def _start_method() -> str:
     return "forkserver" if "forkserver" in methods else "spawn"
 
 
-def _init_worker(threads: int) -> None:
+def _init_worker(threads: int, parent: int | None = None) -> None:
     os.environ["TILESYNTH_NUM_THREADS"] = str(threads)
+    if parent is not None:
+        _die_with(parent)
+
+
+def _die_with(parent: int) -> None:
+    """End this worker process as soon as ``parent`` (the process that runs the batch) is gone.
+
+    Why: a pool's workers are children of the forkserver, not of the batch process; when the batch process is
+    killed (SIGKILL, the OOM killer) nothing tells a worker busy with a job, and it ran on for minutes, keeping
+    the forkserver and the resource tracker alive too. A thread waits on a pidfd of the parent (Linux >= 5.3;
+    elsewhere it polls every half second) and ends the process at once; ``PR_SET_PDEATHSIG`` also covers the
+    death of the forkserver."""
+    import threading
+
+    with contextlib.suppress(Exception):  # Linux only
+        import ctypes
+        import signal
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
+    try:
+        fd = os.pidfd_open(parent)  # type: ignore[attr-defined]
+    except ProcessLookupError:
+        os._exit(1)
+    except (AttributeError, OSError):
+        fd = None
+
+    def watch() -> None:
+        if fd is not None:
+            import select
+
+            select.select([fd], [], [])  # readable when the process ends
+            os._exit(1)
+        while True:
+            time.sleep(0.5)
+            try:
+                os.kill(parent, 0)
+            except ProcessLookupError:
+                os._exit(1)
+            except OSError:
+                pass
+
+    threading.Thread(target=watch, name="tilesynth-parent-watch", daemon=True).start()
 
 
 class _JobProgress:
@@ -1309,6 +1522,8 @@ def build_many(
     lib = _as_library(jobs)
     _check_run_args(executor, workers, threads, scheduler)
     log_path = Path(log) if log is not None else lib.log
+    if log is not None:  # the log given here goes through the same check as the batch file's own
+        _check_collisions(lib.jobs, log_path, lib.source)
     run_id = (
         datetime.datetime.now(datetime.timezone.utc).strftime("%Y%m%dT%H%M%SZ") + f"-{uuid.uuid4().hex[:8]}"
     )
@@ -1330,6 +1545,7 @@ def build_many(
     results: dict[int, dict[str, Any]] = {}
     futures: dict[cf.Future, dict[str, Any]] = {}
     log_fh = open(log_path, "a", encoding="utf-8") if log_path is not None else None  # noqa: SIM115
+    order: dict[int, int] = {}
     try:
         for k, (_, _unused, rec) in enumerate(plan):
             if rec is not None:
@@ -1340,12 +1556,24 @@ def build_many(
             _run_serial(to_run, order, results, log_fh, run_id, progress)
         elif to_run:
             _run_on_executor(executor, to_run, futures, slots, order, results, log_fh, run_id, progress)
-    except KeyboardInterrupt:
-        # stop now: cancel what has not started (Dask cancels on the cluster too) and end the local workers, which
-        # would otherwise run the calls already queued to them; a job cut short leaves only its temporary
-        # directory, removed when it next runs
+    except (KeyboardInterrupt, Terminated):
+        # stop now (Ctrl-C, or SIGTERM in the command line): cancel what has not started (Dask cancels on the
+        # cluster too) and end the local workers, which would otherwise run the calls already queued to them; a
+        # job cut short leaves only its temporary directory, removed when it next runs. Jobs that finished
+        # before the signal but were not collected yet are logged.
         for f in futures:
             f.cancel()
+        for f, spec in futures.items():
+            k = order.get(id(spec))
+            if (
+                k is not None
+                and k not in results
+                and f.done()
+                and not f.cancelled()
+                and f.exception() is None
+            ):
+                results[k] = f.result()
+                _log(log_fh, results[k], run_id)
         if own_pool is not None:
             procs = list((getattr(own_pool, "_processes", None) or {}).values())
             own_pool.shutdown(wait=False, cancel_futures=True)
@@ -1436,7 +1664,7 @@ def _start_executor(
             max_workers=n,
             mp_context=multiprocessing.get_context(_start_method()),
             initializer=_init_worker,
-            initargs=(per,),
+            initargs=(per, os.getpid()),
         )
         executor, slots = own_pool, n
     elif executor is not None and not isinstance(executor, str):

@@ -128,6 +128,8 @@ def run(args: argparse.Namespace) -> None:
             if name in maps or name == "albedo":
                 raise ParameterError(f"--with {mp!r}: map name {name!r} is taken; rename the file")
             maps[name] = load_raster(mp)
+        from ..base.progress import Progress
+
         m = export(
             tiles,
             args.output_dir,
@@ -136,6 +138,9 @@ def run(args: argparse.Namespace) -> None:
             map_smooth=args.map_smooth,
             normal_y=args.normal_y,
             viewer=args.viewer,
+            # every input against every file the export writes (tilesynth.io.paths, before any write)
+            inputs=[("--with", mp) for mp in args.with_maps],
+            progress=Progress(getattr(args, "quiet", False)),
             **kw,
         )
         print(

@@ -609,7 +609,7 @@ def _synth(
 ) -> None:
     from ..base.progress import Progress
     from ..base.validate import seed_int
-    from ..io.images import atomic_open, save_image
+    from ..io.images import atomic_open, file_set, save_image
     from ..synth.synthesis import check_size, synthesize
     from ..tileset.tilefile import TileSet
 
@@ -640,7 +640,17 @@ def _synth(
     if ts.map_specs and origin != (0, 0):
         raise ParameterError("--origin: a tile set with maps lays them out from (0, 0); leave --origin out")
     stored_smooth = {"auto": None, "on": True, "off": False}[map_smooth]
-    stored = plan_map_outputs(ts, output, [Path(ts_path), *(t for _, _, t in maps)], stored_smooth)
+    stored = plan_map_outputs(
+        ts,
+        output,
+        [("tileset", ts_path), ("--map", map_path), *(("--with", mp) for mp, _, _ in maps)],
+        [
+            ("--output", output),
+            ("--save-map", save_map),
+            *((f"--with {mp!r} output", t) for mp, _, t in maps),
+        ],
+        stored_smooth,
+    )
     t0 = time.perf_counter()
     prog("synthesis", 0, 1)
     img, imap = synthesize(
@@ -655,14 +665,17 @@ def _synth(
         wrap=wrap,
     )
     prog("synthesis", 1, 1)
-    prog("writing image", 0, 1)
-    save_image(output, img)
-    prog("writing image", 1, 1)
-    if save_map:
-        with atomic_open(save_map) as fh:
-            np.save(fh, imap, allow_pickle=False)
-    _synth_write_maps(prog, ts, maps, imap, size, threads, smooth_maps)
-    write_map_outputs(prog, ts, stored, imap, size, threads, stored_smooth, normal_y)
+    # the colour, the index map and every map are committed as a unit: an error or a signal before the end
+    # leaves the previous files of that name as they were, never a new colour beside old maps
+    with file_set():
+        prog("writing image", 0, 1)
+        save_image(output, img)
+        prog("writing image", 1, 1)
+        if save_map:
+            with atomic_open(save_map) as fh:
+                np.save(fh, imap, allow_pickle=False)
+        _synth_write_maps(prog, ts, maps, imap, size, threads, smooth_maps)
+        write_map_outputs(prog, ts, stored, imap, size, threads, stored_smooth, normal_y)
     how = f"seed {seed}" if seed is not None else f"map {map_path}"
     prog.message(
         f"wrote {output}: {size[0]}x{size[1]}, {imap.shape[1]}x{imap.shape[0]} tiles, {how}, "

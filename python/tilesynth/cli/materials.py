@@ -138,27 +138,27 @@ def load_build_maps(args: argparse.Namespace) -> dict[str, Any] | None:
 
 
 def plan_map_outputs(
-    ts: Any, output: str, taken: list[Path], smooth: bool | None = None
+    ts: Any,
+    output: str,
+    inputs: list[tuple[str, Any]],
+    outputs: list[tuple[str, Any]],
+    smooth: bool | None = None,
 ) -> list[tuple[str, Path]]:
     """``[(map name, output path)]`` of the maps stored in ``ts`` (``OUT-<name>.<ext>`` by
-    :func:`tilesynth.io.paths.map_output`), refused up front when one would overwrite another output or cannot be
-    smoothed as asked."""
+    :func:`tilesynth.io.paths.map_output`), refused up front when one cannot be smoothed as asked, or when one
+    would be an input or another output: the command's ``inputs`` and ``outputs`` (``(label, path)``) and these
+    maps go through the one collision rule, :func:`tilesynth.io.paths.check_paths`."""
     from ..builder.materials import MapSpec, smooths
-    from ..io.paths import map_output
+    from ..io.paths import check_paths, map_output
 
     for d in getattr(ts, "map_specs", None) or []:
         smooths(ts, MapSpec.from_dict(d), smooth)  # raises before anything is written
 
     out = []
-    used = {Path(output).resolve(), *(t.resolve() for t in taken)}
     for d in getattr(ts, "map_specs", None) or []:
         target = map_output(output, d["name"] + d.get("suffix", ".png"), np.dtype(d["dtype"]))
-        if target.resolve() in used:
-            raise ParameterError(
-                f"map {d['name']!r} of the tile set: its output {str(target)!r} would overwrite another output"
-            )
-        used.add(target.resolve())
         out.append((d["name"], target))
+    check_paths(inputs, [*outputs, *((f"map {n!r} of the tile set: output", t, "image") for n, t in out)])
     return out
 
 

@@ -30,9 +30,11 @@ is what the issue rules out. The level PNGs carry the same data.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
+import re
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -215,13 +217,15 @@ def export(
     map_smooth: str = "auto",
     viewer: bool = False,
     source_path: str | os.PathLike[str] | None = None,
+    inputs: list[tuple[str, Any]] | None = None,
+    progress: Any = None,
 ) -> dict[str, Any]:
     """Export a tile set for real-time use (see the module docstring); returns the manifest.
 
     Parameters
     ----------
     tileset : a :class:`~tilesynth.TileSet`.
-    out_dir : directory to write (created; existing export files are overwritten).
+    out_dir : directory to write (created; the files of a previous export are replaced).
     maps : extra maps pixel-aligned with the exemplar, ``{name: (H, W[, C]) uint8 | uint16 | float32}``;
         laid out through exactly the same cuts as the colour (as ``synthesize_map``). A name containing
         ``normal`` is a normal map (linear, with ``normal_y``); every other extra map is linear data.
@@ -240,40 +244,118 @@ def export(
     map_smooth : ``"auto"`` / ``"on"`` / ``"off"``, as ``synth --map-smooth``.
     viewer : also write ``viewer.html``.
     source_path : the ``.tiles`` file, recorded in the manifest (its file digest) when given.
+    inputs : other input files, ``[(label, path)]``: with ``source_path``, none may be among the files written
+        (:func:`tilesynth.io.paths.check_paths`, before anything is written).
+    progress : a :class:`tilesynth.base.progress.Progress` (the atlases and the index map), or None.
+
+    The files are written as a unit (:func:`tilesynth.io.images.file_set`): an error, Ctrl-C or SIGTERM leaves
+    the previous export in ``out_dir`` as it was; a re-export removes the previous export's files that the new
+    manifest does not list.
     """
     normal_y = {"up": "+y", "down": "-y"}[normal_y_value(normal_y)]  # the manifest's spelling
     padding, lookup, hl = _check_export_args(
         tileset, maps, padding, bits, lookup, seed, wrap, index_size, index_seed, normal_y, map_smooth
     )
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "shaders").mkdir(exist_ok=True)
+    if out.exists() and not out.is_dir():
+        raise ParameterError(f"out_dir = {str(out_dir)!r}: exists and is not a directory")
 
     levels = _atlas.max_mip_level(tileset.tile_size, padding)
     cols, rows = _atlas.grid_for(tileset.n_tiles)
     built = build_maps(tileset, maps, padding, bits, map_smooth, normal_y)
-    files: list[str] = []
-    tiles_q = _atlas.quantise(tileset.tiles, bits)
-    exact = _atlas.gutter_exactness(tileset, built["albedo"]["cells"], padding, tiles_q)
-    map_entries = _write_atlases(built, out, cols, rows, levels, normal_y, files)
-    if lookup == "hash":
-        lookup_entry = _hash_lookup(hl, seed, wrap)
-    else:
-        lookup_entry = _write_index_map(tileset.definition, out, index_size, index_seed, files)
-    _write_shaders(out, files)
-    manifest = _manifest(tileset, padding, cols, rows, levels, exact, map_entries, lookup_entry, source_path)
-    if viewer:
-        from .viewer import write_viewer
+    names = export_files(built, levels, lookup == "index_map", viewer)
+    from ..io.paths import check_paths
 
-        write_viewer(tileset, out / "viewer.html", manifest, built, out)
-        files.append("viewer.html")
-    manifest["files"] = sorted(files)
-    try:
-        validate_manifest(manifest)
-    except ImportError:
-        pass
-    (out / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
+    ins = [("tileset", source_path), *(inputs or [])]
+    # before anything is written; in a directory not there yet, nothing can be an input (it is created below)
+    check_paths(ins, [(f"output file {n}", out / n) for n in names], writable=(out / "shaders").is_dir())
+    if lookup == "index_map":  # checked before any work
+        _index_size(tileset.definition, index_size)
+    previous = previous_export_files(out)
+    from ..io.paths import file_identity
+
+    # an input now stored under a name the previous export wrote (and this one does not) is not removed
+    taken = {file_identity(p) for _, p in ins if p is not None}
+    previous = {n for n in previous if file_identity(out / n) not in taken}
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "shaders").mkdir(exist_ok=True)
+    from ..io.images import file_set
+
+    # the whole set is committed as a unit: the previous export stays whole until every new file is written
+    with file_set():
+        files: list[str] = []
+        tiles_q = _atlas.quantise(tileset.tiles, bits)
+        exact = _atlas.gutter_exactness(tileset, built["albedo"]["cells"], padding, tiles_q)
+        map_entries = _write_atlases(built, out, cols, rows, levels, normal_y, files, progress)
+        if lookup == "hash":
+            lookup_entry = _hash_lookup(hl, seed, wrap)
+        else:
+            lookup_entry = _write_index_map(tileset.definition, out, index_size, index_seed, files, progress)
+        _write_shaders(out, files)
+        manifest = _manifest(
+            tileset, padding, cols, rows, levels, exact, map_entries, lookup_entry, source_path
+        )
+        if viewer:
+            from .viewer import write_viewer
+
+            write_viewer(tileset, out / "viewer.html", manifest, built, out)
+            files.append("viewer.html")
+        manifest["files"] = sorted(files)
+        try:
+            validate_manifest(manifest)
+        except ImportError:
+            pass
+        _write_text(out / "manifest.json", json.dumps(manifest, indent=1) + "\n")
+    for name in sorted(previous - set(files)):  # the previous export's files the new one does not list
+        with contextlib.suppress(OSError):
+            (out / name).unlink()
     return manifest
+
+
+#: Names an export may write (and so may remove when a re-export no longer lists them): a manifest read back
+#: from disk is data, and a tampered one must not make a re-export delete anything else.
+_EXPORT_NAME = re.compile(
+    r"^(atlas_[A-Za-z0-9_-]+(_mip[0-9]+)?\.(png|exr)|index\.png|viewer\.html|shaders/tilesynth\.[a-z]+)$"
+)
+
+#: Largest ``manifest.json`` read back from a previous export (a real one is a few hundred kB at most).
+MAX_MANIFEST_BYTES = 64 << 20
+
+
+def export_files(built: dict[str, Any], levels: int, index_map: bool, viewer: bool) -> list[str]:
+    """Every file an export writes into its directory (the names of :func:`export`, in writing order)."""
+    names = []
+    for name, info in built.items():
+        ext = "exr" if info["cells"].dtype == np.float32 else "png"
+        names += [f"atlas_{name}.{ext}"] + [f"atlas_{name}_mip{lv}.{ext}" for lv in range(1, levels + 1)]
+    if index_map:
+        names.append("index.png")
+    names += [f"shaders/{s}" for s in SHADER_FILES]
+    if viewer:
+        names.append("viewer.html")
+    return [*names, "manifest.json"]
+
+
+def previous_export_files(out: Path) -> set[str]:
+    """The files the export in ``out`` lists in its manifest (those an export may write only; none when there
+    is no readable manifest, or one larger than :data:`MAX_MANIFEST_BYTES`)."""
+    p = out / "manifest.json"
+    try:
+        if not p.is_file() or p.stat().st_size > MAX_MANIFEST_BYTES:
+            return set()
+        data = json.loads(p.read_text(encoding="utf-8"))
+        if not isinstance(data, dict) or data.get("format") != EXPORT_FORMAT:
+            return set()
+        return {f for f in data.get("files") or [] if isinstance(f, str) and _EXPORT_NAME.match(f)}
+    except (OSError, ValueError, TypeError):
+        return set()
+
+
+def _write_text(path: Path, text: str) -> None:
+    from ..io.images import atomic_open
+
+    with atomic_open(path, "wb") as fh:
+        fh.write(text.encode("utf-8"))
 
 
 def _check_export_args(
@@ -351,11 +433,14 @@ def _write_atlases(
     levels: int,
     normal_y: str,
     files: list[str],
+    progress: Any = None,
 ) -> list[dict[str, Any]]:
     """Pack every map's cells, write its mip chain (appending the file names to ``files``); the manifest's
     ``maps`` entries."""
     map_entries = []
-    for name, info in built.items():
+    for k, (name, info) in enumerate(built.items()):
+        if progress is not None:
+            progress("atlases", k, len(built))
         cells = info["cells"]
         srgb = (name == "albedo" or info.get("map_kind") == "colour") and cells.dtype != np.float32
         chain = _atlas.mip_chain(_atlas.pack(cells, cols, rows), levels, srgb)
@@ -385,6 +470,8 @@ def _write_atlases(
         if info.get("map_kind", "normal" if "normal" in name.lower() else None) == "normal":
             entry["normal_y"] = normal_y
         map_entries.append(entry)
+    if progress is not None:
+        progress("atlases", len(built), len(built))
     return map_entries
 
 
@@ -401,16 +488,27 @@ def _hash_lookup(hl: dict[str, Any] | None, seed: int, wrap: tuple[int, int] | N
     }
 
 
-def _write_index_map(
-    defn: Any, out: Path, index_size: tuple[int, int] | None, index_seed: int, files: list[str]
-) -> dict[str, Any]:
-    """Write ``index.png`` (a toroidal tiling) and return the manifest's ``lookup`` entry of the index-map mode."""
+def _index_size(defn: Any, index_size: tuple[int, int] | None) -> tuple[int, int]:
+    """The (cols, rows) of the index map, checked."""
     if index_size is None:
         index_size = default_index_size(defn)
     icols, irows = (int(v) for v in index_size)
     if icols < 1 or irows < 1 or icols * irows > 1 << 22:
         raise ParameterError(f"index_size = {index_size!r}: (cols, rows) >= 1 and at most 4M cells")
-    imap = toroidal_index_map(defn, irows, icols, index_seed)
+    return icols, irows
+
+
+def _write_index_map(
+    defn: Any,
+    out: Path,
+    index_size: tuple[int, int] | None,
+    index_seed: int,
+    files: list[str],
+    progress: Any = None,
+) -> dict[str, Any]:
+    """Write ``index.png`` (a toroidal tiling) and return the manifest's ``lookup`` entry of the index-map mode."""
+    icols, irows = _index_size(defn, index_size)
+    imap = toroidal_index_map(defn, irows, icols, index_seed, progress=progress)
     from ..io.images import save_image
 
     save_image(out / "index.png", imap.astype(np.uint16), bits=16)
@@ -429,8 +527,7 @@ def _write_index_map(
 
 def _write_shaders(out: Path, files: list[str]) -> None:
     for s in SHADER_FILES:
-        dst = out / "shaders" / s
-        dst.write_text(shader_source(s), encoding="utf-8")
+        _write_text(out / "shaders" / s, shader_source(s))
         files.append(f"shaders/{s}")
 
 

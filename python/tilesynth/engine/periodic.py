@@ -43,7 +43,9 @@ class _Impossible(Exception):
     pass
 
 
-def _search(tileset: Any, rows: int, cols: int, rng: np.random.Generator, max_nodes: int) -> np.ndarray:
+def _search(
+    tileset: Any, rows: int, cols: int, rng: np.random.Generator, max_nodes: int, progress: Any = None
+) -> np.ndarray:
     n = len(tileset)
     lk = [tileset.left_key(t) for t in range(n)]
     rk = [tileset.right_key(t) for t in range(n)]
@@ -78,6 +80,8 @@ def _search(tileset: Any, rows: int, cols: int, rng: np.random.Generator, max_no
         nodes += 1
         if nodes > max_nodes:
             raise _Budget
+        if progress is not None and nodes % 16384 == 0:
+            progress("index map: search", i, cells)
         r, c = divmod(i, cols)
         if pos[i] >= len(options[i]):
             grid[r, c] = -1
@@ -89,6 +93,8 @@ def _search(tileset: Any, rows: int, cols: int, rng: np.random.Generator, max_no
             continue
         grid[r, c] = options[i][pos[i]]
         if i == cells - 1:
+            if progress is not None:
+                progress("index map: search", cells, cells)
             return grid.astype(np.int32)
         i += 1
         options[i] = candidates(i)
@@ -114,7 +120,9 @@ def default_index_size(tileset: Any, target: int = 32) -> tuple[int, int]:
     return q, q
 
 
-def _recolour(tileset: Any, grid: np.ndarray, rng: np.random.Generator, sweeps: int = 20) -> np.ndarray:
+def _recolour(
+    tileset: Any, grid: np.ndarray, rng: np.random.Generator, sweeps: int = 20, progress: Any = None
+) -> np.ndarray:
     """Randomise a toroidal tiling by Metropolis-free recolouring moves that keep it valid: for corner sets a
     lattice vertex takes a random colour when the four cells around it stay tiles of the set; for Wang sets an
     edge does, when its two cells stay tiles. Tiles sharing a tuple (variants) are then drawn uniformly."""
@@ -133,13 +141,17 @@ def _recolour(tileset: Any, grid: np.ndarray, rng: np.random.Generator, sweeps: 
             r1, c1 = (r + 1) % rows, (c + 1) % cols
             return (vert[r, c], vert[r1, c], vert[r, c1], vert[r1, c1])  # TL, BL, TR, BR
 
-        for _ in range(sweeps * rows * cols):
+        for step in range(sweeps * rows * cols):
+            if progress is not None and step % (rows * cols) == 0:
+                progress("index map: recolouring", step // (rows * cols), sweeps)
             r, c = int(rng.integers(rows)), int(rng.integers(cols))
             old = vert[r, c]
             vert[r, c] = int(rng.integers(k))
             around = ((r - 1) % rows, (c - 1) % cols), ((r - 1) % rows, c), (r, (c - 1) % cols), (r, c)
             if not all(tup(a, b) in by_tuple for a, b in around):
                 vert[r, c] = old
+        if progress is not None:
+            progress("index map: recolouring", sweeps, sweeps)
         out = np.empty_like(grid)
         for r in range(rows):
             for c in range(cols):
@@ -160,7 +172,9 @@ def _recolour(tileset: Any, grid: np.ndarray, rng: np.random.Generator, sweeps: 
         def cell(r: int, c: int) -> tuple[int, int, int, int]:
             return (hor[r, c], ver[r, (c + 1) % cols], hor[(r + 1) % rows, c], ver[r, c])
 
-        for _ in range(sweeps * rows * cols):
+        for step in range(sweeps * rows * cols):
+            if progress is not None and step % (rows * cols) == 0:
+                progress("index map: recolouring", step // (rows * cols), sweeps)
             r, c = int(rng.integers(rows)), int(rng.integers(cols))
             if rng.integers(2):
                 arr, kk, around = hor, len(hz), (((r - 1) % rows, c), (r, c))
@@ -170,22 +184,28 @@ def _recolour(tileset: Any, grid: np.ndarray, rng: np.random.Generator, sweeps: 
             arr[r, c] = int(rng.integers(kk))
             if not all(cell(a, b) in index for a, b in around):
                 arr[r, c] = old
+        if progress is not None:
+            progress("index map: recolouring", sweeps, sweeps)
         return np.array([[index[cell(r, c)] for c in range(cols)] for r in range(rows)], np.int32)
     return grid
 
 
-def toroidal_index_map(tileset: Any, rows: int, cols: int, seed: int | None = 0) -> np.ndarray:
+def toroidal_index_map(
+    tileset: Any, rows: int, cols: int, seed: int | None = 0, progress: Any = None
+) -> np.ndarray:
     """int32 ``(rows, cols)`` tile indices forming a valid tiling of the ``rows x cols`` torus.
 
     First a direct randomised search (scan order with backtracking, :data:`MAX_NODES` steps). If it runs out of
     steps, a small torus (p x q with p | rows, q | cols) is solved, repeated, and randomised by recolouring
     moves that keep the tiling valid (:func:`_recolour`). Raises :class:`ParameterError` (naming
-    ``index_size``) when no toroidal tiling of that size exists, with the sizes that work.
+    ``index_size``) when no toroidal tiling of that size exists, with the sizes that work. ``progress`` (a
+    :class:`tilesynth.base.progress.Progress`) is told how far the search and the recolouring sweeps are: a
+    2048 x 2048 map takes minutes.
     """
     name = getattr(tileset, "name", "?")
     rng = np.random.default_rng(seed)
     try:
-        out = _search(tileset, rows, cols, rng, MAX_NODES)
+        out = _search(tileset, rows, cols, rng, MAX_NODES, progress)
     except _Impossible:
         p = torus_period(tileset)
         hint = f"multiples of {p} work" if p else "no square torus up to 8 x 8 has one either"
@@ -201,7 +221,7 @@ def toroidal_index_map(tileset: Any, rows: int, cols: int, seed: int | None = 0)
                     small = _search(tileset, pr, pc, rng, SMALL_NODES)
                 except (_Impossible, _Budget):
                     continue
-                out = _recolour(tileset, np.tile(small, (rows // pr, cols // pc)), rng)
+                out = _recolour(tileset, np.tile(small, (rows // pr, cols // pc)), rng, progress=progress)
                 break
             if out is not None:
                 break

@@ -250,14 +250,16 @@ def read_index(out: Path, manifest: dict[str, Any]) -> np.ndarray | None:
         return None
     from PIL import Image
 
-    return np.asarray(Image.open(out / manifest["lookup"]["file"])).astype(np.int32)
+    from ..io.images import pending_path  # written in the same file set, not yet committed
+
+    return np.asarray(Image.open(pending_path(out / manifest["lookup"]["file"]))).astype(np.int32)
 
 
 def albedo_levels(out: Path, manifest: dict[str, Any]) -> list[np.ndarray]:
-    from ..io.images import load_raster
+    from ..io.images import load_raster, pending_path
 
     entry = next(m for m in manifest["maps"] if m["name"] == "albedo")
-    return [np.asarray(load_raster(out / lv["file"])) for lv in entry["levels"]]
+    return [np.asarray(load_raster(pending_path(out / lv["file"]))) for lv in entry["levels"]]
 
 
 def write_viewer(
@@ -268,4 +270,7 @@ def write_viewer(
     levels = albedo_levels(out, manifest)
     r = Reference(tileset, manifest, imap, levels)
     cfg = config_for(tileset, manifest, levels, imap, default_cases(r, manifest))
-    Path(path).write_text(page(cfg), encoding="utf-8")
+    from ..io.images import atomic_open
+
+    with atomic_open(path, "wb") as fh:
+        fh.write(page(cfg).encode("utf-8"))

@@ -176,9 +176,22 @@ def read_exr(
     return arr, list(names), bool(half)
 
 
-def _read_bytes(p: Path, where: str) -> bytes:
+def check_input_file(path: str | os.PathLike[str], where: str) -> Path:
+    """Raise :class:`ParameterError` starting with ``where`` unless ``path`` is a regular file, saying what it
+    is instead: missing, a directory, or a FIFO, device or socket (reading a FIFO would block, a device could
+    be endless). The one check of every image, map, mask and array input."""
+    p = Path(path)
+    if not p.exists():
+        raise ParameterError(f"{where}: no such file")
+    if p.is_dir():
+        raise ParameterError(f"{where}: is a directory, expected a file")
     if not p.is_file():
-        raise ParameterError(f"{where}: no such file" if not p.exists() else f"{where}: not a regular file")
+        raise ParameterError(f"{where}: is not a regular file (a FIFO, device or socket)")
+    return p
+
+
+def _read_bytes(p: Path, where: str) -> bytes:
+    check_input_file(p, where)
     try:
         return p.read_bytes()
     except OSError as exc:
@@ -210,8 +223,7 @@ def load_raster(path: str | os.PathLike[str], max_pixels: int | None = None) -> 
     p = Path(path)
     name = str(p)
     where = f"map = {name!r}"
-    if not p.is_file():
-        raise ParameterError(f"{where}: no such file")
+    check_input_file(p, where)
     if p.suffix.lower() == ".npy":
         arr = read_npy(p, where)
         if arr.dtype not in (np.uint8, np.uint16, np.float32) or arr.ndim not in (2, 3) or arr.size == 0:
@@ -263,6 +275,7 @@ def read_npy(path: str | os.PathLike[str], where: str) -> np.ndarray:
     """
     import tokenize
 
+    check_input_file(path, where)
     try:
         with np.errstate(over="ignore"):  # numpy's size of an absurd declared shape overflows, then raises
             return np.array(np.load(path, mmap_mode="r", allow_pickle=False))
@@ -315,12 +328,7 @@ def load_image(path: str | os.PathLike[str], max_pixels: int | None = None) -> t
     limit = pixel_limit(max_pixels)
     p = Path(path)
     where = f"input = {str(p)!r}"
-    if not p.exists():
-        raise ParameterError(f"{where}: no such file")
-    if p.is_dir():
-        raise ParameterError(f"{where}: is a directory, expected an image file")
-    if not p.is_file():
-        raise ParameterError(f"{where}: not a regular file")
+    check_input_file(p, where)
     if not os.access(p, os.R_OK):
         raise ParameterError(f"{where}: cannot read (permission denied)")
     with warnings.catch_warnings():
@@ -494,9 +502,86 @@ def check_writable(path: str | os.PathLike[str], label: str = "output") -> Path:
     return parent
 
 
+# The files written inside a file_set() block: [(temporary path, target)], renamed into place together at its end.
+_file_set: contextvars.ContextVar[list[tuple[Path, Path]] | None] = contextvars.ContextVar(
+    "file_set", default=None
+)
+
+
+@contextlib.contextmanager
+def file_set() -> Iterator[None]:
+    """Commit every atomic write inside the block as a unit: each file is written to its temporary name as
+    usual, but renamed over its target only when the whole block succeeds, all at the end, with SIGINT and
+    SIGTERM held back during the renames; on any error (Ctrl-C, SIGTERM, a full disk) every temporary file is
+    removed and the previous files stay as they were.
+
+    Why: a command that writes a set of files that belong together (an export: atlases, mips and the manifest
+    that lists them; a material synth: the colour and its maps) must never leave new files beside old ones.
+    The renames are quick metadata operations in one directory; only SIGKILL or a crash between two of them
+    can leave a mixed set. A block inside another joins the outer one."""
+    if _file_set.get() is not None:
+        yield
+        return
+    pending: list[tuple[Path, Path]] = []
+    token = _file_set.set(pending)
+    try:
+        yield
+    except BaseException:
+        _file_set.reset(token)
+        _discard(pending)
+        raise
+    _file_set.reset(token)
+    with _signals_held():
+        for k, (tmp, target) in enumerate(pending):
+            try:
+                os.replace(tmp, target)
+            except BaseException:
+                _discard(pending[k:])
+                raise
+
+
+def pending_path(path: str | os.PathLike[str]) -> Path:
+    """Where the content of ``path`` is now: its temporary file if it was written in the current
+    :func:`file_set` block and not yet committed, else ``path`` itself (for a writer that reads back a file
+    it wrote in the same set)."""
+    target = _write_target(path)
+    for tmp, t in _file_set.get() or []:
+        if t == target:
+            return tmp
+    return Path(path)
+
+
+def _discard(pending: list[tuple[Path, Path]]) -> None:
+    for tmp, _ in pending:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back (delivered when the block ends) in the main thread; elsewhere a no-op
+    (signals are delivered to the main thread)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    held = {signal.SIGINT, signal.SIGTERM}
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
-    """Yield a temporary path next to ``path``; on success move it into place, on any error remove it."""
+    """Yield a temporary path next to ``path``; on success move it into place (at the end of the enclosing
+    :func:`file_set` block, if any), on any error remove it.
+
+    An ``OSError`` without a file name (``write`` on a full disk says only "No space left on device") gets the
+    output's name, so that the message says which file could not be written."""
     parent = check_writable(path)
     target = _write_target(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=parent)
@@ -508,10 +593,22 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp_path, 0o666 & ~umask)
-        os.replace(tmp_path, target)
-    except BaseException:
+        pending = _file_set.get()
+        if pending is None:
+            os.replace(tmp_path, target)
+        else:
+            for k, (old, t) in enumerate(pending):
+                if t == target:  # written twice in one set: the last write wins
+                    with contextlib.suppress(OSError):
+                        old.unlink()
+                    del pending[k]
+                    break
+            pending.append((tmp_path, target))
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             tmp_path.unlink()
+        if isinstance(exc, OSError) and exc.filename in (None, str(tmp_path)):
+            exc.filename = str(path)
         raise
 
 
@@ -623,7 +720,36 @@ def _encode_exr(arr: np.ndarray) -> bytes:
         data, half = arr.astype(np.float32), True
     else:
         raise TypeError(f"image has dtype {arr.dtype}, expected float, uint8, uint16 or bool for OpenEXR")
-    return _core.exr_encode(np.ascontiguousarray(data), bool(half))
+    return _interruptible(_core.exr_encode, np.ascontiguousarray(data), bool(half))
+
+
+def _interruptible(fn: Any, *args: Any) -> Any:
+    """``fn(*args)``, a Rust call that releases the GIL and runs for seconds without looking at signals (the
+    OpenEXR encoder: 28 s for 9000 x 9000, one call of the exr crate), run so that Ctrl-C and SIGTERM take
+    effect within a twentieth of a second: in the main thread, the call runs in a helper thread while the main
+    thread waits in slices, where Python runs its signal handlers. On an interrupt the exception propagates at
+    once (the atomic write removes its temporary file; a command exits); the abandoned call finishes in its
+    daemon thread, or ends with the process, and its result is dropped. Elsewhere (not the main thread, which
+    receives no signals) the call is made directly."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return fn(*args)
+    box: dict[str, Any] = {}
+
+    def run() -> None:
+        try:
+            box["value"] = fn(*args)
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
+            box["error"] = exc
+
+    worker = threading.Thread(target=run, name="tilesynth-encode", daemon=True)
+    worker.start()
+    while worker.is_alive():
+        worker.join(0.05)
+    if "error" in box:
+        raise box["error"]
+    return box["value"]
 
 
 def _format_for(path: Path) -> str:

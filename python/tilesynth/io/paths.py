@@ -48,8 +48,6 @@ REPORT_FILES = (
 )
 
 #: The files ``tilesynth demo`` writes into its directory.
-EXPORT_FILES = ("manifest.json", "index.png", "viewer.html", "atlas_albedo.png", "atlas_albedo.exr")
-"""Files ``export`` writes into its directory whatever the set (more per map; these are compared with the inputs)."""
 DEMO_FILES = ("lettuce.tiles", "tiles.png", "texture.png", "texture-map.npy")
 
 
@@ -71,12 +69,14 @@ def check_paths(
     outputs: Iterable[
         tuple[str, str | os.PathLike[str] | None] | tuple[str, str | os.PathLike[str] | None, str]
     ],
+    writable: bool = True,
 ) -> None:
     """Raise :class:`ParameterError` if an output names the same file as an input or another output.
 
     ``inputs`` and ``outputs`` are ``(label, path)`` pairs (the label names the option in the message; a
     ``None`` path is skipped); an output may carry a third item, its kind (:data:`OUTPUT_KINDS`, default
-    "file"), for the writability check of :func:`check_output`.
+    "file"), for the writability check of :func:`check_output` (skipped with ``writable=False``: outputs in a
+    directory the command creates later).
     """
     ins = [(label, os.fspath(p)) for label, p in inputs if p is not None]
     outs: list[tuple[str, str, str]] = []
@@ -98,8 +98,9 @@ def check_paths(
                 f"{'destroy the input' if is_input else 'overwrite the other output'} (choose another path)"
             )
         seen[ident] = (label, p, False)
-    for label, p, kind in outs:
-        check_output(label, p, kind)
+    if writable:
+        for label, p, kind in outs:
+            check_output(label, p, kind)
 
 
 def check_output(label: str, path: str | os.PathLike[str], kind: str = "file") -> None:
@@ -157,6 +158,7 @@ def command_paths(args: Any) -> tuple[list[tuple[str, Any]], list[tuple[str, Any
     outs: list[tuple[str, Any, str]] = []
     if cmd == "build":
         ins.append(("input", args.input))
+        ins.append(("--mask", getattr(args, "mask", None)))
         ins.extend(
             ("--map", m.partition("=")[2]) for m in getattr(args, "material_maps", None) or []
         )  # issue 14
@@ -178,8 +180,10 @@ def command_paths(args: Any) -> tuple[list[tuple[str, Any]], list[tuple[str, Any
         elif cmd == "report":
             outs.extend(_dir_outputs("--output-dir", args.output_dir, REPORT_FILES))
         elif cmd == "export":
+            # the files depend on the tile set (its maps, mip levels, lookup): tilesynth.engine.export lists
+            # them all and applies check_paths before writing anything
             ins.extend(("--with", m) for m in getattr(args, "with_maps", None) or [])
-            outs.extend(_dir_outputs("--output-dir", args.output_dir, EXPORT_FILES))
+            _dir_outputs("--output-dir", args.output_dir, ())
     elif cmd == "view":
         ins.append(("tileset", args.tileset))
         outs.append(("--output", getattr(args, "output", None), "file"))

@@ -97,6 +97,11 @@ MAX_UNPACKED_BYTES = 8 << 30
 """Refuse tile-set files whose members declare more than 8 GiB unpacked (a ZIP bomb; the largest real set,
 |N16| = 5000 tiles of 256 x 256 RGBA float32, is 5.2 GiB with its provenance)."""
 
+MAX_MANIFEST_BYTES = 64 << 20
+"""Refuse tile-set files whose ``manifest.json`` declares more than 64 MiB unpacked, before it is read (a 7 GB
+manifest of whitespace was read whole, then refused); a real manifest, layout and selection history included, is
+a few MB at most."""
+
 _ARRAYS: dict[str, str] = {
     "tiles": "float32",
     "source": "int32",
@@ -287,6 +292,11 @@ class TileSet:
                     raise TileSetFormatError(
                         f"tileset = {p!r}: members unpack to {unpacked} bytes, more than the limit of "
                         f"{MAX_UNPACKED_BYTES} (MAX_UNPACKED_BYTES)"
+                    )
+                if infos["manifest.json"].file_size > MAX_MANIFEST_BYTES:
+                    raise TileSetFormatError(
+                        f"tileset = {p!r}: manifest.json unpacks to {infos['manifest.json'].file_size} bytes, more "
+                        f"than the limit of {MAX_MANIFEST_BYTES} (MAX_MANIFEST_BYTES)"
                     )
                 manifest = json.loads(zf.read("manifest.json"))
                 from .manifest import check_archive
