@@ -405,11 +405,29 @@ def exemplar_levels(
     so ω has no such pixels and its output is unchanged; ``corner=0`` gives the block model alone.
     """
     values = np.asarray(values, np.float64)
+    x, own = level_solution(values, copies, source, valid, block, corner)
+    return level_field(x, own, values.shape, block)
+
+
+def level_solution(
+    values: np.ndarray,
+    copies: np.ndarray,
+    source: np.ndarray,
+    valid: np.ndarray | None = None,
+    block: int = LEVEL_BLOCK,
+    corner: int = LEVEL_CORNER,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The unknowns of :func:`exemplar_levels` as solved: ``(x, own)``, ``x`` float64 ``(B + M, C)`` the level
+    of every ``block x block`` block (row-major) then of every corner pixel, and ``own`` int64 ``(M,)`` the
+    corner pixels' flat indices. :func:`level_field` turns them into ``φ``: a set stores these (1/16 of the
+    exemplar's pixels) instead of ``φ``, and a synthesis of any window reads them (the solve needs the whole
+    set; the field does not)."""
+    values = np.asarray(values, np.float64)
     h, w, ch = values.shape
     k, n = np.asarray(copies).shape[:2]
-    if k == 0 or n < 2:
-        return np.zeros_like(values)
     s = int(block)
+    if k == 0 or n < 2:
+        return np.zeros((-(-h // max(s, 1)) * -(-w // max(s, 1)), ch)), np.zeros(0, np.int64)
     if s < 1:
         raise ParameterError(f"block = {block!r}: must be a positive number of pixels")
     if int(corner) < 0:
@@ -447,7 +465,7 @@ def exemplar_levels(
     a, b, r = np.concatenate(ends_a), np.concatenate(ends_b), np.concatenate(wanted)
     ew_all = np.concatenate(weights)
     if a.size == 0:
-        return np.zeros_like(values)
+        return np.zeros((nb, ch)), own
     pair, inv = np.unique(a * nb + b, return_inverse=True)
     inv = inv.reshape(-1)
     weight = np.bincount(inv, ew_all, minlength=pair.size)
@@ -491,6 +509,22 @@ def exemplar_levels(
         rz = rz_next
     use = np.bincount(blk.ravel(), minlength=nb).astype(np.float64)
     x -= (use[:, None] * x).sum(axis=0) / use.sum()
+    return x, own
+
+
+def level_field(
+    x: np.ndarray, own: np.ndarray, shape: tuple[int, ...], block: int = LEVEL_BLOCK
+) -> np.ndarray:
+    """``φ`` ``(H, W, C)`` float64 of :func:`level_solution`'s ``(x, own)`` for an exemplar of ``shape``: the
+    block levels interpolated bilinearly between the block centres, the corner pixels their own level."""
+    h, w, ch = shape
+    s = int(block)
+    hb, wb = -(-h // s), -(-w // s)
+    nblocks = hb * wb
+    if x.shape[0] < nblocks or own.size != x.shape[0] - nblocks:
+        raise ParameterError(
+            f"levels: {x.shape[0]} unknowns for {nblocks} blocks and {own.size} corner pixels of a {w}x{h} map"
+        )
     levels = x[:nblocks].reshape(hb, wb, ch)
     ys = np.clip((np.arange(h) + 0.5) / s - 0.5, 0.0, hb - 1.0)
     xs = np.clip((np.arange(w) + 0.5) / s - 0.5, 0.0, wb - 1.0)

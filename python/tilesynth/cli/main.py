@@ -753,6 +753,7 @@ def _info(ts_path: str, as_json: bool) -> None:
     data["genes"] = [[int(r), int(c)] for r, c in ts.genes]
     data["timing"] = ts.timing
     data["content_sha256"] = ts.content_digest()
+    data["storage"] = _storage(ts_path, ts)
     if as_json:
         print(json.dumps(data, indent=1, sort_keys=True))
         return
@@ -773,6 +774,7 @@ def _info(ts_path: str, as_json: bool) -> None:
         f"build time    {ts.timing.get('total_s', float('nan')):.3f} s"
         + "".join(f", {k[:-2]} {v:.3f}" for k, v in ts.timing.items() if k != "total_s"),
         f"version       tilesynth {ts.version}, content sha256 {data['content_sha256'][:16]}",
+        *_storage_lines(data["storage"]),
         "genes (row, col): "
         + ", ".join(f"{c}=({r0},{c0})" for c, (r0, c0) in zip(_colours(ts.layout), ts.genes.tolist())),
         *_mask_lines(p),
@@ -791,6 +793,29 @@ def _info(ts_path: str, as_json: bool) -> None:
             f"{'(%d,%d)' % tuple(row['match_offset']):>15}  {row['D']:>12.4f}  {row['cut_cost']:>10.4f}"
         )
     print("\n".join(lines))
+
+
+def _storage(ts_path: str, ts) -> dict:  # noqa: ANN001
+    """The file's format version and where its bytes go (member -> [in the file, unpacked])."""
+    from ..tileset.tilefile import member_sizes
+
+    sizes = member_sizes(ts_path)
+    return {
+        "format_version": ts.file_version,
+        "kind": "provenance" if ts.file_version == 2 else "pixels",
+        "file_bytes": os.path.getsize(ts_path),
+        "members": {k: list(v) for k, v in sizes.items()},
+    }
+
+
+def _storage_lines(st: dict) -> list[str]:
+    """``info``'s lines of the file's storage: the version and the largest members."""
+    mb = 1e6
+    members = sorted(st["members"].items(), key=lambda kv: -kv[1][0])
+    parts = ", ".join(f"{k} {v[0] / mb:.2f} MB ({v[1] / mb:.2f} unpacked)" for k, v in members[:6])
+    return [
+        f"storage       format {st['format_version']} ({st['kind']}), {st['file_bytes'] / mb:.2f} MB: {parts}"
+    ]
 
 
 def _mask_lines(p: dict) -> list[str]:
