@@ -255,3 +255,25 @@ def test_info_shows_storage(c2, tmp_path, capsys):
     assert main(["info", str(p)]) in (0, None)
     out = capsys.readouterr().out
     assert "storage       format 2 (provenance)" in out and "prov_labels" in out
+
+
+def test_cli_synth_lays_maps_at_any_origin(material, tmp_path):
+    """``synth --origin`` of a material set: every map is the window of the colour's (it was refused before)."""
+    from tilesynth.cli.main import main
+
+    p = tmp_path / "m.tiles"
+    material.save(p)
+    out = tmp_path / "out.png"
+    assert (
+        main(["synth", str(p), "-o", str(out), "--size", "40x33", "--seed", "6", "--origin=-21,37", "-q"])
+        == 0
+    )
+    back = TileSet.load(p)
+    img, imap = ts.synthesize(back, 40, 33, seed=6, origin=(-21, 37))
+    n = back.tile_size
+    want = materials.synthesize_maps(back, imap, 40, 33, offset=(37 % n, -21 % n))
+    got = ts.load_raster(tmp_path / "out-height.png")
+    assert np.array_equal(got[..., 0], want["height"][..., 0])
+    assert np.array_equal(
+        ts.load_raster(out)[..., :3], ts.synthesize(back, 40, 33, seed=6, origin=(-21, 37), dtype=np.uint8)[0]
+    )

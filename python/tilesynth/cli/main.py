@@ -637,8 +637,6 @@ def _synth(
     maps, smooth_maps = _synth_load_maps(ts, ts_path, output, with_maps, map_smooth)
     from .materials import plan_map_outputs, write_map_outputs  # issue 14: the maps of a material set
 
-    if ts.map_specs and origin != (0, 0):
-        raise ParameterError("--origin: a tile set with maps lays them out from (0, 0); leave --origin out")
     stored_smooth = {"auto": None, "on": True, "off": False}[map_smooth]
     stored = plan_map_outputs(ts, output, [Path(ts_path), *(t for _, _, t in maps)], stored_smooth)
     t0 = time.perf_counter()
@@ -662,7 +660,9 @@ def _synth(
         with atomic_open(save_map) as fh:
             np.save(fh, imap, allow_pickle=False)
     _synth_write_maps(prog, ts, maps, imap, size, threads, smooth_maps)
-    write_map_outputs(prog, ts, stored, imap, size, threads, stored_smooth, normal_y)
+    n = ts.tile_size  # the maps' window starts where the colour's does: at the origin's pixel in its cell
+    offset = (origin[1] % n, origin[0] % n) if index_map is None else (0, 0)
+    write_map_outputs(prog, ts, stored, imap, size, threads, stored_smooth, normal_y, offset)
     how = f"seed {seed}" if seed is not None else f"map {map_path}"
     prog.message(
         f"wrote {output}: {size[0]}x{size[1]}, {imap.shape[1]}x{imap.shape[0]} tiles, {how}, "
