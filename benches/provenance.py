@@ -98,6 +98,16 @@ def _old_maps(t, imap, w, h, offset):  # noqa: ANN001, ANN202
     return out
 
 
+def _peak_mb() -> float:
+    """This process's peak RSS (``VmHWM``: ``ru_maxrss`` of a child keeps the forked parent's peak across
+    ``exec``)."""
+    with open("/proc/self/status") as fh:
+        for line in fh:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
 def child(args: list[str]) -> None:
     """One measurement in a fresh process: ``child MODE PATH [N]``; prints JSON."""
     import tilesynth as ts
@@ -120,14 +130,20 @@ def child(args: list[str]) -> None:
             if mode == "old":
                 _old_maps(t, imap, 256, 256, offset)
             else:
-                materials.synthesize_maps(t, imap, 256, 256, offset=offset)
+                materials.synthesize_maps(
+                    t, imap, 256, 256, offset=offset, smooth=False if mode == "copies" else None
+                )
             res["maps_s"].append(time.process_time() - c1)
-    res["rss_256_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+            if mode == "maps":  # the same window again: its fused tiles are cached with the set
+                c2 = time.process_time()
+                materials.synthesize_maps(t, imap, 256, 256, offset=offset)
+                res.setdefault("again_s", []).append(time.process_time() - c2)
+    res["rss_256_mb"] = _peak_mb()
     if mode == "colour":
         c0 = time.process_time()
         ts.synthesize(t, 1024, 1024, seed=1)
         res["colour_1024_s"] = time.process_time() - c0
-        res["rss_1024_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        res["rss_1024_mb"] = _peak_mb()
     print(json.dumps(res))
 
 
@@ -148,9 +164,11 @@ ts.save_image({str(out / "roof-2048.png")!r}, a)
 t0 = time.process_time()
 t = ts.build(a, seed=1)
 cpu = time.process_time() - t0
-rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+def peak():
+    return [int(x.split()[1]) / 1024 for x in open("/proc/self/status") if x.startswith("VmHWM:")][0]
+rss = peak()
 t.save({str(out / "big-v2.tiles")!r}, include_timing=False)
-rss_v2 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+rss_v2 = peak()
 t.save({str(out / "big-v1.tiles")!r}, include_timing=False, format_version=1)
 print(json.dumps({{"cpu_s": cpu, "rss_build_mb": rss, "rss_after_v2_save_mb": rss_v2, "n": t.tile_size}}))
 """
@@ -169,14 +187,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--windows", type=int, default=4, help="256² windows per child run (default 4)")
     ap.add_argument("--big", action="store_true", help="also the 2048² default build")
     ap.add_argument("--out", default="/tmp/tilesynth-provenance-bench", help="working directory")
+    ap.add_argument("--big-only", action="store_true", help="only the 2048² build")
+    ap.add_argument("--reuse", action="store_true", help="reuse the sets of an earlier run in --out")
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    sizes = build_sets(out)
+    if args.big_only:
+        print(json.dumps(big(out)))
+        return 0
+    sizes = build_sets(out) if not args.reuse else json.loads((out / "sizes.json").read_text())
+    (out / "sizes.json").write_text(json.dumps(sizes))
     print(json.dumps(sizes, indent=1), flush=True)
-    runs: dict[str, list[dict]] = {k: [] for k in ("v1-old", "v2", "v1", "colour-v1", "colour-v2")}
+    runs: dict[str, list[dict]] = {k: [] for k in ("v1-old", "v2", "v1", "copies", "colour-v1", "colour-v2")}
     for i in range(args.repeat):  # interleaved
-        runs["v1-old"].append(run_child("old", str(out / "material-v1.tiles"), "1", str(i)))
+        if i == 0:  # a minute of CPU per run: once
+            runs["v1-old"].append(run_child("old", str(out / "material-v1.tiles"), "1", str(i)))
+        runs["copies"].append(run_child("copies", str(out / "material-v2.tiles"), str(args.windows), str(i)))
         runs["v1"].append(run_child("maps", str(out / "material-v1.tiles"), str(args.windows), str(i)))
         runs["v2"].append(run_child("maps", str(out / "material-v2.tiles"), str(args.windows), str(i)))
         runs["colour-v1"].append(run_child("colour", str(out / "colour-v1.tiles"), "1", str(i)))
@@ -196,7 +222,7 @@ def main(argv: list[str] | None = None) -> int:
         "|---|---|---|---|---|",
     ]
     for key, what in (("v1-old", "v1, maps as before (whole atlas per call)"), ("v1", "v1, per window"),
-                      ("v2", "v2, per window")):  # fmt: skip
+                      ("v2", "v2, per window"), ("copies", "v2, maps as copies (smooth=False)")):  # fmt: skip
         col = med(x for r in runs[key] for x in r["colour_s"])
         first = med(r["maps_s"][0] for r in runs[key])
         lines.append(
@@ -206,6 +232,9 @@ def main(argv: list[str] | None = None) -> int:
         if key != "v1-old" and args.windows > 1:
             warm = med(x for r in runs[key] for x in r["maps_s"][1:])
             lines.append(f"| {what}: next windows | | {warm * 1e3:.1f} ms | {warm / col:.0f}x | |")
+        if runs[key] and "again_s" in runs[key][0]:
+            again = med(x for r in runs[key] for x in r["again_s"])
+            lines.append(f"| {what}: the same window again | | {again * 1e3:.1f} ms | {again / col:.1f}x | |")
     for key in ("colour-v1", "colour-v2"):
         lines.append(
             f"| {key}: colour 256² / 1024² | {med(r['colour_s'][0] for r in runs[key]) * 1e3:.2f} ms | "

@@ -232,6 +232,10 @@ def test_material_build_stores_levels_and_v2_maps_are_the_whole_atlas_ones(mater
     flat = materials.synthesize_maps(back, imap, 64, 48, smooth=False)
     src = ts.source_map(t, imap, 64, 48)
     assert np.array_equal(flat["height"], t.maps["height"][src[..., 0], src[..., 1]])
+    unit = materials.renormalise_image(t.maps["normal"][src[..., 0], src[..., 1]], "unorm")  # as before
+    assert np.array_equal(flat["normal"], unit)
+    built = materials.synthesize_maps(t, imap, 64, 48, smooth=False)  # the set in memory, from its pixels
+    assert all(np.array_equal(built[k], flat[k]) for k in flat)
 
 
 def test_material_v1_file_levels_are_solved_once(material, tmp_path):
@@ -277,3 +281,21 @@ def test_cli_synth_lays_maps_at_any_origin(material, tmp_path):
     assert np.array_equal(
         ts.load_raster(out)[..., :3], ts.synthesize(back, 40, 33, seed=6, origin=(-21, 37), dtype=np.uint8)[0]
     )
+
+
+def test_atlas_export_of_a_v2_material_set_is_the_built_sets(material, tmp_path):
+    """The atlas export still works from a version-2 set (it materialises the tiles) and writes the same atlases
+    as from the set in memory."""
+    from tilesynth.engine import export
+
+    p = tmp_path / "m.tiles"
+    material.save(p)
+    back = TileSet.load(p)
+    export(material, tmp_path / "a", index_size=(4, 4))
+    export(back, tmp_path / "b", index_size=(4, 4))
+    files = sorted((tmp_path / "a").glob("atlas_*.png"))
+    assert len(files) == 20 and sorted(f.name for f in (tmp_path / "b").glob("atlas_*.png")) == [
+        f.name for f in files
+    ]
+    for f in files:
+        assert f.read_bytes() == (tmp_path / "b" / f.name).read_bytes(), f.name

@@ -766,12 +766,24 @@ def map_atlas(
         src = tileset.source  # colour maps follow the colour's own smoothing (version-1 sets only)
         atlas = _smooth_map_atlas(tileset, arr, np.ascontiguousarray(arr[src[..., 0], src[..., 1]]), threads)
         atlas = atlas if tiles is None else atlas[idx]
-    else:
+    else:  # copies: of the map with its vectors renormalised once per set (a per-vector operation)
         src = tile_sources(tileset, idx)
-        atlas = np.ascontiguousarray(arr[src[..., 0], src[..., 1]])
+        return np.ascontiguousarray(_copied_map(tileset, spec, arr)[src[..., 0], src[..., 1]])
     if spec.kind == "normal":  # every vector, copies too: unit length after decoding (normal_codes)
         atlas = renormalise_image(atlas, spec.encoding or "unorm")
     return atlas
+
+
+def _copied_map(tileset: Any, spec: MapSpec, arr: np.ndarray) -> np.ndarray:
+    """What the copies of a map read: the map itself, or for a normal map the map with every vector renormalised
+    (:func:`renormalise_image`, the same bytes as renormalising the copies), once per set."""
+    if spec.kind != "normal":
+        return arr
+    cache = _cache(tileset)
+    key = ("unit", spec.name)
+    if key not in cache or cache[key][0] is not arr:
+        cache[key] = (arr, np.ascontiguousarray(renormalise_image(arr, spec.encoding or "unorm")))
+    return cache[key][1]
 
 
 def synthesize_maps(
@@ -839,10 +851,10 @@ def synthesize_maps(
         spec = MapSpec.from_dict(d)
         arr = tileset.maps[spec.name]
         img = np.empty((h, w, arr.shape[2]), arr.dtype)
-        if prov is not None and spec.kind != "normal" and not smooths(tileset, spec, smooth):
+        if prov is not None and not smooths(tileset, spec, smooth):
             from ..tileset.provenance import gather
 
-            gather(arr, prov, imap, img, (oy, ox), threads=threads)  # copies, straight from the map
+            gather(_copied_map(tileset, spec, arr), prov, imap, img, (oy, ox), threads=threads)  # copies
         else:
             atlas = np.ascontiguousarray(map_atlas(tileset, spec, arr, smooth, threads, tiles=shown))
             _core.tile_copy_window(atlas, local, (oy, ox), img, threads)
