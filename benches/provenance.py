@@ -231,7 +231,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         if key != "v1-old" and args.windows > 1:
             warm = med(x for r in runs[key] for x in r["maps_s"][1:])
-            lines.append(f"| {what}: next windows | | {warm * 1e3:.1f} ms | {warm / col:.0f}x | |")
+            lines.append(f"| {what}: next windows | | {warm * 1e3:.1f} ms | {warm / col:.1f}x | |")
         if runs[key] and "again_s" in runs[key][0]:
             again = med(x for r in runs[key] for x in r["again_s"])
             lines.append(f"| {what}: the same window again | | {again * 1e3:.1f} ms | {again / col:.1f}x | |")
