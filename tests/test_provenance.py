@@ -299,3 +299,26 @@ def test_atlas_export_of_a_v2_material_set_is_the_built_sets(material, tmp_path)
     ]
     for f in files:
         assert f.read_bytes() == (tmp_path / "b" / f.name).read_bytes(), f.name
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {"tileset": "16a", "tile_size": 20},  # a papers' set: the scan-line tiler
+        {"scheme": "wang", "tileset": "wang8", "tile_size": 16},
+        {"scheme": "swang", "tileset": "wang8", "tile_size": 16},
+    ],
+)
+def test_other_schemes_are_stored_as_provenance_and_synthesize_the_same(small_exemplar, tmp_path, kw):
+    t = ts.build(small_exemplar, seed=3, **kw)
+    p = tmp_path / "s.tiles"
+    t.save(p)
+    back = TileSet.load(p)
+    assert back.file_version == 2 and not back.has_pixels()
+    for dtype in (np.float32, np.uint8):
+        a, ia = ts.synthesize(t, 70, 50, seed=5, dtype=dtype)
+        b, ib = ts.synthesize(back, 70, 50, seed=5, dtype=dtype)
+        assert np.array_equal(ia, ib) and np.array_equal(a, b)
+    assert not back.has_pixels() and np.array_equal(back.tiles, t.tiles)
+    if t.labels is not None:
+        assert np.array_equal(back.labels, t.labels)
