@@ -322,3 +322,29 @@ def test_other_schemes_are_stored_as_provenance_and_synthesize_the_same(small_ex
     assert not back.has_pixels() and np.array_equal(back.tiles, t.tiles)
     if t.labels is not None:
         assert np.array_equal(back.labels, t.labels)
+
+
+def test_tampered_map_levels_are_refused(material, tmp_path):
+    import io
+
+    p = tmp_path / "m.tiles"
+    material.save(p, include_timing=False)
+    with zipfile.ZipFile(p) as zf:
+        members = {n: zf.read(n) for n in zf.namelist()}
+    x = np.load(io.BytesIO(members["level_height.npy"]))
+    buf = io.BytesIO()
+    np.save(buf, x[:-1])
+    members["level_height.npy"] = buf.getvalue()
+    bad = tmp_path / "bad.tiles"
+    with zipfile.ZipFile(bad, "w") as zf:
+        for n, data in members.items():
+            zf.writestr(n, data)
+    with pytest.raises(TileSetFormatError, match="level_height"):
+        TileSet.load(bad)
+
+
+def test_stored_level_block_is_the_fusions():
+    from tilesynth.builder import fusion
+    from tilesynth.tileset import tilefile
+
+    assert tilefile.LEVEL_BLOCK == fusion.LEVEL_BLOCK

@@ -156,6 +156,10 @@ _OPTIONAL: dict[str, str] = {
     "cut_stats": "float64",
 }
 
+#: The block side of stored map levels: :data:`tilesynth.builder.fusion.LEVEL_BLOCK` (the builder is above this
+#: module; ``tests/test_provenance.py`` ties the two).
+LEVEL_BLOCK = 4
+
 #: Names of the four cuts of a Wang tile, in the order of ``cut_stats``.
 CUT_NAMES: tuple[str, ...] = ("NE", "ES", "SW", "WN")
 #: The six values per cut in ``cut_stats``.
@@ -623,6 +627,7 @@ class TileSet:
                 f"{list(self.exemplar.shape)}"
             )
         _check_map_shapes(self.maps, self.map_specs, self.exemplar.shape[:2])
+        _check_levels(self.map_levels, self.maps, self.exemplar.shape[:2])
         if k == 0 or n == 0 or not 1 <= c <= 4 or 0 in self.exemplar.shape:
             raise TileSetFormatError(
                 f"tiles have shape {(k, n, n, c)}, expected (K, N, N, C) with K, N >= 1 and C in 1..4"
@@ -766,6 +771,31 @@ def _level_members(levels: Any, specs: Any, infos: Any = None, checked: bool = T
     if not names:
         return {}
     return {"level_corners": "int64", **{f"level_{m}": "float64" for m in names}}
+
+
+def _check_levels(levels: Any, maps: Any, hw: tuple[int, ...]) -> None:
+    """The stored map levels agree with the maps: ``(B + M, C)`` float64 finite per map, ``B`` the exemplar's
+    blocks of :data:`LEVEL_BLOCK` pixels, ``M`` the corner pixels, inside the exemplar."""
+    if not levels:
+        return
+    corners = levels.get("corners")
+    h, w = int(hw[0]), int(hw[1])
+    if not isinstance(corners, np.ndarray) or corners.ndim != 1 or corners.dtype != np.int64:
+        raise TileSetFormatError("array level_corners must be int64 (M,)")
+    if corners.size and (corners.min() < 0 or corners.max() >= h * w):
+        raise TileSetFormatError(f"array level_corners has pixels outside the {w}x{h} exemplar")
+    blocks = -(-h // LEVEL_BLOCK) * -(-w // LEVEL_BLOCK)
+    for name, x in levels.items():
+        if name == "corners":
+            continue
+        m = (maps or {}).get(name)
+        want = (blocks + corners.size, None if m is None else m.shape[2])
+        if m is None or not isinstance(x, np.ndarray) or x.dtype != np.float64 or x.shape != want:
+            raise TileSetFormatError(
+                f"array level_{name} has shape {getattr(x, 'shape', None)}, expected {want} float64 (a stored map)"
+            )
+        if not np.isfinite(x).all():
+            raise TileSetFormatError(f"array level_{name} has non-finite values")
 
 
 def _check_map_shapes(maps: Any, specs: Any, hw: tuple[int, ...]) -> None:
