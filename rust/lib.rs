@@ -11,6 +11,8 @@
 //! - [`omega`]: the ω-tile cutting curve (circle and cross terminals) and composition.
 //! - [`poisson`]: Poisson smoothing (guided interpolation) of a region, by multigrid-preconditioned
 //!   conjugate gradients to a stated relative residual.
+//! - [`provenance`]: tile sets as provenance (labels and a per-tile source table) and the gather of any window
+//!   of a tiling straight from the exemplar.
 //! - [`synth`]: copying tiles into a large output by an index map.
 //! - [`hash`]: the hashed lookup of complete tile sets (pcg3d of lattice coordinates, `HASH-SPEC.md`).
 //! - [`population`]: the ω-tile objective `E` for whole populations of gene vectors (exact, cached
@@ -36,6 +38,7 @@ pub mod parallel;
 pub mod png;
 pub mod poisson;
 pub mod population;
+pub mod provenance;
 pub mod seams;
 pub mod ssd;
 pub mod synth;

@@ -65,26 +65,37 @@ def test_golden_random(name, threads, border_tries, small_exemplar):
 # tiles and outputs were unchanged; once more when the deflate level went from 6 to 1, for the same reason; and
 # once more when the manifest gained params.quality and params.selection.objective, issue 15: same genes, tiles
 # and outputs; and once more when the ω cut's solver became a shortest path in the planar dual, issue 15: same
-# genes, tiles and outputs, the stored cut costs differ in their last bit.)
+# genes, tiles and outputs, the stored cut costs differ in their last bit; and once more when pure-copy sets
+# became saved as their provenance, format version 2: same genes, tiles and outputs, and the same set saved as
+# version 1 is still the file of before, GOLDEN_SELECT_V1.)
 GOLDEN_SELECT = {
     "ga": (
         "ce075d01983b617a00f529d1",
         "2da0f742c7bd3408718bb1ea",
         "dfd7b2e9b55777d4b3faf262",
-        "04879d91889180979c54f597",
+        "98d38158108dd5afd48cef1c",
     ),
     "ais": (
         "4d433eded0014d0243710a0c",
         "8f0ecab240ee115148399422",
         "948ab7194b9fda8fd771fd27",
-        "c6364f3eb777371f378eea10",
+        "cdf37c0440c4a090ad6af7f7",
     ),
     "best-of": (
         "4d433eded0014d0243710a0c",
         "8f0ecab240ee115148399422",
         "948ab7194b9fda8fd771fd27",
-        "8ab0188673c9be3ace17f550",
+        "6daa27742048c58413d7b9f9",
     ),
+}
+
+
+# The whole file of each set above saved as format version 1 (pixels): the digests of GOLDEN_SELECT before
+# format version 2.
+GOLDEN_SELECT_V1 = {
+    "ga": "04879d91889180979c54f597",
+    "ais": "c6364f3eb777371f378eea10",
+    "best-of": "8ab0188673c9be3ace17f550",
 }
 
 
@@ -107,3 +118,6 @@ def test_golden_selection(method, threads, small_exemplar, tmp_path):
     if os.environ.get("TILESYNTH_PRINT_GOLDEN"):
         print(f'\n    "{method}": {got!r},')
     assert got == GOLDEN_SELECT[method]
+    v1 = tmp_path / "set-v1.tiles"
+    ts.save(v1, include_timing=False, format_version=1)
+    assert hashlib.sha256(v1.read_bytes()).hexdigest()[:24] == GOLDEN_SELECT_V1[method]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import zipfile
 
@@ -9,7 +10,7 @@ import numpy as np
 import pytest
 
 import tilesynth
-from tilesynth.tileset.tilefile import FORMAT_VERSION, TileSet
+from tilesynth.tileset.tilefile import FORMAT_VERSION
 
 ARRAYS = [
     "tiles",
@@ -52,9 +53,25 @@ def test_members_and_manifest(built, tmp_path):
         assert all(i.date_time == (1980, 1, 1, 0, 0, 0) for i in zf.infolist())
     # timing.json last: two builds of the same set are byte-identical up to it (see tilefile "Determinism")
     assert names[0] == "manifest.json" and names[-1] == "timing.json"
-    assert set(names) == {"manifest.json", "timing.json", *(f"{a}.npy" for a in ARRAYS)}
-    assert manifest["format"] == "tilesynth-tileset" and manifest["format_version"] == FORMAT_VERSION
+    # a pure-copy set is stored as its provenance (format version 2, tilesynth.tileset.provenance)
+    v2 = [
+        "prov_labels",
+        "prov_table",
+        "cut_masks_packed",
+        *(a for a in ARRAYS if a not in ("tiles", "source", "cut_masks")),
+    ]
+    assert set(names) == {"manifest.json", "timing.json", *(f"{a}.npy" for a in v2)}
+    assert manifest["format"] == "tilesynth-tileset" and manifest["format_version"] == FORMAT_VERSION == 2
     assert manifest["scheme"] == "omega" and len(manifest["per_tile"]) == 32
+    assert manifest["arrays"]["prov_labels"] == {"dtype": "uint8", "shape": [32, 20, 20]}
+    assert manifest["storage"] == {"kind": "provenance", "exemplar_dtype": "uint8"}
+    # and as its pixels on request (format version 1)
+    built.save(p, format_version=1)
+    with zipfile.ZipFile(p) as zf:
+        names = zf.namelist()
+        manifest = json.loads(zf.read("manifest.json"))
+    assert set(names) == {"manifest.json", "timing.json", *(f"{a}.npy" for a in ARRAYS)}
+    assert manifest["format_version"] == 1 and "storage" not in manifest
     assert manifest["arrays"]["tiles"] == {"dtype": "float32", "shape": [32, 20, 20, 3]}
     row = manifest["per_tile"][0]
     assert set(row) == {"index", "corners", "variant", "patches", "match_offset", "D", "cut_cost"}
@@ -99,7 +116,7 @@ def test_load_errors(tmp_path, built):
 
 
 def test_inconsistent_arrays_are_rejected(built, tmp_path):
-    broken = TileSet(**{**built.__dict__, "D": built.D[:-1].copy()})
+    broken = dataclasses.replace(built, D=built.D[:-1].copy())
     with pytest.raises(tilesynth.TileSetFormatError, match="D"):
         broken.save(tmp_path / "b.tiles")
     assert not (tmp_path / "b.tiles").exists()
@@ -117,8 +134,10 @@ def rewrite(src, dst, change) -> None:
 
 @pytest.fixture
 def good(built, tmp_path):
+    """A version-1 file (pixels): the hard inputs below tamper with its tiles and provenance members (version 2's
+    own members: tests/test_provenance.py)."""
     p = tmp_path / "good.tiles"
-    built.save(p)
+    built.save(p, format_version=1)
     return p
 
 
@@ -142,7 +161,7 @@ def manifest_change(**fields):
     [
         (manifest_change(format="zipped-pictures"), "not a tilesynth tile set .format 'zipped-pictures'"),
         (manifest_change(format=KeyError), "not a tilesynth tile set .format None"),
-        (manifest_change(format_version=0), "format version 0, this tilesynth reads version 1"),
+        (manifest_change(format_version=0), "format version 0, this tilesynth reads versions 1 and 2"),
         (manifest_change(format_version="1"), "format version '1'"),
         (lambda n, d: b"[1, 2, 3]" if n == "manifest.json" else d, "manifest.json is a list, not an object"),
         (lambda n, d: b"{not json" if n == "manifest.json" else d, "JSONDecodeError"),

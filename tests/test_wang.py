@@ -534,7 +534,9 @@ def test_round_trip(cohen, swang, tmp_path):
             manifest = json.loads(zf.read("manifest.json"))
         assert "labels.npy" in names
         assert ("cut_stats.npy" in names) == (ts.scheme == "wang")
-        assert manifest["format_version"] == 1 and manifest["layout"]["kind"] == "wang"
+        assert (
+            manifest["format_version"] == 2 and manifest["layout"]["kind"] == "wang"
+        )  # stored as provenance
         row = manifest["per_tile"][0]
         assert row["edges"] == "".join(ts.definition.tiles[0])
         if ts.scheme == "wang":

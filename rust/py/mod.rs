@@ -14,6 +14,7 @@ mod maxflow;
 mod omega;
 mod poisson;
 mod population;
+mod provenance;
 mod ssd;
 mod synth;
 mod testing;
@@ -89,5 +90,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     hash::register(m)?;
     testing::register(m)?;
     gradients::register(m)?;
+    provenance::register(m)?;
     Ok(())
 }

@@ -76,10 +76,12 @@ def seam_steps(
         lo[ax], hi[ax] = slice(0, n - 1), slice(1, n)
         rp, cp, rq, cq = sr[tuple(lo)], sc[tuple(lo)], sr[tuple(hi)], sc[tuple(hi)]
         seam = (rq != rp + dr) | (cq != cp + dc)
+        at = np.nonzero(seam)  # the steps are computed on the seam edges only (a few per cent of the edges)
+        rp, cp, rq, cq = rp[at], cp[at], rq[at], cq[at]
         ep, fp = rp + dr, cp + dc  # p's patch continued one step
         eq, fq = rq - dr, cq - dc  # q's patch continued one step back
-        okp = seam & (ep < h) & (fp < w)
-        okq = seam & (eq >= 0) & (fq >= 0)
+        okp = (ep < h) & (fp < w)
+        okq = (eq >= 0) & (fq >= 0)
         ep, fp = np.minimum(ep, h - 1), np.minimum(fp, w - 1)
         eq, fq = np.maximum(eq, 0), np.maximum(fq, 0)
         if valid is not None:
@@ -89,8 +91,10 @@ def seam_steps(
         step_p = values[ep, fp] - values[rp, cp]
         step_q = values[rq, cq] - values[eq, fq]
         guide = (step_p * wp + step_q * wq) / np.maximum(wp + wq, 1.0)
-        own = copies[tuple(hi)] - copies[tuple(lo)]
-        out.append(np.where(seam[..., None], guide - own, 0.0))
+        own = copies[tuple(hi)][at] - copies[tuple(lo)][at]
+        steps = np.zeros((*seam.shape, values.shape[2]), np.float64)
+        steps[at] = guide - own
+        out.append(steps)
     return out[0], out[1]
 
 
@@ -405,11 +409,29 @@ def exemplar_levels(
     so ω has no such pixels and its output is unchanged; ``corner=0`` gives the block model alone.
     """
     values = np.asarray(values, np.float64)
+    x, own = level_solution(values, copies, source, valid, block, corner)
+    return level_field(x, own, values.shape, block)
+
+
+def level_solution(
+    values: np.ndarray,
+    copies: np.ndarray,
+    source: np.ndarray,
+    valid: np.ndarray | None = None,
+    block: int = LEVEL_BLOCK,
+    corner: int = LEVEL_CORNER,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The unknowns of :func:`exemplar_levels` as solved: ``(x, own)``, ``x`` float64 ``(B + M, C)`` the level
+    of every ``block x block`` block (row-major) then of every corner pixel, and ``own`` int64 ``(M,)`` the
+    corner pixels' flat indices. :func:`level_field` turns them into ``φ``: a set stores these (1/16 of the
+    exemplar's pixels) instead of ``φ``, and a synthesis of any window reads them (the solve needs the whole
+    set; the field does not)."""
+    values = np.asarray(values, np.float64)
     h, w, ch = values.shape
     k, n = np.asarray(copies).shape[:2]
-    if k == 0 or n < 2:
-        return np.zeros_like(values)
     s = int(block)
+    if k == 0 or n < 2:
+        return np.zeros((-(-h // max(s, 1)) * -(-w // max(s, 1)), ch)), np.zeros(0, np.int64)
     if s < 1:
         raise ParameterError(f"block = {block!r}: must be a positive number of pixels")
     if int(corner) < 0:
@@ -447,7 +469,7 @@ def exemplar_levels(
     a, b, r = np.concatenate(ends_a), np.concatenate(ends_b), np.concatenate(wanted)
     ew_all = np.concatenate(weights)
     if a.size == 0:
-        return np.zeros_like(values)
+        return np.zeros((nb, ch)), own
     pair, inv = np.unique(a * nb + b, return_inverse=True)
     inv = inv.reshape(-1)
     weight = np.bincount(inv, ew_all, minlength=pair.size)
@@ -491,6 +513,22 @@ def exemplar_levels(
         rz = rz_next
     use = np.bincount(blk.ravel(), minlength=nb).astype(np.float64)
     x -= (use[:, None] * x).sum(axis=0) / use.sum()
+    return x, own
+
+
+def level_field(
+    x: np.ndarray, own: np.ndarray, shape: tuple[int, ...], block: int = LEVEL_BLOCK
+) -> np.ndarray:
+    """``φ`` ``(H, W, C)`` float64 of :func:`level_solution`'s ``(x, own)`` for an exemplar of ``shape``: the
+    block levels interpolated bilinearly between the block centres, the corner pixels their own level."""
+    h, w, ch = shape
+    s = int(block)
+    hb, wb = -(-h // s), -(-w // s)
+    nblocks = hb * wb
+    if x.shape[0] < nblocks or own.size != x.shape[0] - nblocks:
+        raise ParameterError(
+            f"levels: {x.shape[0]} unknowns for {nblocks} blocks and {own.size} corner pixels of a {w}x{h} map"
+        )
     levels = x[:nblocks].reshape(hb, wb, ch)
     ys = np.clip((np.arange(h) + 0.5) / s - 0.5, 0.0, hb - 1.0)
     xs = np.clip((np.arange(w) + 0.5) / s - 0.5, 0.0, wb - 1.0)

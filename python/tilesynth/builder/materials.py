@@ -103,6 +103,8 @@ up to 0.007) while the direction moves no more than rounding may.
 from __future__ import annotations
 
 import re
+import time
+import weakref
 from dataclasses import dataclass
 from typing import Any
 
@@ -492,6 +494,12 @@ def build_with_maps(
     ts.params = {**ts.params, "material": {**record, "joint": bool(joint), "units": "feature"}}
     ts.maps = {spec.name: arr for spec, arr in specs}
     ts.map_specs = [spec.to_dict() for spec, _ in specs]
+    # The level correction of the fused maps needs the whole set: solved once here and stored with the set, so
+    # that a synthesis of any window fuses only the tiles it shows (synthesize_maps).
+    t0 = time.perf_counter()
+    ts.map_levels = map_levels(ts) or None
+    if ts.map_levels:
+        ts.timing = {**ts.timing, "map_levels_s": time.perf_counter() - t0}
     return ts
 
 
@@ -562,6 +570,152 @@ def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
     return bool(smooth)
 
 
+def _scale(arr: np.ndarray) -> float | None:
+    return {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(arr.dtype)
+
+
+def _used(tileset: Any) -> np.ndarray:
+    """bool ``(H, W)``: the exemplar pixels some tile shows (the continued steps of the fusion read only those);
+    found once per set, from the provenance a chunk of tiles at a time."""
+    cache = _cache(tileset)
+    if "used" not in cache:
+        h, w = tileset.exemplar.shape[:2]
+        used = np.zeros((h, w), bool)
+        for part in _chunks(tileset.n_tiles, tileset.tile_size):
+            src = tile_sources(tileset, part)
+            used[src[..., 0], src[..., 1]] = True
+        cache["used"] = used
+    return cache["used"]
+
+
+def _chunks(k: int, n: int) -> list[np.ndarray]:
+    from ..tileset.provenance import CHUNK_PIXELS
+
+    step = max(1, CHUNK_PIXELS // 4 // max(1, n * n))
+    return [np.arange(lo, min(k, lo + step)) for lo in range(0, k, step)]
+
+
+def tile_sources(tileset: Any, tiles: np.ndarray) -> np.ndarray:
+    """int32 ``(k, N, N, 2)`` provenance of the tiles ``tiles`` (indices): from ``source`` when the set holds it,
+    else gathered from its provenance (a version-2 set), without materialising the other tiles."""
+    if tileset.provenance is not None and not tileset.has_pixels():
+        from ..tileset.provenance import coordinate_grid, materialise
+
+        cache = _cache(tileset)
+        if "grid" not in cache:
+            cache["grid"] = coordinate_grid(*tileset.exemplar.shape[:2])
+        return materialise(cache["grid"], tileset.provenance, tiles)
+    return tileset.source[np.asarray(tiles)]
+
+
+_CACHES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _cache(tileset: Any) -> dict[str, Any]:
+    """The per-set cache of map synthesis (the used pixels, each map's levelled values, fused tiles): computed
+    once per set, never per call; kept beside the set object (a shallow copy of a set gets its own)."""
+    cache = _CACHES.get(tileset)
+    if cache is None:
+        cache = _CACHES[tileset] = {}
+    return cache
+
+
+def map_levels(tileset: Any, names: list[str] | None = None) -> dict[str, np.ndarray]:
+    """The first stage of the seam treatment of every fused map (scalar and normal kinds) of ``tileset``: the
+    solved block and corner levels of :func:`~tilesynth.builder.fusion.level_solution` per map, and the corner
+    pixels (``"corners"``, shared by every map), as a material build stores them (:attr:`TileSet.map_levels`).
+    The solve needs the whole set (every tile's provenance and copies); it is done once, at build time, and a
+    synthesis of any window reads the result (:func:`synthesize_maps`)."""
+    from .fusion import LEVEL_BLOCK, level_solution
+
+    out: dict[str, np.ndarray] = {}
+    for d in tileset.map_specs or []:
+        spec = MapSpec.from_dict(d)
+        if spec.kind not in SMOOTH_KINDS or (names is not None and spec.name not in names):
+            continue
+        arr = tileset.maps[spec.name]
+        if arr.dtype == np.float32 and not np.isfinite(arr).all():
+            continue  # not fusable (synthesize_maps refuses it with smoothing on)
+        scale = _scale(arr)
+        f = arr.astype(np.float64) / (scale or 1.0)
+        src = tileset.source
+        copies = arr[src[..., 0], src[..., 1]].astype(np.float64) / (scale or 1.0)
+        x, own = level_solution(f, copies, src, _used(tileset), LEVEL_BLOCK)
+        out[spec.name] = x
+        out["corners"] = own
+    return out
+
+
+def _levelled(tileset: Any, spec: MapSpec, arr: np.ndarray) -> np.ndarray:
+    """The map's values in [0, 1] float64 plus its level correction ``φ`` (the fusion's first stage), once per
+    set: from the stored levels (:attr:`TileSet.map_levels`), else solved now and kept with the set."""
+    from .fusion import LEVEL_BLOCK, level_field
+
+    cache = _cache(tileset)
+    key = ("levelled", spec.name)
+    if (
+        key not in cache or cache[key][0] is not arr
+    ):  # the map itself, kept alive: a replaced map is not reused
+        levels = tileset.map_levels or {}
+        if spec.name not in levels:
+            levels = {**levels, **map_levels(tileset, [spec.name])}
+            tileset.map_levels = levels
+        f = arr.astype(np.float64) / (_scale(arr) or 1.0)
+        cache[key] = (arr, f + level_field(levels[spec.name], levels["corners"], f.shape, LEVEL_BLOCK))
+        lru = cache.get("fused")
+        for k in [k for k in (lru or {}) if k[0] == spec.name]:
+            cache["fused_bytes"] -= lru.pop(k).nbytes
+    return cache[key][1]
+
+
+FUSED_CACHE_BYTES = 64 << 20
+"""Bytes of fused map tiles kept per set (least recently used first out): a window's tiles are fused once,
+then reused by every window that shows them."""
+
+FUSE_CHUNK = 32
+"""Tiles fused at once (:func:`fused_tiles`): the solve holds about 10 float64 copies of a chunk."""
+
+
+def fused_tiles(tileset: Any, spec: MapSpec, arr: np.ndarray, tiles: np.ndarray) -> np.ndarray:
+    """The tiles ``tiles`` of map ``arr`` fused across their seams (:func:`fuse_map_atlas`, the same bytes) in the
+    map's sample type, computed for those tiles only (the fusion of one tile reads the levelled map and that
+    tile's provenance), normal maps renormalised; recently fused tiles come from the set's cache."""
+    from collections import OrderedDict
+
+    from ..synth.synthesis import check_smoothable
+    from .fusion import fuse_tiles
+
+    check_smoothable(arr)
+    cache = _cache(tileset)
+    lru: OrderedDict = cache.setdefault("fused", OrderedDict())
+    tiles = np.asarray(tiles, np.int64).reshape(-1)
+    levelled = _levelled(tileset, spec, arr)  # first: a replaced map drops its fused tiles
+    missing = [int(t) for t in tiles if (spec.name, int(t)) not in lru]
+    if missing:
+        used = _used(tileset)
+        scale = _scale(arr)
+        for lo in range(0, len(missing), FUSE_CHUNK):
+            part = np.array(missing[lo : lo + FUSE_CHUNK])
+            src = tile_sources(tileset, part)
+            fused = fuse_tiles(levelled, levelled[src[..., 0], src[..., 1]], src, used)
+            if scale:
+                fused = np.rint(np.clip(fused, 0.0, 1.0) * scale).astype(arr.dtype)
+            else:
+                fused = fused.astype(np.float32)
+            if spec.kind == "normal":
+                fused = renormalise_image(fused, spec.encoding or "unorm")
+            for t, tile in zip(part, fused):
+                lru[(spec.name, int(t))] = np.ascontiguousarray(tile)
+                cache["fused_bytes"] = cache.get("fused_bytes", 0) + tile.nbytes
+    out = np.stack([lru[(spec.name, int(t))] for t in tiles]) if tiles.size else np.zeros((0,) + arr.shape)
+    for t in tiles:
+        lru.move_to_end((spec.name, int(t)))
+    while cache.get("fused_bytes", 0) > FUSED_CACHE_BYTES and len(lru) > tiles.size:
+        _, old = lru.popitem(last=False)
+        cache["fused_bytes"] -= old.nbytes
+    return out
+
+
 def fuse_map_atlas(tileset: Any, arr: np.ndarray, atlas: np.ndarray, level: bool = True) -> np.ndarray:
     """The tiles ``atlas`` of map ``arr`` fused across their seams in the gradient domain, in the map's own
     sample type (:mod:`tilesynth.builder.fusion`), in two stages: ``level=True`` (the default) first adds the
@@ -591,22 +745,45 @@ def fuse_map_atlas(tileset: Any, arr: np.ndarray, atlas: np.ndarray, level: bool
 
 
 def map_atlas(
-    tileset: Any, spec: MapSpec, arr: np.ndarray, smooth: bool | None = None, threads: int | None = None
+    tileset: Any,
+    spec: MapSpec,
+    arr: np.ndarray,
+    smooth: bool | None = None,
+    threads: int | None = None,
+    tiles: np.ndarray | None = None,
 ) -> np.ndarray:
-    """The tiles ``(K, N, N, C)`` of one map of ``tileset``: copied through the provenance, Poisson-smoothed in
-    the cut regions when :func:`smooths` says so (never for labels), normals renormalised where smoothed."""
+    """The tiles ``(k, N, N, C)`` of one map of ``tileset`` (``tiles``: their indices; None: every tile): copied
+    through the provenance, fused across the seams or Poisson-smoothed in the cut regions when :func:`smooths`
+    says so (never for labels), normal vectors renormalised. Scalar and normal maps are fused for the tiles
+    asked only (:func:`fused_tiles`, the bytes of :func:`fuse_map_atlas`); a colour map of a Poisson-smoothed set
+    needs the whole set."""
     from ..synth.synthesis import _smooth_map_atlas
 
-    src = tileset.source
-    atlas = np.ascontiguousarray(arr[src[..., 0], src[..., 1]])
+    idx = np.arange(tileset.n_tiles) if tiles is None else np.asarray(tiles, np.int64).reshape(-1)
     if smooths(tileset, spec, smooth):
         if spec.kind in SMOOTH_KINDS:
-            atlas = fuse_map_atlas(tileset, arr, atlas)
-        else:  # colour maps follow the colour's own smoothing
-            atlas = _smooth_map_atlas(tileset, arr, atlas, threads)
+            return fused_tiles(tileset, spec, arr, idx)
+        src = tileset.source  # colour maps follow the colour's own smoothing (version-1 sets only)
+        atlas = _smooth_map_atlas(tileset, arr, np.ascontiguousarray(arr[src[..., 0], src[..., 1]]), threads)
+        atlas = atlas if tiles is None else atlas[idx]
+    else:  # copies: of the map with its vectors renormalised once per set (a per-vector operation)
+        src = tile_sources(tileset, idx)
+        return np.ascontiguousarray(_copied_map(tileset, spec, arr)[src[..., 0], src[..., 1]])
     if spec.kind == "normal":  # every vector, copies too: unit length after decoding (normal_codes)
         atlas = renormalise_image(atlas, spec.encoding or "unorm")
     return atlas
+
+
+def _copied_map(tileset: Any, spec: MapSpec, arr: np.ndarray) -> np.ndarray:
+    """What the copies of a map read: the map itself, or for a normal map the map with every vector renormalised
+    (:func:`renormalise_image`, the same bytes as renormalising the copies), once per set."""
+    if spec.kind != "normal":
+        return arr
+    cache = _cache(tileset)
+    key = ("unit", spec.name)
+    if key not in cache or cache[key][0] is not arr:
+        cache[key] = (arr, np.ascontiguousarray(renormalise_image(arr, spec.encoding or "unorm")))
+    return cache[key][1]
 
 
 def synthesize_maps(
@@ -618,11 +795,19 @@ def synthesize_maps(
     threads: int | None = None,
     smooth: bool | None = None,
     normal_y: str | None = None,
+    offset: tuple[int, int] = (0, 0),
 ) -> dict[str, np.ndarray]:
     """Every map stored in a material tile set, laid out like the colour output of ``index_map``:
     ``{name: (height, width, C)}`` in each map's own sample type. ``smooth``: None (:func:`smooths`: scalar and
     normal maps, and every map of a smoothed set), True or False (labels are never smoothed); ``normal_y``: "up" / "down" converts normal maps recorded in the other
-    convention (None: as recorded)."""
+    convention (None: as recorded); ``offset = (oy, ox)``: the window starts that many pixels into the first
+    cell of ``index_map`` (as :func:`tilesynth.synthesize` lays a window at any ``origin``).
+
+    **Per window.** Only the tiles the window shows are made: copied maps are gathered from the map through the
+    provenance (:func:`tilesynth.tileset.provenance.gather`), fused maps are fused for those tiles (the level
+    correction is solved once per set, at build time, :func:`map_levels`; recently fused tiles are cached with the
+    set, :data:`FUSED_CACHE_BYTES`). The bytes are those of laying out the whole set's map atlas."""
+    from .. import _core
     from ..base import kernels
     from ..base.validate import MAX_BYTES_ENV, fmt_bytes, memory_limit, positive_int, threads_arg
     from ..tileset.tilefile import TileSet
@@ -644,22 +829,37 @@ def synthesize_maps(
         )
     imap = kernels._index_map(index_map)
     n = tileset.tile_size
-    if imap.ndim != 2 or imap.shape[0] * n < h or imap.shape[1] * n < w:
+    try:
+        oy, ox = (int(v) for v in offset)
+    except (TypeError, ValueError):
+        raise ParameterError(f"offset = {offset!r}: expected (oy, ox) pixels into the first cell") from None
+    if not (0 <= oy < n and 0 <= ox < n):
+        raise ParameterError(f"offset = {offset!r}: each must be in [0, {n}) (the tile size)")
+    if imap.ndim != 2 or imap.shape[0] * n < h + oy or imap.shape[1] * n < w + ox:
         raise ShapeError(
-            f"index_map has shape {imap.shape}, expected at least ({-(-h // n)}, {-(-w // n)}) to cover {w}x{h} "
-            f"pixels with {n}x{n} tiles"
+            f"index_map has shape {imap.shape}, expected at least ({-(-(h + oy) // n)}, {-(-(w + ox) // n)}) to "
+            f"cover {w}x{h} pixels with {n}x{n} tiles"
         )
     if imap.size and (imap.min() < 0 or imap.max() >= tileset.n_tiles):
         raise ParameterError(f"index_map has tile indices outside [0, {tileset.n_tiles})")
+    imap = np.ascontiguousarray(imap[: -(-(h + oy) // n), : -(-(w + ox) // n)], dtype=np.int32)
+    shown = np.unique(imap)  # the tiles of the window: the only ones made
+    local = np.ascontiguousarray(np.searchsorted(shown, imap), dtype=np.int32)
+    prov = tileset.provenance
     out = {}
     for d in specs:
         spec = MapSpec.from_dict(d)
         arr = tileset.maps[spec.name]
-        atlas = map_atlas(tileset, spec, arr, smooth, threads)
-        if spec.kind == "normal" and normal_y is not None and normal_y != spec.normal_y:
-            atlas = convert_normal_y(atlas, spec.encoding or "unorm")
         img = np.empty((h, w, arr.shape[2]), arr.dtype)
-        kernels.tile_copy(np.ascontiguousarray(atlas), imap, img, threads=threads)
+        if prov is not None and not smooths(tileset, spec, smooth):
+            from ..tileset.provenance import gather
+
+            gather(_copied_map(tileset, spec, arr), prov, imap, img, (oy, ox), threads=threads)  # copies
+        else:
+            atlas = np.ascontiguousarray(map_atlas(tileset, spec, arr, smooth, threads, tiles=shown))
+            _core.tile_copy_window(atlas, local, (oy, ox), img, threads)
+        if spec.kind == "normal" and normal_y is not None and normal_y != spec.normal_y:
+            img = convert_normal_y(img, spec.encoding or "unorm")
         out[spec.name] = img
     return out
 

@@ -637,8 +637,6 @@ def _synth(
     maps, smooth_maps = _synth_load_maps(ts, ts_path, output, with_maps, map_smooth)
     from .materials import plan_map_outputs, write_map_outputs  # issue 14: the maps of a material set
 
-    if ts.map_specs and origin != (0, 0):
-        raise ParameterError("--origin: a tile set with maps lays them out from (0, 0); leave --origin out")
     stored_smooth = {"auto": None, "on": True, "off": False}[map_smooth]
     stored = plan_map_outputs(
         ts,
@@ -675,7 +673,9 @@ def _synth(
             with atomic_open(save_map) as fh:
                 np.save(fh, imap, allow_pickle=False)
         _synth_write_maps(prog, ts, maps, imap, size, threads, smooth_maps)
-        write_map_outputs(prog, ts, stored, imap, size, threads, stored_smooth, normal_y)
+        n = ts.tile_size  # the maps' window starts where the colour's does: at the origin's pixel in its cell
+        offset = (origin[1] % n, origin[0] % n) if index_map is None else (0, 0)
+        write_map_outputs(prog, ts, stored, imap, size, threads, stored_smooth, normal_y, offset)
     how = f"seed {seed}" if seed is not None else f"map {map_path}"
     prog.message(
         f"wrote {output}: {size[0]}x{size[1]}, {imap.shape[1]}x{imap.shape[0]} tiles, {how}, "
@@ -766,6 +766,7 @@ def _info(ts_path: str, as_json: bool) -> None:
     data["genes"] = [[int(r), int(c)] for r, c in ts.genes]
     data["timing"] = ts.timing
     data["content_sha256"] = ts.content_digest()
+    data["storage"] = _storage(ts_path, ts)
     if as_json:
         print(json.dumps(data, indent=1, sort_keys=True))
         return
@@ -786,6 +787,7 @@ def _info(ts_path: str, as_json: bool) -> None:
         f"build time    {ts.timing.get('total_s', float('nan')):.3f} s"
         + "".join(f", {k[:-2]} {v:.3f}" for k, v in ts.timing.items() if k != "total_s"),
         f"version       tilesynth {ts.version}, content sha256 {data['content_sha256'][:16]}",
+        *_storage_lines(data["storage"]),
         "genes (row, col): "
         + ", ".join(f"{c}=({r0},{c0})" for c, (r0, c0) in zip(_colours(ts.layout), ts.genes.tolist())),
         *_mask_lines(p),
@@ -804,6 +806,29 @@ def _info(ts_path: str, as_json: bool) -> None:
             f"{'(%d,%d)' % tuple(row['match_offset']):>15}  {row['D']:>12.4f}  {row['cut_cost']:>10.4f}"
         )
     print("\n".join(lines))
+
+
+def _storage(ts_path: str, ts) -> dict:  # noqa: ANN001
+    """The file's format version and where its bytes go (member -> [in the file, unpacked])."""
+    from ..tileset.tilefile import member_sizes
+
+    sizes = member_sizes(ts_path)
+    return {
+        "format_version": ts.file_version,
+        "kind": "provenance" if ts.file_version == 2 else "pixels",
+        "file_bytes": os.path.getsize(ts_path),
+        "members": {k: list(v) for k, v in sizes.items()},
+    }
+
+
+def _storage_lines(st: dict) -> list[str]:
+    """``info``'s lines of the file's storage: the version and the largest members."""
+    mb = 1e6
+    members = sorted(st["members"].items(), key=lambda kv: -kv[1][0])
+    parts = ", ".join(f"{k} {v[0] / mb:.2f} MB ({v[1] / mb:.2f} unpacked)" for k, v in members[:6])
+    return [
+        f"storage       format {st['format_version']} ({st['kind']}), {st['file_bytes'] / mb:.2f} MB: {parts}"
+    ]
 
 
 def _mask_lines(p: dict) -> list[str]:

@@ -171,8 +171,10 @@ def write_map_outputs(
     threads: int | None,
     smooth: bool | None,
     normal_y: str | None,
+    offset: tuple[int, int] = (0, 0),
 ) -> None:
-    """Synthesize and write every stored map of ``ts`` (:func:`tilesynth.builder.materials.synthesize_maps`)."""
+    """Synthesize and write every stored map of ``ts`` (:func:`tilesynth.builder.materials.synthesize_maps`),
+    the window at pixel ``offset = (oy, ox)`` into the first cell of ``imap`` (the colour's, for ``--origin``)."""
     from ..builder.materials import synthesize_maps
     from ..io.images import atomic_open, save_image
 
@@ -181,7 +183,9 @@ def write_map_outputs(
             raise ParameterError("--normal-y: the tile set stores no maps (build it with --map)")
         return
     prog("material maps", 0, 1)
-    outs = synthesize_maps(ts, imap, size[0], size[1], threads=threads, smooth=smooth, normal_y=normal_y)
+    outs = synthesize_maps(
+        ts, imap, size[0], size[1], threads=threads, smooth=smooth, normal_y=normal_y, offset=offset
+    )
     from ..builder.materials import MapSpec, smooths
 
     kinds = {d["name"]: d["kind"] for d in ts.map_specs}

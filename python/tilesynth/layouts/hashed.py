@@ -322,6 +322,7 @@ def synthesize_hashed(
     atlas: np.ndarray,
     out: np.ndarray,
     threads: int | None,
+    copy: Any = None,
 ) -> np.ndarray:
     """Fill ``out`` with the window of the hashed tiling whose top-left pixel is ``origin = (x0, y0)``;
     returns the index map of the cells the window touches (its first cell is ``floor(origin / N)``).
@@ -346,7 +347,10 @@ def synthesize_hashed(
     imap = index_map(scheme, seed, (cols, rows), (cx0, cy0), period, threads)
     if imap.size and int(imap.max()) >= tileset.n_tiles:
         raise ParameterError(f"tile set has {tileset.n_tiles} tiles, its definition {scheme.n_tiles}")
-    _core.tile_copy_window(atlas, imap, (oy, ox), out, threads_arg(threads))
+    if copy is not None:  # a set stored as provenance: gathered from the exemplar, the same bytes
+        copy(imap, (oy, ox), out)
+    else:
+        _core.tile_copy_window(atlas, imap, (oy, ox), out, threads_arg(threads))
     return imap
 
 

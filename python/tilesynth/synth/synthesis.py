@@ -40,7 +40,8 @@ _TILESET_FIELDS = ("tiles", "source", "cut_masks", "match_offsets", "layout", "p
 
 
 def _require_tileset(tileset: Any) -> None:
-    if not all(hasattr(tileset, f) for f in _TILESET_FIELDS):
+    names = set(dir(tileset))  # not hasattr: reading ``tiles`` would materialise a provenance set's atlas
+    if not all(f in names for f in _TILESET_FIELDS):
         raise TypeError(f"tileset is a {type(tileset).__name__}, expected a TileSet (tilesynth.load(path))")
 
 
@@ -55,10 +56,21 @@ def synthesis_bytes(
     n = tileset.tile_size
     cells = -(-int(height) // n) * -(-int(width) // n)
     item = np.dtype(dtype).itemsize
-    total = cells * TILER_BYTES_PER_CELL + tileset.tiles.size * item
+    total = cells * TILER_BYTES_PER_CELL + _atlas_size(tileset) * item
     if out:
         total += int(height) * int(width) * tileset.channels * item
     return total
+
+
+def _from_provenance(tileset: TileSet) -> bool:
+    """Whether synthesis gathers from the exemplar through the provenance (a version-2 set whose tiles are not
+    in memory) instead of copying tiles."""
+    return getattr(tileset, "provenance", None) is not None and not tileset.has_pixels()
+
+
+def _atlas_size(tileset: TileSet) -> int:
+    """Elements of what a synthesis reads: the exemplar for a provenance set, else the tiles."""
+    return int(tileset.exemplar.size) if _from_provenance(tileset) else int(tileset.tiles.size)
 
 
 def check_size(
@@ -165,12 +177,14 @@ def synthesize(
             raise ParameterError(f"index_map: {exc}") from None
     if imap is not None:
         imap = np.ascontiguousarray(imap, dtype=np.int32)
+    lazy = _from_provenance(tileset)
+    image = tileset.exemplar if lazy else tileset.tiles  # to_uint is per pixel: converting either is the same
     if dt == np.float32:
-        atlas = tileset.tiles
+        atlas = image
     elif dt == np.uint8:
-        atlas = to_uint(tileset.tiles, 8)
+        atlas = to_uint(image, 8)
     else:
-        atlas = to_uint(tileset.tiles, 16)
+        atlas = to_uint(image, 16)
     shape = (h, w, tileset.channels)
     if out is None:
         out = np.empty(shape, dt)
@@ -188,9 +202,26 @@ def synthesize(
     if scheme is not None:
         from ..layouts.hashed import synthesize_hashed
 
-        return out, synthesize_hashed(tileset, scheme, w, h, seed, origin, wrap, atlas, out, threads)
-    kernels.tile_copy(atlas, imap, out, threads=threads)
+        copy = _gatherer(tileset, atlas, threads) if lazy else None
+        return out, synthesize_hashed(
+            tileset, scheme, w, h, seed, origin, wrap, atlas, out, threads, copy=copy
+        )
+    if lazy:
+        _gatherer(tileset, atlas, threads)(imap, (0, 0), out)
+    else:
+        kernels.tile_copy(atlas, imap, out, threads=threads)
     return out, imap
+
+
+def _gatherer(tileset: TileSet, image: np.ndarray, threads: int | None) -> Any:
+    """``copy(index_map, (oy, ox), out)`` laying a window from ``image`` (the exemplar in the output's dtype)
+    through the set's provenance (:func:`tilesynth.tileset.provenance.gather`)."""
+    from ..tileset.provenance import gather
+
+    def copy(imap: np.ndarray, offset: tuple[int, int], out: np.ndarray) -> None:
+        gather(image, tileset.provenance, imap, out, offset, threads=threads)
+
+    return copy
 
 
 def source_map(
@@ -210,6 +241,16 @@ def source_map(
             f"{fmt_bytes(limit)} (max_bytes / {MAX_BYTES_ENV})"
         )
     out = np.empty((h, w, 2), np.int32)
+    if _from_provenance(tileset):
+        from ..tileset.provenance import coordinate_grid, gather
+
+        gather(
+            coordinate_grid(*tileset.exemplar.shape[:2]),
+            tileset.provenance,
+            kernels._index_map(index_map),
+            out,
+        )
+        return out
     kernels.tile_copy(tileset.source, kernels._index_map(index_map), out)
     return out
 
@@ -293,6 +334,11 @@ def synthesize_map(
             f"(max_bytes / {MAX_BYTES_ENV})"
         )
     imap = kernels._index_map(index_map)  # integers only, no silent int32 wrap-around
+    if not smooth and _from_provenance(tileset):  # copies, straight from the map: no atlas of the whole set
+        from ..tileset.provenance import gather
+
+        out = np.empty((h, w, a.shape[2]), a.dtype)
+        return gather(np.ascontiguousarray(a), tileset.provenance, imap, out, threads=threads)
     src = tileset.source
     atlas = np.ascontiguousarray(a[src[..., 0], src[..., 1]])
     if smooth:

@@ -478,6 +478,9 @@ MANIFEST = Obj(
         "per_tile": List(Obj()),
         "arrays": ARRAYS,
         "maps": List(MAP, max_len=64),  # issue 14: material maps
+        "storage": Obj(  # format version 2: how the tiles are stored (tilesynth.tileset.provenance)
+            required={"kind": Str(("provenance",)), "exemplar_dtype": Str(("float32", "uint8", "uint16"))},
+        ),
     },
 )
 
@@ -511,7 +514,7 @@ def validate_manifest(m: Any) -> None:
         raise TileSetFormatError(
             f"not a tilesynth tile set (manifest.json is a {type(m).__name__}, not an object)"
         )
-    if not _is_v1(m):
+    if not _is_known(m):
         return  # not a tile set of this version: the loader's magic and version check says so
     check_top_level(m)  # the top-level kinds first, in the loader's established wording
     for k, s in MANIFEST.required.items():
@@ -530,11 +533,12 @@ def validate_manifest(m: Any) -> None:
         )
 
 
-def _is_v1(m: Mapping[str, Any]) -> bool:
+def _is_known(m: Mapping[str, Any]) -> bool:
+    """A tile-set manifest of a version this reader knows (1: pixels, 2: provenance)."""
     return (
         m.get("format") == "tilesynth-tileset"
         and type(m.get("format_version")) is int
-        and m["format_version"] == 1
+        and m["format_version"] in (1, 2)
     )
 
 
@@ -594,6 +598,9 @@ def check_member_headers(
         "exemplar": 3,
         "labels": 3,
         "cut_stats": 3,
+        "prov_labels": 3,
+        "prov_table": 3,
+        "cut_masks_packed": 3,
     }
     for name, (shape, *_rest) in headers.items():
         if name in ranks and len(shape) != ranks[name]:
@@ -615,6 +622,28 @@ def check_member_headers(
         for name, shape in expect.items():
             if name in headers and headers[name][0] != shape:
                 raise TileSetFormatError(f"array {name} has shape {headers[name][0]}, expected {shape}")
+    if "prov_labels" in headers:  # format version 2: the members follow from the labels (K, N, N)
+        k, n, _ = headers["prov_labels"][0]
+        expect = {
+            "cut_masks_packed": (k, n, -(-n // 8)),
+            "tile_patches": (k, 4),
+            "match_offsets": (k, 2),
+            "D": (k,),
+            "cut_costs": (k,),
+            "labels": (k, n, n),
+            "cut_stats": (k, 4, 6),
+        }
+        for name, shape in expect.items():
+            if name in headers and headers[name][0] != shape:
+                raise TileSetFormatError(f"array {name} has shape {headers[name][0]}, expected {shape}")
+        table = headers.get("prov_table")
+        if table is not None and (table[0][0] != k or table[0][2] != 3):
+            raise TileSetFormatError(f"array prov_table has shape {table[0]}, expected ({k}, L, 3)")
+        if k != len(manifest["layout"]["tiles"]):
+            raise TileSetFormatError(
+                f"member prov_labels.npy: {k} tiles, but manifest.json field layout.tiles lists "
+                f"{len(manifest['layout']['tiles'])}"
+            )
     declared = manifest.get("arrays")
     if isinstance(declared, dict):
         for name, (shape, *_rest) in headers.items():
@@ -647,7 +676,7 @@ def check_archive(zf: Any, manifest: Any, dtypes: Mapping[str, str]) -> None:
     header of every member of ``dtypes`` present in the open ZIP ``zf`` and check them
     (:func:`check_member_headers`), before any array is read."""
     validate_manifest(manifest)
-    if not _is_v1(manifest):
+    if not _is_known(manifest):
         return
     headers = {}
     names = set(zf.namelist())

@@ -5,7 +5,7 @@ A ``.tiles`` file is a ZIP archive (readable with any zip tool and ``numpy.load`
 ==================  =========================================================================================
 member              content
 ==================  =========================================================================================
-``manifest.json``   ``format`` = "tilesynth-tileset", ``format_version``, ``tilesynth_version``, ``scheme``
+``manifest.json``   ``format`` = "tilesynth-tileset", ``format_version`` (1 here; 2 below), ``tilesynth_version``, ``scheme``
                     ("omega", "wang" or "swang"), ``layout`` (the tile-set definition: name, colours, one entry per tile), ``params``
                     (tile size, eps, selection method and its parameters, seed), ``per_tile`` table (colours,
                     patch numbers, matching offset, D_j, cut cost), ``E``, ``exemplar`` (file name, shape, bits,
@@ -23,6 +23,30 @@ member              content
 ``timing.json``     wall-clock seconds of each build stage; the last member, and optional (``save(...,
                     include_timing=False)``)
 ==================  =========================================================================================
+
+**Format version 2: provenance.** A set whose every tile pixel is a copy of the exemplar pixel its provenance
+names (every set built without Poisson smoothing: :mod:`tilesynth.tileset.provenance` says why) is saved as
+version 2, which stores the provenance instead of ``tiles.npy`` and ``source.npy``:
+
+=========================  ==================================================================================
+``prov_labels.npy``        uint8 ``(K, N, N)``: which entry of its tile's source table each pixel comes from
+``prov_table.npy``         int32 ``(K, L, 3)``: per tile and entry ``(s, by, bx)``, pixel p comes from
+                           ``D_s(p) + (by, bx)`` (``s`` a symmetry of the square, -1 past the tile's entries)
+``cut_masks_packed.npy``   uint8 ``(K, N, ⌈N/8⌉)``: ``cut_masks`` bit-packed along the rows (``numpy.packbits``)
+``exemplar.npy``           the exemplar as its 8- or 16-bit codes when they decode to it bit for bit (``code /
+                           (2^bits − 1)`` in float32, as the image reader does), else float32 (the manifest's
+                           ``storage.exemplar_dtype`` says which)
+``level_<map>.npy``        material sets: float64 ``(B + M, C)``, the solved block and corner levels of each fused
+                           map (:func:`tilesynth.builder.materials.map_levels`), and ``level_corners.npy`` int64
+                           ``(M,)`` the corner pixels (the fusion's first stage, solved once at build time)
+=========================  ==================================================================================
+
+with ``genes``, ``tile_patches``, ``match_offsets``, ``D``, ``cut_costs``, the optional members and the maps as in
+version 1, and the manifest's ``storage`` (``kind`` "provenance", ``exemplar_dtype``). A loaded version-2 set
+materialises ``tiles`` and ``source`` only when they are read; synthesis gathers from the exemplar and never
+does. Sets that are not pure copies (Poisson-smoothed) are saved as version 1; ``save(format_version=1)`` writes
+version 1 for any set. :meth:`TileSet.content_digest` describes a pure-copy set in version 2 whichever version
+it was read from.
 
 **Schemes.** ``scheme`` is ``"omega"`` (ω-tiles, :mod:`tilesynth.builder.omega`), ``"wang"`` (Cohen et al.'s Wang tiles,
 :mod:`tilesynth.builder.wang`) or ``"swang"`` (strict Wang tiles of 004). The ``layout`` of an ω set has ``kind`` "corner"
@@ -87,11 +111,14 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import TileSetFormatError
+from ..errors import ParameterError, TileSetFormatError
 from ..io.images import atomic_path
 
 FORMAT = "tilesynth-tileset"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+"""The version :meth:`TileSet.save` writes for a pure-copy set (provenance); sets that are not pure copies are
+written as version 1 (pixels). Both load."""
+FORMAT_VERSIONS = (1, 2)
 
 MAX_UNPACKED_BYTES = 8 << 30
 """Refuse tile-set files whose members declare more than 8 GiB unpacked (a ZIP bomb; the largest real set,
@@ -114,16 +141,56 @@ _ARRAYS: dict[str, str] = {
     "exemplar": "float32",
 }
 
+#: The members of a version-2 file (provenance storage) in their order; ``exemplar`` takes the dtype that
+#: ``manifest["storage"]["exemplar_dtype"]`` names.
+_ARRAYS_V2: dict[str, str] = {
+    "prov_labels": "uint8",
+    "prov_table": "int32",
+    "cut_masks_packed": "uint8",
+    "genes": "int64",
+    "tile_patches": "int64",
+    "match_offsets": "int64",
+    "D": "float64",
+    "cut_costs": "float64",
+    "exemplar": "float32",
+}
+
 #: Optional members (Wang schemes), written after the others when present.
 _OPTIONAL: dict[str, str] = {
     "labels": "uint8",
     "cut_stats": "float64",
 }
 
+#: The block side of stored map levels: :data:`tilesynth.builder.fusion.LEVEL_BLOCK` (the builder is above this
+#: module; ``tests/test_provenance.py`` ties the two).
+LEVEL_BLOCK = 4
+
 #: Names of the four cuts of a Wang tile, in the order of ``cut_stats``.
 CUT_NAMES: tuple[str, ...] = ("NE", "ES", "SW", "WN")
 #: The six values per cut in ``cut_stats``.
 CUT_STAT_NAMES: tuple[str, ...] = ("D_overlap", "n_overlap", "D_path", "n_path", "D_boundary", "cost")
+
+
+class _Materialised:
+    """A field of :class:`TileSet` (``tiles``, ``source``) that a version-2 set holds as provenance: materialised
+    from the exemplar on first access (and then kept), so that only the code that needs the whole atlas pays for
+    it; synthesis gathers from the exemplar instead (:mod:`tilesynth.tileset.provenance`)."""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+        self.slot = f"_{name}_array"
+
+    def __get__(self, obj: Any, owner: type | None = None) -> Any:
+        if obj is None:
+            raise AttributeError(self.name)  # no class-level default: the dataclass field stays required
+        value = obj.__dict__.get(self.slot)
+        if value is None and obj.__dict__.get("provenance") is not None:
+            value = obj._materialise(self.name)
+            obj.__dict__[self.slot] = value
+        return value
+
+    def __set__(self, obj: Any, value: Any) -> None:
+        obj.__dict__[self.slot] = value
 
 
 @dataclass(eq=False)
@@ -136,8 +203,8 @@ class TileSet:
 
     scheme: str
     layout: dict[str, Any]
-    tiles: np.ndarray
-    source: np.ndarray
+    tiles: np.ndarray = _Materialised()  # type: ignore[assignment]
+    source: np.ndarray = _Materialised()  # type: ignore[assignment]
     cut_masks: np.ndarray
     genes: np.ndarray
     tile_patches: np.ndarray
@@ -156,6 +223,53 @@ class TileSet:
     """Material builds (:mod:`tilesynth.builder.materials`): every map, ``(H, W, C)`` in its own sample type."""
     map_specs: list[dict[str, Any]] | None = None
     """Material builds: the manifest's ``maps`` entries (name, kind, weight, dtype, channels, ...), in order."""
+    provenance: Any = None
+    """The :class:`~tilesynth.tileset.provenance.Provenance` (labels and source table) of a set read from a
+    version-2 file: ``tiles`` and ``source`` are then materialised from it only when read (a built set has
+    None here: :meth:`storage` finds its provenance when it is saved)."""
+    file_version: int | None = None
+    """The format version of the file this set was loaded from (None: built in this process)."""
+    map_levels: dict[str, Any] | None = None
+    """Material builds: the first stage of every fused map's seam treatment, computed once per set
+    (:func:`tilesynth.builder.materials.map_levels`); stored in version-2 files as ``level_<name>.npy``."""
+
+    # ---------------------------------------------------------------------------------------- provenance
+    def _materialise(self, name: str) -> np.ndarray:
+        """The whole ``tiles`` (float32) or ``source`` (int32) array of a provenance set."""
+        from .provenance import coordinate_grid, materialise
+
+        if name == "tiles":
+            return materialise(self.exemplar, self.provenance)
+        return materialise(coordinate_grid(*self.exemplar.shape[:2]), self.provenance)
+
+    def has_pixels(self) -> bool:
+        """Whether the float tiles are held in memory (a built or version-1 set, or a materialised one)."""
+        return self.__dict__.get("_tiles_array") is not None
+
+    def storage(self) -> int:
+        """The format version this set is saved as (and its :meth:`manifest` and :meth:`content_digest` describe):
+        2 (provenance) for pure copies, every tile pixel the exemplar pixel its provenance names bit for bit (as
+        without Poisson smoothing); 1 (pixels) otherwise. Whether a set built or read from a version-1 file is
+        a pure copy (:func:`~tilesynth.tileset.provenance.factorise`) is found once."""
+        return 2 if self._provenance() is not None else 1
+
+    def _provenance(self) -> Any:
+        """The provenance a version-2 file of this set stores: the loaded one while the tiles are not in memory,
+        else found from the tiles and provenance in memory (once for these arrays: a set whose arrays are
+        replaced is looked at again)."""
+        if not self.has_pixels():
+            return self.provenance
+        tiles, source = self.tiles, self.source
+        found = self.__dict__.get("_found")
+        if found is None or found[0] is not tiles or found[1] is not source or found[2] is not self.exemplar:
+            from .provenance import factorise, pure_copy
+
+            prov = None
+            if not isinstance(self.params.get("smooth"), dict) and pure_copy(tiles, self.exemplar, source):
+                prov = factorise(source)
+            found = (tiles, source, self.exemplar, prov)
+            self.__dict__["_found"] = found
+        return found[3]
 
     # ----------------------------------------------------------------------------------------------- views
     @property
@@ -165,29 +279,69 @@ class TileSet:
 
         return tileset_from_dict(self.layout)
 
-    def _arrays(self) -> dict[str, str]:
-        """Name -> dtype of every member array this tile set holds (the optional ones only when present)."""
-        out = dict(_ARRAYS)
+    def _arrays(self, version: int | None = None) -> dict[str, str]:
+        """Name -> dtype of every member array of the file of ``version`` (None: :meth:`storage`), the optional
+        ones only when present."""
+        version = self.storage() if version is None else version
+        if version == 2:
+            out = dict(_ARRAYS_V2)
+            out["exemplar"] = self._exemplar_codes()[0]
+        else:
+            out = dict(_ARRAYS)
         out.update({k: v for k, v in _OPTIONAL.items() if getattr(self, k) is not None})
         out.update(_map_members(self.map_specs))  # issue 14: material maps, last
+        if version == 2 and self.map_levels:
+            out.update(_level_members(self.map_levels, self.map_specs))
         return out
 
-    def _member(self, name: str) -> np.ndarray:
-        """The array of member ``name`` (``map_<name>`` for a material map)."""
+    def _member(self, name: str, version: int | None = None) -> np.ndarray:
+        """The array of member ``name`` (``map_<name>`` for a material map; the provenance members of version 2)."""
         if name.startswith("map_") and self.maps is not None and name[4:] in self.maps:
             return self.maps[name[4:]]
+        if name == "prov_labels":
+            return self._provenance().labels
+        if name == "prov_table":
+            return self._provenance().table
+        if name == "cut_masks_packed":
+            return np.packbits(self.cut_masks, axis=-1)
+        if name == "exemplar" and (self.storage() if version is None else version) == 2:
+            return self._exemplar_codes()[1]
+        if name == "level_corners":
+            return self.map_levels["corners"]
+        if name.startswith("level_") and self.map_levels and name[6:] in self.map_levels:
+            return self.map_levels[name[6:]]
         return getattr(self, name)
+
+    def _exemplar_codes(self) -> tuple[str, np.ndarray]:
+        """The exemplar as a version-2 file stores it: its 8- or 16-bit codes when decoding them as the image
+        reader does (``code / (2^bits - 1)`` in float32) gives it back bit for bit, else its float32 pixels."""
+        if "_codes" not in self.__dict__ or self.__dict__["_codes"][0] is not self.exemplar:
+            ex = self.exemplar
+            out: tuple[str, np.ndarray] = ("float32", ex)
+            for dt, top in ((np.uint8, 255), (np.uint16, 65535)):
+                codes = np.rint(ex * np.float32(top)).astype(dt)
+                if np.array_equal(codes.astype(np.float32) / np.float32(top), ex):
+                    out = (np.dtype(dt).name, codes)
+                    break
+            self.__dict__["_codes"] = (ex, out)
+        return self.__dict__["_codes"][1]
 
     @property
     def n_tiles(self) -> int:
+        if not self.has_pixels() and self.provenance is not None:
+            return self.provenance.n_tiles
         return int(self.tiles.shape[0])
 
     @property
     def tile_size(self) -> int:
+        if not self.has_pixels() and self.provenance is not None:
+            return self.provenance.tile_size
         return int(self.tiles.shape[1])
 
     @property
     def channels(self) -> int:
+        if not self.has_pixels() and self.provenance is not None:
+            return int(self.exemplar.shape[2])
         return int(self.tiles.shape[3])
 
     def per_tile(self) -> list[dict[str, Any]]:
@@ -225,11 +379,13 @@ class TileSet:
             )
         return rows
 
-    def manifest(self) -> dict[str, Any]:
-        """The ``manifest.json`` content."""
+    def manifest(self, version: int | None = None) -> dict[str, Any]:
+        """The ``manifest.json`` content of the file of ``version`` (None: :meth:`storage`)."""
+        version = self.storage() if version is None else version
+        storage = {"storage": {"kind": "provenance", "exemplar_dtype": self._exemplar_codes()[0]}}
         return {
             "format": FORMAT,
-            "format_version": FORMAT_VERSION,
+            "format_version": version,
             "tilesynth_version": self.version,
             "scheme": self.scheme,
             "layout": self.layout,
@@ -238,32 +394,57 @@ class TileSet:
             "exemplar": self.exemplar_info,
             "per_tile": self.per_tile(),
             "arrays": {
-                name: {"dtype": dt, "shape": list(self._member(name).shape)}
-                for name, dt in self._arrays().items()
+                name: {"dtype": dt, "shape": list(self._member_shape(name, version))}
+                for name, dt in self._arrays(version).items()
             },
             **({"maps": self.map_specs} if self.map_specs else {}),
+            **(storage if version == 2 else {}),
         }
 
+    def _member_shape(self, name: str, version: int | None) -> tuple[int, ...]:
+        if name == "cut_masks_packed":
+            k, n = self.cut_masks.shape[:2]
+            return (k, n, -(-n // 8))
+        return tuple(self._member(name, version).shape)
+
     def content_digest(self) -> str:
-        """SHA-256 over everything but the timing: equal digests mean equal tile sets."""
+        """SHA-256 over everything but the timing, as :meth:`storage` saves it: equal digests mean equal tile
+        sets (a pure-copy set has the same digest whether it was read from a version-1 or a version-2 file)."""
         h = hashlib.sha256()
         h.update(_json_bytes(self.manifest()))
         for name in self._arrays():
             h.update(_npy_bytes(self._member(name)))
         return h.hexdigest()
 
+    def stored_sizes(self) -> dict[str, int]:
+        """Bytes of every member array as :meth:`storage` saves it, uncompressed (``.npy`` with header): what
+        ``tilesynth info`` shows beside the file's own member sizes."""
+        return {name: _npy_size(self._member(name)) for name in self._arrays()}
+
     # ---------------------------------------------------------------------------------------------- files
-    def save(self, path: str | os.PathLike[str], include_timing: bool = True) -> None:
+    def save(
+        self, path: str | os.PathLike[str], include_timing: bool = True, format_version: int | None = None
+    ) -> None:
         """Write the tile set to ``path`` atomically (see the module docstring for the layout).
 
         ``include_timing=False`` leaves out ``timing.json``, so that the same build gives a byte-identical
-        file in every run (see "Determinism" in the module docstring).
+        file in every run (see "Determinism" in the module docstring). ``format_version``: None (default)
+        writes version 2 (provenance) for a pure-copy set and version 1 (pixels) otherwise (:meth:`storage`);
+        1 writes pixels whatever the set (for readers older than version 2).
         """
         self._check()
+        version = self.storage() if format_version is None else int(format_version)
+        if version not in FORMAT_VERSIONS or (version == 2 and self.storage() != 2):
+            raise ParameterError(
+                f"format_version = {format_version!r}: must be None, 1, or 2 for a pure-copy set (this set "
+                f"{'is' if self.storage() == 2 else 'is not'} one)"
+            )
         with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w") as zf:
-            _write_member(zf, "manifest.json", _json_bytes(self.manifest()))
-            for name in self._arrays():
-                _write_array(zf, f"{name}.npy", self._member(name))
+            _write_member(zf, "manifest.json", _json_bytes(self.manifest(version)))
+            for name in self._arrays(version):
+                _write_array(
+                    zf, f"{name}.npy", self._member(name, version), version == 2 and _bzip2_member(name)
+                )
             if include_timing:
                 _write_member(zf, "timing.json", _json_bytes(self.timing))
 
@@ -282,28 +463,38 @@ class TileSet:
         try:
             with zipfile.ZipFile(p) as zf:
                 infos = {i.filename: i for i in zf.infolist()}
-                missing = [m for m in ["manifest.json", *(f"{a}.npy" for a in _ARRAYS)] if m not in infos]
-                if missing:
-                    raise TileSetFormatError(
-                        f"tileset = {p!r}: not a tilesynth tile set (missing members {missing})"
-                    )
                 unpacked = sum(i.file_size for i in infos.values())
                 if unpacked > MAX_UNPACKED_BYTES:
                     raise TileSetFormatError(
                         f"tileset = {p!r}: members unpack to {unpacked} bytes, more than the limit of "
                         f"{MAX_UNPACKED_BYTES} (MAX_UNPACKED_BYTES)"
                     )
-                if infos["manifest.json"].file_size > MAX_MANIFEST_BYTES:
+                if "manifest.json" in infos and infos["manifest.json"].file_size > MAX_MANIFEST_BYTES:
                     raise TileSetFormatError(
                         f"tileset = {p!r}: manifest.json unpacks to {infos['manifest.json'].file_size} bytes, more "
                         f"than the limit of {MAX_MANIFEST_BYTES} (MAX_MANIFEST_BYTES)"
                     )
-                manifest = json.loads(zf.read("manifest.json"))
+                manifest = json.loads(zf.read("manifest.json")) if "manifest.json" in infos else None
+                if isinstance(manifest, dict) and manifest.get("format_version") not in FORMAT_VERSIONS:
+                    _check_manifest(manifest)  # a future (or unknown) version: say so, not "missing members"
+                v2 = isinstance(manifest, dict) and manifest.get("format_version") == 2
+                required = _ARRAYS_V2 if v2 else _ARRAYS
+                missing = [m for m in ["manifest.json", *(f"{a}.npy" for a in required)] if m not in infos]
+                if missing:
+                    raise TileSetFormatError(
+                        f"tileset = {p!r}: not a tilesynth tile set (missing members {missing})"
+                    )
                 from .manifest import check_archive
 
-                members = {**_ARRAYS, **_OPTIONAL}
+                members = {**required, **_OPTIONAL}
+                if v2:
+                    storage = manifest.get("storage")
+                    ex_dt = storage.get("exemplar_dtype") if isinstance(storage, dict) else None
+                    members["exemplar"] = ex_dt if ex_dt in ("float32", "uint8", "uint16") else "float32"
                 if isinstance(manifest, dict) and isinstance(manifest.get("maps"), list):
                     members.update(_map_members(manifest["maps"], checked=False))  # issue 14
+                    if v2:
+                        members.update(_level_members(None, manifest["maps"], infos, checked=False))
                 check_archive(zf, manifest, members)  # schema and .npy headers (issue 16)
                 _check_manifest(manifest)
                 map_specs = manifest.get("maps") or None
@@ -318,13 +509,21 @@ class TileSet:
                     raise TileSetFormatError("timing.json must map stage names to seconds")
                 arrays = {
                     a: np.load(io.BytesIO(zf.read(f"{a}.npy")), allow_pickle=False)
-                    for a in [*_ARRAYS, *_OPTIONAL]
-                    if a in _ARRAYS or f"{a}.npy" in infos
+                    for a in [*required, *_OPTIONAL]
+                    if a in required or f"{a}.npy" in infos
                 }
                 maps = {
                     m[4:]: np.load(io.BytesIO(zf.read(f"{m}.npy")), allow_pickle=False)
                     for m in _map_members(map_specs)
                 } or None
+                levels = None
+                if v2:
+                    levels = {
+                        name[6:] if name != "level_corners" else "corners": np.load(
+                            io.BytesIO(zf.read(f"{name}.npy")), allow_pickle=False
+                        )
+                        for name in _level_members(None, map_specs, infos, checked=False)
+                    } or None
         except TileSetFormatError as exc:
             if str(exc).startswith("tileset = "):
                 raise
@@ -349,6 +548,27 @@ class TileSet:
             raise TileSetFormatError(
                 f"tileset = {p!r}: not a tilesynth tile set ({type(exc).__name__}: {exc})"
             ) from None
+        extra: dict[str, Any] = {"file_version": manifest["format_version"], "map_levels": levels}
+        if manifest["format_version"] == 2:
+            from .provenance import Provenance
+
+            prov = Provenance(labels=arrays.pop("prov_labels"), table=arrays.pop("prov_table"))
+            packed = arrays.pop("cut_masks_packed")
+            n = prov.tile_size
+            try:
+                prov.check()
+            except TileSetFormatError as exc:
+                raise TileSetFormatError(f"tileset = {p!r}: {exc}") from None
+            codes = arrays.pop("exemplar")
+            top = {np.dtype(np.uint8): 255, np.dtype(np.uint16): 65535}.get(codes.dtype)
+            exemplar = codes if top is None else codes.astype(np.float32) / np.float32(top)
+            arrays.update(
+                tiles=None,
+                source=None,
+                exemplar=np.ascontiguousarray(exemplar, dtype=np.float32),
+                cut_masks=np.ascontiguousarray(np.unpackbits(packed, axis=-1, count=n).astype(bool)),
+            )
+            extra["provenance"] = prov
         ts = cls(
             scheme=manifest["scheme"],
             layout=manifest["layout"],
@@ -359,6 +579,7 @@ class TileSet:
             version=manifest["tilesynth_version"],
             maps=maps,
             map_specs=map_specs,
+            **extra,
             **arrays,
         )
         try:
@@ -380,9 +601,13 @@ class TileSet:
             a = self._member(name)
             if not isinstance(a, np.ndarray) or a.dtype != np.dtype(dt):
                 raise TileSetFormatError(f"array {name} must be {dt}, got {getattr(a, 'dtype', type(a))}")
-        k, n, n2, c = self.tiles.shape
+        lazy = not self.has_pixels() and self.provenance is not None
+        if lazy:  # a version-2 set: the tiles are the provenance's (checked at load), not in memory
+            k, n, n2, c = self.n_tiles, self.tile_size, self.tile_size, self.channels
+        else:
+            k, n, n2, c = self.tiles.shape
         expect = {
-            "source": (k, n, n, 2),
+            **({} if lazy else {"source": (k, n, n, 2)}),
             "cut_masks": (k, n, n),
             "tile_patches": (k, 4),
             "match_offsets": (k, 2),
@@ -394,7 +619,7 @@ class TileSet:
         if self.cut_stats is not None:
             expect["cut_stats"] = (k, 4, len(CUT_STAT_NAMES))
         if n != n2:
-            raise TileSetFormatError(f"tiles must be square, got shape {self.tiles.shape}")
+            raise TileSetFormatError(f"tiles must be square, got shape {(k, n, n2, c)}")
         for name, shape in expect.items():
             if getattr(self, name).shape != shape:
                 raise TileSetFormatError(
@@ -412,16 +637,18 @@ class TileSet:
                 f"{list(self.exemplar.shape)}"
             )
         _check_map_shapes(self.maps, self.map_specs, self.exemplar.shape[:2])
+        _check_levels(self.map_levels, self.maps, self.exemplar.shape[:2])
         if k == 0 or n == 0 or not 1 <= c <= 4 or 0 in self.exemplar.shape:
             raise TileSetFormatError(
-                f"tiles have shape {self.tiles.shape}, expected (K, N, N, C) with K, N >= 1 and C in 1..4"
+                f"tiles have shape {(k, n, n, c)}, expected (K, N, N, C) with K, N >= 1 and C in 1..4"
             )
         if self.genes.ndim != 2 or self.genes.shape[1] != 2 or self.genes.shape[0] == 0:
             raise TileSetFormatError(f"array genes has shape {self.genes.shape}, expected (n, 2) with n >= 1")
 
     def _check_values(self) -> None:
         """The array contents and the layout: values in range, positions inside the exemplar."""
-        k, n = self.tiles.shape[:2]
+        lazy = not self.has_pixels() and self.provenance is not None
+        k = self.n_tiles
         try:
             from ..layouts.omega_sets import tileset_from_dict
 
@@ -433,7 +660,7 @@ class TileSet:
         if len(defn.tiles) != k:
             raise TileSetFormatError(f"layout lists {len(defn.tiles)} tiles, the arrays {k}")
         h, w = self.exemplar.shape[:2]
-        for name in ("tiles", "exemplar"):
+        for name in ("exemplar",) if lazy else ("tiles", "exemplar"):
             a = getattr(self, name)
             if not np.isfinite(a).all() or a.min() < 0 or a.max() > 1:
                 raise TileSetFormatError(f"array {name} has values outside [0, 1] (or NaN)")
@@ -443,9 +670,16 @@ class TileSet:
         for name in ("D", "cut_costs"):
             if not np.isfinite(getattr(self, name)).all():
                 raise TileSetFormatError(f"array {name} has non-finite values")
-        src = self.source
-        if src.size and (src.min() < 0 or src[..., 0].max() >= h or src[..., 1].max() >= w):
-            raise TileSetFormatError(f"array source points outside the {w}x{h} exemplar")
+        if lazy:
+            from .provenance import check_inside
+
+            if not check_inside(self.provenance, h, w):
+                raise TileSetFormatError(f"array prov_table points outside the {w}x{h} exemplar")
+        else:
+            src = self.source
+            if src.size and (src.min() < 0 or src[..., 0].max() >= h or src[..., 1].max() >= w):
+                raise TileSetFormatError(f"array source points outside the {w}x{h} exemplar")
+        n = self.tile_size
         for name in ("genes", "match_offsets"):
             g = getattr(self, name)
             if name == "match_offsets" and (g == -1).any():
@@ -473,6 +707,13 @@ class TileSet:
         return synthesize(self, width, height, seed=seed, **kwargs)
 
 
+def member_sizes(path: str | os.PathLike[str]) -> dict[str, tuple[int, int]]:
+    """``{member: (bytes in the file, bytes unpacked)}`` of a ``.tiles`` file, in the file's order (what ``tilesynth
+    info`` shows: where the file's bytes go)."""
+    with zipfile.ZipFile(os.fspath(path)) as zf:
+        return {i.filename: (i.compress_size, i.file_size) for i in zf.infolist()}
+
+
 def _check_manifest(m: Any) -> None:
     """The manifest's magic, version and field types (raises TileSetFormatError without the path)."""
     if not isinstance(m, dict):
@@ -483,10 +724,12 @@ def _check_manifest(m: Any) -> None:
         raise TileSetFormatError(
             f"not a tilesynth tile set (format {m.get('format')!r}, expected {FORMAT!r})"
         )
-    if m.get("format_version") != FORMAT_VERSION:
+    if type(m.get("format_version")) is not int or m.get("format_version") not in FORMAT_VERSIONS:
         raise TileSetFormatError(
-            f"format version {m.get('format_version')!r}, this tilesynth reads version {FORMAT_VERSION}"
+            f"format version {m.get('format_version')!r}, this tilesynth reads versions 1 and {FORMAT_VERSION}"
         )
+    if m["format_version"] == 2 and not isinstance(m.get("storage"), dict):
+        raise TileSetFormatError("manifest.json of format version 2 lacks 'storage'")
     from .manifest import check_top_level
 
     check_top_level(m)
@@ -522,6 +765,47 @@ def _map_members(specs: Any, checked: bool = True) -> dict[str, str]:
             raise TileSetFormatError(f"manifest.json field maps: duplicate map name {name!r}")
         out[f"map_{name}"] = d["dtype"]
     return out
+
+
+def _level_members(levels: Any, specs: Any, infos: Any = None, checked: bool = True) -> dict[str, str]:
+    """``{"level_corners": "int64", "level_<name>": "float64", ...}``: the stored first stage of the seam
+    treatment of each fused map (:func:`tilesynth.builder.materials.map_levels`), in the order of the maps; from
+    ``levels`` (saving) or from the archive's member names ``infos`` (loading)."""
+    names = [d.get("name") for d in specs or [] if isinstance(d, dict) and isinstance(d.get("name"), str)]
+    if checked:
+        names = [m for m in names if levels and m in levels]
+    else:
+        names = [
+            m for m in names if infos is not None and f"level_{m}.npy" in infos and _MAP_NAME.fullmatch(m)
+        ]
+    if not names:
+        return {}
+    return {"level_corners": "int64", **{f"level_{m}": "float64" for m in names}}
+
+
+def _check_levels(levels: Any, maps: Any, hw: tuple[int, ...]) -> None:
+    """The stored map levels agree with the maps: ``(B + M, C)`` float64 finite per map, ``B`` the exemplar's
+    blocks of :data:`LEVEL_BLOCK` pixels, ``M`` the corner pixels, inside the exemplar."""
+    if not levels:
+        return
+    corners = levels.get("corners")
+    h, w = int(hw[0]), int(hw[1])
+    if not isinstance(corners, np.ndarray) or corners.ndim != 1 or corners.dtype != np.int64:
+        raise TileSetFormatError("array level_corners must be int64 (M,)")
+    if corners.size and (corners.min() < 0 or corners.max() >= h * w):
+        raise TileSetFormatError(f"array level_corners has pixels outside the {w}x{h} exemplar")
+    blocks = -(-h // LEVEL_BLOCK) * -(-w // LEVEL_BLOCK)
+    for name, x in levels.items():
+        if name == "corners":
+            continue
+        m = (maps or {}).get(name)
+        want = (blocks + corners.size, None if m is None else m.shape[2])
+        if m is None or not isinstance(x, np.ndarray) or x.dtype != np.float64 or x.shape != want:
+            raise TileSetFormatError(
+                f"array level_{name} has shape {getattr(x, 'shape', None)}, expected {want} float64 (a stored map)"
+            )
+        if not np.isfinite(x).all():
+            raise TileSetFormatError(f"array level_{name} has non-finite values")
 
 
 def _check_map_shapes(maps: Any, specs: Any, hw: tuple[int, ...]) -> None:
@@ -590,19 +874,32 @@ def _npy_size(a: np.ndarray) -> int:
     return head.tell() + a.nbytes
 
 
-def _write_array(zf: zipfile.ZipFile, name: str, a: np.ndarray) -> None:
+BZIP2_LEVEL = 9
+"""bzip2 level of version 2's label, mask, exemplar and map members (:data:`BZIP2_MEMBERS`). Measured on the
+default colour set of a 512² exemplar (roof-tiles): labels 10.2 MB raw are 483 KB at deflate level 1, 210 KB at
+level 9, 123 KB in bzip2; the packed cut masks 207 / 133 / 97 KB; the exemplar's 8-bit codes 560 / 606 / 404 KB
+(its PNG: 439 KB). The members are small, so the slower compressor costs about a second per set."""
+
+
+def _bzip2_member(name: str) -> bool:
+    """Whether a version-2 member is written with bzip2 (the members that dominate its size)."""
+    return name in ("prov_labels", "cut_masks_packed", "exemplar") or name.startswith("map_")
+
+
+def _write_array(zf: zipfile.ZipFile, name: str, a: np.ndarray, bzip2: bool = False) -> None:
     """:func:`_write_member` of ``_npy_bytes(a)``, streamed: the same member bytes (the uncompressed size is
     set in advance, as ``writestr`` sets it, and ``np.lib.format.write_array`` writes the same header and data
     in 16 MiB pieces), without the two whole in-memory copies of the array (issue 12: a c5 set's 123 MB of
     tiles were the peak of saving it)."""
     a = np.ascontiguousarray(a)
     info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
-    info.compress_type = zipfile.ZIP_DEFLATED
+    info.compress_type = zipfile.ZIP_BZIP2 if bzip2 else zipfile.ZIP_DEFLATED
     info.external_attr = 0o644 << 16
     info.file_size = _npy_size(a)
+    level = BZIP2_LEVEL if bzip2 else DEFLATE_LEVEL
     if "compress_level" in getattr(zipfile.ZipInfo, "__slots__", ()):  # Python >= 3.13
-        info.compress_level = DEFLATE_LEVEL
+        info.compress_level = level
     else:
-        info._compresslevel = DEFLATE_LEVEL  # what writestr(..., compresslevel=) sets before 3.13
+        info._compresslevel = level  # what writestr(..., compresslevel=) sets before 3.13
     with zf.open(info, mode="w") as dest:
         np.lib.format.write_array(dest, a, allow_pickle=False)
