@@ -49,6 +49,9 @@ __all__ = [
     # gradients (rust/py/gradients.rs) and the bench baseline of the matching (rust/py/ssd.rs)
     "patch_gradients",
     "_best_matches_sorting",
+    # tile sets as provenance (rust/py/provenance.rs)
+    "provenance_factorise",
+    "provenance_gather",
 ]
 
 __version__: str
@@ -257,3 +260,17 @@ def _best_matches_sorting(
     mask: np.ndarray | None = None,
     threads: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]: ...
+
+# tile sets as provenance (rust/py/provenance.rs)
+def provenance_factorise(
+    source: npt.NDArray[np.int32], threads: int | None = None
+) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.int32]] | None: ...
+def provenance_gather(
+    exemplar: np.ndarray,
+    labels: npt.NDArray[np.uint8],
+    table: npt.NDArray[np.int32],
+    index_map: npt.NDArray[np.int32],
+    offset: tuple[int, int],
+    out: np.ndarray,
+    threads: int | None = None,
+) -> None: ...
