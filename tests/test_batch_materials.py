@@ -8,9 +8,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_materials import _material
+from test_materials import _material, _real_world_normals
 
 import tilesynth as ts
+from tilesynth.builder.materials import DEFAULT_WEIGHTS
 from tilesynth.cli import batch
 from tilesynth.cli.batch import BatchError, build_many, load_library
 from tilesynth.cli.main import main as cli_main
@@ -62,7 +63,7 @@ def test_material_job_equals_the_cli_build_and_writes_every_map(mat_dir: Path) -
     (job,) = lib.jobs
     assert set(job.material) == {"normal", "height"} and set(job.maps) == {"ao"}
     assert job.material["normal"]["weight"] == 0.75 and job.material["height"]["kind"] == "scalar"
-    assert job.material["height"]["weight"] == ts.materials.DEFAULT_WEIGHTS["scalar"]
+    assert job.material["height"]["weight"] == DEFAULT_WEIGHTS["scalar"]
     assert (
         job.mask == (mat_dir / "rock-mask.png").resolve() and job.alpha == "colour" and job.normal_y == "down"
     )
@@ -150,3 +151,13 @@ def test_a_misaligned_material_map_fails_its_job_with_the_map_named(mat_dir: Pat
     assert rec["status"] == "failed" and "rough" in rec["error"] and "pixel-aligned" in rec["error"], rec
     assert not (mat_dir / "out" / "rock.tiles").exists()
     assert batch.BatchResult  # the result type stays public
+
+
+def test_a_downscaled_normal_map_builds_in_a_batch_and_the_fix_is_recorded(mat_dir: Path) -> None:
+    raw, _ = _real_world_normals("z0.51")
+    ts.save_image(mat_dir / "rock-normal.png", raw)
+    res = build_many(_write(mat_dir), "serial", quiet=True)
+    (rec,) = res.records
+    assert rec["status"] == "built", rec
+    t = ts.TileSet.load(mat_dir / "out" / "rock.tiles")
+    assert t.params["material"]["normalised"]["normal"].startswith("z rebuilt from x and y")

@@ -553,6 +553,9 @@ def _build(
         f"wrote {output}: {ts.n_tiles} {sc.title} of {ts.tile_size}x{ts.tile_size} (set {set_name}, {how}, seed "
         f"{ts.params['seed']}), E = {ts.E:.6g}, {ts.timing['total_s']:.2f} s"
     )
+    fixed = ts.params.get("material", {}).get("normalised", {}) if ts.map_specs else {}
+    for name, note in fixed.items():
+        prog.message(f"map {name}: {note}")
     if sheet:
         _write_sheet(ts, sheet, True)
         prog.message(f"wrote {sheet}: contact sheet")
