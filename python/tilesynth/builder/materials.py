@@ -678,29 +678,47 @@ def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
     return bool(smooth)
 
 
-def fuse_map_atlas(tileset: Any, arr: np.ndarray, atlas: np.ndarray, level: bool = True) -> np.ndarray:
+def fuse_map_atlas(
+    tileset: Any, arr: np.ndarray, atlas: np.ndarray, level: bool = True, spec: MapSpec | None = None
+) -> np.ndarray:
     """The tiles ``atlas`` of map ``arr`` fused across their seams in the gradient domain, in the map's own
     sample type (:mod:`tilesynth.builder.fusion`), in two stages: ``level=True`` (the default) first adds the
     exemplar's smooth level correction (:func:`~tilesynth.builder.fusion.exemplar_levels`: every copy of an
     exemplar pixel moves alike, so tilings stay seamless and tile borders do not crease), then each tile's
     interior is fused with its border ring kept (:func:`~tilesynth.builder.fusion.fuse_tiles`); ``level=False``:
     the second stage alone (the border ring as copied, bit for bit). The continued steps across a seam only
-    read exemplar pixels the tile set uses somewhere (so never a masked one)."""
+    read exemplar pixels the tile set uses somewhere (so never a masked one).
+
+    With rotated or mirrored matching patches (``--augment``,
+    :func:`~tilesynth.builder.matching.augment.pixel_transforms`) the steps follow each patch's orientation, and
+    for a normal map (``spec`` of kind normal; ``atlas`` already turned, :func:`map_atlas`) the continued steps
+    are turned into the tile's frame too; the level stage is then left out for normal maps, since one level of
+    an exemplar pixel would have to be turned differently in each of its copies."""
     from ..synth.synthesis import check_smoothable
     from .fusion import LEVEL_BLOCK, exemplar_levels, fuse_tiles
+    from .matching.augment import pixel_transforms, transform_vectors
 
     check_smoothable(arr)
     src = tileset.source
     used = np.zeros(arr.shape[:2], bool)
     used[src[..., 0], src[..., 1]] = True
+    turns = pixel_transforms(tileset)
+    turn = None
+    if turns is not None and spec is not None and spec.kind == "normal":
+        y_down = spec.normal_y == "down"
+
+        def turn(step: np.ndarray, t: np.ndarray) -> np.ndarray:
+            return transform_vectors(step, t, y_down)
+
+        level = False
     scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(arr.dtype)
     f = arr.astype(np.float64) / (scale or 1.0)
     copies = atlas.astype(np.float64) / (scale or 1.0)
     if level:  # the exemplar's smooth level correction first (ring included), then each tile's interior
-        phi = exemplar_levels(f, copies, src, used, LEVEL_BLOCK)
+        phi = exemplar_levels(f, copies, src, used, LEVEL_BLOCK, turns=turns)
         f = f + phi
         copies = copies + phi[src[..., 0], src[..., 1]]
-    fused = fuse_tiles(f, copies, src, used)
+    fused = fuse_tiles(f, copies, src, used, turns=turns, turn=turn)
     if scale:
         return np.ascontiguousarray(np.rint(np.clip(fused, 0.0, 1.0) * scale).astype(arr.dtype))
     return np.ascontiguousarray(fused, dtype=np.float32)
@@ -710,14 +728,22 @@ def map_atlas(
     tileset: Any, spec: MapSpec, arr: np.ndarray, smooth: bool | None = None, threads: int | None = None
 ) -> np.ndarray:
     """The tiles ``(K, N, N, C)`` of one map of ``tileset``: copied through the provenance, Poisson-smoothed in
-    the cut regions when :func:`smooths` says so (never for labels), normals renormalised where smoothed."""
+    the cut regions when :func:`smooths` says so (never for labels), normals renormalised where smoothed. The
+    vectors of a normal map are turned with their pixels where a matching patch was rotated or mirrored
+    (``--augment``: :func:`~tilesynth.builder.matching.augment.transform_normal_codes`, exact in the map's
+    sample type), so a bump keeps its light side."""
     from ..synth.synthesis import _smooth_map_atlas
+    from .matching.augment import pixel_transforms, transform_normal_codes
 
     src = tileset.source
     atlas = np.ascontiguousarray(arr[src[..., 0], src[..., 1]])
+    if spec.kind == "normal":
+        turns = pixel_transforms(tileset)
+        if turns is not None:
+            atlas = transform_normal_codes(atlas, turns, spec.encoding or "unorm", spec.normal_y == "down")
     if smooths(tileset, spec, smooth):
         if spec.kind in SMOOTH_KINDS:
-            atlas = fuse_map_atlas(tileset, arr, atlas)
+            atlas = fuse_map_atlas(tileset, arr, atlas, spec=spec)
         else:  # colour maps follow the colour's own smoothing
             atlas = _smooth_map_atlas(tileset, arr, atlas, threads)
     if spec.kind == "normal":  # every vector, copies too: unit length after decoding (normal_codes)
