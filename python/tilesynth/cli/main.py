@@ -15,6 +15,7 @@ import json
 import os
 import sys
 import time
+import unicodedata
 import warnings
 from importlib import resources
 from pathlib import Path
@@ -745,6 +746,16 @@ def _synth_write_maps(
         )
 
 
+def _printable(line: str) -> str:
+    """``line`` with every control or format character (escape sequences that retitle or recolour a terminal,
+    carriage returns, bidirectional overrides) written as a Python escape: the strings of a tile set's manifest
+    reach the terminal as text, never as commands."""
+    return "".join(
+        c.encode("unicode_escape").decode("ascii") if unicodedata.category(c) in ("Cc", "Cf") else c
+        for c in line
+    )
+
+
 def _info(ts_path: str, as_json: bool) -> None:
     from ..tileset.tilefile import TileSet
 
@@ -783,7 +794,7 @@ def _info(ts_path: str, as_json: bool) -> None:
     ]
     if layout_kind(ts.layout) == "edge":
         lines += _wang_lines(ts)
-        print("\n".join(lines))
+        print("\n".join(map(_printable, lines)))
         return
     lines.append(
         f"{'tile':>4}  {'TL BL TR BR':<11}  {'var':>3}  {'match (row,col)':>15}  {'D_j':>12}  {'cut cost':>10}"
@@ -793,7 +804,7 @@ def _info(ts_path: str, as_json: bool) -> None:
             f"{row['index']:>4}  {' '.join(row['corners']):<11}  {row['variant']:>3}  "
             f"{'(%d,%d)' % tuple(row['match_offset']):>15}  {row['D']:>12.4f}  {row['cut_cost']:>10.4f}"
         )
-    print("\n".join(lines))
+    print("\n".join(map(_printable, lines)))
 
 
 def _mask_lines(p: dict) -> list[str]:

@@ -298,6 +298,12 @@ def _check_export_args(
     if isinstance(padding, bool) or not isinstance(padding, (int, np.integer)) or not 0 <= padding <= 256:
         raise ParameterError(f"padding = {padding!r}: must be an integer in [0, 256]")
     padding = int(padding)
+    if (
+        padding > tileset.tile_size
+    ):  # the gutter continues the tile's own border pixels: at most one tile wide
+        raise ParameterError(
+            f"padding = {padding}: must be at most the tile size ({tileset.tile_size}) of this tile set"
+        )
     _check_choice(bits, "bits", (8, 16))
     _check_choice(lookup, "lookup", ("auto", "hash", "index_map"))
     normal_y_value(normal_y)  # up/+y or down/-y (tilesynth.cli.argtypes); the manifest records +y or -y
