@@ -499,8 +499,19 @@ def feature_image(
     """The feature image a material is built on (module docstring, steps 1-2): float32 ``(H, W, k)`` in [0, 1],
     ``k <= channels``, and its record (channels, variance kept, the maps' weights)."""
     h, w = albedo.shape[:2]
+    # Only the weights' ratios matter (the feature image is rescaled to [0, 1] at the end); huge weights
+    # (--map-weight height=1e308) would overflow the squares below, so they are divided by the largest first.
+    # Weights up to 1e6 are used as given (the same bytes as before).
+    # A weight below 1e-12 of the largest cannot change a float64 distance; it is taken as 0 (its channels left
+    # out), since a channel scaled by 1e-150 would make the later covariance inversions overflow.
+    top = max([float(albedo_weight), *(float(spec.weight) for spec, _ in specs)])
+    per = 1.0 / top if top > 1e6 else 1.0
+
+    def scaled(weight: float) -> float:
+        return 0.0 if weight < 1e-12 * top else weight * per
+
     cols = []
-    a = _normalised(albedo.reshape(h * w, -1).astype(np.float64), albedo_weight)
+    a = _normalised(albedo.reshape(h * w, -1).astype(np.float64), scaled(albedo_weight))
     if a is not None:
         cols.append(a)
     for spec, arr in specs:
@@ -509,7 +520,7 @@ def feature_image(
         else:
             scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(arr.dtype, 1.0)
             x = arr.reshape(h * w, -1).astype(np.float64) / scale
-        z = _normalised(x, spec.weight)
+        z = _normalised(x, scaled(spec.weight))
         if z is not None:
             cols.append(z)
     if not cols:

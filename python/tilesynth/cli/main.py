@@ -52,6 +52,16 @@ _bits = int_text(1)  # then choices (8, 16)
 _origin = origin_text
 
 
+class _IndexMapAction(argparse.Action):
+    """``synth --index-map``; the old spelling ``--map`` (which means a material map in ``build``) is kept and
+    noted (``args.old_map_flag``)."""
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:  # noqa: ANN001
+        setattr(namespace, self.dest, values)
+        if option_string == "--map":
+            namespace.old_map_flag = True
+
+
 def _set_name(text: str) -> str:
     from ..layouts.omega_sets import get_tileset
     from ..layouts.wang_sets import is_wang_set_name
@@ -129,7 +139,13 @@ def _add_build_parser(sub) -> None:  # noqa: ANN001
         default=None,
         help="tile size N in pixels, even (default: half the exemplar's shorter side, at most 256)",
     )
-    b.add_argument("--seed", type=_nonneg, default=None, help="random seed (default: a fresh one, recorded)")
+    b.add_argument(
+        "--seed",
+        type=_nonneg,
+        default=None,
+        help="random seed; the same seed and options give the same tile set (default: a fresh random seed, "
+        "printed and recorded in the tile set, see tilesynth info; batch files default to 1)",
+    )
     b.add_argument(
         "--threads",
         type=_threads,
@@ -185,7 +201,14 @@ def _add_synth_parser(sub) -> None:  # noqa: ANN001
     )
     s.add_argument("--seed", type=_nonneg, default=None, help="tiling seed (default: a fresh one, printed)")
     s.add_argument(
-        "--map", default=None, help="use this tile index map (.npy, int, rows x cols) instead of the tiler"
+        "--index-map",
+        "--map",
+        dest="map",
+        action=_IndexMapAction,
+        default=None,
+        metavar="INDEX.npy",
+        help="use this tile index map (.npy, int, rows x cols) instead of the tiler (the old spelling --map "
+        "still works, with a note; build's --map is a material map)",
     )
     s.add_argument("--save-map", default=None, help="write the tile index map used to this .npy file")
     s.add_argument(
@@ -241,6 +264,9 @@ def _add_info_parser(sub) -> None:  # noqa: ANN001
     i = sub.add_parser("info", help="describe a tile set")
     i.add_argument("tileset", help="tile-set file (.tiles)")
     i.add_argument("--json", action="store_true", help="machine-readable output")
+    i.add_argument(
+        "-q", "--quiet", action="store_true", help="accepted as by every command (info writes no progress)"
+    )
 
 
 def _add_sheet_parser(sub) -> None:  # noqa: ANN001
@@ -296,9 +322,10 @@ def _add_metrics_parsers(sub) -> None:  # noqa: ANN001
     )
     m.add_argument(
         "--tile-size",
-        type=_pos,
+        type=int_text(4),
         default=None,
-        help="image: tile size of the grid the image was laid on (the seam score needs it)",
+        help="image: tile size of the grid the image was laid on (the seam score needs it); even and >= 4, as "
+        "build's",
     )
     m.add_argument("--exemplar", default=None, help="image: the exemplar (the coherence energy needs it)")
     m.add_argument(
@@ -362,6 +389,10 @@ def _metrics(args: argparse.Namespace) -> None:
     else:
         if args.size is not None or args.seed is not None:
             raise ParameterError("--size and --seed are for tile sets (the sample to synthesize)")
+        if args.tile_size is not None and args.tile_size % 2:
+            raise ParameterError(
+                f"--tile-size = {args.tile_size}: must be even, as every tile size build makes"
+            )
         image, _ = load_image(path)
         exemplar = None
         if args.exemplar is not None:
@@ -496,6 +527,7 @@ def _build(
     prog = Progress(quiet)
     set_name = set_name or sc.default_set
     sc.check_set(set_name)
+    _check_tileset_name(output)
     image, bits = load_image(input_path)
     _check_output_dir(output)
     if sheet:
@@ -563,6 +595,22 @@ def _build(
     return ts
 
 
+#: Suffixes of images and arrays: a tile set written under one of them would be a ZIP archive that image tools
+#: cannot open (``build -o a.png``).
+_NOT_TILESET_SUFFIXES = (".png", ".jpg", ".jpeg", ".exr", ".tif", ".tiff", ".bmp", ".webp", ".gif", ".npy")
+
+
+def _check_tileset_name(output: str) -> None:
+    suffix = Path(output).suffix.lower()
+    if suffix in _NOT_TILESET_SUFFIXES:
+        stem = str(Path(output).with_suffix(""))
+        raise ParameterError(
+            f"--output = {output!r}: build writes a tile set (a ZIP archive, .tiles), not a {suffix[1:]} file; "
+            f"name it {stem}.tiles (a contact sheet of the tiles: --sheet {output}; a texture: tilesynth synth "
+            f"{stem}.tiles -o {output})"
+        )
+
+
 def _material_args(args: argparse.Namespace) -> dict | None:
     from .materials import load_build_maps  # issue 14
 
@@ -610,6 +658,7 @@ def _synth(
     origin: tuple[int, int] = (0, 0),
     wrap: bool = False,
     normal_y: str | None = None,
+    map_flag: str = "--index-map",
 ) -> None:
     from ..base.progress import Progress
     from ..base.validate import seed_int
@@ -627,7 +676,7 @@ def _synth(
         from ..io.images import read_npy
 
         # memory-mapped first: a header that declares more data than the file holds fails here, cheaply
-        index_map = read_npy(map_path, f"--map = {map_path!r}")
+        index_map = read_npy(map_path, f"{map_flag} = {map_path!r}")
     from ..layouts.hashed import hash_seed, hashed_scheme
 
     hashed = hashed_scheme(ts, origin, wrap, index_map) is not None  # complete sets: 32-bit hashed seeds
@@ -989,7 +1038,14 @@ def _run_command(args: argparse.Namespace) -> int:
             args.origin,
             args.wrap,
             args.normal_y,
+            "--map" if getattr(args, "old_map_flag", False) else "--index-map",
         )
+        # after the work, so that an error stays one line
+        if getattr(args, "old_map_flag", False) and not args.quiet:
+            print(
+                "tilesynth synth: note: --map is now --index-map (the old spelling still works)",
+                file=sys.stderr,
+            )
     elif args.command == "info":
         _info(args.tileset, args.json)
     elif args.command == "sheet":
