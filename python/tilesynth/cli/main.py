@@ -87,7 +87,7 @@ def _method(text: str) -> str:
 
 
 SET_HELP = (
-    "tile-set definition: 4, 8, 16a, 16b, 32 (002), B (the basic 8-set of the extendable rule), n1 (17 tiles), "
+    "tile-set definition: 4, 8, 16a, 16b, 32 (the ω paper's), B (the basic 8-set of the extendable rule), n1 (17 tiles), "
     "n2 (38 tiles) or nK for any K >= 1; append x2, x3 or x4 (e.g. 16bx2, n2x2) for 2-4 omega-tiles per "
     "intermediate tile, i.e. at least that many choices at every tiling step; complete sets c<K> and "
     "c<K>x<V> (every corner tuple over K colours, hashed lookup: non-periodic, random access, --wrap; "
@@ -121,69 +121,96 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+#: ``build --help`` groups of the scheme options (:func:`_add_scheme_options`): the selection of the sample
+#: patches, the Wang schemes' own options; every other one is a matching / cut option.
+_SELECTION_FLAGS = ("--objective", "--rerank", "--border-tries", "--normalise")
+_WANG_FLAGS = ("--cut", "--overlap", "--corners", "--samples", "--supplementary")
+
+BUILD_DESCRIPTION = (
+    "Build a tile set from one exemplar image. Most builds set only the first groups: the input and output, "
+    "the tile size and the seed, and the material maps if any. The advanced groups are the levers of the methods "
+    "behind tilesynth; the README's 'Command line' section says which paper each one follows."
+)
+
+
 def _add_build_parser(sub) -> None:  # noqa: ANN001
-    """``tilesynth build``: its common options, then those of the registered schemes."""
-    b = sub.add_parser("build", help="build a tile set from an exemplar image")
-    b.add_argument("input", help="exemplar image (PNG, JPEG, ...)")
-    b.add_argument("-o", "--output", required=True, help="tile-set file to write (.tiles)")
-    b.add_argument(
-        "--scheme",
-        default="omega",
-        choices=SCHEMES,
-        help="; ".join(f"{sc.name}: {sc.summary}" for sc in REGISTRY),
-    )
-    b.add_argument("--set", default=None, type=_set_name, metavar="SET", help=SET_HELP)
-    b.add_argument(
+    """``tilesynth build``: what a user sets first (input, output, tile size, seed, material maps), then the
+    advanced groups (the selection of the papers' sets, matching and cuts, the Wang schemes, output encoding)."""
+    b = sub.add_parser("build", help="build a tile set from an exemplar image", description=BUILD_DESCRIPTION)
+    io = b.add_argument_group("input and output")
+    io.add_argument("input", help="exemplar image (PNG, JPEG, ...)")
+    io.add_argument("-o", "--output", required=True, help="tile-set file to write (.tiles)")
+    io.add_argument("--sheet", default=None, help="also write a contact sheet of the tiles to this PNG")
+    io.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    main = b.add_argument_group("what you set")
+    main.add_argument(
         "--tile-size",
         type=int_text(4),
         default=None,
-        help="tile size N in pixels, even (default: half the exemplar's shorter side, at most 256)",
+        help="tile size N in pixels, even: larger tiles keep larger features whole (default: half the "
+        "exemplar's shorter side, at most 256)",
     )
-    b.add_argument(
+    main.add_argument(
         "--seed",
         type=_nonneg,
         default=None,
         help="random seed; the same seed and options give the same tile set (default: a fresh random seed, "
         "printed and recorded in the tile set, see tilesynth info; batch files default to 1)",
     )
-    b.add_argument(
+    main.add_argument("--set", default=None, type=_set_name, metavar="SET", help=SET_HELP)
+    main.add_argument(
+        "--scheme",
+        default="omega",
+        choices=SCHEMES,
+        help="; ".join(f"{sc.name}: {sc.summary}" for sc in REGISTRY),
+    )
+    main.add_argument(
         "--threads",
         type=_threads,
         default=None,
         help="worker threads (default: TILESYNTH_NUM_THREADS or all cores)",
     )
-    b.add_argument(
+    mat = b.add_argument_group("material maps and masks")
+    from .materials import add_build_arguments  # material builds
+
+    add_build_arguments(mat)
+    _add_mask_options(mat)
+    sel = b.add_argument_group(
+        "advanced: choosing the sample patches",
+        "which exemplar windows sit at the tile corners; mostly for the papers' tile sets (4 ... 32, B, nK)",
+    )
+    sel.add_argument(
         "--select",
         type=_method,
         default=None,
         metavar="METHOD",
         help="how to choose the sample patches: random (one random set), best-of (best of 100 random sets), "
-        "ga (000's genetic algorithm) or ais (003's immune system), minimising --objective (default E); "
+        "ga (a genetic algorithm) or ais (an artificial immune system), minimising --objective (default E); "
         "default for omega: one random set for complete sets (c4, ...), for the papers' sets the best of 32 "
         "random sets by ΣD, the best 4 re-ranked by the real cut cost",
     )
-    b.add_argument(
+    sel.add_argument(
         "--polish",
         action="store_true",
         help="after the selection, move one patch at a time to its best position until E stops falling "
         "(--objective cut: the cut polish, each patch to the best of its 3 best positions by ΣD if the cut "
         "score falls)",
     )
-    b.add_argument("--generations", type=_pos, default=None, help="N_g of ga/ais (default 50)")
-    b.add_argument(
+    sel.add_argument("--generations", type=_pos, default=None, help="generations of ga / ais (default 50)")
+    sel.add_argument(
         "--population",
         type=_pos,
         default=None,
-        help="population of ga/ais (default 40), count of best-of (default 100)",
+        help="population of ga / ais (default 40), count of best-of (default 100)",
     )
-    _add_scheme_options(b)
-    from .materials import add_build_arguments  # issue 14: material builds
-
-    add_build_arguments(b)
-    _add_mask_options(b)
-    b.add_argument("--sheet", default=None, help="also write a contact sheet of the tiles to this PNG")
-    b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
-    add_png_compression_argument(b)
+    cut = b.add_argument_group(
+        "advanced: matching and cuts", "how each tile's matching patch is found and cut in"
+    )
+    wang = b.add_argument_group("advanced: Wang tiles", "only with --scheme wang or swang")
+    groups = {**{f: sel for f in _SELECTION_FLAGS}, **{f: wang for f in _WANG_FLAGS}}
+    _add_scheme_options(b, lambda flag: groups.get(flag, cut))
+    enc = b.add_argument_group("output encoding")
+    add_png_compression_argument(enc)
 
 
 def _add_synth_parser(sub) -> None:  # noqa: ANN001
@@ -469,8 +496,9 @@ def _print_input_warnings(caught: list) -> None:  # noqa: ANN001
             warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 
-def _add_scheme_options(parser: argparse.ArgumentParser) -> None:
-    """One flag per option of the registered schemes (a flag shared by several schemes is added once)."""
+def _add_scheme_options(parser: argparse.ArgumentParser, group: Any = None) -> None:
+    """One flag per option of the registered schemes (a flag shared by several schemes is added once);
+    ``group(flag)``, if given, is the argument group that shows it in ``--help``."""
     seen: dict[str, tuple[Option, Scheme]] = {}
     users: dict[str, list[str]] = {}
     for sc in REGISTRY:
@@ -482,7 +510,7 @@ def _add_scheme_options(parser: argparse.ArgumentParser) -> None:
             seen.setdefault(opt.flag, (opt, sc))
             users.setdefault(opt.flag, []).append(sc.name)
     for flag, (opt, sc) in seen.items():
-        opt.add_to(parser, sc.default(opt), users[flag])
+        opt.add_to(parser if group is None else group(flag), sc.default(opt), users[flag])
 
 
 def _scheme_kwargs(args: argparse.Namespace, scheme: Scheme) -> dict:
