@@ -886,6 +886,35 @@ def requantise_with_map(name: str, aligned: np.ndarray) -> np.ndarray:
     return a if encoding is None else renormalise_image(a, encoding)
 
 
+def turn_with_tiles(tileset: Any, name: str, aligned: np.ndarray, tiles: np.ndarray) -> np.ndarray:
+    """For ``synth --with`` / ``export --with``: the tiles ``(K, N, N, 3)`` of a map whose name says it is a normal
+    map (3 channels, unit vectors, +y up) with its vectors turned where a matching patch was rotated or mirrored
+    (``--augment``, :func:`map_atlas`); any other map, or a set without turned patches, as it is."""
+    from .matching.augment import pixel_transforms, transform_normal_codes
+
+    encoding = _with_normal_encoding(name, np.asarray(aligned))
+    turns = None if encoding is None else pixel_transforms(tileset)
+    if turns is None or tiles.shape[-1] != 3:
+        return tiles
+    return transform_normal_codes(tiles, turns, encoding)
+
+
+def turn_with_map(
+    tileset: Any, name: str, aligned: np.ndarray, out: np.ndarray, index_map: np.ndarray
+) -> np.ndarray:
+    """:func:`turn_with_tiles` for a synthesized ``--with`` map ``out`` laid out by ``index_map``."""
+    from ..base import kernels
+    from .matching.augment import pixel_transforms, transform_normal_codes
+
+    encoding = _with_normal_encoding(name, np.asarray(aligned))
+    turns = None if encoding is None else pixel_transforms(tileset)
+    if turns is None or out.shape[2] != 3:
+        return out
+    img = np.empty((*out.shape[:2], 1), np.uint8)
+    kernels.tile_copy(np.ascontiguousarray(turns[..., None]), kernels._index_map(index_map), img)
+    return transform_normal_codes(out, img[..., 0], encoding)
+
+
 def renormalise_with_map(
     tileset: Any, name: str, aligned: np.ndarray, out: np.ndarray, index_map: np.ndarray
 ) -> np.ndarray:

@@ -797,7 +797,7 @@ def _synth_write_maps(
     smooth_maps: bool,
 ) -> None:
     """Synthesize every ``--with`` map through the cuts and layout of the colour, and write it."""
-    from ..builder.materials import requantise_with_map
+    from ..builder.materials import requantise_with_map, turn_with_map
     from ..io.images import atomic_open, save_image
     from ..synth.synthesis import synthesize_map
 
@@ -805,6 +805,9 @@ def _synth_write_maps(
         prog("maps", k, len(maps))
         arr = requantise_with_map(Path(mp).stem, arr)  # issue 14: normal maps' copies at unit length too
         out_map = synthesize_map(ts, arr, imap, size[0], size[1], threads=threads, smooth=smooth_maps)
+        out_map = turn_with_map(
+            ts, Path(mp).stem, arr, out_map, imap
+        )  # normals of turned patches (--augment)
         if smooth_maps:  # issue 14: a normal map (by its name) renormalised where smoothed
             from ..builder.materials import renormalise_with_map
 

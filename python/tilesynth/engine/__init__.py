@@ -153,6 +153,7 @@ def build_maps(
     normal_y: str = "+y",
 ) -> dict[str, dict[str, Any]]:
     """Level-0 padded cells of every map: ``{name: {"cells": (K, S, S, C), "source": "tileset"|"map"}}``."""
+    from ..builder.materials import turn_with_tiles
     from ..synth.synthesis import _smooth_map_atlas, is_smoothed
 
     out: dict[str, dict[str, Any]] = {}
@@ -178,6 +179,7 @@ def build_maps(
             if not is_smoothed(tileset):
                 raise ParameterError("map_smooth = 'on': the tile set was not Poisson-smoothed")
             tiles = _smooth_map_atlas(tileset, a, tiles, None)
+        tiles = turn_with_tiles(tileset, name, a, tiles)  # a normal map's vectors turn with their patches
         out[name] = {"cells": _atlas.padded_tiles(tiles, a, src, padding), "kind": "map"}
     return out
 
