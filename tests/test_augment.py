@@ -18,8 +18,11 @@ from tilesynth.builder.matching.augment import (
     check_augment,
     inverse_transform,
     matching_patches,
+    pixel_transforms,
     transform,
+    transform_normal_codes,
     transform_tiles,
+    transform_vectors,
     transformed_source,
 )
 from tilesynth.builder.matching.levers import diverse_matches, diverse_matches_augmented
@@ -186,3 +189,143 @@ def test_cli_augment(tmp_path):
         capture_output=True, text=True,
     )  # fmt: skip
     assert r.returncode == 2 and "--augment" in r.stderr
+
+
+# ------------------------------------------------------------------------------ normal maps of augmented sets
+def _bumps(size: int = 256, seed: int = 1):
+    """An isotropic albedo (a function of the height only), a height field (uint16) and its normals (uint8,
+    +y up: n = (−∂h/∂x, ∂h/∂row, 1) normalised)."""
+    r = np.random.default_rng(seed)
+    f = np.fft.rfft2(r.standard_normal((size, size)))
+    f /= 1 + (np.hypot(np.fft.fftfreq(size)[:, None], np.fft.rfftfreq(size)[None]) * 25) ** 2
+    h = np.fft.irfft2(f, (size, size))
+    h = (h - h.min()) / (h.max() - h.min())
+    gy, gx = np.gradient(h * 20)
+    n = np.stack([-gx, gy, np.ones_like(gx)], -1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    albedo = np.round(np.stack([h, h * 0.8 + 0.1, 1 - h], -1) * 255).astype(np.uint8)
+    return albedo, np.round(h * 65535).astype(np.uint16), np.round((n * 0.5 + 0.5) * 255).astype(np.uint8)
+
+
+def _gradient_agreement(t, smooth, y_sign=1.0):
+    """Per transform number: the correlation of the normal map's x with −∂h/∂x and of its y with ∂h/∂row,
+    over the tile interiors (the height map of the same set is the reference)."""
+    from tilesynth.builder import materials
+
+    specs = {d["name"]: materials.MapSpec.from_dict(d) for d in t.map_specs}
+    na = materials.map_atlas(t, specs["normal"], t.maps["normal"], smooth).astype(float) / 255 * 2 - 1
+    ha = materials.map_atlas(t, specs["height"], t.maps["height"], smooth)[..., 0].astype(float)
+    turns = pixel_transforms(t)
+    gy, gx = np.gradient(ha, axis=(1, 2))
+    inner = np.zeros(turns.shape, bool)
+    inner[:, 1:-1, 1:-1] = True
+    out = {}
+    for tt in np.unique(turns):
+        sel = inner & (turns == tt)
+        cx = np.corrcoef(na[..., 0][sel], -gx[sel])[0, 1]
+        cy = np.corrcoef(y_sign * na[..., 1][sel], gy[sel])[0, 1]
+        out[int(tt)] = (cx, cy)
+    return out
+
+
+@pytest.mark.parametrize("mode, normal_y", [("rotate", "up"), ("flip", "up"), ("rotate", "down")])
+@pytest.mark.parametrize("smooth", [False, None])
+def test_normals_of_turned_patches_turn_with_them(mode, normal_y, smooth):
+    """In rotated / mirrored matching patches the vectors turn with the pixels: the normal map keeps agreeing
+    with the height map's gradient (before: n.x against −∂h/∂x −0.94 in 180° patches as copies, −0.63 fused)."""
+    albedo, height, normal = _bumps()
+    if normal_y == "down":
+        normal = normal.copy()
+        normal[..., 1] = 255 - normal[..., 1]
+    t = ts.build(albedo, tileset="16a", tile_size=32, seed=1, augment=mode, normal_y=normal_y,
+                 maps={"normal": normal, "height": height}, map_weights={"normal": 0})  # fmt: skip
+    agree = _gradient_agreement(t, smooth, -1.0 if normal_y == "down" else 1.0)
+    assert set(agree) - {0}, agree  # some matching patches were turned
+    assert set(agree) <= set(AUGMENT_MODES[mode])
+    for tt, (cx, cy) in agree.items():
+        assert cx > 0.8 and cy > 0.8, (tt, cx, cy)
+
+
+def test_turned_normal_codes_are_exact_and_agree_with_the_vectors():
+    r = np.random.default_rng(0)
+    v = r.normal(size=(8, 50, 3))
+    v[..., 2] = np.abs(v[..., 2])
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    t = np.repeat(np.arange(8)[:, None], 50, axis=1)
+    for y_down in (False, True):
+        turned = transform_vectors(v, t, y_down)
+        assert np.allclose(np.linalg.norm(turned, axis=-1), 1) and np.array_equal(turned[..., 2], v[..., 2])
+        for dtype, top in ((np.uint8, 255), (np.uint16, 65535)):
+            codes = np.round((v * 0.5 + 0.5) * top).astype(dtype)
+            got = transform_normal_codes(codes, t, "unorm", y_down)
+            want = transform_vectors(codes.astype(float) / top * 2 - 1, t, y_down)
+            assert np.allclose(got.astype(float) / top * 2 - 1, want, atol=1e-12)
+        snorm = transform_normal_codes(v.astype(np.float32), t, "snorm", y_down)
+        assert np.allclose(snorm, turned, atol=1e-7)
+    # a quarter turn of the pixels (np.rot90: anticlockwise on screen) takes a slope facing right to one facing up
+    assert np.allclose(transform_vectors(np.array([1.0, 0.0, 0.0]), 1), [0.0, 1.0, 0.0])
+    assert np.allclose(transform_vectors(np.array([1.0, 0.0, 0.0]), 4), [-1.0, 0.0, 0.0])  # left-right mirror
+    assert np.allclose(transform_vectors(np.array([0.0, 1.0, 0.0]), 6), [0.0, -1.0, 0.0])  # up-down mirror
+
+
+def test_a_set_without_turned_patches_keeps_its_maps_byte_for_byte():
+    from tilesynth.builder import materials
+
+    albedo, height, normal = _bumps(128)
+    t = ts.build(albedo, tileset="4", tile_size=32, seed=1, maps={"normal": normal, "height": height})
+    assert pixel_transforms(t) is None
+    spec = materials.MapSpec.from_dict(t.map_specs[0])
+    copies = t.maps["normal"][t.source[..., 0], t.source[..., 1]]
+    assert np.array_equal(materials.map_atlas(t, spec, t.maps["normal"], False),
+                          materials.renormalise_image(copies, "unorm"))  # fmt: skip
+
+
+def test_synth_and_export_with_a_normal_map_turn_its_vectors_too(tmp_path):
+    """``synth --with normal.png`` / ``export --with`` on an augmented set: the vectors turn with the patches."""
+    from tilesynth.cli.main import main
+
+    albedo, height, normal = _bumps()
+    t = ts.build(albedo, tileset="16a", tile_size=32, seed=1, augment="rotate")
+    assert pixel_transforms(t) is not None
+    t.save(tmp_path / "a.tiles")
+    ts.save_image(tmp_path / "rock-normal.png", normal)
+    ts.save_image(tmp_path / "rock-height.png", height)
+    args = [
+        "synth",
+        str(tmp_path / "a.tiles"),
+        "-o",
+        str(tmp_path / "o.png"),
+        "--size",
+        "256",
+        "--seed",
+        "3",
+        "-q",
+    ]
+    assert (
+        main(
+            [*args, "--with", str(tmp_path / "rock-normal.png"), "--with", str(tmp_path / "rock-height.png")]
+        )
+        == 0
+    )
+    n = ts.load_image(tmp_path / "o-rock-normal.png")[0] * 2 - 1
+    h = ts.load_image(tmp_path / "o-rock-height.png")[0][..., 0]
+    gy, gx = np.gradient(h)
+    ok = np.abs(gx) + np.abs(gy) > 0
+    # 0.92 / 0.91 (0.53 / 0.50 with the vectors as copied)
+    assert np.corrcoef(n[..., 0][ok], -gx[ok])[0, 1] > 0.8
+    assert np.corrcoef(n[..., 1][ok], gy[ok])[0, 1] > 0.8
+    # the export's atlas: each tile's vectors agree with its own height gradient
+    from tilesynth.engine import export
+
+    m = export(t, tmp_path / "e", maps={"normal": normal, "height": height}, index_size=(2, 2), padding=0)
+    na = ts.load_image(
+        tmp_path / "e" / next(x["levels"][0]["file"] for x in m["maps"] if x["name"] == "normal")
+    )[0]
+    ha = ts.load_image(
+        tmp_path / "e" / next(x["levels"][0]["file"] for x in m["maps"] if x["name"] == "height")
+    )[0]
+    gy, gx = np.gradient(ha[..., 0])
+    inner = np.ones(ha.shape[:2], bool)
+    inner[::32], inner[31::32], inner[:, ::32], inner[:, 31::32] = False, False, False, False
+    # 0.93 (0.50 with the vectors as copied)
+    assert np.corrcoef((na[..., 0] * 2 - 1)[inner], -gx[inner])[0, 1] > 0.8

@@ -8,9 +8,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_materials import _material
+from test_materials import _material, _real_world_normals
 
 import tilesynth as ts
+from tilesynth.builder.materials import DEFAULT_WEIGHTS
 from tilesynth.cli import batch
 from tilesynth.cli.batch import BatchError, build_many, load_library
 from tilesynth.cli.main import main as cli_main
@@ -62,7 +63,7 @@ def test_material_job_equals_the_cli_build_and_writes_every_map(mat_dir: Path) -
     (job,) = lib.jobs
     assert set(job.material) == {"normal", "height"} and set(job.maps) == {"ao"}
     assert job.material["normal"]["weight"] == 0.75 and job.material["height"]["kind"] == "scalar"
-    assert job.material["height"]["weight"] == ts.builder.materials.DEFAULT_WEIGHTS["scalar"]
+    assert job.material["height"]["weight"] == DEFAULT_WEIGHTS["scalar"]
     assert (
         job.mask == (mat_dir / "rock-mask.png").resolve() and job.alpha == "colour" and job.normal_y == "down"
     )
@@ -150,3 +151,63 @@ def test_a_misaligned_material_map_fails_its_job_with_the_map_named(mat_dir: Pat
     assert rec["status"] == "failed" and "rough" in rec["error"] and "pixel-aligned" in rec["error"], rec
     assert not (mat_dir / "out" / "rock.tiles").exists()
     assert batch.BatchResult  # the result type stays public
+
+
+def test_a_downscaled_normal_map_builds_in_a_batch_and_the_fix_is_recorded(mat_dir: Path) -> None:
+    raw, _ = _real_world_normals("z0.51")
+    ts.save_image(mat_dir / "rock-normal.png", raw)
+    res = build_many(_write(mat_dir), "serial", quiet=True)
+    (rec,) = res.records
+    assert rec["status"] == "built", rec
+    t = ts.TileSet.load(mat_dir / "out" / "rock.tiles")
+    assert t.params["material"]["normalised"]["normal"].startswith("z rebuilt from x and y")
+
+
+def test_dry_run_checks_map_contents_as_the_build_does(mat_dir: Path, capsys) -> None:
+    ts.save_image(
+        mat_dir / "rock-normal.png", np.repeat(_material()[0][..., :1], 3, axis=2)
+    )  # a grey "normal"
+    f = _write(mat_dir)
+    assert cli_main(["batch", str(f), "--dry-run"]) == 2
+    out = capsys.readouterr()
+    assert "rock: would fail:" in out.out and "grey image" in out.out and "normal:scalar" in out.out
+    assert "1 of 1 job(s) would fail" in out.err and len(out.err.strip().splitlines()) == 1
+    assert not (mat_dir / "out").exists()
+    ts.save_image(mat_dir / "small.png", np.zeros((32, 64), np.uint8))  # a misaligned map: refused too
+    ts.save_image(mat_dir / "rock-normal.png", _material()[2])
+    f = _write(mat_dir, job_extra='maps.rough = { file = "small.png", kind = "scalar" }')
+    assert cli_main(["batch", str(f), "--dry-run"]) == 2
+    assert "pixel-aligned" in capsys.readouterr().out
+    f = _write(mat_dir)
+    assert cli_main(["batch", str(f), "--dry-run"]) == 0
+    assert "rock: to build" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "preset_extra, words",
+    [
+        ("export = { padding = 999 }", ["'padding' = 999", "[0, 256]"]),
+        ("export = { padding = 20 }", ["'padding' = 20", "tile size (16)"]),
+        ('previews = [{ size = "100000x100000" }]', ["'previews' entry 1", "100000x100000", "limit"]),
+    ],
+)
+def test_values_that_would_fail_after_the_build_are_refused_before_any_work(
+    mat_dir: Path, preset_extra: str, words: list[str], monkeypatch
+) -> None:
+    monkeypatch.setenv("TILESYNTH_MAX_BYTES", str(8 << 30))
+    f = mat_dir / "lib.toml"
+    f.write_text(LIB.replace("previews = [{{ size = \"48x40\", seed = 3 }}]", "").format(
+        job_extra="", preset_extra=preset_extra), encoding="utf-8")  # fmt: skip
+    with pytest.raises(BatchError) as exc:
+        load_library(f)
+    for w in words:
+        assert w in str(exc.value), (w, str(exc.value))
+    assert not (mat_dir / "out").exists()
+
+
+def test_an_output_name_too_long_for_the_file_system_is_refused_before_any_work(mat_dir: Path) -> None:
+    f = _write(mat_dir, job_extra=f'name = "{"n" * 256}"')
+    with pytest.raises(BatchError, match="field 'name'.*256 characters"):
+        load_library(f)
+    ok = _write(mat_dir, job_extra=f'name = "{"n" * 150}"')
+    assert load_library(ok).jobs[0].name == "n" * 150

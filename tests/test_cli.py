@@ -150,7 +150,9 @@ def run_err(args, capsys):
 def test_bad_input_is_one_line_exit_2_no_output(args, words, tmp_path, exemplar_png, built_file, capsys):
     notimage = tmp_path / "notimage.png"
     notimage.write_text("this is not a PNG")
-    out = tmp_path / "out.png"  # a writable name: every output is checked before any other work (issue 16)
+    # a writable name: every output is checked before any other work (issue 16); build writes a .tiles (an image
+    # name is refused, test_first_contact.py), synth an image
+    out = tmp_path / ("out.tiles" if args[0] == "build" else "out.png")
     subst = {
         "{missing}": str(tmp_path / "missing.png"),
         "{notimage}": str(notimage),

@@ -12,8 +12,10 @@ import numpy as np
 import pytest
 
 import tilesynth as ts
+from tilesynth.base.kernels import DEFAULT_EPS
 from tilesynth.builder import materials
 from tilesynth.errors import ParameterError, ShapeError
+from tilesynth.synth.synthesis import is_smoothed
 
 
 def _material(h: int = 64, w: int = 64, seed: int = 3):
@@ -31,6 +33,34 @@ def _material(h: int = 64, w: int = 64, seed: int = 3):
     normal_u8 = np.round((n * 0.5 + 0.5) * 255).astype(np.uint8)
     height_u16 = np.round(np.clip(height, 0, 1) * 65535).astype(np.uint16)
     return albedo_u8, height_u16, normal_u8
+
+
+def _unit_normals(h: int, w: int, seed: int = 0, rough: float = 3.0) -> np.ndarray:
+    """Unit normals (float64 ``(h, w, 3)``, +y up) of a smooth random height field."""
+    r = np.random.default_rng(seed)
+    f = np.fft.rfft2(r.standard_normal((h, w)))
+    f /= 1 + (np.hypot(np.fft.fftfreq(h)[:, None], np.fft.rfftfreq(w)[None]) * 40) ** 2
+    hgt = np.fft.irfft2(f, (h, w))
+    gy, gx = np.gradient(hgt / hgt.std() * rough)
+    n = np.stack([-gx, gy, np.ones_like(gx)], axis=-1)
+    return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+def _encode8(v: np.ndarray) -> np.ndarray:
+    return np.round(np.clip(v * 0.5 + 0.5, 0, 1) * 255).astype(np.uint8)
+
+
+def _real_world_normals(kind: str, size: int = 64) -> tuple[np.ndarray, np.ndarray]:
+    """A normal map as tools write it (uint8) and its true unit vectors: ``downscaled`` (box-filtered 4x from a
+    4x larger unit map: short vectors), ``z0.78`` / ``z0.51`` (z stored times that factor)."""
+    if kind == "downscaled":
+        big = _unit_normals(4 * size, 4 * size, seed=5)
+        d = big.reshape(size, 4, size, 4, 3).mean(axis=(1, 3))
+        return _encode8(d), d / np.linalg.norm(d, axis=-1, keepdims=True)
+    n = _unit_normals(size, size, seed=5, rough=1.5)
+    z = n.copy()
+    z[..., 2] *= float(kind[1:])
+    return _encode8(z), n
 
 
 def _build(albedo, maps, **kw):
@@ -120,7 +150,7 @@ def test_smoothed_normals_are_renormalised_and_labels_stay_exact():
     n16 = np.round((nf * 0.5 + 0.5) * 65535).astype(np.uint16)  # unit vectors to 16-bit precision
     t = _build(albedo, {"normal": nf.astype(np.float32), "nrm16": n16,
                         "labels": label, "height": height}, smooth=True)  # fmt: skip
-    assert ts.synth.synthesis.is_smoothed(t)
+    assert is_smoothed(t)
     img, imap = ts.synthesize(t, 96, 96, seed=2)
     out = materials.synthesize_maps(t, imap, 96, 96)
     for name, enc in (("normal", "snorm"), ("nrm16", "unorm")):
@@ -168,7 +198,7 @@ def test_kinds_inferred_from_names_and_overridden():
         ("size", ShapeError, ["'height'", "60x64", "64x64", "pixel-aligned"]),
         ("nan", ParameterError, ["'height'", "nan", "row 3", "column 5"]),
         ("inf", ParameterError, ["'height'", "inf"]),
-        ("normal", ParameterError, ["'normal'", "unit", "median length"]),
+        ("normal", ParameterError, ["'normal'", "grey image", "normal:scalar=FILE"]),
         ("kind", ParameterError, ["'height'", "unknown map kind", "'bump'"]),
         ("duplicate", ParameterError, ["duplicate map name", "'Height'"]),
         ("weight", ParameterError, ["'height'", "-1"]),
@@ -226,7 +256,7 @@ def material_files(tmp_path_factory):
     [
         (["--map", "height=small.png"], ["height", "60x64", "pixel-aligned"]),
         (["--map", "height=nan.npy"], ["height", "nan"]),
-        (["--map", "normal=grey.png"], ["normal", "unit"]),
+        (["--map", "normal=grey.png"], ["normal", "grey image", "scalar"]),
         (["--map", "height:bump=height.png"], ["height", "unknown map kind", "bump"]),
         (["--map", "height=height.png", "--map", "height=normal.png"], ["duplicate map name", "height"]),
     ],
@@ -325,10 +355,10 @@ def test_joint_builds_cut_with_the_material_eps_and_a_given_eps_wins():
     assert np.array_equal(explicit.source, joint.source)
     colour = ts.build(albedo, **kw)
     labels = ts.build(albedo, maps={"mask": (albedo[..., 0] > 128).astype(np.uint8)}, **kw)
-    assert colour.params["eps"] == labels.params["eps"] == ts.base.kernels.DEFAULT_EPS
+    assert colour.params["eps"] == labels.params["eps"] == DEFAULT_EPS
     assert np.array_equal(colour.source, labels.source)
     assert _build(albedo, maps).params["eps"] == materials.MATERIAL_CUT_EPS
-    assert ts.build(albedo, tileset="4", tile_size=16, seed=1).params["eps"] == ts.base.kernels.DEFAULT_EPS
+    assert ts.build(albedo, tileset="4", tile_size=16, seed=1).params["eps"] == DEFAULT_EPS
 
 
 @pytest.mark.parametrize("scheme, tileset", [("wang", "wang8"), ("swang", "wang8"), ("patch", "4")])
@@ -433,3 +463,77 @@ def test_unmasked_material_build_keeps_four_feature_channels_as_features():
     albedo, height, normal = _material()
     t = _build(albedo, {"height": height, "normal": normal})
     assert t.params["material"]["feature_channels"] == 4 and "mask" not in t.params
+
+
+# ------------------------------------------------------------------------------------------- real normal maps
+@pytest.mark.parametrize(
+    "kind, note", [("downscaled", "renormalised"), ("z0.78", "z rebuilt"), ("z0.51", "z rebuilt")]
+)
+def test_real_world_normal_maps_are_normalised_and_the_fix_recorded(kind, note):
+    albedo, _, _ = _material()
+    raw, truth = _real_world_normals(kind)
+    length = materials.normal_lengths(raw)
+    assert (np.abs(length - 1) > materials.NORMAL_TOLERANCE).mean() > 0.05  # refused before
+    t = _build(albedo, {"normal": raw})
+    fixed = t.params["material"]["normalised"]
+    assert list(fixed) == ["normal"] and fixed["normal"].startswith(note), fixed
+    stored = t.maps["normal"]
+    assert stored.dtype == np.uint8
+    assert (np.abs(materials.normal_lengths(stored) - 1) <= 0.005).all()
+    v = stored.astype(np.float64) / 255 * 2 - 1
+    angle = np.arccos(np.clip((v * truth).sum(-1) / np.linalg.norm(v, axis=-1), -1, 1))
+    assert np.median(angle) < 0.02 and np.quantile(angle, 0.99) < 0.06, (np.median(angle), angle.max())
+    # a unit map is used as it is: same bytes, nothing recorded
+    unit = _build(albedo, {"normal": _encode8(truth)})
+    assert "normalised" not in unit.params["material"]
+    assert np.array_equal(unit.maps["normal"], _encode8(truth))
+
+
+@pytest.mark.parametrize(
+    "case, words",
+    [
+        ("grey", ["grey image"]),
+        ("zero", ["near zero"]),
+        ("off-centre", ["not centred", "mean x +0.5"]),
+        ("photo", ["vary together"]),
+        ("z-negative", ["z (blue) is not positive"]),
+    ],
+)
+def test_what_cannot_be_a_normal_map_is_refused_saying_how_to_pass_it(case, words):
+    albedo, height, _ = _material()
+    n = _unit_normals(64, 64, seed=2)
+    if case == "grey":
+        m = np.repeat((height >> 8).astype(np.uint8)[..., None], 3, axis=2)
+    elif case == "zero":
+        m = np.full((64, 64, 3), 128, np.uint8)
+    elif case == "off-centre":
+        m = _encode8(n * 0.8 + np.array([0.5, 0.0, 0.0]))
+    elif case == "photo":
+        m = (albedo.mean(axis=2, keepdims=True) * 0.6 + albedo * 0.4).astype(
+            np.uint8
+        )  # channels move together
+    else:
+        m = _encode8(n * np.array([0.7, 0.7, -0.7]))
+    with pytest.raises(ParameterError) as exc:
+        _build(albedo, {"normal": m})
+    msg = str(exc.value)
+    for w in [*words, "'normal'", "normal:scalar=FILE", "map_kinds"]:
+        assert w in msg, (w, msg)
+    # and passed as a scalar map it builds
+    t = _build(albedo, {"normal": m}, map_kinds={"normal": "scalar"})
+    assert t.map_specs[0]["kind"] == "scalar"
+
+
+def test_cli_builds_a_downscaled_normal_map_and_info_says_what_was_done(tmp_path):
+    albedo, _, _ = _material()
+    raw, _ = _real_world_normals("downscaled")
+    ts.save_image(tmp_path / "albedo.png", albedo)
+    ts.save_image(tmp_path / "rock-normal.png", raw)
+    r = _cli("build", "albedo.png", "-o", "m.tiles", "--set", "4", "--tile-size", "16", "--seed", "1",
+             "--map", "normal=rock-normal.png", cwd=tmp_path)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert "map normal: renormalised (median length" in r.stdout + r.stderr
+    info = _cli("info", "m.tiles", cwd=tmp_path)
+    assert info.returncode == 0 and "map normal: renormalised" in info.stdout, info.stdout
+    t = ts.TileSet.load(tmp_path / "m.tiles")
+    assert t.params["material"]["normalised"]["normal"].startswith("renormalised")

@@ -32,6 +32,8 @@ iteration, no tolerance, the same bytes on any number of threads.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from ..errors import ParameterError
@@ -58,13 +60,40 @@ def _dst1(x: np.ndarray, axis: int) -> np.ndarray:
     return np.moveaxis(out, -1, axis)
 
 
+def _turn_steps() -> np.ndarray:
+    """``STEPS[t, axis]``: the exemplar step ``(dr, dc)`` under one tile step down (axis 0) or right (axis 1) in a
+    patch transformed by ``T_t`` (:mod:`tilesynth.builder.matching.augment`: ``F^f(R^k(P))``)."""
+    g = np.stack(np.mgrid[0:3, 0:3], axis=-1)
+    out = np.zeros((8, 2, 2), np.int64)
+    for t in range(8):
+        a = np.rot90(g, t % 4, axes=(0, 1))
+        a = a[:, ::-1] if t >= 4 else a
+        out[t, 0], out[t, 1] = a[2, 1] - a[1, 1], a[1, 2] - a[1, 1]
+    return out
+
+
+_STEPS = _turn_steps()
+
+
 def seam_steps(
-    values: np.ndarray, copies: np.ndarray, source: np.ndarray, valid: np.ndarray | None = None
+    values: np.ndarray,
+    copies: np.ndarray,
+    source: np.ndarray,
+    valid: np.ndarray | None = None,
+    turns: np.ndarray | None = None,
+    turn: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """``s`` on every edge of every tile: the seam-free guidance minus the copies' own steps (module docstring),
     the wanted ``g_q − g_p`` of the correction ``g`` on the edge from ``p`` to its neighbour ``q`` below
     (``(K, N − 1, N, C)``) and to its right (``(K, N, N − 1, C)``), float64, 0 off the seams. Arguments as
-    :func:`seam_guidance`."""
+    :func:`seam_guidance`.
+
+    ``turns`` ``(K, N, N)`` (None: every pixel 0): the transform of each tile pixel's patch (a rotated or
+    mirrored matching patch, :func:`tilesynth.builder.matching.augment.pixel_transforms`). A tile step then
+    follows its pixel's exemplar step (a step right in a patch turned by 180° is a step left in the exemplar),
+    so the pixels of one turned patch are not taken for a seam and the continued steps go the patch's way;
+    ``turn(step, t)`` (vector maps: :func:`tilesynth.builder.matching.augment.turn_steps`) turns a continued step
+    of the exemplar into the tile's frame."""
     h, w = values.shape[:2]
     k, n = copies.shape[:2]
     sr = source[..., 0].astype(np.int64)
@@ -75,21 +104,33 @@ def seam_steps(
         hi = [slice(None)] * 3
         lo[ax], hi[ax] = slice(0, n - 1), slice(1, n)
         rp, cp, rq, cq = sr[tuple(lo)], sc[tuple(lo)], sr[tuple(hi)], sc[tuple(hi)]
-        seam = (rq != rp + dr) | (cq != cp + dc)
+        if turns is None:
+            seam = (rq != rp + dr) | (cq != cp + dc)
+        else:
+            tp, tq = turns[tuple(lo)].astype(np.int64), turns[tuple(hi)].astype(np.int64)
+            dp, dq = _STEPS[tp, ax - 1], _STEPS[tq, ax - 1]
+            seam = (tp != tq) | (rq != rp + dp[..., 0]) | (cq != cp + dp[..., 1])
         at = np.nonzero(seam)  # the steps are computed on the seam edges only (a few per cent of the edges)
         rp, cp, rq, cq = rp[at], cp[at], rq[at], cq[at]
-        ep, fp = rp + dr, cp + dc  # p's patch continued one step
-        eq, fq = rq - dr, cq - dc  # q's patch continued one step back
-        okp = (ep < h) & (fp < w)
-        okq = (eq >= 0) & (fq >= 0)
-        ep, fp = np.minimum(ep, h - 1), np.minimum(fp, w - 1)
-        eq, fq = np.maximum(eq, 0), np.maximum(fq, 0)
+        if turns is None:
+            ep, fp = rp + dr, cp + dc  # p's patch continued one step
+            eq, fq = rq - dr, cq - dc  # q's patch continued one step back
+        else:
+            tp, tq, dp, dq = tp[at], tq[at], dp[at], dq[at]
+            ep, fp = rp + dp[..., 0], cp + dp[..., 1]
+            eq, fq = rq - dq[..., 0], cq - dq[..., 1]
+        okp = (ep >= 0) & (ep < h) & (fp >= 0) & (fp < w)
+        okq = (eq >= 0) & (eq < h) & (fq >= 0) & (fq < w)
+        ep, fp = np.clip(ep, 0, h - 1), np.clip(fp, 0, w - 1)
+        eq, fq = np.clip(eq, 0, h - 1), np.clip(fq, 0, w - 1)
         if valid is not None:
             okp &= valid[ep, fp]
             okq &= valid[eq, fq]
         wp, wq = okp[..., None].astype(np.float64), okq[..., None].astype(np.float64)
         step_p = values[ep, fp] - values[rp, cp]
         step_q = values[rq, cq] - values[eq, fq]
+        if turns is not None and turn is not None:
+            step_p, step_q = turn(step_p, tp), turn(step_q, tq)
         guide = (step_p * wp + step_q * wq) / np.maximum(wp + wq, 1.0)
         own = copies[tuple(hi)][at] - copies[tuple(lo)][at]
         steps = np.zeros((*seam.shape, values.shape[2]), np.float64)
@@ -209,10 +250,12 @@ def fuse_tiles(
     source: np.ndarray,
     valid: np.ndarray | None = None,
     clamp: float | None = None,
+    turns: np.ndarray | None = None,
+    turn: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
 ) -> np.ndarray:
     """The tiles of one map fused across their seams (module docstring): float64 ``(K, N, N, C)``, equal to
-    ``copies`` on the one-pixel tile border ring. Arguments as :func:`seam_guidance`; tiles smaller than 3x3
-    (no interior) are returned as they are.
+    ``copies`` on the one-pixel tile border ring. Arguments as :func:`seam_guidance`, ``turns`` and ``turn`` as
+    :func:`seam_steps`; tiles smaller than 3x3 (no interior) are returned as they are.
 
     ``clamp`` (default None: off): a *clamped* correction, so that the correction ``g = f − C`` leaves the border
     ring with zero slope as well as zero value (a clamped plate rather than a pinned membrane) and shaded heights
@@ -243,7 +286,7 @@ def fuse_tiles(
     if clamp is not None and not clamp >= 0:
         raise ValueError(f"clamp = {clamp!r}: must be None, 0 or a positive width in pixels")
     values = np.asarray(values, np.float64)
-    sv, sh = seam_steps(values, copies, source, valid)
+    sv, sh = seam_steps(values, copies, source, valid, turns, turn)
     div = _divergence(sv, sh, copies.shape)
     # A g = b with A the 5-point Laplacian (4 g_p − Σ neighbours): the normal equations of Σ (g_q − g_p − s)²
     # give A g = −div s (div as accumulated above: +s at p, −s at q).
@@ -366,10 +409,12 @@ def exemplar_levels(
     valid: np.ndarray | None = None,
     block: int = LEVEL_BLOCK,
     corner: int = LEVEL_CORNER,
+    turns: np.ndarray | None = None,
 ) -> np.ndarray:
     """A smooth correction ``φ`` ``(H, W, C)`` float64 *of the exemplar* such that the tiles copied from
     ``values + φ`` through ``source`` have the least seams: the first stage of the maps' fusion (issue 14),
-    before :func:`fuse_tiles` fuses what is left inside each tile. Arguments as :func:`seam_guidance`.
+    before :func:`fuse_tiles` fuses what is left inside each tile. Arguments as :func:`seam_guidance`; ``turns``
+    as :func:`seam_steps` (scalar maps only: a level of the exemplar is the same in every orientation).
 
     Why. :func:`fuse_tiles` keeps every tile's border ring, so the level offset of two patches that meet near the
     ring (the Wang tiles' cuts end *at* the tile corners, where the ring holds both samples) cannot be taken
@@ -409,7 +454,7 @@ def exemplar_levels(
     so ω has no such pixels and its output is unchanged; ``corner=0`` gives the block model alone.
     """
     values = np.asarray(values, np.float64)
-    x, own = level_solution(values, copies, source, valid, block, corner)
+    x, own = level_solution(values, copies, source, valid, block, corner, turns)
     return level_field(x, own, values.shape, block)
 
 
@@ -420,12 +465,13 @@ def level_solution(
     valid: np.ndarray | None = None,
     block: int = LEVEL_BLOCK,
     corner: int = LEVEL_CORNER,
+    turns: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The unknowns of :func:`exemplar_levels` as solved: ``(x, own)``, ``x`` float64 ``(B + M, C)`` the level
     of every ``block x block`` block (row-major) then of every corner pixel, and ``own`` int64 ``(M,)`` the
     corner pixels' flat indices. :func:`level_field` turns them into ``φ``: a set stores these (1/16 of the
     exemplar's pixels) instead of ``φ``, and a synthesis of any window reads them (the solve needs the whole
-    set; the field does not)."""
+    set; the field does not). ``turns`` as :func:`exemplar_levels`."""
     values = np.asarray(values, np.float64)
     h, w, ch = values.shape
     k, n = np.asarray(copies).shape[:2]
@@ -459,7 +505,7 @@ def level_solution(
         wanted.append(r)
         weights.append(np.full(a.size, wt))
 
-    for ax, step in zip((1, 2), seam_steps(values, copies, src, valid)):
+    for ax, step in zip((1, 2), seam_steps(values, copies, src, valid, turns)):
         lo = [slice(None)] * 3
         hi = [slice(None)] * 3
         lo[ax], hi[ax] = slice(0, n - 1), slice(1, n)

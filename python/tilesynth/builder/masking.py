@@ -373,8 +373,11 @@ def _binarise(m: np.ndarray, name: str) -> np.ndarray:
             out = m.astype(np.float64) / top >= MASK_THRESHOLD
     elif m.dtype.kind == "f":
         if not np.isfinite(m).all():
-            bad = np.argwhere(~np.isfinite(m))[0]
-            raise ParameterError(f"{name}: non-finite value {m[tuple(bad)]} at (row, col) {tuple(bad[:2])}")
+            bad = tuple(int(v) for v in np.argwhere(~np.isfinite(m))[0])
+            raise ParameterError(
+                f"{name}: non-finite value {float(m[bad])} at row {bad[0]}, column {bad[1]} "
+                f"({int((~np.isfinite(m)).sum())} in all); a mask must be finite"
+            )
         out = m >= MASK_THRESHOLD
     else:
         raise TypeError(f"{name} has dtype {m.dtype}, expected a bool or numeric (h, w) mask")

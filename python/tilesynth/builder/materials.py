@@ -91,8 +91,11 @@ midpoint in a smooth height map.
 default) or ``"down"`` (DirectX). Outputs can be converted (:func:`convert_normal_y`, ``synth --normal-y``): the
 green channel is negated (``max − g`` for unsigned encodings: exact for 8- and 16-bit). A normal map is *unsigned*
 (values in [0, 1] encode ``2·v − 1``; every PNG) unless it has negative values (a float map of signed vectors).
-Inputs whose vectors are far from unit length are refused (:data:`NORMAL_TOLERANCE`): they are not normal maps
-(a height map given as ``normal``, a map in the wrong encoding). After smoothing, every smoothed vector is
+Inputs whose vectors are far from unit length are normalised as engines do (:func:`inspect_normal`): a
+downscaled map's short vectors renormalised, a map with z on another scale gets z rebuilt from x and y; what was
+done is recorded in ``params["material"]["normalised"]`` and shown by ``tilesynth info``. Only what no
+normal-map tool writes is refused (a grey image, vectors near zero, x or y not centred, z not positive), with a
+message that says how to pass it as a scalar map. After smoothing, every smoothed vector is
 renormalised to unit length, and every vector of every output (copies too) is re-encoded by
 :func:`tilesynth.io.normal_codes.encode_unit`: decoded as ``v = code / 255 · 2 − 1`` (16-bit: ``/ 65535``), each
 8- or 16-bit pixel gets the code nearest its vector among the floor / ceiling combinations whose decoded length is
@@ -111,6 +114,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError, ShapeError
+from ..io.normal_codes import code_scale, encode_unit
 
 __all__ = [
     "DEFAULT_WEIGHTS",
@@ -124,6 +128,7 @@ __all__ = [
     "convert_normal_y",
     "feature_image",
     "infer_kind",
+    "inspect_normal",
     "normal_lengths",
     "renormalise_image",
     "smooths",
@@ -150,10 +155,26 @@ FEATURE_CHANNELS = 4
 #: of the feature image (range 1): a capped gradient normalisation, so the cut does not follow the maps' own edges
 #: (module docstring, "The cut of a material build").
 MATERIAL_CUT_EPS: float = 1.0
-#: A normal map is refused when more than :data:`NORMAL_BAD_SHARE` of its vectors have a length outside
-#: 1 ± NORMAL_TOLERANCE (8-bit quantisation alone stays within 0.007).
+#: A normal map is used as it is when at most :data:`NORMAL_BAD_SHARE` of its vectors have a length outside
+#: 1 ± NORMAL_TOLERANCE (8-bit quantisation alone stays within 0.007); other maps are normalised or refused by
+#: :func:`inspect_normal`.
 NORMAL_TOLERANCE = 0.1
 NORMAL_BAD_SHARE = 0.01
+#: Which of the two fixes of :func:`inspect_normal`: the ratio of each vector's z to the z its x and y call for,
+#: ``z / √(1 − x² − y²)``. A map with z on another scale has the same ratio on every pixel (its median more than
+#: NORMAL_Z_SCALE from 1, its 90th percentile within NORMAL_Z_SPREAD of the median); z is then rebuilt. A
+#: downscaled map's ratio spreads with the local roughness (measured on synthetic height-field normals
+#: downscaled 2-8x: 90th percentile 3-24 % above the median, or a median within 5 % of 1); it is renormalised.
+NORMAL_Z_SCALE = 0.05
+NORMAL_Z_SPREAD = 0.03
+#: Refusal limits of :func:`inspect_normal`: median length, mean of x and of y, median z.
+NORMAL_MIN_LENGTH = 0.25
+NORMAL_MAX_MEAN = 0.3
+NORMAL_MIN_Z = 0.1
+#: A map whose three decoded channels all correlate above this is a colour image, not vectors (measured: the 24
+#: shared photos 0.33-1.0 for their least correlated pair, with most above 0.7; normal maps about 0: x and y vary
+#: independently of each other and of z).
+NORMAL_MAX_CORRELATION = 0.5
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}")
 _DTYPES = ("uint8", "uint16", "float32")
 
@@ -171,6 +192,9 @@ class MapSpec:
     normal_y: str | None = None
     encoding: str | None = None
     suffix: str = ".png"
+    #: What :func:`inspect_normal` did to an input normal map (None: used as it is); recorded in the tile set's
+    #: ``params["material"]["normalised"]``, not in the map's manifest entry.
+    normalised: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {
@@ -272,20 +296,103 @@ def normal_lengths(a: np.ndarray, encoding: str = "unorm") -> np.ndarray:
     return np.sqrt((_decoded_normals(np.asarray(a), encoding) ** 2).sum(axis=-1))
 
 
-def _check_normal(name: str, a: np.ndarray) -> str:
-    """Refuse a normal map that is not one; returns its encoding ("unorm" or "snorm")."""
+def _refuse_normal(name: str, why: str) -> ParameterError:
+    return ParameterError(
+        f"map {name!r} (kind normal): {why}; this cannot be a tangent-space normal map. To use it anyway, pass it "
+        f"as a scalar map (--map {name}:scalar=FILE; map_kinds={{{name!r}: 'scalar'}} in Python; kind = "
+        '"scalar" in a batch maps table)'
+    )
+
+
+def inspect_normal(name: str, a: np.ndarray) -> tuple[str, str | None, np.ndarray | None]:
+    """Whether ``a`` ``(H, W, 3)`` is a normal map, and how to read it: ``(encoding, note, vectors)``.
+
+    ``note`` is None (and ``vectors`` None) for a map of unit vectors (fewer than :data:`NORMAL_BAD_SHARE` outside
+    1 ± :data:`NORMAL_TOLERANCE`): it is used as it is. Otherwise the map is one of the two kinds real tools
+    write, and ``vectors`` are its unit vectors (float64):
+
+    * **short vectors** (a downscaled map, whose box or mip filter averages neighbouring unit vectors into
+      shorter ones: median length 0.92-0.98): each vector is divided by its length, as engines do when they
+      sample;
+    * **z on another scale** (x and y centred on 0 and inside the unit disc, z positive, and z the same multiple
+      of ``√(1 − x² − y²)`` on every pixel, :data:`NORMAL_Z_SCALE`; median lengths such as 0.78 or 0.51): z is
+      rebuilt from x and y, ``z = √(1 − x² − y²)``, as engines do for two-channel normal maps.
+
+    Refused (:class:`ParameterError` naming the map and saying how to pass it as a scalar map), because no
+    normal-map tool writes it: a grey image (r = g = b), vectors near zero (median length below
+    :data:`NORMAL_MIN_LENGTH`), x or y not centred (mean beyond ± :data:`NORMAL_MAX_MEAN`: a colour photo or a
+    height map read as vectors), three channels that vary together (:data:`NORMAL_MAX_CORRELATION`: a photo),
+    z not positive (median z below :data:`NORMAL_MIN_Z`), or x and y outside the
+    unit disc where z would have to be rebuilt. Vectors shorter than 1e-3 in a renormalised map have no
+    direction and become (0, 0, 1)."""
     if a.shape[2] != 3:
         raise ParameterError(f"map {name!r} (kind normal) has {a.shape[2]} channel(s), expected 3 (x, y, z)")
     encoding = "snorm" if a.dtype == np.float32 and float(a.min()) < 0.0 else "unorm"
-    length = normal_lengths(a, encoding)
+    v = _decoded_normals(a, encoding)
+    length = np.sqrt((v * v).sum(axis=-1))
     bad = np.abs(length - 1.0) > NORMAL_TOLERANCE
-    if bad.mean() > NORMAL_BAD_SHARE:
-        raise ParameterError(
-            f"map {name!r} (kind normal): {100 * bad.mean():.1f}% of its vectors have a length outside "
-            f"1 ± {NORMAL_TOLERANCE} (median length {float(np.median(length)):.3f}, read as {encoding}: "
-            f"{'2·value − 1' if encoding == 'unorm' else 'the values themselves'}); not a unit normal map. Give "
-            "its kind (--map NAME:scalar=FILE, map_kinds) if it is not a normal map"
+    if bad.mean() <= NORMAL_BAD_SHARE:
+        return encoding, None, None
+    med = float(np.median(length))
+    code = 2.0 / (code_scale(a.dtype) or 1e6)  # one code step of a decoded component
+    spread = np.ptp(v, axis=-1)
+    if med < NORMAL_MIN_LENGTH:
+        raise _refuse_normal(name, f"its vectors are near zero (median length {med:.3f})")
+    if (spread <= code * 1.01).mean() >= 1.0 - NORMAL_BAD_SHARE:
+        raise _refuse_normal(name, "it is a grey image (red = green = blue)")
+    flat = v.reshape(-1, 3)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = np.nan_to_num(np.corrcoef(flat[:: max(1, flat.shape[0] // 65536)].T))
+    together = min(corr[0, 1], corr[0, 2], corr[1, 2])
+    if together > NORMAL_MAX_CORRELATION:
+        raise _refuse_normal(
+            name, f"its three channels vary together, as a photo's do (every correlation >= {together:.2f})"
         )
+    mx, my = float(v[..., 0].mean()), float(v[..., 1].mean())
+    if max(abs(mx), abs(my)) > NORMAL_MAX_MEAN:
+        raise _refuse_normal(
+            name,
+            f"its x and y are not centred on 0 (mean x {mx:+.2f}, mean y {my:+.2f}, read as "
+            f"{'2·value − 1' if encoding == 'unorm' else 'the values themselves'})",
+        )
+    mz = float(np.median(v[..., 2]))
+    if mz < NORMAL_MIN_Z:
+        raise _refuse_normal(name, f"its z (blue) is not positive (median z {mz:+.2f})")
+    outside = 100 * float(bad.mean())
+    r2 = v[..., 0] ** 2 + v[..., 1] ** 2
+    inside = r2 < 0.98
+    ratio = v[..., 2][inside] / np.sqrt(1.0 - r2[inside])  # z against the z that x and y call for
+    z_scale, z_q90 = (float(q) for q in np.quantile(ratio, (0.5, 0.9))) if ratio.size else (1.0, 1.0)
+    rescaled = abs(z_scale - 1.0) > NORMAL_Z_SCALE and z_q90 <= z_scale * (1.0 + NORMAL_Z_SPREAD)
+    if not rescaled:
+        unit = v / np.maximum(length, 1e-300)[..., None]
+        unit[length < 1e-3] = (0.0, 0.0, 1.0)
+        note = (
+            f"renormalised (median length {med:.3f}, {outside:.1f}% of the vectors outside 1 ± "
+            f"{NORMAL_TOLERANCE}: a downscaled or filtered normal map)"
+        )
+        return encoding, note, unit
+    if (r2 > (1.0 + NORMAL_TOLERANCE) ** 2).mean() > NORMAL_BAD_SHARE:
+        raise _refuse_normal(
+            name,
+            f"{outside:.1f}% of its vectors have a length outside 1 ± {NORMAL_TOLERANCE} (median length "
+            f"{med:.3f}) and x² + y² > 1 on {100 * float((r2 > 1.21).mean()):.1f}% of its pixels, so z cannot "
+            "be rebuilt from x and y",
+        )
+    xy = v[..., :2] / np.maximum(np.sqrt(r2), 1.0)[..., None]
+    z = np.sqrt(np.maximum(0.0, 1.0 - (xy * xy).sum(axis=-1)))
+    note = (
+        f"z rebuilt from x and y (median length {med:.3f}; z is {z_scale:.3f} times the z that x and y call for, "
+        "on every pixel: z stored on another scale)"
+    )
+    return encoding, note, np.concatenate([xy, z[..., None]], axis=-1)
+
+
+def _check_normal(name: str, a: np.ndarray) -> str:
+    """Refuse a map that is not a unit normal map as it is; returns its encoding ("unorm" or "snorm")."""
+    encoding, note, _ = inspect_normal(name, a)
+    if note is not None:
+        raise ParameterError(f"map {name!r} (kind normal): not unit vectors as it is (it would be {note})")
     return encoding
 
 
@@ -300,7 +407,7 @@ def check_maps(
     """Validate the maps of a material build before any work: ``[(spec, array)]`` in the given order.
 
     Raises :class:`ShapeError` (not pixel-aligned), :class:`ParameterError` (bad name, duplicate name, NaN or
-    infinity, unknown kind, a normal map far from unit length, a bad weight) or ``TypeError`` (dtype), each naming
+    infinity, unknown kind, a map that cannot be a normal map, a bad weight) or ``TypeError`` (dtype), each naming
     the map and the value.
     """
     if not isinstance(maps, dict) or not maps:
@@ -337,7 +444,13 @@ def check_maps(
         kind = _kind(kinds[name], name) if name in kinds else infer_kind(name)
         a = _as_map_array(name, value, shape)  # type: ignore[arg-type]
         w = _weight(weights.get(name, DEFAULT_WEIGHTS[kind]), name)
-        encoding = _check_normal(name, a) if kind == "normal" else None
+        note = None
+        if kind == "normal":
+            encoding, note, unit = inspect_normal(name, a)
+            if unit is not None:  # stored normalised, in the map's own sample type
+                a = np.ascontiguousarray(encode_unit(unit, a.dtype, encoding))
+        else:
+            encoding = None
         suffix = str((suffixes or {}).get(name, "")).lower()
         if suffix not in (".png", ".exr", ".npy", ".tif", ".tiff"):
             suffix = ".exr" if a.dtype == np.float32 else ".png"
@@ -350,6 +463,7 @@ def check_maps(
             normal_y if kind == "normal" else None,
             encoding,
             suffix,
+            note,
         )
         out.append((spec, a))
     _weight(weights.get("albedo", 1.0), "albedo")
@@ -387,8 +501,19 @@ def feature_image(
     """The feature image a material is built on (module docstring, steps 1-2): float32 ``(H, W, k)`` in [0, 1],
     ``k <= channels``, and its record (channels, variance kept, the maps' weights)."""
     h, w = albedo.shape[:2]
+    # Only the weights' ratios matter (the feature image is rescaled to [0, 1] at the end); huge weights
+    # (--map-weight height=1e308) would overflow the squares below, so they are divided by the largest first.
+    # Weights up to 1e6 are used as given (the same bytes as before).
+    # A weight below 1e-12 of the largest cannot change a float64 distance; it is taken as 0 (its channels left
+    # out), since a channel scaled by 1e-150 would make the later covariance inversions overflow.
+    top = max([float(albedo_weight), *(float(spec.weight) for spec, _ in specs)])
+    per = 1.0 / top if top > 1e6 else 1.0
+
+    def scaled(weight: float) -> float:
+        return 0.0 if weight < 1e-12 * top else weight * per
+
     cols = []
-    a = _normalised(albedo.reshape(h * w, -1).astype(np.float64), albedo_weight)
+    a = _normalised(albedo.reshape(h * w, -1).astype(np.float64), scaled(albedo_weight))
     if a is not None:
         cols.append(a)
     for spec, arr in specs:
@@ -397,7 +522,7 @@ def feature_image(
         else:
             scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(arr.dtype, 1.0)
             x = arr.reshape(h * w, -1).astype(np.float64) / scale
-        z = _normalised(x, spec.weight)
+        z = _normalised(x, scaled(spec.weight))
         if z is not None:
             cols.append(z)
     if not cols:
@@ -491,7 +616,11 @@ def build_with_maps(
         ts.tiles = np.ascontiguousarray(tiles, dtype=np.float32)
         ts.exemplar = albedo
         ts.exemplar_info = exemplar_record(albedo, info)
-    ts.params = {**ts.params, "material": {**record, "joint": bool(joint), "units": "feature"}}
+    record = {**record, "joint": bool(joint), "units": "feature"}
+    fixed = {spec.name: spec.normalised for spec, _ in specs if spec.normalised}
+    if fixed:
+        record["normalised"] = fixed
+    ts.params = {**ts.params, "material": record}
     ts.maps = {spec.name: arr for spec, arr in specs}
     ts.map_specs = [spec.to_dict() for spec, _ in specs]
     # The level correction of the fused maps needs the whole set: solved once here and stored with the set, so
@@ -521,8 +650,6 @@ def convert_normal_y(a: np.ndarray, encoding: str) -> np.ndarray:
 def _renormalise(tiles: np.ndarray, where: np.ndarray, encoding: str) -> np.ndarray:
     """``tiles`` (K, N, N, 3) with the vectors at ``where`` (K, N, N) set to unit length (re-encoded in the
     tiles' own sample type)."""
-    from ..io.normal_codes import encode_unit
-
     out = tiles.copy()
     out[where] = encode_unit(_decoded_normals(tiles[where], encoding), tiles.dtype, encoding)
     return out
@@ -716,29 +843,47 @@ def fused_tiles(tileset: Any, spec: MapSpec, arr: np.ndarray, tiles: np.ndarray)
     return out
 
 
-def fuse_map_atlas(tileset: Any, arr: np.ndarray, atlas: np.ndarray, level: bool = True) -> np.ndarray:
+def fuse_map_atlas(
+    tileset: Any, arr: np.ndarray, atlas: np.ndarray, level: bool = True, spec: MapSpec | None = None
+) -> np.ndarray:
     """The tiles ``atlas`` of map ``arr`` fused across their seams in the gradient domain, in the map's own
     sample type (:mod:`tilesynth.builder.fusion`), in two stages: ``level=True`` (the default) first adds the
     exemplar's smooth level correction (:func:`~tilesynth.builder.fusion.exemplar_levels`: every copy of an
     exemplar pixel moves alike, so tilings stay seamless and tile borders do not crease), then each tile's
     interior is fused with its border ring kept (:func:`~tilesynth.builder.fusion.fuse_tiles`); ``level=False``:
     the second stage alone (the border ring as copied, bit for bit). The continued steps across a seam only
-    read exemplar pixels the tile set uses somewhere (so never a masked one)."""
+    read exemplar pixels the tile set uses somewhere (so never a masked one).
+
+    With rotated or mirrored matching patches (``--augment``,
+    :func:`~tilesynth.builder.matching.augment.pixel_transforms`) the steps follow each patch's orientation, and
+    for a normal map (``spec`` of kind normal; ``atlas`` already turned, :func:`map_atlas`) the continued steps
+    are turned into the tile's frame too; the level stage is then left out for normal maps, since one level of
+    an exemplar pixel would have to be turned differently in each of its copies."""
     from ..synth.synthesis import check_smoothable
     from .fusion import LEVEL_BLOCK, exemplar_levels, fuse_tiles
+    from .matching.augment import pixel_transforms, transform_vectors
 
     check_smoothable(arr)
     src = tileset.source
     used = np.zeros(arr.shape[:2], bool)
     used[src[..., 0], src[..., 1]] = True
+    turns = pixel_transforms(tileset)
+    turn = None
+    if turns is not None and spec is not None and spec.kind == "normal":
+        y_down = spec.normal_y == "down"
+
+        def turn(step: np.ndarray, t: np.ndarray) -> np.ndarray:
+            return transform_vectors(step, t, y_down)
+
+        level = False
     scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(arr.dtype)
     f = arr.astype(np.float64) / (scale or 1.0)
     copies = atlas.astype(np.float64) / (scale or 1.0)
     if level:  # the exemplar's smooth level correction first (ring included), then each tile's interior
-        phi = exemplar_levels(f, copies, src, used, LEVEL_BLOCK)
+        phi = exemplar_levels(f, copies, src, used, LEVEL_BLOCK, turns=turns)
         f = f + phi
         copies = copies + phi[src[..., 0], src[..., 1]]
-    fused = fuse_tiles(f, copies, src, used)
+    fused = fuse_tiles(f, copies, src, used, turns=turns, turn=turn)
     if scale:
         return np.ascontiguousarray(np.rint(np.clip(fused, 0.0, 1.0) * scale).astype(arr.dtype))
     return np.ascontiguousarray(fused, dtype=np.float32)
@@ -756,11 +901,27 @@ def map_atlas(
     through the provenance, fused across the seams or Poisson-smoothed in the cut regions when :func:`smooths`
     says so (never for labels), normal vectors renormalised. Scalar and normal maps are fused for the tiles
     asked only (:func:`fused_tiles`, the bytes of :func:`fuse_map_atlas`); a colour map of a Poisson-smoothed set
-    needs the whole set."""
+    needs the whole set. The vectors of a normal map are turned with their pixels where a matching patch was
+    rotated or mirrored (``--augment``: :func:`~tilesynth.builder.matching.augment.transform_normal_codes`, exact
+    in the map's sample type), so a bump keeps its light side; such sets take the whole-set path, whose fusion
+    follows each patch's orientation (the per-tile path does not turn steps)."""
     from ..synth.synthesis import _smooth_map_atlas
+    from .matching.augment import pixel_transforms, transform_normal_codes
 
     idx = np.arange(tileset.n_tiles) if tiles is None else np.asarray(tiles, np.int64).reshape(-1)
-    if smooths(tileset, spec, smooth):
+    turns = pixel_transforms(tileset)
+    if turns is not None:  # rotated or mirrored patches: every step and vector turns with its patch
+        src = tileset.source
+        atlas = np.ascontiguousarray(arr[src[..., 0], src[..., 1]])
+        if spec.kind == "normal":
+            atlas = transform_normal_codes(atlas, turns, spec.encoding or "unorm", spec.normal_y == "down")
+        if smooths(tileset, spec, smooth):
+            if spec.kind in SMOOTH_KINDS:
+                atlas = fuse_map_atlas(tileset, arr, atlas, spec=spec)
+            else:  # colour maps follow the colour's own smoothing
+                atlas = _smooth_map_atlas(tileset, arr, atlas, threads)
+        atlas = atlas if tiles is None else atlas[idx]
+    elif smooths(tileset, spec, smooth):
         if spec.kind in SMOOTH_KINDS:
             return fused_tiles(tileset, spec, arr, idx)
         src = tileset.source  # colour maps follow the colour's own smoothing (version-1 sets only)
@@ -931,6 +1092,35 @@ def requantise_with_map(name: str, aligned: np.ndarray) -> np.ndarray:
     a = np.asarray(aligned)
     encoding = _with_normal_encoding(name, a)
     return a if encoding is None else renormalise_image(a, encoding)
+
+
+def turn_with_tiles(tileset: Any, name: str, aligned: np.ndarray, tiles: np.ndarray) -> np.ndarray:
+    """For ``synth --with`` / ``export --with``: the tiles ``(K, N, N, 3)`` of a map whose name says it is a normal
+    map (3 channels, unit vectors, +y up) with its vectors turned where a matching patch was rotated or mirrored
+    (``--augment``, :func:`map_atlas`); any other map, or a set without turned patches, as it is."""
+    from .matching.augment import pixel_transforms, transform_normal_codes
+
+    encoding = _with_normal_encoding(name, np.asarray(aligned))
+    turns = None if encoding is None else pixel_transforms(tileset)
+    if turns is None or tiles.shape[-1] != 3:
+        return tiles
+    return transform_normal_codes(tiles, turns, encoding)
+
+
+def turn_with_map(
+    tileset: Any, name: str, aligned: np.ndarray, out: np.ndarray, index_map: np.ndarray
+) -> np.ndarray:
+    """:func:`turn_with_tiles` for a synthesized ``--with`` map ``out`` laid out by ``index_map``."""
+    from ..base import kernels
+    from .matching.augment import pixel_transforms, transform_normal_codes
+
+    encoding = _with_normal_encoding(name, np.asarray(aligned))
+    turns = None if encoding is None else pixel_transforms(tileset)
+    if turns is None or out.shape[2] != 3:
+        return out
+    img = np.empty((*out.shape[:2], 1), np.uint8)
+    kernels.tile_copy(np.ascontiguousarray(turns[..., None]), kernels._index_map(index_map), img)
+    return transform_normal_codes(out, img[..., 0], encoding)
 
 
 def renormalise_with_map(

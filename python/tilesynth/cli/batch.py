@@ -20,7 +20,7 @@ name or writing the same file): the error names the job (its number in the file 
 
     [presets.ground]                  # any name; every key optional
     scheme = "omega"                  # omega | wang | swang (default omega)
-    set = "16a"                       # default: 16a for omega, wang8 for wang / swang
+    set = "16a"                       # default: c5 for omega (as tilesynth build), wang8 for wang / swang
     tile_size = 64                    # even; default half the exemplar's shorter side, at most 256
     select = "ga"                     # random | best-of | ga | ais (default: as tilesynth build)
     polish = true
@@ -299,7 +299,32 @@ def load_library(path: str | os.PathLike[str]) -> Library:
         raise BatchError(f"{p}: not valid TOML: {exc}") from None
     except UnicodeDecodeError as exc:
         raise BatchError(f"{p}: not valid TOML: {exc}") from None
+    except RecursionError:  # the TOML parser recurses once per level of nested arrays / inline tables
+        raise BatchError(f"{p}: not a batch file: its values are nested too deeply to read") from None
+    depth = _nesting(data)
+    if depth > MAX_NESTING:
+        raise BatchError(
+            f"{p}: not a batch file: a value is nested {depth} levels deep (at most {MAX_NESTING})"
+        )
     return parse_library(data, p.resolve().parent, source=str(p))
+
+
+#: The deepest nesting of tables and arrays a batch file may have (a real one has 3-4: jobs, maps, a map's table).
+MAX_NESTING = 16
+
+
+def _nesting(data: Any) -> int:
+    """The depth of nested dicts and lists in ``data`` (iterative: no recursion to run out of), counted up to
+    MAX_NESTING + 1."""
+    deepest, stack = 0, [(data, 1)]
+    while stack:
+        value, d = stack.pop()
+        deepest = max(deepest, d)
+        if d > MAX_NESTING:
+            break
+        items = value.values() if isinstance(value, dict) else value if isinstance(value, list) else ()
+        stack.extend((v, d + 1) for v in items if isinstance(v, (dict, list)))
+    return deepest
 
 
 def _tomllib():  # noqa: ANN202
@@ -588,6 +613,7 @@ def _job_of(
             "rename the map (or set export.maps = false)"
         )
     outputs = _outputs(out_dir, name, sheet, previews, report, maps, export, mat["material"])
+    _preflight(ex, name, outputs, options, previews, report, export, wj)
     return Job(
         k,
         name,
@@ -603,6 +629,71 @@ def _job_of(
         export,
         **mat,
     )
+
+
+#: The longest file name (bytes) a job's outputs may have: 255 (NAME_MAX of common file systems) less room for
+#: the temporary names the outputs pass through (``.NAME.XXXXXXXX.part``, the job's staging folder).
+MAX_OUTPUT_NAME = 200
+
+
+def _image_shape(path: Path) -> tuple[int, int, int] | None:
+    """(height, width, bands) of an image from its header (PIL, no decoding), None when it cannot be read so
+    (EXR, .npy, a broken file: the job reports it when it runs)."""
+    try:
+        from PIL import Image
+
+        with Image.open(path) as im:
+            return im.height, im.width, len(im.getbands())
+    except Exception:  # noqa: BLE001 - only a pre-check: the loader gives the real message
+        return None
+
+
+def _preflight(
+    exemplar: Path,
+    name: str,
+    outputs: dict[str, Path],
+    options: dict[str, Any],
+    previews: list[dict[str, Any]],
+    report: dict[str, Any] | None,
+    export: dict[str, Any] | None,
+    where: str,
+) -> None:
+    """Refuse before any work the values that could only fail a job after its build: an output file name too
+    long for the file system, an export padding wider than any tile the job can have, a preview or report
+    sample larger than the memory limit."""
+    from ..base.validate import MAX_BYTES_ENV, fmt_bytes, memory_limit
+    from ..builder.genes.draws import default_tile_size
+
+    for role, path in outputs.items():
+        size = len(os.fsencode(path.name))
+        if size > MAX_OUTPUT_NAME:
+            raise BatchError(
+                f"{where}: field 'name' = {name[:40] + '...' if len(name) > 40 else name!r} ({len(name)} characters): "
+                f"its {role} output {path.name[:40]!r}... would be a file name of {size} bytes, more than the "
+                f"{MAX_OUTPUT_NAME} a job's output may have (file systems take 255, less the temporary names)"
+            )
+    shape = _image_shape(exemplar)
+    if export is not None:
+        tile = options.get("tile_size")
+        largest = int(tile) if tile is not None else default_tile_size(shape) if shape else None
+        if export["padding"] > 256 or (largest is not None and export["padding"] > largest):
+            raise BatchError(
+                f"{where}: field 'export' entry 'padding' = {export['padding']}: must be at most the tile size "
+                f"({largest if largest is not None else 'at most 256'}"
+                f"{'' if tile is not None else ', the largest this exemplar gets'}) and at most 256"
+            )
+    limit = memory_limit(None)
+    bands = min(shape[2], 3) if shape else 1
+    samples = [(f"'previews' entry {i}", pv["size"], pv["bits"] or 8) for i, pv in enumerate(previews, 1)]
+    if report is not None:
+        samples.append(("'report'", report["size"], 8))
+    for what, (w, h), bits in samples:
+        need = int(w) * int(h) * bands * (2 if bits == 16 else 1)
+        if need > limit:
+            raise BatchError(
+                f"{where}: field {what} size = {w}x{h}: the image alone needs {fmt_bytes(need)}, more than the "
+                f"limit of {fmt_bytes(limit)} ({MAX_BYTES_ENV}; default half the physical memory)"
+            )
 
 
 def _job_preset(
@@ -783,8 +874,10 @@ def _export(value: Any, where: str) -> dict[str, Any] | None:
     if isinstance(bits, bool) or bits not in (8, 16):
         raise BatchError(f"{where}: field 'bits' = {bits!r}: expected 8 or 16")
     padding = _typed(value.get("padding", 8), int, f"{where}: field 'padding'")
-    if padding < 0:
-        raise BatchError(f"{where}: field 'padding' = {padding}: must be >= 0")
+    if not 0 <= padding <= 256:
+        raise BatchError(
+            f"{where}: field 'padding' = {padding}: must be in [0, 256] and at most the tile size"
+        )
     seed = _typed(value.get("seed", 0), int, f"{where}: field 'seed'")
     if not 0 <= seed < 2**32:
         raise BatchError(f"{where}: field 'seed' = {seed}: must be in [0, 2**32)")
@@ -1157,6 +1250,23 @@ def _load_inputs(spec: dict[str, Any]) -> tuple[Any, Any, dict[str, tuple[Any, s
             )
         maps[mname] = (arr, kind)
     return image, bits, maps
+
+
+def check_inputs(spec: dict[str, Any]) -> str | None:
+    """What a job's build would refuse in its inputs' contents (``batch --dry-run``): the exemplar, its
+    ``--with`` maps' alignment, and its material maps checked as the build checks them
+    (:func:`tilesynth.builder.materials.check_maps`: alignment, NaN, kinds, normal maps); None when they pass."""
+    from ..builder.materials import check_maps
+    from .batch_materials import build_keywords
+
+    try:
+        image, _, _ = _load_inputs(spec)
+        kw = build_keywords(spec)
+        if "maps" in kw:
+            check_maps(image.shape, kw["maps"], kw["map_kinds"], kw["map_weights"], kw["normal_y"])
+    except (TilesynthError, ValueError, TypeError, OSError) as exc:
+        return _message(exc)
+    return None
 
 
 def _build_tileset(spec: dict[str, Any], image: Any, bits: Any, threads: int | None) -> Any:
@@ -1602,6 +1712,8 @@ def _check_run_args(executor: Any, workers: Any, threads: Any, scheduler: Any) -
         raise ParameterError(f"threads = {threads!r}: must be a positive integer")
     if scheduler is not None and executor is not None:
         raise ParameterError("scheduler and executor: give one of them, not both")
+    if scheduler is not None:
+        _check_scheduler(scheduler)
     if workers is not None and (executor is not None or scheduler is not None):
         raise ParameterError(
             f"workers = {workers}: only used with the local process pool (no executor, no scheduler)"
@@ -1612,6 +1724,25 @@ def _check_run_args(executor: Any, workers: Any, threads: Any, scheduler: Any) -
         )
     if executor is not None and not isinstance(executor, (str, cf.Executor)):
         raise TypeError(f"executor = {executor!r}: expected a concurrent.futures.Executor")
+
+
+#: A Dask scheduler address: ``PROTOCOL://HOST[:PORT]`` with one of Dask's comm protocols, or ``HOST:PORT``.
+_SCHEDULER = re.compile(r"(?:(?:tcp|tls|inproc|ucx|ws|wss)://[^\s/:]+(?::\d{1,5})?|[^\s/:]+:\d{1,5})/?")
+
+
+def _check_scheduler(scheduler: Any) -> None:
+    """Refuse before any work what cannot be a Dask scheduler address (a dashboard's http:// URL, a bare word,
+    an empty string), naming ``scheduler``."""
+    if not isinstance(scheduler, str) or not _SCHEDULER.fullmatch(scheduler):
+        hint = (
+            " (an http:// address is the dashboard's; the scheduler listens on tcp://HOST:8786)"
+            if isinstance(scheduler, str) and scheduler.lower().startswith(("http://", "https://"))
+            else ""
+        )
+        raise ParameterError(
+            f"scheduler = {scheduler!r}: expected a Dask scheduler address such as tcp://HOST:8786 or "
+            f"HOST:8786{hint}"
+        )
 
 
 def _plan(
@@ -1651,7 +1782,10 @@ def _start_executor(
             raise ParameterError(
                 f"scheduler = {scheduler!r}: Dask is not installed (pip install tilesynth[dask])"
             ) from None
-        own_client = Client(scheduler)
+        try:
+            own_client = Client(scheduler)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ParameterError(f"scheduler = {scheduler!r}: cannot connect ({exc})") from None
         executor = own_client.get_executor(pure=False)
         slots = sum(w.get("nthreads", 1) for w in own_client.scheduler_info()["workers"].values()) or None
     elif executor is None and to_run:
@@ -1851,13 +1985,24 @@ def cli_main(args: argparse.Namespace) -> int:
     """``tilesynth batch``: returns the exit status (errors of the batch file raise :class:`BatchError`)."""
     lib = load_library(args.library)
     if args.dry_run:
+        failing = 0
         for job in lib.jobs:
-            key, _ = job_key(job)
+            key, parts = job_key(job)
             state = "up to date" if not args.force and _up_to_date(job, key) else "to build"
+            if state == "to build":
+                problem = check_inputs(_spec(job, key, parts, "dry-run"))
+                if problem is not None:
+                    state, failing = f"would fail: {problem}", failing + 1
             print(
                 f"{job.name}: {state} ({job.exemplar.name}, {job.options['scheme']} {job.options['set']}, "
                 f"seed {job.options['seed']}) -> {', '.join(os.path.relpath(p) for p in job.outputs.values())}"
             )
+        if failing:
+            print(
+                f"tilesynth: error: {failing} of {len(lib.jobs)} job(s) would fail (listed above)",
+                file=sys.stderr,
+            )
+            return 2
         return 0
     res = build_many(
         lib,

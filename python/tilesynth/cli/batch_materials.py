@@ -26,7 +26,7 @@ smoothing chosen by ``map_kinds``. ``map_kinds`` cannot name a material map (its
 job's key by content like the exemplar. Every value is checked before any work, with the job and the field named;
 the maps' alignment with the exemplar, their values (NaN, normals far from unit length) and the mask's coverage
 are checked when the job runs (its error is recorded, the batch goes on), exactly as ``tilesynth build`` checks
-them.
+them; ``tilesynth batch --dry-run`` runs the same checks on every job it would build.
 """
 
 from __future__ import annotations

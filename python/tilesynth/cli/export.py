@@ -52,6 +52,7 @@ def _common(p: argparse.ArgumentParser) -> None:
         default=0,
         help="index-map mode: seed of the tiling (default 0)",
     )
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
 def add_parsers(sub: Any) -> None:
@@ -143,11 +144,12 @@ def run(args: argparse.Namespace) -> None:
             progress=Progress(getattr(args, "quiet", False)),
             **kw,
         )
-        print(
-            f"wrote {len(m['files']) + 1} files to {args.output_dir} ({m['lookup']['mode']} lookup, "
-            f"{m['tile_count']} tiles, atlas {m['atlas']['width']}x{m['atlas']['height']}, "
-            f"mips to level {m['atlas']['max_level']})"
-        )
+        if not args.quiet:
+            print(
+                f"wrote {len(m['files']) + 1} files to {args.output_dir} ({m['lookup']['mode']} lookup, "
+                f"{m['tile_count']} tiles, atlas {m['atlas']['width']}x{m['atlas']['height']}, "
+                f"mips to level {m['atlas']['max_level']})"
+            )
         return
     out = (
         Path(args.output)
@@ -161,7 +163,8 @@ def run(args: argparse.Namespace) -> None:
 
     with atomic_open(out, "wb") as fh:
         fh.write(html)
-    print(f"wrote {out}")
+    if not args.quiet:
+        print(f"wrote {out}")
     if args.open:
         import webbrowser
 

@@ -15,6 +15,7 @@ import json
 import os
 import sys
 import time
+import unicodedata
 import warnings
 from importlib import resources
 from pathlib import Path
@@ -51,6 +52,16 @@ _bits = int_text(1)  # then choices (8, 16)
 _origin = origin_text
 
 
+class _IndexMapAction(argparse.Action):
+    """``synth --index-map``; the old spelling ``--map`` (which means a material map in ``build``) is kept and
+    noted (``args.old_map_flag``)."""
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:  # noqa: ANN001
+        setattr(namespace, self.dest, values)
+        if option_string == "--map":
+            namespace.old_map_flag = True
+
+
 def _set_name(text: str) -> str:
     from ..layouts.omega_sets import get_tileset
     from ..layouts.wang_sets import is_wang_set_name
@@ -76,7 +87,7 @@ def _method(text: str) -> str:
 
 
 SET_HELP = (
-    "tile-set definition: 4, 8, 16a, 16b, 32 (002), B (the basic 8-set of the extendable rule), n1 (17 tiles), "
+    "tile-set definition: 4, 8, 16a, 16b, 32 (the ω paper's), B (the basic 8-set of the extendable rule), n1 (17 tiles), "
     "n2 (38 tiles) or nK for any K >= 1; append x2, x3 or x4 (e.g. 16bx2, n2x2) for 2-4 omega-tiles per "
     "intermediate tile, i.e. at least that many choices at every tiling step; complete sets c<K> and "
     "c<K>x<V> (every corner tuple over K colours, hashed lookup: non-periodic, random access, --wrap; "
@@ -110,63 +121,96 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+#: ``build --help`` groups of the scheme options (:func:`_add_scheme_options`): the selection of the sample
+#: patches, the Wang schemes' own options; every other one is a matching / cut option.
+_SELECTION_FLAGS = ("--objective", "--rerank", "--border-tries", "--normalise")
+_WANG_FLAGS = ("--cut", "--overlap", "--corners", "--samples", "--supplementary")
+
+BUILD_DESCRIPTION = (
+    "Build a tile set from one exemplar image. Most builds set only the first groups: the input and output, "
+    "the tile size and the seed, and the material maps if any. The advanced groups are the levers of the methods "
+    "behind tilesynth; the README's 'Command line' section says which paper each one follows."
+)
+
+
 def _add_build_parser(sub) -> None:  # noqa: ANN001
-    """``tilesynth build``: its common options, then those of the registered schemes."""
-    b = sub.add_parser("build", help="build a tile set from an exemplar image")
-    b.add_argument("input", help="exemplar image (PNG, JPEG, ...)")
-    b.add_argument("-o", "--output", required=True, help="tile-set file to write (.tiles)")
-    b.add_argument(
+    """``tilesynth build``: what a user sets first (input, output, tile size, seed, material maps), then the
+    advanced groups (the selection of the papers' sets, matching and cuts, the Wang schemes, output encoding)."""
+    b = sub.add_parser("build", help="build a tile set from an exemplar image", description=BUILD_DESCRIPTION)
+    io = b.add_argument_group("input and output")
+    io.add_argument("input", help="exemplar image (PNG, JPEG, ...)")
+    io.add_argument("-o", "--output", required=True, help="tile-set file to write (.tiles)")
+    io.add_argument("--sheet", default=None, help="also write a contact sheet of the tiles to this PNG")
+    io.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    main = b.add_argument_group("what you set")
+    main.add_argument(
+        "--tile-size",
+        type=int_text(4),
+        default=None,
+        help="tile size N in pixels, even: larger tiles keep larger features whole (default: half the "
+        "exemplar's shorter side, at most 256)",
+    )
+    main.add_argument(
+        "--seed",
+        type=_nonneg,
+        default=None,
+        help="random seed; the same seed and options give the same tile set (default: a fresh random seed, "
+        "printed and recorded in the tile set, see tilesynth info; batch files default to 1)",
+    )
+    main.add_argument("--set", default=None, type=_set_name, metavar="SET", help=SET_HELP)
+    main.add_argument(
         "--scheme",
         default="omega",
         choices=SCHEMES,
         help="; ".join(f"{sc.name}: {sc.summary}" for sc in REGISTRY),
     )
-    b.add_argument("--set", default=None, type=_set_name, metavar="SET", help=SET_HELP)
-    b.add_argument(
-        "--tile-size",
-        type=int_text(4),
-        default=None,
-        help="tile size N in pixels, even (default: half the exemplar's shorter side, at most 256)",
-    )
-    b.add_argument("--seed", type=_nonneg, default=None, help="random seed (default: a fresh one, recorded)")
-    b.add_argument(
+    main.add_argument(
         "--threads",
         type=_threads,
         default=None,
         help="worker threads (default: TILESYNTH_NUM_THREADS or all cores)",
     )
-    b.add_argument(
+    mat = b.add_argument_group("material maps and masks")
+    from .materials import add_build_arguments  # material builds
+
+    add_build_arguments(mat)
+    _add_mask_options(mat)
+    sel = b.add_argument_group(
+        "advanced: choosing the sample patches",
+        "which exemplar windows sit at the tile corners; mostly for the papers' tile sets (4 ... 32, B, nK)",
+    )
+    sel.add_argument(
         "--select",
         type=_method,
         default=None,
         metavar="METHOD",
         help="how to choose the sample patches: random (one random set), best-of (best of 100 random sets), "
-        "ga (000's genetic algorithm) or ais (003's immune system), minimising --objective (default E); "
+        "ga (a genetic algorithm) or ais (an artificial immune system), minimising --objective (default E); "
         "default for omega: one random set for complete sets (c4, ...), for the papers' sets the best of 32 "
         "random sets by ΣD, the best 4 re-ranked by the real cut cost",
     )
-    b.add_argument(
+    sel.add_argument(
         "--polish",
         action="store_true",
         help="after the selection, move one patch at a time to its best position until E stops falling "
         "(--objective cut: the cut polish, each patch to the best of its 3 best positions by ΣD if the cut "
         "score falls)",
     )
-    b.add_argument("--generations", type=_pos, default=None, help="N_g of ga/ais (default 50)")
-    b.add_argument(
+    sel.add_argument("--generations", type=_pos, default=None, help="generations of ga / ais (default 50)")
+    sel.add_argument(
         "--population",
         type=_pos,
         default=None,
-        help="population of ga/ais (default 40), count of best-of (default 100)",
+        help="population of ga / ais (default 40), count of best-of (default 100)",
     )
-    _add_scheme_options(b)
-    from .materials import add_build_arguments  # issue 14: material builds
-
-    add_build_arguments(b)
-    _add_mask_options(b)
-    b.add_argument("--sheet", default=None, help="also write a contact sheet of the tiles to this PNG")
-    b.add_argument("-q", "--quiet", action="store_true", help="no progress output")
-    add_png_compression_argument(b)
+    cut = b.add_argument_group(
+        "advanced: matching and cuts", "how each tile's matching patch is found and cut in"
+    )
+    wang = b.add_argument_group("advanced: Wang tiles", "only with --scheme wang or swang")
+    groups = {**{f: sel for f in _SELECTION_FLAGS}, **{f: wang for f in _WANG_FLAGS}}
+    _add_scheme_options(b, lambda flag: groups.get(flag, cut))
+    enc = b.add_argument_group("output encoding")
+    add_png_compression_argument(enc)
 
 
 def _add_synth_parser(sub) -> None:  # noqa: ANN001
@@ -184,7 +228,14 @@ def _add_synth_parser(sub) -> None:  # noqa: ANN001
     )
     s.add_argument("--seed", type=_nonneg, default=None, help="tiling seed (default: a fresh one, printed)")
     s.add_argument(
-        "--map", default=None, help="use this tile index map (.npy, int, rows x cols) instead of the tiler"
+        "--index-map",
+        "--map",
+        dest="map",
+        action=_IndexMapAction,
+        default=None,
+        metavar="INDEX.npy",
+        help="use this tile index map (.npy, int, rows x cols) instead of the tiler (the old spelling --map "
+        "still works, with a note; build's --map is a material map)",
     )
     s.add_argument("--save-map", default=None, help="write the tile index map used to this .npy file")
     s.add_argument(
@@ -240,6 +291,9 @@ def _add_info_parser(sub) -> None:  # noqa: ANN001
     i = sub.add_parser("info", help="describe a tile set")
     i.add_argument("tileset", help="tile-set file (.tiles)")
     i.add_argument("--json", action="store_true", help="machine-readable output")
+    i.add_argument(
+        "-q", "--quiet", action="store_true", help="accepted as by every command (info writes no progress)"
+    )
 
 
 def _add_sheet_parser(sub) -> None:  # noqa: ANN001
@@ -295,9 +349,10 @@ def _add_metrics_parsers(sub) -> None:  # noqa: ANN001
     )
     m.add_argument(
         "--tile-size",
-        type=_pos,
+        type=int_text(4),
         default=None,
-        help="image: tile size of the grid the image was laid on (the seam score needs it)",
+        help="image: tile size of the grid the image was laid on (the seam score needs it); even and >= 4, as "
+        "build's",
     )
     m.add_argument("--exemplar", default=None, help="image: the exemplar (the coherence energy needs it)")
     m.add_argument(
@@ -361,6 +416,10 @@ def _metrics(args: argparse.Namespace) -> None:
     else:
         if args.size is not None or args.seed is not None:
             raise ParameterError("--size and --seed are for tile sets (the sample to synthesize)")
+        if args.tile_size is not None and args.tile_size % 2:
+            raise ParameterError(
+                f"--tile-size = {args.tile_size}: must be even, as every tile size build makes"
+            )
         image, _ = load_image(path)
         exemplar = None
         if args.exemplar is not None:
@@ -437,8 +496,9 @@ def _print_input_warnings(caught: list) -> None:  # noqa: ANN001
             warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 
-def _add_scheme_options(parser: argparse.ArgumentParser) -> None:
-    """One flag per option of the registered schemes (a flag shared by several schemes is added once)."""
+def _add_scheme_options(parser: argparse.ArgumentParser, group: Any = None) -> None:
+    """One flag per option of the registered schemes (a flag shared by several schemes is added once);
+    ``group(flag)``, if given, is the argument group that shows it in ``--help``."""
     seen: dict[str, tuple[Option, Scheme]] = {}
     users: dict[str, list[str]] = {}
     for sc in REGISTRY:
@@ -450,7 +510,7 @@ def _add_scheme_options(parser: argparse.ArgumentParser) -> None:
             seen.setdefault(opt.flag, (opt, sc))
             users.setdefault(opt.flag, []).append(sc.name)
     for flag, (opt, sc) in seen.items():
-        opt.add_to(parser, sc.default(opt), users[flag])
+        opt.add_to(parser if group is None else group(flag), sc.default(opt), users[flag])
 
 
 def _scheme_kwargs(args: argparse.Namespace, scheme: Scheme) -> dict:
@@ -495,6 +555,7 @@ def _build(
     prog = Progress(quiet)
     set_name = set_name or sc.default_set
     sc.check_set(set_name)
+    _check_tileset_name(output)
     image, bits = load_image(input_path)
     _check_output_dir(output)
     if sheet:
@@ -553,10 +614,29 @@ def _build(
         f"wrote {output}: {ts.n_tiles} {sc.title} of {ts.tile_size}x{ts.tile_size} (set {set_name}, {how}, seed "
         f"{ts.params['seed']}), E = {ts.E:.6g}, {ts.timing['total_s']:.2f} s"
     )
+    fixed = ts.params.get("material", {}).get("normalised", {}) if ts.map_specs else {}
+    for name, note in fixed.items():
+        prog.message(f"map {name}: {note}")
     if sheet:
         _write_sheet(ts, sheet, True)
         prog.message(f"wrote {sheet}: contact sheet")
     return ts
+
+
+#: Suffixes of images and arrays: a tile set written under one of them would be a ZIP archive that image tools
+#: cannot open (``build -o a.png``).
+_NOT_TILESET_SUFFIXES = (".png", ".jpg", ".jpeg", ".exr", ".tif", ".tiff", ".bmp", ".webp", ".gif", ".npy")
+
+
+def _check_tileset_name(output: str) -> None:
+    suffix = Path(output).suffix.lower()
+    if suffix in _NOT_TILESET_SUFFIXES:
+        stem = str(Path(output).with_suffix(""))
+        raise ParameterError(
+            f"--output = {output!r}: build writes a tile set (a ZIP archive, .tiles), not a {suffix[1:]} file; "
+            f"name it {stem}.tiles (a contact sheet of the tiles: --sheet {output}; a texture: tilesynth synth "
+            f"{stem}.tiles -o {output})"
+        )
 
 
 def _material_args(args: argparse.Namespace) -> dict | None:
@@ -606,6 +686,7 @@ def _synth(
     origin: tuple[int, int] = (0, 0),
     wrap: bool = False,
     normal_y: str | None = None,
+    map_flag: str = "--index-map",
 ) -> None:
     from ..base.progress import Progress
     from ..base.validate import seed_int
@@ -623,7 +704,7 @@ def _synth(
         from ..io.images import read_npy
 
         # memory-mapped first: a header that declares more data than the file holds fails here, cheaply
-        index_map = read_npy(map_path, f"--map = {map_path!r}")
+        index_map = read_npy(map_path, f"{map_flag} = {map_path!r}")
     from ..layouts.hashed import hash_seed, hashed_scheme
 
     hashed = hashed_scheme(ts, origin, wrap, index_map) is not None  # complete sets: 32-bit hashed seeds
@@ -729,7 +810,7 @@ def _synth_write_maps(
     smooth_maps: bool,
 ) -> None:
     """Synthesize every ``--with`` map through the cuts and layout of the colour, and write it."""
-    from ..builder.materials import requantise_with_map
+    from ..builder.materials import requantise_with_map, turn_with_map
     from ..io.images import atomic_open, save_image
     from ..synth.synthesis import synthesize_map
 
@@ -737,6 +818,9 @@ def _synth_write_maps(
         prog("maps", k, len(maps))
         arr = requantise_with_map(Path(mp).stem, arr)  # issue 14: normal maps' copies at unit length too
         out_map = synthesize_map(ts, arr, imap, size[0], size[1], threads=threads, smooth=smooth_maps)
+        out_map = turn_with_map(
+            ts, Path(mp).stem, arr, out_map, imap
+        )  # normals of turned patches (--augment)
         if smooth_maps:  # issue 14: a normal map (by its name) renormalised where smoothed
             from ..builder.materials import renormalise_with_map
 
@@ -753,6 +837,16 @@ def _synth_write_maps(
             + "; note: it was not part of the cut (matching and cuts were chosen without it: seams may show in "
             "it); build with --map NAME=FILE to cut on it"
         )
+
+
+def _printable(line: str) -> str:
+    """``line`` with every control or format character (escape sequences that retitle or recolour a terminal,
+    carriage returns, bidirectional overrides) written as a Python escape: the strings of a tile set's manifest
+    reach the terminal as text, never as commands."""
+    return "".join(
+        c.encode("unicode_escape").decode("ascii") if unicodedata.category(c) in ("Cc", "Cf") else c
+        for c in line
+    )
 
 
 def _info(ts_path: str, as_json: bool) -> None:
@@ -795,7 +889,7 @@ def _info(ts_path: str, as_json: bool) -> None:
     ]
     if layout_kind(ts.layout) == "edge":
         lines += _wang_lines(ts)
-        print("\n".join(lines))
+        print("\n".join(map(_printable, lines)))
         return
     lines.append(
         f"{'tile':>4}  {'TL BL TR BR':<11}  {'var':>3}  {'match (row,col)':>15}  {'D_j':>12}  {'cut cost':>10}"
@@ -805,7 +899,7 @@ def _info(ts_path: str, as_json: bool) -> None:
             f"{row['index']:>4}  {' '.join(row['corners']):<11}  {row['variant']:>3}  "
             f"{'(%d,%d)' % tuple(row['match_offset']):>15}  {row['D']:>12.4f}  {row['cut_cost']:>10.4f}"
         )
-    print("\n".join(lines))
+    print("\n".join(map(_printable, lines)))
 
 
 def _storage(ts_path: str, ts) -> dict:  # noqa: ANN001
@@ -1013,7 +1107,14 @@ def _run_command(args: argparse.Namespace) -> int:
             args.origin,
             args.wrap,
             args.normal_y,
+            "--map" if getattr(args, "old_map_flag", False) else "--index-map",
         )
+        # after the work, so that an error stays one line
+        if getattr(args, "old_map_flag", False) and not args.quiet:
+            print(
+                "tilesynth synth: note: --map is now --index-map (the old spelling still works)",
+                file=sys.stderr,
+            )
     elif args.command == "info":
         _info(args.tileset, args.json)
     elif args.command == "sheet":

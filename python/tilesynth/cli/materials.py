@@ -224,4 +224,7 @@ def info_lines(ts: Any) -> list[str]:
         f"{mat['variance_kept']:.3f}" if mat.get("joint") and isinstance(mat.get("variance_kept"), (int, float))
         else "cut on the albedo (no weighted map)"
     )  # fmt: skip
-    return [f"maps          {maps}", f"              {how}; D, E and cut costs in feature units"]
+    lines = [f"maps          {maps}", f"              {how}; D, E and cut costs in feature units"]
+    fixed = mat.get("normalised") if isinstance(mat.get("normalised"), dict) else {}
+    lines += [f"              map {name}: {note}" for name, note in fixed.items()]
+    return lines

@@ -155,6 +155,7 @@ def build_maps(
     normal_y: str = "+y",
 ) -> dict[str, dict[str, Any]]:
     """Level-0 padded cells of every map: ``{name: {"cells": (K, S, S, C), "source": "tileset"|"map"}}``."""
+    from ..builder.materials import turn_with_tiles
     from ..synth.synthesis import _smooth_map_atlas, is_smoothed
 
     out: dict[str, dict[str, Any]] = {}
@@ -180,6 +181,7 @@ def build_maps(
             if not is_smoothed(tileset):
                 raise ParameterError("map_smooth = 'on': the tile set was not Poisson-smoothed")
             tiles = _smooth_map_atlas(tileset, a, tiles, None)
+        tiles = turn_with_tiles(tileset, name, a, tiles)  # a normal map's vectors turn with their patches
         out[name] = {"cells": _atlas.padded_tiles(tiles, a, src, padding), "kind": "map"}
     return out
 
@@ -380,6 +382,12 @@ def _check_export_args(
     if isinstance(padding, bool) or not isinstance(padding, (int, np.integer)) or not 0 <= padding <= 256:
         raise ParameterError(f"padding = {padding!r}: must be an integer in [0, 256]")
     padding = int(padding)
+    if (
+        padding > tileset.tile_size
+    ):  # the gutter continues the tile's own border pixels: at most one tile wide
+        raise ParameterError(
+            f"padding = {padding}: must be at most the tile size ({tileset.tile_size}) of this tile set"
+        )
     _check_choice(bits, "bits", (8, 16))
     _check_choice(lookup, "lookup", ("auto", "hash", "index_map"))
     normal_y_value(normal_y)  # up/+y or down/-y (tilesynth.cli.argtypes); the manifest records +y or -y

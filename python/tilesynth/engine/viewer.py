@@ -18,6 +18,7 @@ from __future__ import annotations
 import base64
 import io
 import json
+import re
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -198,12 +199,12 @@ def page(config: dict[str, Any]) -> str:
         for i, lv in enumerate(config["levels"])
     )
     config["levels"] = [{k: v for k, v in lv.items() if k != "png"} for lv in config["levels"]]
-    cfg = json.dumps(config).replace("</", "<\\/")
-    return (
-        tpl.replace("<!--TS_IMAGES-->", imgs)
-        .replace("/*TS_CONFIG*/", cfg)
-        .replace("/*TS_GLSL*/", shader_source("tilesynth.glsl"))
-    )
+    # Inside <script>, "</script", "<!--" and "<script" in a string (a tile set's name) would end the element or
+    # change how the HTML parser reads it; JSON may write <, > and & as \u escapes, so none of them is left.
+    cfg = json.dumps(config).replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
+    parts = {"<!--TS_IMAGES-->": imgs, "/*TS_CONFIG*/": cfg, "/*TS_GLSL*/": shader_source("tilesynth.glsl")}
+    # one pass over the template: text put in for one placeholder is never searched for another
+    return re.sub("|".join(map(re.escape, parts)), lambda m: parts[m.group(0)], tpl)
 
 
 def config_for(

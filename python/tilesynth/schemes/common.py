@@ -15,7 +15,7 @@ GRADIENTS = Option(
 LITERAL_BORDER = Option(
     "keep_border",
     "--literal-border",
-    "002's literal cut: let the matching patch reach the tile border near the side midpoints (default: the "
+    "the paper's literal cut: let the matching patch reach the tile border near the side midpoints (default: the "
     "border ring keeps the intermediate tile, so neighbouring tiles stay continuous)",
     store_true=True,
     flag_value=lambda literal: not literal,

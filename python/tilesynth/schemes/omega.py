@@ -59,7 +59,7 @@ def _match_k(text: str | None) -> int | str | None:
 SCHEME = Scheme(
     name="omega",
     title="ω-tiles",
-    summary="ω-tiles (002; default)",
+    summary="ω-tiles (default)",
     layout="corner",
     default_set="c5",  # measured with benches/repetition.py (complete set, hashed lookup; c4 before)
     builder=build_omega,
@@ -69,14 +69,14 @@ SCHEME = Scheme(
         Option(
             "normalise",
             "--normalise",
-            "optimise 003's normalised objective (SSD divided by the tile's pixel count)",
+            "optimise the per-pixel objective (SSD divided by the tile's pixel count)",
             store_true=True,
         ),
         Option(
             "match",
             "--match",
             "how each tile's matching patch is chosen: ssd (smallest SSD, default), "
-            "circle / midpoints (002's heuristics: smallest seam weights around the circle / near the side "
+            "circle / midpoints (the paper's heuristics: smallest seam weights around the circle / near the side "
             "midpoints), best-cut (run the real cut for the --match-k nearest candidates, keep the cheapest)",
             choices=("ssd", "circle", "midpoints", "best-cut"),
         ),
@@ -91,14 +91,14 @@ SCHEME = Scheme(
             "metric",
             "--metric",
             "distance for the matching search and the objective E: color (SSD, "
-            "default), eq3 (SSD + 10 x squared gradient difference, 000 eq. 3), eq2 (SSD weighted by 1/(10 "
-            "(|grad T| + |grad I|)), 000 eq. 2, exact but slow: direct sums, not with --select)",
+            "default), eq3 (SSD + 10 x squared gradient difference), eq2 (SSD weighted by 1/(10 "
+            "(|grad T| + |grad I|)), exact but slow: direct sums, not with --select)",
             choices=("color", "eq2", "eq3"),
         ),
         Option(
             "smooth",
             "--smooth",
-            "Poisson-smooth the region inside each cutting curve (002 section 3.3): the "
+            "Poisson-smooth the region inside each cutting curve: the "
             "matching patch's gradients, blended into the tile from the curve; exact to a 1e-6 residual, tile "
             "borders kept",
             store_true=True,
@@ -106,7 +106,7 @@ SCHEME = Scheme(
         Option(
             "cut_region",
             "--cut-region",
-            "where the cut may run: the inscribed circle (002; default for the papers' sets) or free but for a "
+            "where the cut may run: the inscribed circle (the paper's; default for the papers' sets) or free but for a "
             "border ring and corner discs, so most of each tile is its own matching patch (less repetition; "
             "default for complete sets); ring: the free region with a uniform area reward, which draws a grid of "
             "seams 2 px inside the tile borders (for comparison); free8: free on an 8-connected grid (cut cost ~ "

@@ -17,7 +17,7 @@ def _describe(ts: Any) -> list[str]:
 SCHEME = Scheme(
     name="swang",
     title="s-Wang tiles",
-    summary="strict Wang tiles (004)",
+    summary="strict Wang tiles (Zhang and Kim)",
     layout="edge",
     default_set="wang8",
     builder=build_swang,

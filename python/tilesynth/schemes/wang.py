@@ -20,7 +20,7 @@ def _describe(ts: Any) -> list[str]:
 SCHEME = Scheme(
     name="wang",
     title="Wang tiles",
-    summary="Cohen et al.'s Wang tiles with 001's match",
+    summary="Wang tiles (Cohen et al.), each diamond the best match of its neighbours",
     layout="edge",
     default_set="wang8",
     builder=build_wang,
@@ -54,7 +54,7 @@ SCHEME = Scheme(
         Option(
             "samples",
             "--samples",
-            "diamond samples (Cohen, default) or N x N square samples (Burke, 002 section 2)",
+            "diamond samples (Cohen, default) or N x N square samples (Burke)",
             choices=("diamond", "square"),
         ),
     ),

@@ -361,7 +361,9 @@ MAP = Obj(
         "channels": Int(1, 4),
     },
     optional={
-        "suffix": Str(max_len=16),
+        "suffix": Str(
+            (".png", ".exr", ".npy", ".tif", ".tiff")
+        ),  # makes output file names: the suffixes check_maps writes
         "normal_y": Optional(Str(("up", "down"))),
         "encoding": Optional(Str(("unorm", "snorm"))),
     },

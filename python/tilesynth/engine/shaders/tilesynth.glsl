@@ -1,4 +1,4 @@
-// tilesynth.glsl: per-pixel lookup of a tilesynth export (https://github.com/..., manifest.json "format"
+// tilesynth.glsl: per-pixel lookup of a tilesynth export (manifest.json "format"
 // "tilesynth-export" version 1). GLSL ES 3.00 (WebGL2) and desktop GLSL 4.00+; no #version line: prepend
 //   "#version 300 es\nprecision highp float;\nprecision highp int;\n"   or   "#version 400\n".
 //
