@@ -4,6 +4,7 @@ before any work, naming the job and the field."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -116,6 +117,9 @@ def test_jobs_without_the_new_keys_keep_their_parameters(mat_dir: Path) -> None:
         ('normal_y = "sideways"', ["normal_y", "sideways"]),
         ('alpha = "opaque"', ["alpha", "opaque"]),
         ('mask = "missing-mask.png"', ["mask", "no such file"]),
+        ('mask = "a-folder"', ["mask", "is a directory", "a-folder"]),
+        ('maps.x = { file = "a-folder" }', ["'x'", "is a directory", "a-folder"]),
+        ('maps.x = { file = "a-fifo" }', ["'x'", "not a regular file", "a-fifo"]),
         ("mask = 3", ["mask", "file path"]),
         ('map_kinds = { height = "copy" }', ["map_kinds", "height", "material map"]),
     ],
@@ -123,6 +127,8 @@ def test_jobs_without_the_new_keys_keep_their_parameters(mat_dir: Path) -> None:
 def test_bad_material_keys_are_refused_before_any_work(
     mat_dir: Path, job_extra: str, words: list[str]
 ) -> None:
+    (mat_dir / "a-folder").mkdir()
+    os.mkfifo(mat_dir / "a-fifo")  # reading it would block: the check must not open it
     f = _write(mat_dir, job_extra=job_extra)
     with pytest.raises(BatchError) as e:
         load_library(f)

@@ -256,6 +256,10 @@ def test_cli_mask_and_warning(tmp_path, bark_z, capsys):
     assert "mask 'small.png' has shape 60x50" in err and not bad.exists()
     assert cli_main(["build", str(ex), "-o", str(bad), "--mask", str(tmp_path / "none.png"), "-q"]) == 2
     assert "no such file" in capsys.readouterr().err
+    # a folder named like an array mask says what it is, not "no such file"
+    (tmp_path / "dir.npy").mkdir()
+    assert cli_main(["build", str(ex), "-o", str(bad), "--mask", str(tmp_path / "dir.npy"), "-q"]) == 2
+    assert "is a directory" in capsys.readouterr().err and not bad.exists()
 
 
 def test_cli_prints_warnings(tmp_path, bricks_hole, capsys):

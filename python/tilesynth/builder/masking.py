@@ -61,6 +61,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError, ShapeError
+from ..io.images import check_input_file
 
 __all__ = [
     "ALPHA_MODES",
@@ -405,11 +406,8 @@ def _mask_array(mask: Any, shape: tuple[int, int], name: str) -> np.ndarray:
 
 def load_mask(path: str) -> np.ndarray:
     """A mask image file (PNG, ..., or a bool/numeric ``.npy``) as a float or bool array, unbinarised."""
-    import os
-
     if str(path).lower().endswith(".npy"):
-        if not os.path.isfile(path):
-            raise ParameterError(f"--mask = {str(path)!r}: no such file")
+        check_input_file(path, f"--mask = {str(path)!r}")  # a folder or FIFO says what it is
         try:
             return np.load(path, allow_pickle=False)
         except (OSError, ValueError) as exc:

@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ParameterError
+from ..io.images import check_input_file
 
 __all__ = [
     "ALPHA_CHOICES",
@@ -141,15 +142,13 @@ def parse_material_keys(
             raise _err(f"{where}: field 'mask' = {merged['mask']!r}: expected a file path")
         rel = _fill(merged["mask"], stem, f"{where}: field 'mask'")
         mask = (base / rel).resolve()
-        if not mask.is_file():
-            raise _err(f"{where}: field 'mask' = {rel!r}: no such file ({mask})")
+        _check_file(mask, f"{where}: field 'mask' = {rel!r}")
     material: dict[str, dict[str, Any]] = {}
     for name, m in material_raw.items():
         wm = f"{where}: field 'maps' entry {name!r} key 'file'"
         rel = _fill(m["file"], stem, wm)
         path = (base / rel).resolve()
-        if not path.is_file():
-            raise _err(f"{wm} = {rel!r}: no such file ({path})")
+        _check_file(path, f"{wm} = {rel!r}")
         material[name] = {"path": path, "kind": m["kind"], "weight": m["weight"]}
     return {"material": material, "mask": mask, "alpha": alpha, "normal_y": normal_y}
 
@@ -221,3 +220,12 @@ def write_previews(
                 np.save(fh, arr, allow_pickle=False)
         else:
             save_image(target, arr)
+
+
+def _check_file(path: Path, where: str) -> None:
+    """The one input-file check (:func:`~tilesynth.io.images.check_input_file`: missing, a folder, or a FIFO or
+    device, each said as what it is), as a batch error with the resolved path."""
+    try:
+        check_input_file(path, where)
+    except ParameterError as exc:
+        raise _err(f"{exc} ({path})") from None
