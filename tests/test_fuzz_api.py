@@ -1202,6 +1202,23 @@ def histogram_distance_call(d: st.DrawFn):
 
 
 @st.composite
+def lattice_gradient_call(d: st.DrawFn):
+    return ts.lattice_gradient, (d(exemplars()), d(sizes(-2, 12))), {}, ()
+
+
+@st.composite
+def lattice_folded_call(d: st.DrawFn):
+    return ts.lattice_folded, (d(exemplars()), d(sizes(-2, 12))), {}, ()
+
+
+@st.composite
+def objects_intact_call(d: st.DrawFn):
+    polarity = d(st.sampled_from(["auto", "bright", "dark", "grey", None]))
+    iou = d(st.sampled_from([0.75, 1.0, 0.3, 0.0, -1, 1.5, float("nan"), "0.5"]))
+    return ts.objects_intact, (d(exemplars()), d(exemplars())), {"polarity": polarity, "iou": iou}, ()
+
+
+@st.composite
 def synthesize_map(d: st.DrawFn):
     tset = d(tilesets())
     broken = d(st.sampled_from(["none"] * 3 + ["aligned", "index_map", "size", "threads"]))
@@ -1474,6 +1491,9 @@ API = {
     "repeated_patches": repetition_measures,
     "detail_repetition": repetition_measures,
     "histogram_distance": histogram_distance_call,
+    "lattice_gradient": lattice_gradient_call,
+    "lattice_folded": lattice_folded_call,
+    "objects_intact": objects_intact_call,
     "predicted_border_seam": predicted_border_seam_call,
     "build_material": build_material,
     "synthesize_maps": synthesize_maps,

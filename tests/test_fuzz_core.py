@@ -272,6 +272,72 @@ def tile_copy_window(d: st.DrawFn):
     return _core.tile_copy_window, (atlas, imap, offset, out), kw, (3,)
 
 
+def _provenance_source(d: st.DrawFn, eh: int, ew: int) -> np.ndarray:
+    """int32 ``(K, N, N, 2)``: tiles of one to three translated pieces inside an ``eh x ew`` exemplar (what a
+    pure-copy set holds), or careless coordinates."""
+    k, n = d(st.integers(1, 3)), d(st.integers(1, 4))
+    yy, xx = np.mgrid[0:n, 0:n]
+    src = np.zeros((k, n, n, 2), np.int32)
+    rng = np.random.default_rng(d(st.integers(0, 99)))
+    for t in range(k):
+        for piece in range(d(st.integers(1, 3))):
+            by, bx = rng.integers(0, max(eh - n, 0) + 1), rng.integers(0, max(ew - n, 0) + 1)
+            part = (yy * n + xx) % (piece + 1) == 0
+            src[t, part, 0], src[t, part, 1] = (yy + by)[part], (xx + bx)[part]
+    if d(st.booleans()) and not fuzzing.MODE["tame"]:
+        src = d(arrays(4, I32, (k, n, n, 2), lo=-3, hi=max(eh, ew) + 3))
+    return src
+
+
+@st.composite
+def provenance_factorise(d: st.DrawFn):
+    broken = d(st.sampled_from(["none", "none", "shape", "dtype"]))
+    src = _provenance_source(d, 8, 8)
+    if broken == "shape":
+        src = d(arrays(d(st.integers(0, 5)), I32, None, lo=-2, hi=9))
+    elif broken == "dtype":
+        src = d(arrays(4, d(st.sampled_from(fuzzing.ALL_DTYPES)), (2, 3, 3, 2), lo=-2, hi=9))
+    return _core.provenance_factorise, (src,), {"threads": d(threads())}, ()
+
+
+@st.composite
+def provenance_gather(d: st.DrawFn):
+    broken = d(st.sampled_from(["none", "none", "exemplar", "labels", "table", "index_map", "out", "dtypes"]))
+    dt = d(st.sampled_from(["uint8", "uint16", "float32", "int32"]))
+    eh, ew, c = d(st.integers(1, 8)), d(st.integers(1, 8)), d(st.integers(1, 3))
+    exemplar = fuzzing.fill((eh, ew, c), dt, "unit", d(st.integers(0, 99)))
+    src = _provenance_source(d, eh, ew)
+    try:  # the careless sources of _provenance_source may not factorise: then a one-pixel set
+        got = _core.provenance_factorise(np.ascontiguousarray(src, np.int32))
+    except CORE_ERRORS:
+        got = None
+    if got is None:
+        k, n = 1, 1
+        labels, table = np.zeros((1, 1, 1), np.uint8), np.zeros((1, 1, 3), np.int32)
+    else:
+        labels, table = got
+        k, n = labels.shape[:2]
+    if broken == "exemplar":
+        exemplar = d(arrays(d(st.integers(0, 4)), dt, None, max_side=8))
+    elif broken == "labels":
+        labels = d(arrays(d(st.integers(2, 4)), "uint8", None, lo=0, hi=255, max_side=5))
+    elif broken == "table":
+        table = d(arrays(d(st.integers(2, 4)), I32, None, lo=-9, hi=12, max_side=5))
+    h, w = d(st.integers(0, 9)), d(st.integers(0, 9))
+    rows, cols = -(-h // n) + 1, -(-w // n) + 1
+    if broken == "index_map":
+        imap = d(arrays(2, I32, (None, None), lo=-1, hi=k + 1))
+    else:
+        imap = np.random.default_rng(d(st.integers(0, 99))).integers(0, k, (rows, cols)).astype(np.int32)
+    offset = (d(st.integers(0, n)), d(st.integers(0, n)))
+    out_dt = d(st.sampled_from(["uint8", "float64", ">f4", "int64"])) if broken == "dtypes" else dt
+    out = (
+        d(arrays(3, out_dt, (None, None, c), max_side=9)) if broken == "out" else np.zeros((h, w, c), out_dt)
+    )
+    kw = {"threads": d(threads())}
+    return _core.provenance_gather, (exemplar, labels, table, imap, offset, out), kw, (5,)
+
+
 @st.composite
 def png_unfilter(d: st.DrawFn):
     rows, row_bytes = d(sizes(-1, 6)), d(sizes(-1, 12))
@@ -495,6 +561,8 @@ ENTRY_POINTS = {
     "tile_copy_window": tile_copy_window,
     "patch_gradients": patch_gradients,
     "_best_matches_sorting": best_matches_sorting,
+    "provenance_factorise": provenance_factorise,
+    "provenance_gather": provenance_gather,
 }
 """Entry point name -> strategy of one call ``(callable, args, kwargs, indices of writable args)``."""
 
