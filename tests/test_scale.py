@@ -6,7 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tilesynth import _core
+from tilesynth.base import kernels
 from tilesynth.builder.genes import omega_borders as ob
+from tilesynth.errors import ParameterError
 from tilesynth.measure import quality as q
 
 
@@ -38,3 +41,50 @@ def test_sample_stats_distance_is_the_sliced_formula():
         win = q._rectified_gram(np.concatenate([p.reshape(p.shape[0], -1) for p in parts], axis=1))
         out.append(np.linalg.norm(win - full) / np.linalg.norm(full))
     assert ob.sample_stats_distance(ex, genes, n) == pytest.approx(float(np.mean(out)), rel=1e-12)
+
+
+def _quadrant_tiles(ex: np.ndarray, n: int, seed: int) -> np.ndarray:
+    """Templates made of the quadrants of 3 sample patches, in every combination (as intermediate tiles)."""
+    rng = np.random.default_rng(seed)
+    h = n // 2
+    pos = rng.integers(0, ex.shape[0] - n, (3, 2))
+    quads = [ex[r + y : r + y + h, c + x : c + x + h] for r, c in pos for y in (0, h) for x in (0, h)]
+    tiles = []
+    for _ in range(24):
+        a, b, c, d = rng.integers(0, len(quads), 4)
+        top, bottom = np.concatenate([quads[a], quads[b]], 1), np.concatenate([quads[c], quads[d]], 1)
+        tiles.append(np.concatenate([top, bottom], 0))
+    return np.ascontiguousarray(np.stack(tiles), dtype=np.float32)
+
+
+@pytest.mark.parametrize("k, radius", [(1, 0), (3, 4), (8, 6)])
+@pytest.mark.parametrize("threads", [1, 2])
+def test_quadrant_matches_are_the_plain_matches(k, radius, threads):
+    """The sum of quadrant maps gives the exact greedy matches of one map per template, bit for bit."""
+    ex = _image(70, 66, 2).astype(np.float32)
+    t = _quadrant_tiles(ex, 16, 3)
+    assert kernels._shared_quadrants(t) is not None
+    index = kernels.SsdIndex(ex)
+    want = kernels._best_matches_in_chunks(index._index, t, k, radius, None, threads)
+    got = index.best_matches(t, k=k, exclude_radius=radius, threads=threads)
+    np.testing.assert_array_equal(got[0], want[0])
+    assert got[1].tobytes() == want[1].tobytes()
+
+
+def test_unshared_templates_take_the_plain_path():
+    t = np.ascontiguousarray(_image(4 * 16, 16, 4).reshape(4, 16, 16, 3), dtype=np.float32)
+    assert kernels._shared_quadrants(t) is None
+    assert kernels._shared_quadrants(t[:, :15, :15]) is None  # odd sides have no quadrants
+
+
+def test_quadrants_must_be_the_templates_quadrants():
+    ex = _image(40, 40, 5).astype(np.float32)
+    t = _quadrant_tiles(ex, 8, 6)
+    quads, assign = kernels._shared_quadrants(t)
+    index = kernels.SsdIndex(ex)
+    bad = assign.copy()
+    bad[0, 0] = (bad[0, 0] + 1) % len(quads)
+    if (quads[bad[0, 0]] == quads[assign[0, 0]]).all():
+        pytest.skip("two equal quadrants")
+    with pytest.raises(ParameterError, match="assign"):
+        _core.best_matches_quadrants(index._index, quads, t, bad, 1, 0, None)

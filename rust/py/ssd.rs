@@ -105,6 +105,32 @@ impl PySsdIndex {
     }
 }
 
+/// `SsdIndex.best_matches` of templates assembled from quadrants (see `ssd::best_matches_quadrants`): the
+/// same results, one FFT per distinct quadrant instead of one per template.
+#[pyfunction]
+#[pyo3(signature = (index, quads, templates, assign, k=1, exclude_radius=0, threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn best_matches_quadrants<'py>(
+    py: Python<'py>,
+    index: &PySsdIndex,
+    quads: PyReadonlyArray4<'py, f32>,
+    templates: PyReadonlyArray4<'py, f32>,
+    assign: PyReadonlyArray2<'py, i64>,
+    k: usize,
+    exclude_radius: usize,
+    threads: Option<usize>,
+) -> PyResult<MatchArrays<'py>> {
+    guard("best_matches_quadrants", || {
+        contiguous("quads", &quads)?;
+        contiguous("templates", &templates)?;
+        let (q, t, a) = (quads.as_array(), templates.as_array(), assign.as_array());
+        let found = run(py, threads, || {
+            ssd::best_matches_quadrants(&index.inner, q, t, a, k, exclude_radius)
+        })?;
+        Ok(pack_matches(py, found))
+    })
+}
+
 /// 000's eq. 2 distance over every translation (direct sums).
 #[pyfunction]
 #[pyo3(signature = (image, image_grad, template, template_grad, mu, eps, threads=None))]
@@ -201,5 +227,6 @@ pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PySsdIndex>()?;
     m.add_function(wrap_pyfunction!(weighted_ssd_map, m)?)?;
     m.add_function(wrap_pyfunction!(_best_matches_sorting, m)?)?;
+    m.add_function(wrap_pyfunction!(best_matches_quadrants, m)?)?;
     Ok(())
 }
