@@ -1555,19 +1555,37 @@ pub fn best_matches_many(
         .collect())
 }
 
+/// The FFT map of a quadrant template `(hq, wq, C)` for [`best_matches_quadrants`], stored in `f32`: the map
+/// `(H - hq + 1, W - wq + 1)`, its error bound against the exact SSD (the `f64` map's bound widened by the
+/// storage rounding: half an ulp of its largest value, doubled) and its largest value.
+pub fn quadrant_map(index: &SsdIndex, quad: ArrayView3<f32>) -> Result<(Array2<f32>, f64, f64)> {
+    let q = index.prepare_template("quad", quad)?;
+    index.ensure::<f64>(false)?;
+    let (map, bound) = index.fft_map_f64(&q, None);
+    let mx = map.iter().fold(0.0f64, |a, &v| a.max(v));
+    let dim = index.map_dim(q.h, q.w);
+    let map = Array2::from_shape_vec(dim, map.into_iter().map(|v| v as f32).collect())
+        .expect("map length matches its shape");
+    Ok((map, bound + mx * f32::EPSILON as f64, mx))
+}
+
 /// [`best_matches_many`] (unmasked) for templates `(K, 2hq, 2wq, C)` whose four quadrants are among the
 /// `quads` `(Q, hq, wq, C)`: `assign[u] = [TL, TR, BL, BR]` indexes the quadrants of template `u` (checked
-/// bit for bit). Same results as [`best_matches_many`].
+/// bit for bit), `maps`, `bounds`, `maxes` are the quads' [`quadrant_map`]s. Same results as
+/// [`best_matches_many`].
 ///
 /// Why: the SSD of a template is the sum of its quadrants' SSDs, so its map is the sum of four shifted
 /// quadrant maps, `F_u(ty, tx) = sum_q F_q(ty + dy_q, tx + dx_q)`, and its error bound the sum of theirs
-/// plus the rounding of the sums. The greedy walk ([`SsdIndex::walk_map`]) returns the exact answer for any
-/// map whose bound holds, so only the `Q` quadrant maps need FFTs (the intermediate tiles of a complete set
-/// share 4 x colours quadrants: 20 transforms instead of 625 for c5). The quadrant maps are kept in `f32`
-/// (half the memory) with their storage rounding added to the bound.
+/// plus the rounding of the sums. The greedy walk ([`SsdIndex::walk_blocks`]) returns the exact answer for
+/// any map whose bound holds, so only the `Q` quadrant maps need FFTs (the intermediate tiles of a complete
+/// set share 4 x colours quadrants: 20 transforms instead of 625 for c5).
+#[allow(clippy::too_many_arguments)]
 pub fn best_matches_quadrants(
     index: &SsdIndex,
     quads: ArrayView4<f32>,
+    maps: ArrayView3<f32>,
+    bounds: &[f64],
+    maxes: &[f64],
     templates: ArrayView4<f32>,
     assign: ArrayView2<i64>,
     k: usize,
@@ -1586,6 +1604,14 @@ pub fn best_matches_quadrants(
                 fmt_shape(templates.shape())
             ),
             fmt_shape(quads.shape()),
+        ));
+    }
+    let (qh, qw) = index.map_dim(hq, wq);
+    if maps.dim() != (nq, qh, qw) || bounds.len() != nq || maxes.len() != nq {
+        return Err(TilesynthError::shape(
+            "maps",
+            format!("({nq}, {qh}, {qw}) with {nq} bounds and maxima"),
+            fmt_shape(maps.shape()),
         ));
     }
     if assign.dim() != (nt, 4) {
@@ -1630,20 +1656,8 @@ pub fn best_matches_quadrants(
     if nt == 0 || k == 0 {
         return Ok(vec![Vec::new(); nt]);
     }
-    index.ensure::<f64>(false)?;
-    // The quadrant maps in f32, each with its bound widened by the storage rounding (half an ulp of its
-    // largest value, doubled for safety).
-    let (qh, qw) = index.map_dim(hq, wq);
-    let mut qmaps: Vec<Vec<f32>> = Vec::with_capacity(nq);
-    let mut qbound = Vec::with_capacity(nq);
-    let mut qmax = Vec::with_capacity(nq);
-    for q in &qs {
-        let (map, bound) = index.fft_map_f64(q, None);
-        let mx = map.iter().fold(0.0f64, |a, &v| a.max(v));
-        qbound.push(bound + mx * f32::EPSILON as f64);
-        qmax.push(mx);
-        qmaps.push(map.into_iter().map(|v| v as f32).collect());
-    }
+    let maps = maps.as_standard_layout();
+    let flat = maps.as_slice().expect("standard layout");
     let (mh, mw) = index.map_dim(h, w);
     let n = mh * mw;
     Ok(ts
@@ -1655,9 +1669,9 @@ pub fn best_matches_quadrants(
             let mut bound = 0.0;
             let mut total_max = 0.0;
             for (j, &(dy, dx)) in corners.iter().enumerate() {
-                let qm = &qmaps[a[j]];
-                bound += qbound[a[j]];
-                total_max += qmax[a[j]] * (1.0 + f32::EPSILON as f64);
+                let qm = &flat[a[j] * qh * qw..(a[j] + 1) * qh * qw];
+                bound += bounds[a[j]];
+                total_max += maxes[a[j]] * (1.0 + f32::EPSILON as f64);
                 for ty in 0..mh {
                     let src = &qm[(ty + dy) * qw + dx..(ty + dy) * qw + dx + mw];
                     for (d, &v) in buf[ty * mw..(ty + 1) * mw].iter_mut().zip(src) {
@@ -1665,7 +1679,6 @@ pub fn best_matches_quadrants(
                     }
                 }
             }
-            debug_assert!(qh >= mh + hq - 1);
             // the three f64 additions per translation: at most 3 roundings of a value <= total_max
             bound += 8.0 * f64::EPSILON * total_max;
             index.walk_blocks(t, k, exclude_radius, buf, bound)

@@ -65,7 +65,7 @@ def test_quadrant_matches_are_the_plain_matches(k, radius, threads):
     t = _quadrant_tiles(ex, 16, 3)
     assert kernels._shared_quadrants(t) is not None
     index = kernels.SsdIndex(ex)
-    want = kernels._best_matches_in_chunks(index._index, t, k, radius, None, threads)
+    want = index._index.best_matches(t, k, radius, None, threads)  # one FFT map per template
     got = index.best_matches(t, k=k, exclude_radius=radius, threads=threads)
     np.testing.assert_array_equal(got[0], want[0])
     assert got[1].tobytes() == want[1].tobytes()
@@ -86,5 +86,8 @@ def test_quadrants_must_be_the_templates_quadrants():
     bad[0, 0] = (bad[0, 0] + 1) % len(quads)
     if (quads[bad[0, 0]] == quads[assign[0, 0]]).all():
         pytest.skip("two equal quadrants")
+    got = [_core.quadrant_map(index._index, q, None) for q in quads]
+    maps = np.stack([m for m, _, _ in got])
+    bounds, maxes = [b for _, b, _ in got], [x for _, _, x in got]
     with pytest.raises(ParameterError, match="assign"):
-        _core.best_matches_quadrants(index._index, quads, t, bad, 1, 0, None)
+        _core.best_matches_quadrants(index._index, quads, maps, bounds, maxes, t, bad, 1, 0, None)

@@ -90,9 +90,6 @@ class SsdIndex:
         if t.shape[0] <= 1:
             offsets, values = self._index.best_matches(t, k, r, m, th)
             return (offsets[0], values[0]) if single else (offsets, values)
-        quads = _shared_quadrants(t) if m is None else None
-        if quads is not None:  # one FFT per distinct quadrant (the same exact results)
-            return _core.best_matches_quadrants(self._index, quads[0], t, quads[1], k, r, th)
         return _best_matches_in_chunks(self._index, t, k, r, m, th)
 
 
@@ -108,7 +105,9 @@ def _shared_quadrants(t: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     Why: the ω builders' intermediate tiles are made of the quadrants of a few sample patches, and the SSD of a
     template is the sum of its quadrants' SSDs, so :func:`tilesynth._core.best_matches_quadrants` needs one FFT
     map per distinct quadrant instead of one per template (the matching stage of a default 2048² build was
-    ~90 s CPU for 625 transforms). Grouped by content digest; the Rust side checks every quadrant bit for bit."""
+    ~90 s CPU for 625 transforms). Grouped by content digest; the Rust side checks every quadrant bit for bit.
+    :func:`_best_matches_in_chunks` takes this path by itself (one quadrant map per call, then the templates
+    in chunks, so that Ctrl-C stays prompt)."""
     import hashlib
 
     k, h, w, _ = t.shape
@@ -142,12 +141,27 @@ def _best_matches_in_chunks(index, t, k, r, mask, threads) -> tuple[np.ndarray, 
     from .chunks import TARGET_SECONDS
 
     n = t.shape[0]
+    quads = _shared_quadrants(t) if mask is None and k > 0 else None
+    if quads is None:
+        match = lambda lo, hi: index.best_matches(t[lo:hi], k, r, mask, threads)  # noqa: E731
+    else:  # one FFT per distinct quadrant, each its own call (the same exact results)
+        q, assign = quads
+        got = [_core.quadrant_map(index, q[i], threads) for i in range(q.shape[0])]
+        maps = np.stack([m for m, _, _ in got])
+        bounds, maxes = [b for _, b, _ in got], [x for _, _, x in got]
+        del got
+        match = (
+            lambda lo, hi: _core.best_matches_quadrants(  # noqa: E731
+                index, q, maps, bounds, maxes, t[lo:hi], assign[lo:hi], k, r, threads
+            )
+        )
+
     step = max(1, _core.resolve_threads(threads))  # the first chunk: one template per thread
     parts, start = [], 0
     while start < n:
         stop = min(n, start + step)
         t0 = time.perf_counter()
-        parts.append(index.best_matches(t[start:stop], k, r, mask, threads))
+        parts.append(match(start, stop))
         dt = time.perf_counter() - t0
         if dt > 0:  # the next chunk aims at 5 x TARGET_SECONDS
             step = max(1, int(5 * TARGET_SECONDS * (stop - start) / dt))

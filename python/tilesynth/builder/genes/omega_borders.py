@@ -131,9 +131,11 @@ def _rank(s: float, criterion: str) -> float:
 class _SampleStats:
     """The texture statistics of an exemplar for :func:`sample_stats_distance`, per scale of
     :func:`tilesynth.measure.quality.texture_stats_distance`: the exemplar's Gram matrix (computed once, a block at
-    a time: :func:`tilesynth.measure.quality.blocked_gram`) and the valid responses of each sample window (its
-    own 'valid' responses are those of the window's pixels alone; computed on first use and kept, since the
-    draws share positions only by chance but the kept draw is measured again after its vertex moves).
+    a time: :func:`tilesynth.measure.quality.blocked_gram`) and each sample window's Gram sum (of its own
+    'valid' responses, those of the window's pixels alone; computed on first use and kept, as the kept draw is
+    measured again after its vertex moves). The Gram matrix of several windows' responses together is the sum
+    of their Gram sums over their count, so the responses themselves are never kept (at 2048² the 120
+    windows' responses were 0.9 GB).
 
     Why not the responses of the whole exemplar, sliced per window: at 2048² they and their FFT temporaries
     were the build's 5.6 GB peak, and the exemplar's Gram matrix was recomputed for every admissible draw (about
@@ -144,12 +146,14 @@ class _SampleStats:
         self.scales = {f: q._down(ex, f) for f in q.TEXSTATS_SCALES}
         self.scales = {f: e for f, e in self.scales.items() if min(e.shape[:2]) >= k}
         self.full = {f: q.blocked_gram(e) for f, e in self.scales.items()}
-        self._windows: dict[tuple[int, int, int, int], np.ndarray] = {}
+        self._windows: dict[tuple[int, int, int, int], tuple[np.ndarray, int]] = {}
 
-    def window(self, f: int, y: int, x: int, m: int) -> np.ndarray:
+    def window(self, f: int, y: int, x: int, m: int) -> tuple[np.ndarray, int]:
+        """The Gram sum of the window's rectified responses and their count."""
         key = (f, y, x, m)
         if key not in self._windows:
-            self._windows[key] = q._responses(self.scales[f][y : y + m, x : x + m])
+            resp = q._responses(self.scales[f][y : y + m, x : x + m])
+            self._windows[key] = (q._rectified_gram(resp) * resp.shape[1], resp.shape[1])
         return self._windows[key]
 
     def distance(self, genes: np.ndarray, n: int) -> float:
@@ -160,7 +164,7 @@ class _SampleStats:
             if m < k:
                 continue
             parts = [self.window(f, int(r0) // f, int(c0) // f, m) for r0, c0 in np.asarray(genes, np.int64)]
-            win = q._rectified_gram(np.concatenate(parts, axis=1))
+            win = sum(g for g, _ in parts) / sum(p for _, p in parts)
             out.append(float(np.linalg.norm(win - full) / max(float(np.linalg.norm(full)), 1e-300)))
         return float(np.mean(out)) if out else 0.0
 
