@@ -146,10 +146,13 @@ def _best_matches_in_chunks(index, t, k, r, mask, threads) -> tuple[np.ndarray, 
         match = lambda lo, hi: index.best_matches(t[lo:hi], k, r, mask, threads)  # noqa: E731
     else:  # one FFT per distinct quadrant, each its own call (the same exact results)
         q, assign = quads
-        got = [_core.quadrant_map(index, q[i], threads) for i in range(q.shape[0])]
-        maps = np.stack([m for m, _, _ in got])
-        bounds, maxes = [b for _, b, _ in got], [x for _, _, x in got]
-        del got
+        maps, bounds, maxes = None, [], []
+        for i in range(q.shape[0]):  # filled in place: a stack of the returned maps would hold them twice
+            m, bound, mx = _core.quadrant_map(index, q[i], threads)
+            maps = np.empty((q.shape[0], *m.shape), np.float32) if maps is None else maps
+            maps[i] = m
+            bounds.append(bound)
+            maxes.append(mx)
         match = (
             lambda lo, hi: _core.best_matches_quadrants(  # noqa: E731
                 index, q, maps, bounds, maxes, t[lo:hi], assign[lo:hi], k, r, threads
