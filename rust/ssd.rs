@@ -1230,6 +1230,96 @@ impl SsdIndex {
         out
     }
 
+    /// The greedy exact best matches of [`SsdIndex::walk_map`] (the same results) on a map this call may
+    /// overwrite: translations are excluded by setting their FFT value to `+inf`, and the minimum of the
+    /// rest is found from the minima of 32 x 32 blocks (only the blocks an exclusion window touches are
+    /// recomputed). Each match is the smallest `(exact, index)` among the translations with
+    /// `f <= m0 + 2 bound` (`m0` the smallest `f` left): the argmin of `f` has `exact <= m0 + bound`, and any
+    /// translation with `f > m0 + 2 bound` has `exact > m0 + bound`, so it can neither beat nor tie it.
+    ///
+    /// Why: with many matches and a large exclusion radius (the diverse candidates: 32 matches N/4 apart)
+    /// the lazy order of [`SsdIndex::walk_map`] grows to every translation within the exclusion windows,
+    /// a dozen passes over the map and a sort of half a million entries per template at 2048², more than
+    /// the map itself costs once the maps are sums of quadrant maps.
+    fn walk_blocks(&self, t: &Tmpl, k: usize, r: usize, map: &mut [f64], bound: f64) -> Vec<Match> {
+        const BS: usize = 32;
+        let (mh, mw) = self.map_dim(t.h, t.w);
+        let n = mh * mw;
+        debug_assert_eq!(map.len(), n);
+        let k = k.min(n);
+        let (by, bx) = (mh.div_ceil(BS), mw.div_ceil(BS));
+        let block_min = |map: &[f64], yb: usize, xb: usize| -> f64 {
+            let mut m = f64::INFINITY;
+            for y in yb * BS..((yb + 1) * BS).min(mh) {
+                for &v in &map[y * mw + xb * BS..y * mw + ((xb + 1) * BS).min(mw)] {
+                    if v < m {
+                        m = v;
+                    }
+                }
+            }
+            m
+        };
+        let mut bmin: Vec<f64> = (0..by * bx)
+            .map(|b| block_min(map, b / bx, b % bx))
+            .collect();
+        let mut resolved: std::collections::HashMap<usize, f64> = std::collections::HashMap::new();
+        let mut out = Vec::with_capacity(k);
+        while out.len() < k {
+            let m0 = bmin
+                .iter()
+                .fold(f64::INFINITY, |a, &v| if v < a { v } else { a });
+            if m0 == f64::INFINITY || m0.is_nan() {
+                break;
+            }
+            let thr = m0 + 2.0 * bound + 4.0 * f64::EPSILON * m0.abs();
+            let mut best: Option<(f64, usize)> = None;
+            for (b, &bm) in bmin.iter().enumerate() {
+                if !(bm <= thr) {
+                    continue;
+                }
+                let (yb, xb) = (b / bx, b % bx);
+                for y in yb * BS..((yb + 1) * BS).min(mh) {
+                    for x in xb * BS..((xb + 1) * BS).min(mw) {
+                        let i = y * mw + x;
+                        if map[i] <= thr {
+                            let e = *resolved
+                                .entry(i)
+                                .or_insert_with(|| self.exact_fast(t, None, y, x) + 0.0);
+                            let better = match best {
+                                None => true,
+                                Some((be, bi)) => match e.total_cmp(&be) {
+                                    std::cmp::Ordering::Less => true,
+                                    std::cmp::Ordering::Equal => i < bi,
+                                    std::cmp::Ordering::Greater => false,
+                                },
+                            };
+                            if better {
+                                best = Some((e, i));
+                            }
+                        }
+                    }
+                }
+            }
+            let Some((e, i)) = best else {
+                break;
+            };
+            let (row, col) = (i / mw, i % mw);
+            out.push(Match { row, col, ssd: e });
+            // exclude the window (only the chosen one when r = 0: distinct translations)
+            let (y0, y1) = (row.saturating_sub(r), row.saturating_add(r).min(mh - 1));
+            let (x0, x1) = (col.saturating_sub(r), col.saturating_add(r).min(mw - 1));
+            for yy in y0..=y1 {
+                map[yy * mw + x0..=yy * mw + x1].fill(f64::INFINITY);
+            }
+            for yb in y0 / BS..=y1 / BS {
+                for xb in x0 / BS..=x1 / BS {
+                    bmin[yb * bx + xb] = block_min(map, yb, xb);
+                }
+            }
+        }
+        out
+    }
+
     /// The first implementation of [`SsdIndex::best_prepared`]: the same greedy walk over *every*
     /// translation sorted by its FFT value up front (O(n log n) per template, ~100 ms at 1024²). Kept as the
     /// baseline of the benches and as the oracle of the tests (the results are identical).
@@ -1462,6 +1552,137 @@ pub fn best_matches_many(
             },
             |ws, t| index.best_prepared(t, m.as_deref(), k, exclude_radius, &mut ws.0),
         )
+        .collect())
+}
+
+/// The FFT map of a quadrant template `(hq, wq, C)` for [`best_matches_quadrants`], stored in `f32`: the map
+/// `(H - hq + 1, W - wq + 1)`, its error bound against the exact SSD (the `f64` map's bound widened by the
+/// storage rounding: half an ulp of its largest value, doubled) and its largest value.
+pub fn quadrant_map(index: &SsdIndex, quad: ArrayView3<f32>) -> Result<(Array2<f32>, f64, f64)> {
+    let q = index.prepare_template("quad", quad)?;
+    index.ensure::<f64>(false)?;
+    let (map, bound) = index.fft_map_f64(&q, None);
+    let mx = map.iter().fold(0.0f64, |a, &v| a.max(v));
+    let dim = index.map_dim(q.h, q.w);
+    let map = Array2::from_shape_vec(dim, map.into_iter().map(|v| v as f32).collect())
+        .expect("map length matches its shape");
+    Ok((map, bound + mx * f32::EPSILON as f64, mx))
+}
+
+/// [`best_matches_many`] (unmasked) for templates `(K, 2hq, 2wq, C)` whose four quadrants are among the
+/// `quads` `(Q, hq, wq, C)`: `assign[u] = [TL, TR, BL, BR]` indexes the quadrants of template `u` (checked
+/// bit for bit), `maps`, `bounds`, `maxes` are the quads' [`quadrant_map`]s. Same results as
+/// [`best_matches_many`].
+///
+/// Why: the SSD of a template is the sum of its quadrants' SSDs, so its map is the sum of four shifted
+/// quadrant maps, `F_u(ty, tx) = sum_q F_q(ty + dy_q, tx + dx_q)`, and its error bound the sum of theirs
+/// plus the rounding of the sums. The greedy walk ([`SsdIndex::walk_blocks`]) returns the exact answer for
+/// any map whose bound holds, so only the `Q` quadrant maps need FFTs (the intermediate tiles of a complete
+/// set share 4 x colours quadrants: 20 transforms instead of 625 for c5).
+#[allow(clippy::too_many_arguments)]
+pub fn best_matches_quadrants(
+    index: &SsdIndex,
+    quads: ArrayView4<f32>,
+    maps: ArrayView3<f32>,
+    bounds: &[f64],
+    maxes: &[f64],
+    templates: ArrayView4<f32>,
+    assign: ArrayView2<i64>,
+    k: usize,
+    exclude_radius: usize,
+) -> Result<Vec<Vec<Match>>> {
+    let (nq, hq, wq, c) = quads.dim();
+    let (nt, h, w, tc) = templates.dim();
+    if nq == 0 || h != 2 * hq || w != 2 * wq || tc != c {
+        return Err(TilesynthError::shape(
+            "quads",
+            format!(
+                "(Q >= 1, {}, {}, {}) for templates of {}",
+                h / 2,
+                w / 2,
+                tc,
+                fmt_shape(templates.shape())
+            ),
+            fmt_shape(quads.shape()),
+        ));
+    }
+    let (qh, qw) = index.map_dim(hq, wq);
+    if maps.dim() != (nq, qh, qw) || bounds.len() != nq || maxes.len() != nq {
+        return Err(TilesynthError::shape(
+            "maps",
+            format!("({nq}, {qh}, {qw}) with {nq} bounds and maxima"),
+            fmt_shape(maps.shape()),
+        ));
+    }
+    if assign.dim() != (nt, 4) {
+        return Err(TilesynthError::shape(
+            "assign",
+            format!("({nt}, 4)"),
+            fmt_shape(assign.shape()),
+        ));
+    }
+    let (ts, _) = prepare_many(index, templates, None)?;
+    let qs = (0..nq)
+        .map(|i| index.prepare_template("quads", quads.index_axis_move(Axis(0), i)))
+        .collect::<Result<Vec<_>>>()?;
+    let corners = [(0usize, 0usize), (0, wq), (hq, 0), (hq, wq)];
+    let mut idx = vec![[0usize; 4]; nt];
+    for (u, t) in ts.iter().enumerate() {
+        for (j, &(dy, dx)) in corners.iter().enumerate() {
+            let a = assign[[u, j]];
+            if a < 0 || a as usize >= nq {
+                return Err(TilesynthError::param(
+                    "assign",
+                    a,
+                    format!("must index the {nq} quads"),
+                ));
+            }
+            let q = &qs[a as usize];
+            let same = (0..hq).all(|y| {
+                let tr = &t.data[((dy + y) * w + dx) * c..((dy + y) * w + dx + wq) * c];
+                let qr = &q.data[y * wq * c..(y + 1) * wq * c];
+                tr.iter().zip(qr).all(|(x, y)| x.to_bits() == y.to_bits())
+            });
+            if !same {
+                return Err(TilesynthError::param(
+                    "assign",
+                    a,
+                    format!("quad {a} is not quadrant {j} of template {u}"),
+                ));
+            }
+            idx[u][j] = a as usize;
+        }
+    }
+    if nt == 0 || k == 0 {
+        return Ok(vec![Vec::new(); nt]);
+    }
+    let maps = maps.as_standard_layout();
+    let flat = maps.as_slice().expect("standard layout");
+    let (mh, mw) = index.map_dim(h, w);
+    let n = mh * mw;
+    Ok(ts
+        .par_iter()
+        .zip(idx.par_iter())
+        .map_init(Vec::<f64>::new, |buf, (t, a)| {
+            buf.clear();
+            buf.resize(n, 0.0);
+            let mut bound = 0.0;
+            let mut total_max = 0.0;
+            for (j, &(dy, dx)) in corners.iter().enumerate() {
+                let qm = &flat[a[j] * qh * qw..(a[j] + 1) * qh * qw];
+                bound += bounds[a[j]];
+                total_max += maxes[a[j]] * (1.0 + f32::EPSILON as f64);
+                for ty in 0..mh {
+                    let src = &qm[(ty + dy) * qw + dx..(ty + dy) * qw + dx + mw];
+                    for (d, &v) in buf[ty * mw..(ty + 1) * mw].iter_mut().zip(src) {
+                        *d += v as f64;
+                    }
+                }
+            }
+            // the three f64 additions per translation: at most 3 roundings of a value <= total_max
+            bound += 8.0 * f64::EPSILON * total_max;
+            index.walk_blocks(t, k, exclude_radius, buf, bound)
+        })
         .collect())
 }
 

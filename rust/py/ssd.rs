@@ -105,6 +105,70 @@ impl PySsdIndex {
     }
 }
 
+/// The `f32` FFT map of one quadrant template for `best_matches_quadrants`: `(map, bound, max)`
+/// (see `ssd::quadrant_map`).
+#[pyfunction]
+#[pyo3(signature = (index, quad, threads=None))]
+fn quadrant_map<'py>(
+    py: Python<'py>,
+    index: &PySsdIndex,
+    quad: PyReadonlyArray3<'py, f32>,
+    threads: Option<usize>,
+) -> PyResult<(Bound<'py, PyArray2<f32>>, f64, f64)> {
+    guard("quadrant_map", || {
+        contiguous("quad", &quad)?;
+        let q = quad.as_array();
+        let (map, bound, mx) = run(py, threads, || ssd::quadrant_map(&index.inner, q))?;
+        Ok((map.into_pyarray(py), bound, mx))
+    })
+}
+
+/// `SsdIndex.best_matches` of templates assembled from quadrants, on their `quadrant_map`s (see
+/// `ssd::best_matches_quadrants`): the same results, one FFT per distinct quadrant instead of one per
+/// template.
+#[pyfunction]
+#[pyo3(signature = (index, quads, maps, bounds, maxes, templates, assign, k=1, exclude_radius=0, threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn best_matches_quadrants<'py>(
+    py: Python<'py>,
+    index: &PySsdIndex,
+    quads: PyReadonlyArray4<'py, f32>,
+    maps: PyReadonlyArray3<'py, f32>,
+    bounds: Vec<f64>,
+    maxes: Vec<f64>,
+    templates: PyReadonlyArray4<'py, f32>,
+    assign: PyReadonlyArray2<'py, i64>,
+    k: usize,
+    exclude_radius: usize,
+    threads: Option<usize>,
+) -> PyResult<MatchArrays<'py>> {
+    guard("best_matches_quadrants", || {
+        contiguous("quads", &quads)?;
+        contiguous("maps", &maps)?;
+        contiguous("templates", &templates)?;
+        let (q, m, t, a) = (
+            quads.as_array(),
+            maps.as_array(),
+            templates.as_array(),
+            assign.as_array(),
+        );
+        let found = run(py, threads, || {
+            ssd::best_matches_quadrants(
+                &index.inner,
+                q,
+                m,
+                &bounds,
+                &maxes,
+                t,
+                a,
+                k,
+                exclude_radius,
+            )
+        })?;
+        Ok(pack_matches(py, found))
+    })
+}
+
 /// 000's eq. 2 distance over every translation (direct sums).
 #[pyfunction]
 #[pyo3(signature = (image, image_grad, template, template_grad, mu, eps, threads=None))]
@@ -201,5 +265,7 @@ pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PySsdIndex>()?;
     m.add_function(wrap_pyfunction!(weighted_ssd_map, m)?)?;
     m.add_function(wrap_pyfunction!(_best_matches_sorting, m)?)?;
+    m.add_function(wrap_pyfunction!(quadrant_map, m)?)?;
+    m.add_function(wrap_pyfunction!(best_matches_quadrants, m)?)?;
     Ok(())
 }

@@ -93,6 +93,43 @@ class SsdIndex:
         return _best_matches_in_chunks(self._index, t, k, r, m, th)
 
 
+QUADRANT_SHARE = 2
+""":meth:`SsdIndex.best_matches` sums quadrant maps when the templates have at least this many times fewer
+distinct quadrants than quadrants (intermediate tiles: 20 distinct of the 2500 quadrants of a c5 set's 625)."""
+
+
+def _shared_quadrants(t: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(quads (Q, h/2, w/2, C), assign (K, 4))``: the distinct quadrants of the templates ``t`` ``(K, h, w, C)``
+    and each template's TL, TR, BL, BR among them, when they share enough (:data:`QUADRANT_SHARE`); else None.
+
+    Why: the ω builders' intermediate tiles are made of the quadrants of a few sample patches, and the SSD of a
+    template is the sum of its quadrants' SSDs, so :func:`tilesynth._core.best_matches_quadrants` needs one FFT
+    map per distinct quadrant instead of one per template (the matching stage of a default 2048² build was
+    ~90 s CPU for 625 transforms). Grouped by content digest; the Rust side checks every quadrant bit for bit.
+    :func:`_best_matches_in_chunks` takes this path by itself (one quadrant map per call, then the templates
+    in chunks, so that Ctrl-C stays prompt)."""
+    import hashlib
+
+    k, h, w, _ = t.shape
+    if h % 2 or w % 2 or h < 2 or w < 2:
+        return None
+    hq, wq = h // 2, w // 2
+    seen: dict[bytes, int] = {}
+    firsts: list[tuple[int, int, int]] = []
+    assign = np.empty((k, 4), np.int64)
+    for u in range(k):
+        for j, (y, x) in enumerate(((0, 0), (0, wq), (hq, 0), (hq, wq))):
+            key = hashlib.sha1(np.ascontiguousarray(t[u, y : y + hq, x : x + wq]).tobytes()).digest()
+            if key not in seen:
+                if QUADRANT_SHARE * (len(seen) + 1) > 4 * k:
+                    return None
+                seen[key] = len(firsts)
+                firsts.append((u, y, x))
+            assign[u, j] = seen[key]
+    quads = np.stack([t[u, y : y + hq, x : x + wq] for u, y, x in firsts])
+    return np.ascontiguousarray(quads), assign
+
+
 def _best_matches_in_chunks(index, t, k, r, mask, threads) -> tuple[np.ndarray, np.ndarray]:
     """``index.best_matches`` of the templates ``t`` ``(K, h, w, C)`` in consecutive chunks of about
     :data:`tilesynth.base.chunks.TARGET_SECONDS` x 5 each, so that Ctrl-C and SIGTERM take effect between two chunks
@@ -104,12 +141,30 @@ def _best_matches_in_chunks(index, t, k, r, mask, threads) -> tuple[np.ndarray, 
     from .chunks import TARGET_SECONDS
 
     n = t.shape[0]
+    quads = _shared_quadrants(t) if mask is None and k > 0 else None
+    if quads is None:
+        match = lambda lo, hi: index.best_matches(t[lo:hi], k, r, mask, threads)  # noqa: E731
+    else:  # one FFT per distinct quadrant, each its own call (the same exact results)
+        q, assign = quads
+        maps, bounds, maxes = None, [], []
+        for i in range(q.shape[0]):  # filled in place: a stack of the returned maps would hold them twice
+            m, bound, mx = _core.quadrant_map(index, q[i], threads)
+            maps = np.empty((q.shape[0], *m.shape), np.float32) if maps is None else maps
+            maps[i] = m
+            bounds.append(bound)
+            maxes.append(mx)
+        match = (
+            lambda lo, hi: _core.best_matches_quadrants(  # noqa: E731
+                index, q, maps, bounds, maxes, t[lo:hi], assign[lo:hi], k, r, threads
+            )
+        )
+
     step = max(1, _core.resolve_threads(threads))  # the first chunk: one template per thread
     parts, start = [], 0
     while start < n:
         stop = min(n, start + step)
         t0 = time.perf_counter()
-        parts.append(index.best_matches(t[start:stop], k, r, mask, threads))
+        parts.append(match(start, stop))
         dt = time.perf_counter() - t0
         if dt > 0:  # the next chunk aims at 5 x TARGET_SECONDS
             step = max(1, int(5 * TARGET_SECONDS * (stop - start) / dt))

@@ -128,35 +128,45 @@ def _rank(s: float, criterion: str) -> float:
     return abs(math.log(s / CAP_TARGET)) if s <= 1.0 else 1e6 + s  # "cap": above 1 only as a last resort
 
 
-def _window_responses(ex: np.ndarray) -> dict[int, np.ndarray]:
-    """The 'valid' responses ``(F, H − 6, W − 6)`` of the texture-statistics filters to the exemplar at every
-    scale of :func:`tilesynth.measure.quality.texture_stats_distance` (entry (y, x) is the response of the 7 x 7
-    window with top-left (y, x), so a sample window's own valid responses are a sub-block)."""
-    k = q.TEXSTATS_SIZE
-    out = {}
-    for f in q.TEXSTATS_SCALES:
-        e = q._down(ex, f)
-        if min(e.shape[:2]) < k:
-            continue
-        out[f] = q._responses(e).reshape(-1, e.shape[0] - k + 1, e.shape[1] - k + 1)
-    return out
+class _SampleStats:
+    """The texture statistics of an exemplar for :func:`sample_stats_distance`, per scale of
+    :func:`tilesynth.measure.quality.texture_stats_distance`: the exemplar's Gram matrix (computed once, a block at
+    a time: :func:`tilesynth.measure.quality.blocked_gram`) and each sample window's Gram sum (of its own
+    'valid' responses, those of the window's pixels alone; computed on first use and kept, as the kept draw is
+    measured again after its vertex moves). The Gram matrix of several windows' responses together is the sum
+    of their Gram sums over their count, so the responses themselves are never kept (at 2048² the 120
+    windows' responses were 0.9 GB).
 
+    Why not the responses of the whole exemplar, sliced per window: at 2048² they and their FFT temporaries
+    were the build's 5.6 GB peak, and the exemplar's Gram matrix was recomputed for every admissible draw (about
+    45 s CPU)."""
 
-def _stats_distance(maps: dict[int, np.ndarray], genes: np.ndarray, n: int) -> float:
-    k = q.TEXSTATS_SIZE
-    out = []
-    for f, rmap in maps.items():
-        m = n // f
-        if m < k:
-            continue
-        full = q._rectified_gram(rmap.reshape(rmap.shape[0], -1))
-        parts = []
-        for r0, c0 in np.asarray(genes, dtype=np.int64):
-            y, x = int(r0) // f, int(c0) // f
-            parts.append(rmap[:, y : y + m - k + 1, x : x + m - k + 1].reshape(rmap.shape[0], -1))
-        win = q._rectified_gram(np.concatenate(parts, axis=1))
-        out.append(float(np.linalg.norm(win - full) / max(float(np.linalg.norm(full)), 1e-300)))
-    return float(np.mean(out)) if out else 0.0
+    def __init__(self, ex: np.ndarray) -> None:
+        k = q.TEXSTATS_SIZE
+        self.scales = {f: q._down(ex, f) for f in q.TEXSTATS_SCALES}
+        self.scales = {f: e for f, e in self.scales.items() if min(e.shape[:2]) >= k}
+        self.full = {f: q.blocked_gram(e) for f, e in self.scales.items()}
+        self._windows: dict[tuple[int, int, int, int], tuple[np.ndarray, int]] = {}
+
+    def window(self, f: int, y: int, x: int, m: int) -> tuple[np.ndarray, int]:
+        """The Gram sum of the window's rectified responses and their count."""
+        key = (f, y, x, m)
+        if key not in self._windows:
+            resp = q._responses(self.scales[f][y : y + m, x : x + m])
+            self._windows[key] = (q._rectified_gram(resp) * resp.shape[1], resp.shape[1])
+        return self._windows[key]
+
+    def distance(self, genes: np.ndarray, n: int) -> float:
+        k = q.TEXSTATS_SIZE
+        out = []
+        for f, full in self.full.items():
+            m = n // f
+            if m < k:
+                continue
+            parts = [self.window(f, int(r0) // f, int(c0) // f, m) for r0, c0 in np.asarray(genes, np.int64)]
+            win = sum(g for g, _ in parts) / sum(p for _, p in parts)
+            out.append(float(np.linalg.norm(win - full) / max(float(np.linalg.norm(full)), 1e-300)))
+        return float(np.mean(out)) if out else 0.0
 
 
 def sample_stats_distance(exemplar: np.ndarray, genes: np.ndarray, tile_size: int) -> float:
@@ -176,7 +186,7 @@ def sample_stats_distance(exemplar: np.ndarray, genes: np.ndarray, tile_size: in
     ex = img.astype(np.float64)
     if ex.ndim == 2:
         ex = ex[..., None]
-    return _stats_distance(_window_responses(ex), g, n)
+    return _SampleStats(ex).distance(g, n)
 
 
 STATS_SEAM_CAP = 0.9
@@ -276,16 +286,16 @@ def _stats_draws(
             unit = as_image(exemplar, "exemplar").astype(np.float64)
             saliency = None
         unit = unit if unit.ndim == 3 else unit[..., None]
-        maps = _window_responses(unit)
+        maps = _SampleStats(unit)
         ref = _quantiles(unit.reshape(-1, unit.shape[2]))
-        stats = {i: _stats_distance(maps, cands[i], tile_size) for i in ok}
+        stats = {i: maps.distance(cands[i], tile_size) for i in ok}
         colour = {i: _colour_distance(unit, ref, cands[i], tile_size) for i in ok}
         best = min(ok, key=lambda i: (stats[i] + colour[i], i))
         kept, moved, vsal = _calm_vertices(unit, steps, cands[best], tile_size, saliency)
         if moved:
             cands[best] = kept
             scores[best] = _predict(steps, kept, tile_size)
-            stats[best] = _stats_distance(maps, kept, tile_size)
+            stats[best] = maps.distance(kept, tile_size)
             colour[best] = _colour_distance(unit, ref, kept, tile_size)
         rec = {
             "sample_stats_predicted": stats[best],
