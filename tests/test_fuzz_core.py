@@ -521,6 +521,56 @@ def patch_gradients(d: st.DrawFn):
     return _core.patch_gradients, (img, src), {}, ()
 
 
+def _quadrant_templates(d: st.DrawFn, c: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(quads, templates, assign)``: K templates made of a few distinct quadrants (as the intermediate tiles
+    of a complete set are), each template's [TL, TR, BL, BR] among them."""
+    nq, k = d(st.integers(1, 3)), d(st.integers(1, 4))
+    hq, wq = d(st.integers(1, 3)), d(st.integers(1, 3))
+    quads = fuzzing.fill((nq, hq, wq, c), F32, "unit", d(st.integers(0, 99)))
+    assign = np.random.default_rng(d(st.integers(0, 99))).integers(0, nq, (k, 4)).astype(np.int64)
+    t = np.zeros((k, 2 * hq, 2 * wq, c), np.float32)
+    for u in range(k):
+        for j, (y, x) in enumerate(((0, 0), (0, wq), (hq, 0), (hq, wq))):
+            t[u, y : y + hq, x : x + wq] = quads[assign[u, j]]
+    return quads, t, assign
+
+
+@st.composite
+def quadrant_map(d: st.DrawFn):
+    img = d(valid_image())
+    idx = _core.SsdIndex(img)
+    c = img.shape[2]
+    quad = d(arrays(3, F32, (None, None, c), max_side=max(img.shape[:2]) + 1))
+    return _core.quadrant_map, (idx, quad), {"threads": d(threads())}, ()
+
+
+@st.composite
+def best_matches_quadrants(d: st.DrawFn):
+    broken = d(st.sampled_from(["none", "none", "quads", "maps", "bounds", "templates", "assign", "k"]))
+    img = d(valid_image())
+    idx = _core.SsdIndex(img)
+    quads, t, assign = _quadrant_templates(d, img.shape[2])
+    try:  # the maps of valid quadrants (a quadrant larger than the image has none: a one-pixel stand-in)
+        got = [_core.quadrant_map(idx, q) for q in quads]
+        maps = np.stack([m for m, _, _ in got])
+        bounds, maxes = [b for _, b, _ in got], [m for _, _, m in got]
+    except CORE_ERRORS:
+        maps, bounds, maxes = np.zeros((len(quads), 1, 1), np.float32), [0.0] * len(quads), [0.0] * len(quads)
+    if broken == "quads":
+        quads = d(arrays(4, F32, None, max_side=4))
+    elif broken == "maps":
+        maps = d(arrays(3, F32, None, max_side=6))
+    elif broken == "bounds":
+        bounds = d(st.lists(floats(), max_size=4))
+    elif broken == "templates":
+        t = d(arrays(4, F32, (None, None, None, img.shape[2]), max_side=6))
+    elif broken == "assign":
+        assign = d(arrays(2, I64, (None, 4), lo=-2, hi=len(quads) + 2))
+    kw = {"k": d(sizes(-1, 6)) if broken == "k" else d(st.integers(1, 4)), "exclude_radius": d(sizes(-1, 3))}
+    kw["threads"] = d(threads())
+    return _core.best_matches_quadrants, (idx, quads, maps, bounds, maxes, t, assign), kw, ()
+
+
 @st.composite
 def best_matches_sorting(d: st.DrawFn):
     fn, (t,), kw, mut = d(ssd_index_best_matches())
@@ -563,6 +613,8 @@ ENTRY_POINTS = {
     "_best_matches_sorting": best_matches_sorting,
     "provenance_factorise": provenance_factorise,
     "provenance_gather": provenance_gather,
+    "quadrant_map": quadrant_map,
+    "best_matches_quadrants": best_matches_quadrants,
 }
 """Entry point name -> strategy of one call ``(callable, args, kwargs, indices of writable args)``."""
 

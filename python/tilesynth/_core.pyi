@@ -52,6 +52,9 @@ __all__ = [
     # tile sets as provenance (rust/py/provenance.rs)
     "provenance_factorise",
     "provenance_gather",
+    # matching from shared quadrants (rust/py/ssd.rs)
+    "quadrant_map",
+    "best_matches_quadrants",
 ]
 
 __version__: str
@@ -274,3 +277,20 @@ def provenance_gather(
     out: np.ndarray,
     threads: int | None = None,
 ) -> None: ...
+
+# matching from shared quadrants (rust/py/ssd.rs)
+def quadrant_map(
+    index: SsdIndex, quad: npt.NDArray[np.float32], threads: int | None = None
+) -> tuple[npt.NDArray[np.float32], float, float]: ...
+def best_matches_quadrants(
+    index: SsdIndex,
+    quads: npt.NDArray[np.float32],
+    maps: npt.NDArray[np.float32],
+    bounds: list[float],
+    maxes: list[float],
+    templates: npt.NDArray[np.float32],
+    assign: npt.NDArray[np.int64],
+    k: int = 1,
+    exclude_radius: int = 0,
+    threads: int | None = None,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]: ...

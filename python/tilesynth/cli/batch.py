@@ -21,7 +21,7 @@ name or writing the same file): the error names the job (its number in the file 
     [presets.ground]                  # any name; every key optional
     scheme = "omega"                  # omega | wang | swang (default omega)
     set = "16a"                       # default: c5 for omega (as tilesynth build), wang8 for wang / swang
-    tile_size = 64                    # even; default half the exemplar's shorter side, at most 256
+    tile_size = 64                    # even; default as `tilesynth build` (c5: a quarter side, multiple of 8)
     select = "ga"                     # random | best-of | ga | ais (default: as tilesynth build)
     polish = true
     generations = 20                  # ga / ais

@@ -147,8 +147,9 @@ def _add_build_parser(sub) -> None:  # noqa: ANN001
         "--tile-size",
         type=int_text(4),
         default=None,
-        help="tile size N in pixels, even: larger tiles keep larger features whole (default: half the "
-        "exemplar's shorter side, at most 256)",
+        help="tile size N in pixels, even: larger tiles keep larger features whole (default: for the complete "
+        "sets, c5 included, a quarter of the exemplar's shorter side rounded down to a multiple of 8; for the "
+        "papers' sets half of it; at most 256)",
     )
     main.add_argument(
         "--seed",
