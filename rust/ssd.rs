@@ -1230,24 +1230,35 @@ impl SsdIndex {
         out
     }
 
-    /// The greedy exact best matches of [`SsdIndex::walk_map`] (the same results) on a map this call may
-    /// overwrite: translations are excluded by setting their FFT value to `+inf`, and the minimum of the
-    /// rest is found from the minima of 32 x 32 blocks (only the blocks an exclusion window touches are
-    /// recomputed). Each match is the smallest `(exact, index)` among the translations with
-    /// `f <= m0 + 2 bound` (`m0` the smallest `f` left): the argmin of `f` has `exact <= m0 + bound`, and any
-    /// translation with `f > m0 + 2 bound` has `exact > m0 + bound`, so it can neither beat nor tie it.
-    ///
-    /// Why: with many matches and a large exclusion radius (the diverse candidates: 32 matches N/4 apart)
-    /// the lazy order of [`SsdIndex::walk_map`] grows to every translation within the exclusion windows,
-    /// a dozen passes over the map and a sort of half a million entries per template at 2048², more than
-    /// the map itself costs once the maps are sums of quadrant maps.
-    fn walk_blocks(&self, t: &Tmpl, k: usize, r: usize, map: &mut [f64], bound: f64) -> Vec<Match> {
-        const BS: usize = 32;
+    /// The greedy exact best matches of [`SsdIndex::walk_map`] (the same results) on a map that is summed a
+    /// block of [`QBS`] x [`QBS`] translations at a time, only where it can matter. `bmin` holds a lower
+    /// bound of each block's minimum and `fill(map, yb, xb)` writes a block's values into `map`. A block is
+    /// filled when its bound is the least of all (until that block is a filled one: its minimum is then the
+    /// map's minimum `m0`) or when its bound is within the walk's threshold `m0 + 2 bound` (its translations
+    /// may be candidates); every other block's values are above the threshold. So the candidates, their
+    /// exact SSDs and the matches are those of the whole map, bit for bit. Translations are excluded by
+    /// setting their value to `+inf`: in filled blocks at once, in the others when they are filled (the
+    /// windows are recorded). Each match is the smallest `(exact, index)` among the candidates.
+    #[allow(clippy::too_many_arguments)]
+    fn walk_blocks_lazy(
+        &self,
+        t: &Tmpl,
+        k: usize,
+        r: usize,
+        map: &mut [f64],
+        mut bmin: Vec<f64>,
+        fill: &dyn Fn(&mut [f64], usize, usize),
+        bound: f64,
+    ) -> Vec<Match> {
+        const BS: usize = QBS;
         let (mh, mw) = self.map_dim(t.h, t.w);
         let n = mh * mw;
         debug_assert_eq!(map.len(), n);
         let k = k.min(n);
         let (by, bx) = (mh.div_ceil(BS), mw.div_ceil(BS));
+        debug_assert_eq!(bmin.len(), by * bx);
+        let mut filled = vec![false; by * bx];
+        let mut windows: Vec<(usize, usize, usize, usize)> = Vec::new();
         let block_min = |map: &[f64], yb: usize, xb: usize| -> f64 {
             let mut m = f64::INFINITY;
             for y in yb * BS..((yb + 1) * BS).min(mh) {
@@ -1259,19 +1270,53 @@ impl SsdIndex {
             }
             m
         };
-        let mut bmin: Vec<f64> = (0..by * bx)
-            .map(|b| block_min(map, b / bx, b % bx))
-            .collect();
+        let materialise =
+            |map: &mut [f64], filled: &mut [bool], bmin: &mut [f64], b: usize, ws: &[_]| {
+                let (yb, xb) = (b / bx, b % bx);
+                fill(map, yb, xb);
+                let (by0, by1) = (yb * BS, ((yb + 1) * BS).min(mh) - 1);
+                let (bx0, bx1) = (xb * BS, ((xb + 1) * BS).min(mw) - 1);
+                for &(y0, y1, x0, x1) in ws {
+                    let (ya, yz) = (by0.max(y0), by1.min(y1));
+                    let (xa, xz) = (bx0.max(x0), bx1.min(x1));
+                    if ya <= yz && xa <= xz {
+                        for yy in ya..=yz {
+                            map[yy * mw + xa..=yy * mw + xz].fill(f64::INFINITY);
+                        }
+                    }
+                }
+                filled[b] = true;
+                bmin[b] = block_min(map, yb, xb);
+            };
         let mut resolved: std::collections::HashMap<usize, f64> = std::collections::HashMap::new();
         let mut out = Vec::with_capacity(k);
         while out.len() < k {
-            let m0 = bmin
-                .iter()
-                .fold(f64::INFINITY, |a, &v| if v < a { v } else { a });
+            // the true minimum: fill the block of least bound until that block is a filled one
+            let m0 = loop {
+                let (b, m) =
+                    bmin.iter()
+                        .enumerate()
+                        .fold((usize::MAX, f64::INFINITY), |a, (b, &v)| {
+                            if v < a.1 {
+                                (b, v)
+                            } else {
+                                a
+                            }
+                        });
+                if b == usize::MAX || filled[b] {
+                    break m;
+                }
+                materialise(map, &mut filled, &mut bmin, b, &windows);
+            };
             if m0 == f64::INFINITY || m0.is_nan() {
                 break;
             }
             let thr = m0 + 2.0 * bound + 4.0 * f64::EPSILON * m0.abs();
+            for b in 0..by * bx {
+                if !filled[b] && bmin[b] <= thr {
+                    materialise(map, &mut filled, &mut bmin, b, &windows);
+                }
+            }
             let mut best: Option<(f64, usize)> = None;
             for (b, &bm) in bmin.iter().enumerate() {
                 if !(bm <= thr) {
@@ -1308,12 +1353,18 @@ impl SsdIndex {
             // exclude the window (only the chosen one when r = 0: distinct translations)
             let (y0, y1) = (row.saturating_sub(r), row.saturating_add(r).min(mh - 1));
             let (x0, x1) = (col.saturating_sub(r), col.saturating_add(r).min(mw - 1));
-            for yy in y0..=y1 {
-                map[yy * mw + x0..=yy * mw + x1].fill(f64::INFINITY);
-            }
+            windows.push((y0, y1, x0, x1));
             for yb in y0 / BS..=y1 / BS {
                 for xb in x0 / BS..=x1 / BS {
-                    bmin[yb * bx + xb] = block_min(map, yb, xb);
+                    let b = yb * bx + xb;
+                    if filled[b] {
+                        let (ya, yz) = ((yb * BS).max(y0), (((yb + 1) * BS).min(mh) - 1).min(y1));
+                        let (xa, xz) = ((xb * BS).max(x0), (((xb + 1) * BS).min(mw) - 1).min(x1));
+                        for yy in ya..=yz {
+                            map[yy * mw + xa..=yy * mw + xz].fill(f64::INFINITY);
+                        }
+                        bmin[b] = block_min(map, yb, xb);
+                    }
                 }
             }
         }
@@ -1576,7 +1627,7 @@ pub fn quadrant_map(index: &SsdIndex, quad: ArrayView3<f32>) -> Result<(Array2<f
 ///
 /// Why: the SSD of a template is the sum of its quadrants' SSDs, so its map is the sum of four shifted
 /// quadrant maps, `F_u(ty, tx) = sum_q F_q(ty + dy_q, tx + dx_q)`, and its error bound the sum of theirs
-/// plus the rounding of the sums. The greedy walk ([`SsdIndex::walk_blocks`]) returns the exact answer for
+/// plus the rounding of the sums. The greedy walk ([`SsdIndex::walk_blocks_lazy`]) returns the exact answer for
 /// any map whose bound holds, so only the `Q` quadrant maps need FFTs (the intermediate tiles of a complete
 /// set share 4 x colours quadrants: 20 transforms instead of 625 for c5).
 #[allow(clippy::too_many_arguments)]
@@ -1660,6 +1711,25 @@ pub fn best_matches_quadrants(
     let flat = maps.as_slice().expect("standard layout");
     let (mh, mw) = index.map_dim(h, w);
     let n = mh * mw;
+    // Each quadrant map's minimum per aligned BS x BS block, once per call (one pass over the Q maps): the
+    // lower bounds of the summed maps' blocks, so a template's map is summed only where it can hold a match.
+    let (qby, qbx) = (qh.div_ceil(QBS), qw.div_ceil(QBS));
+    let qbmin: Vec<Vec<f32>> = (0..nq)
+        .into_par_iter()
+        .map(|q| {
+            let qm = &flat[q * qh * qw..(q + 1) * qh * qw];
+            let mut out = vec![f32::INFINITY; qby * qbx];
+            for y in 0..qh {
+                let row = &qm[y * qw..(y + 1) * qw];
+                let ob = &mut out[(y / QBS) * qbx..(y / QBS + 1) * qbx];
+                for (b, chunk) in row.chunks(QBS).enumerate() {
+                    let m = chunk.iter().fold(ob[b], |a, &v| if v < a { v } else { a });
+                    ob[b] = m;
+                }
+            }
+            out
+        })
+        .collect();
     Ok(ts
         .par_iter()
         .zip(idx.par_iter())
@@ -1668,23 +1738,58 @@ pub fn best_matches_quadrants(
             buf.resize(n, 0.0);
             let mut bound = 0.0;
             let mut total_max = 0.0;
-            for (j, &(dy, dx)) in corners.iter().enumerate() {
-                let qm = &flat[a[j] * qh * qw..(a[j] + 1) * qh * qw];
-                bound += bounds[a[j]];
-                total_max += maxes[a[j]] * (1.0 + f32::EPSILON as f64);
-                for ty in 0..mh {
-                    let src = &qm[(ty + dy) * qw + dx..(ty + dy) * qw + dx + mw];
-                    for (d, &v) in buf[ty * mw..(ty + 1) * mw].iter_mut().zip(src) {
-                        *d += v as f64;
-                    }
-                }
+            for &q in a.iter() {
+                bound += bounds[q];
+                total_max += maxes[q] * (1.0 + f32::EPSILON as f64);
             }
             // the three f64 additions per translation: at most 3 roundings of a value <= total_max
             bound += 8.0 * f64::EPSILON * total_max;
-            index.walk_blocks(t, k, exclude_radius, buf, bound)
+            let (by, bx) = (mh.div_ceil(QBS), mw.div_ceil(QBS));
+            // Lower bound of block (yb, xb): per corner, the least quadrant block minimum over the (at most
+            // 2 x 2) aligned quadrant blocks that the shifted block covers, summed in the order the map's
+            // values are (f64 addition is monotone, so the bound holds after rounding).
+            let lower = (0..by * bx)
+                .map(|b| {
+                    let (yb, xb) = (b / bx, b % bx);
+                    let (y0, y1) = (yb * QBS, ((yb + 1) * QBS).min(mh) - 1);
+                    let (x0, x1) = (xb * QBS, ((xb + 1) * QBS).min(mw) - 1);
+                    let mut s = 0.0f64;
+                    for (j, &(dy, dx)) in corners.iter().enumerate() {
+                        let m = &qbmin[a[j]];
+                        let mut lo = f32::INFINITY;
+                        for qy in (y0 + dy) / QBS..=(y1 + dy) / QBS {
+                            for qx in (x0 + dx) / QBS..=(x1 + dx) / QBS {
+                                lo = lo.min(m[qy * qbx + qx]);
+                            }
+                        }
+                        s += lo as f64;
+                    }
+                    s
+                })
+                .collect();
+            let fill = |buf: &mut [f64], yb: usize, xb: usize| {
+                let (y0, y1) = (yb * QBS, ((yb + 1) * QBS).min(mh));
+                let (x0, x1) = (xb * QBS, ((xb + 1) * QBS).min(mw));
+                for y in y0..y1 {
+                    buf[y * mw + x0..y * mw + x1].fill(0.0);
+                }
+                for (j, &(dy, dx)) in corners.iter().enumerate() {
+                    let qm = &flat[a[j] * qh * qw..(a[j] + 1) * qh * qw];
+                    for y in y0..y1 {
+                        let src = &qm[(y + dy) * qw + dx + x0..(y + dy) * qw + dx + x1];
+                        for (d, &v) in buf[y * mw + x0..y * mw + x1].iter_mut().zip(src) {
+                            *d += v as f64;
+                        }
+                    }
+                }
+            };
+            index.walk_blocks_lazy(t, k, exclude_radius, buf, lower, &fill, bound)
         })
         .collect())
 }
+
+/// Block side of [`best_matches_quadrants`]' lower bounds and of [`SsdIndex::walk_blocks_lazy`].
+const QBS: usize = 32;
 
 /// A [`BestWs`] of [`best_matches_many`]'s pool, given back to it when dropped.
 struct Pooled<'a>(BestWs, &'a Mutex<Vec<BestWs>>);

@@ -47,7 +47,7 @@ def _quadrant_tiles(ex: np.ndarray, n: int, seed: int) -> np.ndarray:
     """Templates made of the quadrants of 3 sample patches, in every combination (as intermediate tiles)."""
     rng = np.random.default_rng(seed)
     h = n // 2
-    pos = rng.integers(0, ex.shape[0] - n, (3, 2))
+    pos = rng.integers(0, np.array(ex.shape[:2]) - n, (3, 2))
     quads = [ex[r + y : r + y + h, c + x : c + x + h] for r, c in pos for y in (0, h) for x in (0, h)]
     tiles = []
     for _ in range(24):
@@ -67,6 +67,20 @@ def test_quadrant_matches_are_the_plain_matches(k, radius, threads):
     index = kernels.SsdIndex(ex)
     want = index._index.best_matches(t, k, radius, None, threads)  # one FFT map per template
     got = index.best_matches(t, k=k, exclude_radius=radius, threads=threads)
+    np.testing.assert_array_equal(got[0], want[0])
+    assert got[1].tobytes() == want[1].tobytes()
+
+
+@pytest.mark.parametrize("h, w, q, k, radius", [(170, 150, 12, 20, 5), (200, 190, 32, 12, 9), (131, 140, 8, 40, 0)])
+def test_quadrant_matches_on_many_blocks(h, w, q, k, radius):
+    """Maps of several 32 x 32 blocks, quadrant shifts aligned (32) and not (8, 12) with the blocks, many
+    matches whose exclusion windows cross blocks: the blocks summed lazily give the plain matches, bit for
+    bit."""
+    ex = _image(h, w, 3).astype(np.float32)
+    t = _quadrant_tiles(ex, q, 4)
+    index = kernels.SsdIndex(ex)
+    want = index._index.best_matches(t, k, radius, None, 2)
+    got = index.best_matches(t, k=k, exclude_radius=radius, threads=2)
     np.testing.assert_array_equal(got[0], want[0])
     assert got[1].tobytes() == want[1].tobytes()
 
