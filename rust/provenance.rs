@@ -32,6 +32,9 @@ pub fn dihedral(s: u8, n: usize, y: usize, x: usize) -> (usize, usize) {
     }
 }
 
+/// One tile's factors: its label plane and its table entries `(s, by, bx)`.
+type TileFactors = (Vec<u8>, Vec<[i32; 3]>);
+
 /// The labels `(K, N, N)` and source table `(K, L, 3)` (`(s, by, bx)`, rows past a tile's own entries `-1`) of
 /// the provenance `source` `(K, N, N, 2)` (exemplar row, col of every tile pixel), or `None` when some tile
 /// needs more than [`MAX_ENTRIES`] entries.
@@ -51,7 +54,7 @@ pub fn factorise(source: ArrayView4<i32>) -> Result<Option<(Array3<u8>, Array3<i
     let src = source.as_standard_layout();
     let src = src.as_slice().expect("standard layout");
     let per = n * n;
-    let tables: Vec<Option<(Vec<u8>, Vec<[i32; 3]>)>> = (0..k)
+    let tables: Vec<Option<TileFactors>> = (0..k)
         .into_par_iter()
         .map(|t| {
             let s = &src[t * per * 2..(t + 1) * per * 2];

@@ -1319,7 +1319,7 @@ impl SsdIndex {
             }
             let mut best: Option<(f64, usize)> = None;
             for (b, &bm) in bmin.iter().enumerate() {
-                if !(bm <= thr) {
+                if bm.is_nan() || bm > thr {
                     continue;
                 }
                 let (yb, xb) = (b / bx, b % bx);

@@ -71,7 +71,9 @@ def test_quadrant_matches_are_the_plain_matches(k, radius, threads):
     assert got[1].tobytes() == want[1].tobytes()
 
 
-@pytest.mark.parametrize("h, w, q, k, radius", [(170, 150, 12, 20, 5), (200, 190, 32, 12, 9), (131, 140, 8, 40, 0)])
+@pytest.mark.parametrize(
+    "h, w, q, k, radius", [(170, 150, 12, 20, 5), (200, 190, 32, 12, 9), (131, 140, 8, 40, 0)]
+)
 def test_quadrant_matches_on_many_blocks(h, w, q, k, radius):
     """Maps of several 32 x 32 blocks, quadrant shifts aligned (32) and not (8, 12) with the blocks, many
     matches whose exclusion windows cross blocks: the blocks summed lazily give the plain matches, bit for
