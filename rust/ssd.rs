@@ -1258,6 +1258,12 @@ impl SsdIndex {
         let (by, bx) = (mh.div_ceil(BS), mw.div_ceil(BS));
         debug_assert_eq!(bmin.len(), by * bx);
         let mut filled = vec![false; by * bx];
+        // the unfilled blocks by bound (NaN bounds last: such a block is filled only if nothing else is left)
+        let mut heap: BinaryHeap<Reverse<(TotalF64, usize)>> = bmin
+            .iter()
+            .enumerate()
+            .map(|(b, &v)| Reverse((TotalF64(if v.is_nan() { f64::INFINITY } else { v }), b)))
+            .collect();
         let mut windows: Vec<(usize, usize, usize, usize)> = Vec::new();
         let block_min = |map: &[f64], yb: usize, xb: usize| -> f64 {
             let mut m = f64::INFINITY;
@@ -1291,31 +1297,34 @@ impl SsdIndex {
         let mut resolved: std::collections::HashMap<usize, f64> = std::collections::HashMap::new();
         let mut out = Vec::with_capacity(k);
         while out.len() < k {
-            // the true minimum: fill the block of least bound until that block is a filled one
-            let m0 = loop {
-                let (b, m) =
-                    bmin.iter()
-                        .enumerate()
-                        .fold((usize::MAX, f64::INFINITY), |a, (b, &v)| {
-                            if v < a.1 {
-                                (b, v)
-                            } else {
-                                a
-                            }
-                        });
-                if b == usize::MAX || filled[b] {
-                    break m;
+            // The true minimum, best first: the least minimum of the filled blocks `m`; while an unfilled
+            // block's bound is below it, fill the block of least bound (it may hold a smaller value).
+            let mut m = bmin
+                .iter()
+                .zip(&filled)
+                .filter(|(_, &f)| f)
+                .fold(f64::INFINITY, |a, (&v, _)| if v < a { v } else { a });
+            while let Some(&Reverse((TotalF64(lb), b))) = heap.peek() {
+                if lb >= m {
+                    break;
                 }
+                heap.pop();
                 materialise(map, &mut filled, &mut bmin, b, &windows);
-            };
+                if bmin[b] < m {
+                    m = bmin[b];
+                }
+            }
+            let m0 = m;
             if m0 == f64::INFINITY || m0.is_nan() {
                 break;
             }
             let thr = m0 + 2.0 * bound + 4.0 * f64::EPSILON * m0.abs();
-            for b in 0..by * bx {
-                if !filled[b] && bmin[b] <= thr {
-                    materialise(map, &mut filled, &mut bmin, b, &windows);
+            while let Some(&Reverse((TotalF64(lb), b))) = heap.peek() {
+                if lb > thr {
+                    break;
                 }
+                heap.pop();
+                materialise(map, &mut filled, &mut bmin, b, &windows);
             }
             let mut best: Option<(f64, usize)> = None;
             for (b, &bm) in bmin.iter().enumerate() {
@@ -1788,8 +1797,10 @@ pub fn best_matches_quadrants(
         .collect())
 }
 
-/// Block side of [`best_matches_quadrants`]' lower bounds and of [`SsdIndex::walk_blocks_lazy`].
-const QBS: usize = 32;
+/// Block side of [`best_matches_quadrants`]' lower bounds and of [`SsdIndex::walk_blocks_lazy`]. Measured on
+/// the default 2048² build (625 templates of 256², 32 matches each): blocks of 32 / 16 / 8 filled 11 / 5.6 /
+/// 3.6 % of each map, and 16 took the least time (the heap and the bounds grow as the blocks shrink).
+const QBS: usize = 16;
 
 /// A [`BestWs`] of [`best_matches_many`]'s pool, given back to it when dropped.
 struct Pooled<'a>(BestWs, &'a Mutex<Vec<BestWs>>);
