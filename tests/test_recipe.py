@@ -100,3 +100,80 @@ def test_omega_options_is_still_importable_from_the_builder():
     from tilesynth.builder.omega import PERIODIC_MODES, omega_options
 
     assert omega_options is rmod.omega_options and PERIODIC_MODES == ("auto", "lock", "off")
+
+
+# ------------------------------------------------------------------------------------------ named recipes
+def _discs(size: int, r: int, count: int, seed: int) -> np.ndarray:
+    """Black discs of radius r on white, apart from each other: a photo of separate objects."""
+    rng = np.random.default_rng(seed)
+    img = np.ones((size, size, 3), np.float32)
+    yy, xx = np.mgrid[-r : r + 1, -r : r + 1]
+    disc = yy**2 + xx**2 <= r * r
+    centres: list[tuple[int, int]] = []
+    for _ in range(20000):
+        if len(centres) == count:
+            break
+        y, x = (int(v) for v in rng.integers(r + 1, size - r - 1, 2))
+        if all((y - a) ** 2 + (x - b) ** 2 > (2 * r + 3) ** 2 for a, b in centres):
+            centres.append((y, x))
+            img[y - r : y + r + 1, x - r : x + r + 1][disc] = 0.0
+    return img
+
+
+def test_every_named_recipe_says_what_it_trades():
+    assert set(rmod.NAMED_RECIPES) == {"default", "fast", "objects"}
+    for name, text in rmod.NAMED_RECIPES.items():
+        assert len(text) > 60, name
+
+
+def test_the_default_recipe_by_name_is_the_default_build(crop):
+    a = tilesynth.build_omega(crop, tileset="c3", seed=4)
+    b = tilesynth.build_omega(crop, tileset="c3", seed=4, recipe="default")
+    assert a.content_digest() == b.content_digest() and "recipe" not in b.params
+
+
+def test_fast_is_c4_unless_a_set_is_given(crop):
+    t = tilesynth.build_omega(crop, seed=4, recipe="fast")
+    assert t.n_tiles == 256 and t.params["recipe"] == {"name": "fast", "applied": ["tileset"]}
+    assert np.array_equal(t.tiles, tilesynth.build_omega(crop, seed=4, tileset="c4").tiles)
+    given = tilesynth.build_omega(crop, seed=4, recipe="fast", tileset="c3")  # the keyword wins
+    assert given.n_tiles == 81 and given.params["recipe"]["applied"] == []
+
+
+def test_objects_sizes_tiles_from_the_objects():
+    ex = _discs(192, 9, 24, seed=14)  # discs ~18 px across: tiles of ~4 discs (72-80 px) instead of 48
+    t = tilesynth.build_omega(ex, seed=1, recipe="objects", tileset="c3")
+    rec = t.params["recipe"]
+    assert (
+        rec["name"] == "objects"
+        and rec["applied"] == ["tile_size"]
+        and rec["feature_scale"]["kind"] == "objects"
+    )
+    assert t.tile_size == rec["feature_scale"]["size"] and t.tile_size in (72, 80)
+    sized = tilesynth.build_omega(ex, seed=1, tileset="c3", tile_size=t.tile_size)
+    assert np.array_equal(t.tiles, sized.tiles)
+    kept = tilesynth.build_omega(ex, seed=1, recipe="objects", tileset="c3", tile_size=48)  # the keyword wins
+    assert kept.tile_size == 48 and kept.params["recipe"]["applied"] == []
+
+
+def test_objects_leaves_other_exemplars_as_the_default(crop):
+    a = tilesynth.build_omega(crop, tileset="c3", seed=4)
+    b = tilesynth.build_omega(crop, tileset="c3", seed=4, recipe="objects")
+    assert np.array_equal(a.tiles, b.tiles) and b.params["recipe"]["applied"] == []
+
+
+@pytest.mark.parametrize("bad", ["quick", "", 3, b"fast"])
+def test_an_unknown_recipe_name_is_refused(crop, bad):
+    with pytest.raises(ParameterError, match=r"recipe = .*named recipes 'default', 'fast', 'objects'"):
+        tilesynth.build_omega(crop, recipe=bad)
+
+
+def test_cli_recipe_is_recorded_and_shown(tmp_path, crop):
+    from tilesynth.cli.main import main as cli
+
+    src = tmp_path / "ex.png"
+    tilesynth.save_image(src, crop)
+    out = tmp_path / "a.tiles"
+    assert cli(["build", str(src), "-o", str(out), "--seed", "1", "--recipe", "fast", "-q"]) == 0
+    t = tilesynth.load(out)
+    assert t.n_tiles == 256 and t.params["recipe"]["name"] == "fast"

@@ -94,6 +94,7 @@ from .recipe import (  # noqa: F401 - OmegaOptions, omega_options, PERIODIC_MODE
     OmegaOptions,
     Recipe,
     Resolved,
+    named_choices,
     omega_options,
     resolve,
 )
@@ -176,7 +177,7 @@ def build_omega(
     smooth: bool = False, cut_region: str | None = None, diversity: int | None = None,
     cut_bias: float | None = None, mask: Any = None, alpha: str = "auto", objective: str | None = None,
     rerank: int | None = None, border_tries: int = DEFAULT.border_tries, augment: str = DEFAULT.augment,
-    periodic: str = DEFAULT.periodic, border_criterion: str | None = None, recipe: Recipe | None = None,
+    periodic: str = DEFAULT.periodic, border_criterion: str | None = None, recipe: Recipe | str | None = None,
 ) -> TileSet:  # fmt: skip
     """Build a set of ω-tiles from ``exemplar`` (an image ``(H, W[, C])``, uint8/uint16 or float in [0, 1], or
     an :class:`~tilesynth.builder.exemplar.Exemplar`).
@@ -184,7 +185,8 @@ def build_omega(
     The choices of the build (``tileset`` ... ``border_criterion``: the set, the tile size, the cut, the
     matching, the selection and its objective, the border-aware draw, the periodic rule) are the fields of
     :class:`~tilesynth.builder.recipe.Recipe`, documented there with why each default was chosen: pass them as
-    keywords, or a ``recipe`` (not both). The others: ``genes`` (``(n, 2)`` top-left positions of the set's n
+    keywords, or a ``recipe`` (not both), or the name of a recipe (``"default"``, ``"fast"``, ``"objects"``:
+    :data:`~tilesynth.builder.recipe.NAMED_RECIPES` says what each trades) with keywords that override it. The others: ``genes`` (``(n, 2)`` top-left positions of the set's n
     sample patches, in colour order; default: drawn or selected), ``seed`` (recorded; None draws one),
     ``threads`` (the result does not depend on it), ``progress`` (callback ``(stage, done, total)``),
     ``selection`` (how given genes were chosen, recorded), ``exemplar_info`` (facts to record: file, bit
@@ -198,6 +200,13 @@ def build_omega(
     λ·ΣD_j + (1−λ)·Var(D_j) over each intermediate tile's smallest distance.
     """
     choices = {k: v for k, v in locals().items() if k in _RECIPE_FIELDS}
+    named = None
+    if isinstance(recipe, str):  # a named recipe: its choices where the keywords are at their defaults
+        exemplar = Exemplar.of(exemplar, mask=mask, alpha=alpha)
+        mask, alpha = None, "auto"  # the Exemplar carries them now
+        kept, named = named_choices(recipe, exemplar.image, choices)
+        choices.update(kept)
+        recipe = None
     if recipe is not None:  # the choices come from the recipe (keywords left at their defaults)
         recipe = Recipe.of(recipe, choices)
         choices = {k: getattr(recipe, k) for k in _RECIPE_FIELDS}
@@ -213,7 +222,10 @@ def build_omega(
         t_sel = time.perf_counter()
         release_freed_memory()  # the selection's freed buffers would add to the later stages' peak
         res, genes_arr, sel, t_sel = tiles_stage(b, r, plan, genes_arr, sel, top, t_sel)
-        return finish_stage(b, r, plan, genes_arr, sel, res, t_sel)
+        ts = finish_stage(b, r, plan, genes_arr, sel, res, t_sel)
+    if named is not None and named["name"] != "default":  # "default" is the default build, byte for byte
+        ts.params["recipe"] = named
+    return ts
 
 
 _RECIPE_FIELDS = frozenset(f.name for f in dataclasses.fields(Recipe))

@@ -36,14 +36,17 @@ from .masking import active
 from .matching.augment import check_augment
 from .matching.choose import check_metric, check_strategy
 from .options import BuildOptions
+from .tile_scale import feature_tile_size
 
 __all__ = [
     "CUT_REGIONS",
     "DEFAULT",
+    "NAMED_RECIPES",
     "PERIODIC_MODES",
     "OmegaOptions",
     "Recipe",
     "Resolved",
+    "named_choices",
     "omega_options",
     "resolve",
     "why",
@@ -268,7 +271,10 @@ class Recipe:
         if recipe is None:
             return cls(**choices)
         if not isinstance(recipe, Recipe):
-            raise ParameterError(f"recipe = {recipe!r}: must be a Recipe or None")
+            raise ParameterError(
+                f"recipe = {recipe!r}: a Recipe, None or one of the named recipes "
+                f"{', '.join(map(repr, NAMED_RECIPES))}"
+            )
         changed = [k for k, v in choices.items() if _differs(v, getattr(DEFAULT, k))]
         if changed:
             raise ParameterError(
@@ -295,6 +301,46 @@ def why(name: str) -> str:
     if name not in fields:
         raise ParameterError(f"name = {name!r}: not a recipe field ({', '.join(fields)})")
     return str(fields[name].metadata["why"])
+
+
+# ------------------------------------------------------------------------------------------ named recipes
+NAMED_RECIPES = {
+    "default": "the default recipe (DEFAULT): the complete set c5, 625 tiles, the tile size a quarter of the "
+    "exemplar's shorter side",
+    "fast": "the complete set c4 (256 tiles instead of 625): builds about 2.3x faster; periodic copies about "
+    "twice the default's (benches/repetition-results.md, 9 textures: 0.115 against 0.056) and the "
+    "autocorrelation peak 0.233 against 0.213. For previews and quick iterations",
+    "objects": "tiles about four objects wide on photos of separate objects (coins, floor tiles, carpet "
+    "squares, fruit; tilesynth.builder.tile_scale): on 6 such photos objects kept whole 0.28 -> 0.37 and the "
+    "folded lattice 7.1 -> 3.8, but periodic copies about 2x and the build 1.8x slower "
+    "(benches/lattice-results.md); other exemplars get the default, byte for byte",
+}
+"""The recipes a user picks by name (``build_omega(recipe="fast")``, ``tilesynth build --recipe fast``), with
+what each trades, measured. Choices given as keywords win over the named recipe's."""
+
+
+def named_choices(
+    name: Any, exemplar: np.ndarray, choices: dict[str, Any]
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The choices of the named recipe ``name`` (:data:`NAMED_RECIPES`) that ``choices`` (a ``build_omega``
+    call's keywords) leave at their defaults, and the record stored in the tile set's ``params["recipe"]``.
+    ``exemplar``: the validated exemplar image (the "objects" recipe measures its objects)."""
+    if not isinstance(name, str) or name not in NAMED_RECIPES:
+        raise ParameterError(
+            f"recipe = {name!r}: a Recipe, None or one of the named recipes {', '.join(map(repr, NAMED_RECIPES))}"
+        )
+    want: dict[str, Any] = {}
+    record: dict[str, Any] = {"name": name}
+    if name == "fast":
+        want["tileset"] = "c4"
+    elif name == "objects":
+        size, how = feature_tile_size(exemplar)
+        record["feature_scale"] = {k: v for k, v in how.items() if k != "default"}
+        if size is not None:
+            want["tile_size"] = size
+    kept = {k: v for k, v in want.items() if not _differs(choices[k], getattr(DEFAULT, k))}
+    record["applied"] = sorted(kept)
+    return kept, record
 
 
 # ------------------------------------------------------------------------------------------ the ω options

@@ -208,7 +208,7 @@ def _add_build_parser(sub) -> None:  # noqa: ANN001
         "advanced: matching and cuts", "how each tile's matching patch is found and cut in"
     )
     wang = b.add_argument_group("advanced: Wang tiles", "only with --scheme wang or swang")
-    groups = {**{f: sel for f in _SELECTION_FLAGS}, **{f: wang for f in _WANG_FLAGS}}
+    groups = {**{f: sel for f in _SELECTION_FLAGS}, **{f: wang for f in _WANG_FLAGS}, "--recipe": main}
     _add_scheme_options(b, lambda flag: groups.get(flag, cut))
     enc = b.add_argument_group("output encoding")
     add_png_compression_argument(enc)

@@ -6,6 +6,7 @@ from typing import Any
 
 from ..builder.materials import MATERIAL_CUT_EPS
 from ..builder.omega import build_omega
+from ..builder.recipe import NAMED_RECIPES
 from ..cli.argtypes import float_text
 from .base import Option, Scheme, lambda_energy_line, nonneg_int_text, positive_int_text
 from .common import CORNER_BORDER_TRIES, GRADIENTS, LITERAL_BORDER
@@ -39,10 +40,24 @@ def _describe(ts: Any) -> list[str]:
         moved = sum(1 for v in t if v != 0)
         match += f", augment {aug} ({moved} of {len(t)} matching patches transformed)"
     return [
+        *_recipe_line(p.get("recipe")),
         match,
         *([smoothing_line(sm)] if isinstance(sm, dict) else []),
         lambda_energy_line(p, ts.E, "intermediate tiles"),
     ]
+
+
+def _recipe_line(rec: Any) -> list[str]:
+    """The ``info`` line of a named recipe (``params["recipe"]``; a tampered record prints what it can)."""
+    if not isinstance(rec, dict):
+        return []
+    applied = rec.get("applied")
+    what = ", ".join(str(a) for a in applied) if isinstance(applied, list) and applied else "nothing changed"
+    scale = rec.get("feature_scale")
+    extra = ""
+    if isinstance(scale, dict) and isinstance(scale.get("scale"), (int, float)) and scale.get("kind"):
+        extra = f"; typical object {scale['scale']:.0f} px across"
+    return [f"recipe        {rec.get('name', '?')} (set by the recipe: {what}{extra})"]
 
 
 def _match_k(text: str | None) -> int | str | None:
@@ -64,6 +79,15 @@ SCHEME = Scheme(
     default_set="c5",  # measured with benches/repetition.py (complete set, hashed lookup; c4 before)
     builder=build_omega,
     options=(
+        Option(
+            "recipe",
+            "--recipe",
+            "a quality/speed recipe: default (c5, 625 tiles); fast (c4, 256 tiles: builds ~2.3x faster, twice "
+            "the periodic copies); objects (for photos of separate objects such as coins or floor tiles: tiles "
+            "about four objects wide, more objects kept whole, 1.8x the build time; other photos get the "
+            "default). --set and --tile-size override it",
+            choices=tuple(NAMED_RECIPES),
+        ),
         GRADIENTS,
         LITERAL_BORDER,
         Option(
