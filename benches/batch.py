@@ -96,7 +96,7 @@ def sequential(root: Path) -> dict:
     """The loop a user would write without the batch module (same options, same outputs)."""
     out = root / "out-sequential"
     out.mkdir(exist_ok=True)
-    batch._reset_peak()
+    batch.worker._reset_peak()
     t0, c0 = time.perf_counter(), time.process_time()
     stages: dict[str, float] = {}
     for p in sorted((root / "tex").glob("*.png")):
@@ -128,7 +128,7 @@ def sequential(root: Path) -> dict:
         "cpu_s": cpu,
         "proc_cpu_s": cpu,
         "stages": stages,
-        "peak_mb": {"this process": batch._peak_rss_mb()},
+        "peak_mb": {"this process": batch.worker._peak_rss_mb()},
     }
 
 
@@ -261,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
     cpu = {m: statistics.median(r["cpu_s"] for r in rs) for m, rs in runs.items()}
     pcpu = {m: statistics.median(r["proc_cpu_s"] for r in rs) for m, rs in runs.items()}
     print(
-        f"## Batch: {args.jobs} jobs, {args.repeats} repeat(s), {batch._cores()} cores "
+        f"## Batch: {args.jobs} jobs, {args.repeats} repeat(s), {batch.executors._cores()} cores "
         f"(load average {load0[0]:.1f} before, {load1[0]:.1f} after: the machine is shared; cores available to "
         f"this bench before each run, measured: median {statistics.median(caps):.2f}, "
         f"{min(caps):.2f}-{max(caps):.2f})\n"

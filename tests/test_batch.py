@@ -162,7 +162,7 @@ def test_dask_local_and_cli_builds_are_identical(lib_dir: Path, cluster) -> None
     assert all(not w.endswith(f":{os.getpid()}") for w in workers)  # ran in the cluster's processes
     res_b = build_many(lib_dir / "out-b.toml", workers=2, quiet=True)
     assert res_b.n_built == 6 and res_b.exit_status == 0, res_b.summary()
-    assert all(r["threads"] == max(1, batch._cores() // 2) for r in res_b.records)
+    assert all(r["threads"] == max(1, batch.executors._cores() // 2) for r in res_b.records)
     _same_outputs(lib_dir / "out-a", lib_dir / "out-b")
 
     # the single commands with the same options and seeds
@@ -545,7 +545,7 @@ def test_ctrl_c_then_the_same_command_resumes(lib_dir: Path) -> None:
 def test_local_pool_never_forks_a_process_that_ran_kernels(lib_dir: Path) -> None:
     """The parent has run kernels (and so owns thread pools); the local workers start by forkserver or spawn and
     build normally."""
-    assert batch._start_method() in ("forkserver", "spawn")
+    assert batch.executors._start_method() in ("forkserver", "spawn")
     img = np.random.default_rng(1).random((24, 24, 3), dtype=np.float32)
     ts.patch_ssd(img, img[:8, :8], threads=2)
     d = lib_dir / "after-kernels"
@@ -840,10 +840,11 @@ def test_a_run_never_removes_the_live_temporary_folder_of_another(lib_dir: Path,
     other = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)"])  # the other run
     try:
         prefix = f"{batch.TMP_PREFIX}bread.batch.json."
-        live = out / f"{prefix}aaaaaaaaaaaa-{batch._owner_tag(other.pid)}"
+        live = out / f"{prefix}aaaaaaaaaaaa-{batch.worker._owner_tag(other.pid)}"
         gone_pid = max(int(p) for p in os.listdir("/proc") if p.isdigit()) + 10_000  # no such process
-        dead = out / f"{prefix}bbbbbbbbbbbb-{gone_pid}-123-{batch._host_tag()}"
-        reused = out / f"{prefix}cccccccccccc-{other.pid}-1-{batch._host_tag()}"  # same pid, another start
+        dead = out / f"{prefix}bbbbbbbbbbbb-{gone_pid}-123-{batch.worker._host_tag()}"
+        # same pid, another start
+        reused = out / f"{prefix}cccccccccccc-{other.pid}-1-{batch.worker._host_tag()}"
         old = out / f"{prefix}abc123"
         for d in (live, dead, reused, old):
             d.mkdir()

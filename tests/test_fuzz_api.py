@@ -1644,8 +1644,12 @@ def _batch_table(keys: tuple[str, ...]) -> st.SearchStrategy[dict]:
 
 @given(
     top=_batch_table(("version", "output_dir", "log")),
-    presets=st.dictionaries(st.sampled_from(["p", "q"]), _batch_table(ts_batch._PRESET_KEYS), max_size=2),
-    jobs=st.lists(_batch_table(ts_batch._JOB_KEYS).map(lambda t: {"exemplar": "ex.png", **t}), max_size=3),
+    presets=st.dictionaries(
+        st.sampled_from(["p", "q"]), _batch_table(ts_batch.schema._PRESET_KEYS), max_size=2
+    ),
+    jobs=st.lists(
+        _batch_table(ts_batch.schema._JOB_KEYS).map(lambda t: {"exemplar": "ex.png", **t}), max_size=3
+    ),
     raw=st.booleans(),
 )
 @settings(max_examples=max(40, settings().max_examples))

@@ -41,21 +41,37 @@ error or Ctrl-C never leaves a partial file behind.
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import os
-import stat
 import struct
-import tempfile
 import warnings
-from collections.abc import Iterator
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 import numpy as np
 
 from ..base.validate import as_image, to_uint
 from ..errors import ParameterError, ShapeError
+from .atomic import (  # noqa: F401 - check_writable, file_set, pending_path re-exported
+    atomic_open,
+    atomic_path,
+    check_writable,
+    file_set,
+    pending_path,
+)
+from .codecs import (  # noqa: F401 - PNG_COMPRESSIONS and the compression setting re-exported
+    _PNG_SIGNATURE,
+    PNG_COMPRESSIONS,
+    _compression,
+    _core_reason,
+    _decode_png,
+    _encode_exr,
+    _is_exr,
+    _is_png,
+    _png_compression,
+    add_png_compression_argument,
+    encode_png,
+    set_png_compression,
+)
 
 MAX_PIXELS = 1 << 26
 """Default limit on the pixel count of an image file, 2^26 = 67,108,864 (64 Mpx, e.g. 8192 x 8192).
@@ -69,68 +85,9 @@ float32). Raise it with ``load_image(..., max_pixels=N)`` or the environment var
 applies above that.
 """
 
+
 MAX_PIXELS_ENV = "TILESYNTH_MAX_PIXELS"
 """Environment variable overriding :data:`MAX_PIXELS` (a positive integer)."""
-
-_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-
-
-PNG_COMPRESSIONS = ("fast", "default", "best")
-"""The PNG compression levels of :func:`save_image` and ``--png-compression``: deflate level 1, 2 and 9 (zlib-rs)
-after libpng's adaptive row filters (scored on samples of long rows for ``fast`` and ``default``, on every byte
-for ``best``). ``default`` writes files within about 10 % of Pillow's default ``save`` (zlib level 6) at a fifth
-of its CPU time or less; ``best`` about Pillow's size, still faster; ``fast`` the quickest, about 1.3x Pillow's
-size (static Huffman codes). The pixels are identical at every level. See ``benches/png_write.py``."""
-
-_png_compression: contextvars.ContextVar[str] = contextvars.ContextVar("png_compression", default="default")
-
-
-def set_png_compression(level: str | None) -> None:
-    """Set the PNG compression that :func:`save_image` uses when it is not given one (the CLI's
-    ``--png-compression``; in the current context, so threads and async tasks that set their own keep theirs).
-    ``None`` leaves it unchanged."""
-    if level is not None:
-        _png_compression.set(_compression(level))
-
-
-def add_png_compression_argument(parser: Any) -> None:
-    """Add ``--png-compression fast|default|best`` to an argparse parser of a command that writes PNGs."""
-    parser.add_argument(
-        "--png-compression",
-        choices=PNG_COMPRESSIONS,
-        default=None,
-        help="deflate effort of the PNGs written: fast, default (about Pillow's size, several times faster) or "
-        "best (smallest, slowest); the pixels are the same",
-    )
-
-
-def _compression(level: Any) -> str:
-    if level not in PNG_COMPRESSIONS:
-        raise ParameterError(f"compression = {level!r}: must be one of {', '.join(PNG_COMPRESSIONS)}")
-    return str(level)
-
-
-def _core_reason(exc: Exception) -> str:
-    """The reason of a codec error from the Rust core, without its ``png = file: `` prefix."""
-    text = str(exc)
-    for prefix in ("png = file: ", "exr = file: "):
-        if text.startswith(prefix):
-            return text[len(prefix) :]
-    return text
-
-
-def _decode_png(data: bytes, where: str, limit: int) -> tuple[np.ndarray, bytes | None]:
-    """``(H, W, C)`` uint8 / uint16 and the raw eXIf chunk (or None) of PNG bytes, by ``_core.png_decode``.
-    Raises :class:`ParameterError` starting with ``where`` for a damaged file or more than ``limit`` pixels."""
-    from .. import _core
-
-    try:
-        return _core.png_decode(data, limit)
-    except ParameterError as exc:
-        reason = _core_reason(exc)
-        if "exceeds the limit" in reason:
-            raise ParameterError(f"{where}: {reason}") from None
-        raise ParameterError(f"{where}: not a readable image ({reason})") from None
 
 
 def read_png(path: str | os.PathLike[str], max_pixels: int | None = None) -> np.ndarray:
@@ -196,16 +153,6 @@ def _read_bytes(p: Path, where: str) -> bytes:
         return p.read_bytes()
     except OSError as exc:
         raise ParameterError(f"{where}: cannot read ({exc.strerror or exc})") from None
-
-
-def _is_png(p: Path) -> bool:
-    with open(p, "rb") as fh:
-        return fh.read(8) == _PNG_SIGNATURE
-
-
-def _is_exr(p: Path) -> bool:
-    with open(p, "rb") as fh:
-        return fh.read(4) == b"v/1\x01"
 
 
 def load_raster(path: str | os.PathLike[str], max_pixels: int | None = None) -> np.ndarray:
@@ -468,157 +415,6 @@ def _orient(orientation: int, arr: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(op(arr)) if op else arr
 
 
-def _write_target(path: str | os.PathLike[str]) -> Path:
-    """The file an output ``path`` names: ``path`` itself, or for a symbolic link the file it points to (so that
-    writing through a link updates the linked file and keeps the link, as ``open(path, "w")`` would, instead of
-    replacing the link by a file)."""
-    target = Path(path)
-    return Path(os.path.realpath(target)) if target.is_symlink() else target
-
-
-def check_writable(path: str | os.PathLike[str], label: str = "output") -> Path:
-    """Raise :class:`ParameterError` (naming ``label``) unless ``path`` can be written as a file: its directory
-    exists, it is not a directory, and if it exists it is a regular file. Returns the directory.
-
-    Not a regular file (issue 16: ``build in.png -o /dev/full`` replaced the device node with a ZIP when run as
-    root): outputs are written to a temporary file renamed over the target, which would replace a device, FIFO
-    or socket instead of writing into it, so they are refused with the reason."""
-    shown = Path(path)
-    target = _write_target(path)
-    parent = target.parent if str(target.parent) else Path(".")
-    if not parent.is_dir():
-        raise ParameterError(f"{label} = {str(shown)!r}: directory {str(parent)!r} does not exist")
-    if target.is_dir():
-        raise ParameterError(f"{label} = {str(shown)!r}: is a directory, expected a file name")
-    try:
-        mode = target.stat().st_mode
-    except OSError:
-        return parent  # does not exist yet (or cannot be examined: the write reports it)
-    if not stat.S_ISREG(mode):
-        raise ParameterError(
-            f"{label} = {str(shown)!r}: is not a regular file (a device, FIFO or socket); tilesynth writes a "
-            "temporary file and renames it over the output, which would replace it: name a file"
-        )
-    return parent
-
-
-# The files written inside a file_set() block: [(temporary path, target)], renamed into place together at its end.
-_file_set: contextvars.ContextVar[list[tuple[Path, Path]] | None] = contextvars.ContextVar(
-    "file_set", default=None
-)
-
-
-@contextlib.contextmanager
-def file_set() -> Iterator[None]:
-    """Commit every atomic write inside the block as a unit: each file is written to its temporary name as
-    usual, but renamed over its target only when the whole block succeeds, all at the end, with SIGINT and
-    SIGTERM held back during the renames; on any error (Ctrl-C, SIGTERM, a full disk) every temporary file is
-    removed and the previous files stay as they were.
-
-    Why: a command that writes a set of files that belong together (an export: atlases, mips and the manifest
-    that lists them; a material synth: the colour and its maps) must never leave new files beside old ones.
-    The renames are quick metadata operations in one directory; only SIGKILL or a crash between two of them
-    can leave a mixed set. A block inside another joins the outer one."""
-    if _file_set.get() is not None:
-        yield
-        return
-    pending: list[tuple[Path, Path]] = []
-    token = _file_set.set(pending)
-    try:
-        yield
-    except BaseException:
-        _file_set.reset(token)
-        _discard(pending)
-        raise
-    _file_set.reset(token)
-    with _signals_held():
-        for k, (tmp, target) in enumerate(pending):
-            try:
-                os.replace(tmp, target)
-            except BaseException:
-                _discard(pending[k:])
-                raise
-
-
-def pending_path(path: str | os.PathLike[str]) -> Path:
-    """Where the content of ``path`` is now: its temporary file if it was written in the current
-    :func:`file_set` block and not yet committed, else ``path`` itself (for a writer that reads back a file
-    it wrote in the same set)."""
-    target = _write_target(path)
-    for tmp, t in _file_set.get() or []:
-        if t == target:
-            return tmp
-    return Path(path)
-
-
-def _discard(pending: list[tuple[Path, Path]]) -> None:
-    for tmp, _ in pending:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-
-
-@contextlib.contextmanager
-def _signals_held() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM back (delivered when the block ends) in the main thread; elsewhere a no-op
-    (signals are delivered to the main thread)."""
-    import signal
-    import threading
-
-    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
-        yield
-        return
-    held = {signal.SIGINT, signal.SIGTERM}
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
-
-
-@contextlib.contextmanager
-def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
-    """Yield a temporary path next to ``path``; on success move it into place (at the end of the enclosing
-    :func:`file_set` block, if any), on any error remove it.
-
-    An ``OSError`` without a file name (``write`` on a full disk says only "No space left on device") gets the
-    output's name, so that the message says which file could not be written."""
-    parent = check_writable(path)
-    target = _write_target(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=parent)
-    os.close(fd)
-    tmp_path = Path(tmp)
-    try:
-        yield tmp_path
-        # mkstemp creates 0600 files; give the result the permissions a plain open() would have
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp_path, 0o666 & ~umask)
-        pending = _file_set.get()
-        if pending is None:
-            os.replace(tmp_path, target)
-        else:
-            for k, (old, t) in enumerate(pending):
-                if t == target:  # written twice in one set: the last write wins
-                    with contextlib.suppress(OSError):
-                        old.unlink()
-                    del pending[k]
-                    break
-            pending.append((tmp_path, target))
-    except BaseException as exc:
-        with contextlib.suppress(OSError):
-            tmp_path.unlink()
-        if isinstance(exc, OSError) and exc.filename in (None, str(tmp_path)):
-            exc.filename = str(path)
-        raise
-
-
-@contextlib.contextmanager
-def atomic_open(path: str | os.PathLike[str], mode: str = "wb") -> Iterator[IO]:
-    """Open a temporary file next to ``path`` for writing; it replaces ``path`` only if the block succeeds."""
-    with atomic_path(path) as tmp, open(tmp, mode) as fh:
-        yield fh
-
-
 def save_image(
     path: str | os.PathLike[str],
     image: np.ndarray,
@@ -679,77 +475,6 @@ def save_image(
                 f"output = {str(target)!r}: cannot write a {channels}-channel image as {fmt} ({exc}); "
                 "use .png"
             ) from None
-
-
-def encode_png(image: np.ndarray, compression: str = "default", threads: int | None = None) -> bytes:
-    """The PNG file of a uint8 or uint16 ``(H, W)`` / ``(H, W, C)`` array (C = 1 to 4), as bytes.
-
-    The rows get libpng's adaptive filter choice; the filtered data is cut into bands of about 1 MiB that are
-    deflated independently on ``threads`` workers (level 1, 2 or 9 for ``compression`` fast, default, best)
-    and joined into one zlib stream (sync-flush boundaries and a combined Adler-32, as pigz does), so the
-    file is a single ordinary PNG that every decoder reads and its bytes do not depend on ``threads``.
-    """
-    from .. import _core
-
-    arr = np.asarray(image)
-    if arr.dtype not in (np.uint8, np.uint16):
-        raise TypeError(f"image has dtype {arr.dtype}, expected uint8 or uint16 (see save_image for floats)")
-    if arr.ndim == 2:
-        arr = arr[:, :, None]
-    if arr.ndim != 3 or 0 in arr.shape or arr.shape[2] > 4:
-        raise ShapeError(
-            f"image has shape {arr.shape}, expected non-empty (H, W) or (H, W, C) with C in 1..4"
-        )
-    return _core.png_encode(np.ascontiguousarray(arr), _compression(compression), threads)
-
-
-def _encode_exr(arr: np.ndarray) -> bytes:
-    from .. import _core
-
-    if arr.ndim == 2:
-        arr = arr[:, :, None]
-    if arr.ndim != 3 or 0 in arr.shape:
-        raise ShapeError(f"image has shape {arr.shape}, expected non-empty (H, W) or (H, W, C)")
-    if arr.dtype == np.uint8:
-        data, half = arr.astype(np.float32) / np.float32(255), False
-    elif arr.dtype == np.uint16:
-        data, half = arr.astype(np.float32) / np.float32(65535), False
-    elif arr.dtype.kind == "f":
-        data, half = arr.astype(np.float32), arr.dtype == np.float16
-    elif arr.dtype == np.bool_:
-        data, half = arr.astype(np.float32), True
-    else:
-        raise TypeError(f"image has dtype {arr.dtype}, expected float, uint8, uint16 or bool for OpenEXR")
-    return _interruptible(_core.exr_encode, np.ascontiguousarray(data), bool(half))
-
-
-def _interruptible(fn: Any, *args: Any) -> Any:
-    """``fn(*args)``, a Rust call that releases the GIL and runs for seconds without looking at signals (the
-    OpenEXR encoder: 28 s for 9000 x 9000, one call of the exr crate), run so that Ctrl-C and SIGTERM take
-    effect within a twentieth of a second: in the main thread, the call runs in a helper thread while the main
-    thread waits in slices, where Python runs its signal handlers. On an interrupt the exception propagates at
-    once (the atomic write removes its temporary file; a command exits); the abandoned call finishes in its
-    daemon thread, or ends with the process, and its result is dropped. Elsewhere (not the main thread, which
-    receives no signals) the call is made directly."""
-    import threading
-
-    if threading.current_thread() is not threading.main_thread():
-        return fn(*args)
-    box: dict[str, Any] = {}
-
-    def run() -> None:
-        try:
-            box["value"] = fn(*args)
-        except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
-            box["error"] = exc
-
-    worker = threading.Thread(target=run, name="tilesynth-encode", daemon=True)
-    worker.start()
-    while worker.is_alive():
-        worker.join(0.05)
-    if "error" in box:
-        raise box["error"]
-    return box["value"]
 
 
 def _format_for(path: Path) -> str:

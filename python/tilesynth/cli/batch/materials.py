@@ -34,8 +34,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from ..errors import ParameterError
-from ..io.images import check_input_file
+from ...errors import ParameterError
+from ...io.images import check_input_file
 
 __all__ = [
     "ALPHA_CHOICES",
@@ -69,7 +69,7 @@ def _fill(value: str, stem: str, where: str) -> str:
 def split_maps(maps_raw: dict[str, Any], where: str) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
     """The ``maps`` table of a job split into the ``--with`` maps (strings, returned as they are) and the material
     maps (tables, checked: keys, kind, weight, name)."""
-    from ..builder.materials import _NAME, DEFAULT_WEIGHTS, _kind, _weight, infer_kind
+    from ...builder.materials import _NAME, DEFAULT_WEIGHTS, _kind, _weight, infer_kind
 
     plain: dict[str, Any] = {}
     material: dict[str, dict[str, Any]] = {}
@@ -174,7 +174,7 @@ def params(
 def build_keywords(spec: dict[str, Any]) -> dict[str, Any]:
     """The builder keywords of a job's material maps, mask and alpha (the maps loaded), as ``tilesynth build``
     passes them."""
-    from ..io.images import load_raster
+    from ...io.images import load_raster
 
     kw: dict[str, Any] = {}
     mat = spec.get("material") or {}
@@ -205,8 +205,8 @@ def write_previews(
     """The stored maps of a material set for one preview (``synth``'s outputs of them)."""
     import numpy as np
 
-    from ..builder.materials import synthesize_maps
-    from ..io.images import atomic_open, save_image
+    from ...builder.materials import synthesize_maps
+    from ...io.images import atomic_open, save_image
 
     if not getattr(ts, "map_specs", None):
         return
