@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Batch builds (issue 17): 24 jobs on this machine, the local executor against a plain sequential loop, and a Dask
+"""Batch builds: 24 jobs on this machine, the local executor against a plain sequential loop, and a Dask
 ``LocalCluster`` (2 worker processes) against the local executor.
 
 Every job: a crop of one of the 24 shared textures (at most 192x192), a 16a ω set of 48-pixel tiles chosen by the

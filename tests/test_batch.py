@@ -1,4 +1,4 @@
-"""Batch builds (issue 17): a library of jobs from a TOML file, locally and on a real Dask LocalCluster.
+"""Batch builds: a library of jobs from a TOML file, locally and on a real Dask LocalCluster.
 
 The library: six small crops of /work/shared/textures (or tests/data when that is absent), 16-pixel tiles, one job
 with an aligned map, one Wang job, one glob job; a contact sheet and a preview per job.

@@ -271,7 +271,7 @@ def build_omega(d: st.DrawFn):
     if broken == "genes":
         kw.pop("select", None), kw.pop("generations", None), kw.pop("population", None)
         kw["genes"] = d(arrays(2, I64, (None, 2), max_side=6, lo=-1, hi=24))
-    if broken == "mask":  # issue 14: a mask of any coverage, sometimes of the wrong shape or dtype
+    if broken == "mask":  # a mask of any coverage, sometimes of the wrong shape or dtype
         r = np.random.default_rng(d(st.integers(0, 999)))
         shape = ex.shape[:2] if d(st.booleans()) else (d(st.integers(0, 26)), d(st.integers(0, 26)))
         kw["mask"] = d(
@@ -288,7 +288,7 @@ def build_omega(d: st.DrawFn):
     elif broken == "alpha":
         kw["alpha"] = d(st.sampled_from(["auto", "mask", "colour", "color", "", None, 1]))
     kw.update(border_tries_kwargs(d, broken == "border_tries"))
-    if broken == "augment":  # issue 12: flip / rotate augmentation, carelessly drawn
+    if broken == "augment":  # flip / rotate augmentation, carelessly drawn
         kw["augment"] = d(st.sampled_from(["mirror", "", None, 1, "All", ["flip"]]))
     elif d(st.booleans()):
         kw["augment"] = d(st.sampled_from(["none", "flip", "rotate", "all"]))
@@ -360,7 +360,7 @@ def get_tileset(d: st.DrawFn):
 
 @st.composite
 def scanline_index_map(d: st.DrawFn):
-    # the tile set as a definition, a set name (issue 16: a name raised AttributeError), a TileSet or junk
+    # the tile set as a definition, a set name (a name once raised AttributeError), a TileSet or junk
     tset = d(
         st.sampled_from([small_set().definition, "16a", "wang8", "n1x2", "nope", "", None, 3, small_set()])
     )
@@ -375,7 +375,7 @@ def scanline_index_map(d: st.DrawFn):
 @st.composite
 def validate_index_map(d: st.DrawFn):
     tset = small_set()
-    which = d(st.sampled_from([tset.definition, tset, "8"]))  # a definition, a TileSet or its name (issue 16)
+    which = d(st.sampled_from([tset.definition, tset, "8"]))  # a definition, a TileSet or its name
     return ts.validate_index_map, (which, d(arrays(2, I64, lo=-1, hi=tset.n_tiles + 1))), {}, ()
 
 
@@ -571,7 +571,7 @@ def wang_tileset(d: st.DrawFn):
         "vertical": v,
         "tiles": tiles,
     }
-    if one_in(d, 4):  # issue 12: edge sets with variants, sometimes carelessly drawn
+    if one_in(d, 4):  # edge sets with variants, sometimes carelessly drawn
         desc["variants"] = d(
             st.sampled_from(
                 [list(range(len(tiles))) if isinstance(tiles, list) else [0], [0], [-1], "01", None, [True]]
@@ -606,7 +606,7 @@ def get_wang_tileset(d: st.DrawFn):
                 "",
                 "wang" + "1" * 400,
                 "wang" + "9" * 5000,
-                "wc2x2",  # issue 12: complete edge sets with variants
+                "wc2x2",  # complete edge sets with variants
                 "wc2-3x2",
                 "wc2x0",
                 "wc2x99999",
@@ -771,7 +771,7 @@ def predicted_corner_border_seam_call(d: st.DrawFn):
 
 
 def border_tries_kwargs(d: st.DrawFn, broken: bool) -> dict:
-    """``border_tries`` of the Wang, ω and patch schemes (issue 14): often left out, else valid, or carelessly drawn."""
+    """``border_tries`` of the Wang, ω and patch schemes: often left out, else valid, or carelessly drawn."""
     if broken:
         return {"border_tries": d(st.sampled_from([0, -1, 1.5, True, "8", None, 4097, 2**70, np.int64(0)]))}
     return d(st.sampled_from([{}, {}, {"border_tries": 1}, {"border_tries": d(st.integers(1, 40))}]))
@@ -1168,7 +1168,7 @@ def hashed_index_map_call(d: st.DrawFn):
     size = d(
         st.tuples(sizes(-1, 12), sizes(-1, 12))
         | st.sampled_from([(3,), None, "3x3"])
-        # no cells, one side numpy cannot make (the SIGSEGV of issue 16, seeds 114 / 118)
+        # no cells, one side numpy cannot make (these once crashed with SIGSEGV, seeds 114 / 118)
         | st.sampled_from([(0, 2**63 - 1), (2**62, 0), (0, 2**64), (2**31, 0)])
     )
     origin = d(st.tuples(st.integers(-(2**33), 2**33), st.integers(-(2**33), 2**33)) | st.just((0, 0)))
@@ -1342,7 +1342,7 @@ def _tmpdir() -> str:
 
 @st.composite
 def export_call(d: st.DrawFn):
-    """``tilesynth.export`` (issue 13) on small sets of every scheme, careless parameters and maps."""
+    """``tilesynth.export`` on small sets of every scheme, careless parameters and maps."""
     tset = d(tilesets())
     kw: dict = {
         "padding": d(st.integers(0, 9) | st.sampled_from([-1, 300, 1.5, True, None])),
@@ -1368,7 +1368,7 @@ def export_call(d: st.DrawFn):
 
 
 def small_material() -> ts.TileSet:
-    """One small material set (issue 14), built once."""
+    """One small material set, built once."""
     if "material" not in _CACHE:
         r = np.random.default_rng(8)
         ex = r.random((24, 24, 3), dtype=np.float32)
@@ -1507,7 +1507,7 @@ NOT_FUZZED = {
     "TileSetFormatError",
     "TilesynthError",
     "InternalError",  # exception classes
-    "InputWarning",  # a warning class (issue 14)
+    "InputWarning",  # a warning class
     "TileSet",  # the dataclass; its load and save are fuzzed
     "PoissonInfo",  # a frozen dataclass of results
     "load",  # alias of TileSet.load
@@ -1593,7 +1593,7 @@ def test_cli_on_a_tampered_manifest_exits_0_or_2():
     assert not failures, failures[:5]
 
 
-# ------------------------------------------------------------------------------------------- batch files (issue 17)
+# ------------------------------------------------------------------------------------------------- batch files
 _BATCH_LEAVES = st.one_of(
     st.none(),
     st.booleans(),

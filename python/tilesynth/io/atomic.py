@@ -28,7 +28,7 @@ def check_writable(path: str | os.PathLike[str], label: str = "output") -> Path:
     """Raise :class:`ParameterError` (naming ``label``) unless ``path`` can be written as a file: its directory
     exists, it is not a directory, and if it exists it is a regular file. Returns the directory.
 
-    Not a regular file (issue 16: ``build in.png -o /dev/full`` replaced the device node with a ZIP when run as
+    Not a regular file (``build in.png -o /dev/full`` once replaced the device node with a ZIP when run as
     root): outputs are written to a temporary file renamed over the target, which would replace a device, FIFO
     or socket instead of writing into it, so they are refused with the reason."""
     shown = Path(path)

@@ -102,7 +102,7 @@ def write_report(
     except (FileExistsError, NotADirectoryError) as exc:  # a file where a directory of the path should be
         raise ParameterError(f"out_dir = {str(d)!r}: cannot create the directory ({exc.strerror})") from None
     # Everything is written into a temporary directory next to out_dir and moved into place at the end, so a
-    # failure halfway (full disk, Ctrl-C) leaves no half report (issue 16).
+    # failure halfway (full disk, Ctrl-C) leaves no half report.
     tmp = Path(tempfile.mkdtemp(prefix=f".{d.name}.", suffix=".part", dir=d.parent))
     try:
         umask = os.umask(0)
@@ -193,7 +193,7 @@ def _write_report_files(tileset: Any, d: Path, m: dict, objs: dict, borders: boo
             f"No convergence chart: the sample patches were chosen by '{sel.get('method', '?')}', which "
             "runs no generations (build with --select ga or ais to get one)."
         )
-    if getattr(tileset, "map_specs", None):  # issue 14: the maps of a material set
+    if getattr(tileset, "map_specs", None):  # the maps of a material set
         from ..builder.materials import report_maps
 
         for map_name, arr, caption in report_maps(tileset, objs["index_map"], img.shape):

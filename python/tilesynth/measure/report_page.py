@@ -183,7 +183,7 @@ def _cut_score_rows(ob: dict[str, Any]) -> list[tuple[str, str, str]]:
 # the metric families in the order of the table, each with the rows it makes
 _ROW_MAKERS: tuple[tuple[str, Callable[[dict[str, Any]], list[tuple[str, str, str]]]], ...] = (
     ("seam", _seam_rows),
-    ("inner_seam", _inner_seam_rows),  # issue 12
+    ("inner_seam", _inner_seam_rows),  # straight cuts inside the tiles, which the border score misses
     ("coherence", _coherence_rows),
     ("coverage", _coverage_rows),
     ("repetition", _repetition_rows),
@@ -245,12 +245,13 @@ def _page(
         "<h2>Metrics</h2>",
     ]
     parts += _metrics_table(m, reference, wang)
-    from .diagnose import info_lines  # issue 14: the mask and the input warnings of the build
+    from .diagnose import info_lines  # the mask and the input warnings of the build
 
     parts += [f'<p class="note">{esc(line.split(None, 1)[0])}: {esc(line.split(None, 1)[1])}</p>'
               for line in info_lines(tileset.params)]  # fmt: skip
     parts += _figures(files, s, wang, reference)
-    parts += [_img(f, f"Map {k[4:]}") for k, f in files.items() if k.startswith("map-")]  # issue 14: maps
+    # a material set's maps
+    parts += [_img(f, f"Map {k[4:]}") for k, f in files.items() if k.startswith("map-")]
     for note in notes:
         parts.append(f'<p class="note">{esc(note)}</p>')
     parts += _per_tile_table(tileset, wang)

@@ -69,7 +69,7 @@ lookup = "auto"|"hash"|"index_map", seed = 0, index_seed = 0, normal_y = "up"|"d
 export NAME.tiles -o NAME-export/`` with ``--with`` for every map of the job (``maps = false``: the colour only);
 the options mean what the options of :func:`tilesynth.engine.export` of the same name mean (defaults the same).
 
-Material builds and masks (issue 14, :mod:`tilesynth.cli.batch.materials`): a ``maps`` entry given as a table
+Material builds and masks (:mod:`tilesynth.cli.batch.materials`): a ``maps`` entry given as a table
 ``{ file = "...", kind = "normal", weight = 0.5 }`` is a map of the material (``tilesynth build --map``; ``kind``
 and ``weight`` optional), a string stays a map sent through the cuts afterwards (``--with``); the preset or job
 keys ``mask`` (a file, ``{stem}`` filled in), ``alpha`` (auto | mask | colour) and ``normal_y`` (up | down) are the

@@ -191,7 +191,7 @@ def _expand_job(
     )
     sheet, previews, report, export, kinds = _output_options(preset, own, options, where, where_p)
     maps_raw = _typed(body.get("maps", {}), dict, f"{where}: field 'maps'")
-    try:  # issue 14: table entries are material maps
+    try:  # table entries are material maps
         maps_raw, material_raw = _split_maps(maps_raw, where)
     except ParameterError as exc:
         raise BatchError(str(exc)) from None
@@ -481,7 +481,7 @@ def _outputs(
         if pv["maps"]:
             for mname, (mp, _) in maps.items():
                 o[f"{role}-{mname}"] = out_dir / f"{name}-{role}-{mname}{_map_suffix(mp)}"
-            for mname, m in (material or {}).items():  # issue 14: the material set's stored maps
+            for mname, m in (material or {}).items():  # the material set's stored maps
                 suffix = ".exr" if m["path"].suffix.lower() == ".exr" else _map_suffix(m["path"])
                 o[f"{role}-{mname}"] = out_dir / f"{name}-{role}-{mname}{suffix}"
     if report is not None:

@@ -1,4 +1,4 @@
-"""Material builds and masks in batch files (issue 14): the job / preset keys ``mask``, ``alpha``, ``normal_y`` and
+"""Material builds and masks in batch files: the job / preset keys ``mask``, ``alpha``, ``normal_y`` and
 the table form of ``maps`` entries (:mod:`tilesynth.cli.batch`).
 
 .. code-block:: toml

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from ...errors import ParameterError
-from .materials import params as _material_params  # issue 14: material maps, mask, alpha
+from .materials import params as _material_params  # material maps, mask, alpha
 
 FORMAT_VERSION = 1
 
@@ -76,7 +76,7 @@ _BUILD_OPTIONS: dict[str, tuple[str, tuple | None, tuple[str, ...], Any]] = {
 _OUTPUT_OPTIONS = ("sheet", "previews", "report", "map_kinds", "export")
 
 
-_MATERIAL_KEYS = ("mask", "alpha", "normal_y")  # issue 14: tilesynth.cli.batch.materials
+_MATERIAL_KEYS = ("mask", "alpha", "normal_y")  # checked by tilesynth.cli.batch.materials
 
 
 _PRESET_KEYS = (*_BUILD_OPTIONS, *_OUTPUT_OPTIONS, *_MATERIAL_KEYS)
@@ -125,7 +125,7 @@ class Job:
     stamp: Path
     where: str  # "job 3 ('textures/*.png' -> gravel)" for messages
     export: dict[str, Any] | None = None  # the engine export options, None for no export
-    # issue 14 (tilesynth.cli.batch.materials): material maps {name: {path, kind, weight}}, mask, alpha, normal_y
+    # material builds (tilesynth.cli.batch.materials): material maps {name: {path, kind, weight}}, mask, alpha, normal_y
     material: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
     mask: Path | None = None
     alpha: str | None = None

@@ -275,7 +275,7 @@ def _build_tileset(spec: dict[str, Any], image: Any, bits: Any, threads: int | N
         extra = dict(gradients=o["gradients"], supplementary=o["supplementary"])
     if scheme in ("wang", "swang", "omega") and o["border_tries"] is not None:
         extra["border_tries"] = o["border_tries"]
-    from .materials import build_keywords  # issue 14: material maps, mask, alpha
+    from .materials import build_keywords  # material maps, mask, alpha
 
     return build(image, scheme=scheme, **common, **extra, **build_keywords(spec))
 
@@ -307,7 +307,7 @@ def _write_previews(
         save_image(staged[role], img)
         del img
         if pv["maps"]:
-            from .materials import write_previews as material_previews  # issue 14
+            from .materials import write_previews as material_previews  # the set's own maps
 
             material_previews(ts, staged, role, imap, (w, h), threads)
             for mname, (arr, kind) in maps.items():
