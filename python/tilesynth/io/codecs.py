@@ -1,5 +1,5 @@
-"""PNG and OpenEXR bytes to and from arrays, through the Rust core (the ``png`` and ``exr`` crates of image-rs):
-the PNG encoder and its compression levels, the decoders' error messages, the file signatures.
+"""PNG and OpenEXR bytes to and from arrays, through the Rust core (the ``png`` and ``exr`` crates of
+image-rs): the PNG encoder and its compression levels, the decoders' error messages, the file signatures.
 
 The files themselves (limits, checks, EXIF, atomic writes) are :mod:`tilesynth.io.images`'s business.
 """
@@ -18,20 +18,21 @@ _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
 PNG_COMPRESSIONS = ("fast", "default", "best")
-"""The PNG compression levels of :func:`save_image` and ``--png-compression``: deflate level 1, 2 and 9 (zlib-rs)
-after libpng's adaptive row filters (scored on samples of long rows for ``fast`` and ``default``, on every byte
-for ``best``). ``default`` writes files within about 10 % of Pillow's default ``save`` (zlib level 6) at a fifth
-of its CPU time or less; ``best`` about Pillow's size, still faster; ``fast`` the quickest, about 1.3x Pillow's
-size (static Huffman codes). The pixels are identical at every level. See ``benches/png_write.py``."""
+"""The PNG compression levels of :func:`~tilesynth.io.images.save_image` and ``--png-compression``: deflate
+level 1, 2 and 9 (zlib-rs) after libpng's adaptive row filters (scored on samples of long rows for ``fast``
+and ``default``, on every byte for ``best``). ``default`` writes files within about 10 % of Pillow's
+default ``save`` (zlib level 6) at a fifth of its CPU time or less; ``best`` about Pillow's size, still
+faster; ``fast`` the quickest, about 1.3x Pillow's size (static Huffman codes). The pixels are identical at
+every level. See ``benches/png_write.py``."""
 
 
 _png_compression: contextvars.ContextVar[str] = contextvars.ContextVar("png_compression", default="default")
 
 
 def set_png_compression(level: str | None) -> None:
-    """Set the PNG compression that :func:`save_image` uses when it is not given one (the CLI's
-    ``--png-compression``; in the current context, so threads and async tasks that set their own keep theirs).
-    ``None`` leaves it unchanged."""
+    """Set the PNG compression that :func:`~tilesynth.io.images.save_image` uses when it is not given one (the
+    CLI's ``--png-compression``; in the current context, so threads and async tasks that set their own keep
+    theirs). ``None`` leaves it unchanged."""
     if level is not None:
         _png_compression.set(_compression(level))
 

@@ -1,6 +1,6 @@
-"""The figures of the report (:mod:`tilesynth.measure.report`), drawn with Pillow: the viridis colour map and its
-colour bars, the sample with its tile borders, the seam and coherence heat-maps, the selection's convergence
-chart."""
+"""The figures of the report (:mod:`tilesynth.measure.report`), drawn with Pillow: the viridis colour map and
+its colour bars, the sample with its tile borders, the seam and coherence heat-maps, the selection's
+convergence chart."""
 
 from __future__ import annotations
 
@@ -121,7 +121,7 @@ def sample_with_borders(
 
 
 def seam_heatmap(img: np.ndarray, tile_size: int, half_width: int = 2):  # noqa: ANN201
-    """The seam heat-map figure (see the module docstring) as a PIL image, colour bar below."""
+    """The seam heat-map figure (see :mod:`tilesynth.measure.report`) as a PIL image, colour bar below."""
     from PIL import Image
 
     h, w = img.shape[:2]

@@ -1,5 +1,6 @@
-"""The report's HTML page (:mod:`tilesynth.measure.report`): the metrics table (one maker of rows per family of
-metrics), the figures with their captions, the per-tile table, the notes; one file, no script, no network."""
+"""The report's HTML page (:mod:`tilesynth.measure.report`): the metrics table (one maker of rows per family
+of metrics), the figures with their captions, the per-tile table, the notes; one file, no script, no
+network."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""No output of a batch may be an input or another output: the rule of :mod:`tilesynth.io.paths` over every job
-of a batch and its log, with messages that name the jobs."""
+"""No output of a batch may be an input or another output: the rule of :mod:`tilesynth.io.paths` over every
+job of a batch and its log, with messages that name the jobs."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""``tilesynth batch``: its options, and its main (the listing of ``--dry-run``, the summary, the exit status)."""
+"""``tilesynth batch``: its options, and its main (the listing of ``--dry-run``, the summary, the exit
+status)."""
 
 from __future__ import annotations
 

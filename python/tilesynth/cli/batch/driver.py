@@ -51,7 +51,7 @@ class BatchResult:
 
     @property
     def exit_status(self) -> int:
-        """0 when nothing failed, 1 when any job failed (see the module docstring)."""
+        """0 when nothing failed, 1 when any job failed (see :mod:`tilesynth.cli.batch`)."""
         return 1 if self.n_failed else 0
 
     def summary(self) -> str:
@@ -156,8 +156,9 @@ def build_many(
     ----------
     jobs : a batch file path, a :class:`Library` (:func:`load_library`), a list of :class:`Job`, or the content of
         a batch file as a dict (paths relative to the current directory). Validated before any work.
-    executor : ``None`` (a local process pool, see the module docstring), ``"serial"`` (this process), or any
-        ``concurrent.futures.Executor`` (``client.get_executor()`` of Dask, Ray's, ...). Not shut down here.
+    executor : ``None`` (a local process pool, see :mod:`tilesynth.cli.batch`), ``"serial"`` (this process),
+        or any ``concurrent.futures.Executor`` (``client.get_executor()`` of Dask, Ray's, ...). Not shut down
+        here.
     force : rebuild jobs that are up to date.
     workers : processes of the local pool (default: usable cores, at most the jobs to build).
     threads : kernel threads per job (default: cores // workers for the local pool; None, i.e. every core,

@@ -1,6 +1,6 @@
 """Where the jobs of a batch run: the local process pool (its start method, its size from the usable cores,
-each worker's thread count and its watch on the batch process) or a Dask cluster (its address checked, a client
-opened)."""
+each worker's thread count and its watch on the batch process) or a Dask cluster (its address checked, a
+client opened)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Reading a batch file: TOML in, a validated :class:`~tilesynth.cli.batch.schema.Library` out. Every job is
-expanded (its glob, ``{stem}``, its preset), its outputs are named, and what would fail it only after its build
-is refused up front."""
+expanded (its glob, ``{stem}``, its preset), its outputs are named, and what would fail it only after its
+build is refused up front."""
 
 from __future__ import annotations
 
@@ -41,7 +41,8 @@ from .schema import (
 
 
 def load_library(path: str | os.PathLike[str]) -> Library:
-    """Read and validate a batch file (see the module docstring); raises :class:`BatchError` naming the problem."""
+    """Read and validate a batch file (see :mod:`tilesynth.cli.batch`); raises :class:`BatchError` naming the
+    problem."""
     p = Path(path)
     if not p.is_file():
         raise BatchError(f"{p}: no such batch file")

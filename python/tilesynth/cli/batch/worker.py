@@ -1,6 +1,6 @@
 """One job, as a worker process (or this one, serially) runs it: the build, its sheet, previews, report and
-engine export, all written into a temporary folder beside the outputs and moved into place, the stamp last; the
-record it returns; and the clean-up of the temporary folders that interrupted runs left behind."""
+engine export, all written into a temporary folder beside the outputs and moved into place, the stamp last;
+the record it returns; and the clean-up of the temporary folders that interrupted runs left behind."""
 
 from __future__ import annotations
 
@@ -49,8 +49,9 @@ def _peak_rss_mb() -> float:
 
 
 def run_job(spec: dict[str, Any]) -> dict[str, Any]:
-    """Run one job described by ``spec`` (a small dict of paths and options, see :func:`build_many`) and return
-    its record. Never raises for a job's own failure: the error is in the record."""
+    """Run one job described by ``spec`` (a small dict of paths and options, see
+    :func:`~tilesynth.cli.batch.build_many`) and return its record. Never raises for a job's own failure: the
+    error is in the record."""
     t_start, cpu_start, started = time.perf_counter(), time.process_time(), time.time()
     scoped = _reset_peak()
     rec: dict[str, Any] = {
