@@ -418,6 +418,18 @@ BAD = {
         '[[jobs]]\nexemplar = "tex/bread.png"\nexport = "yes"\n',
         "field 'export' = 'yes'",
     ),
+    "recipe unknown": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\nrecipe = "quick"\n',
+        "field 'recipe' = 'quick'",
+    ),
+    "recipe fast with a set": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\nrecipe = "fast"\nset = "c5"\n',
+        "field 'set' with recipe = \"fast\"",
+    ),
+    "recipe with wang": (
+        '[[jobs]]\nexemplar = "tex/bread.png"\nscheme = "wang"\nrecipe = "fast"\n',
+        "field 'recipe'",
+    ),
     "no jobs": ('[presets.p]\nset = "8"\n', "no jobs"),
     "not toml": ("[[jobs]\nexemplar = 1\n", "not valid TOML"),
     "version": ('version = 2\n[[jobs]]\nexemplar = "tex/bread.png"\n', "only version 1"),
@@ -858,3 +870,20 @@ def test_a_run_never_removes_the_live_temporary_folder_of_another(lib_dir: Path,
         other.wait()
     build_many(f, executor="serial", quiet=True, force=True)
     assert not live.exists()  # its owner has ended: stale now
+
+
+def test_a_job_recipe_builds_as_the_cli_does(lib_dir: Path, tmp_path: Path) -> None:
+    """``recipe = "fast"`` in a job is ``tilesynth build --recipe fast``: the same tiles, recorded."""
+    shutil.copytree(lib_dir / "tex", tmp_path / "tex")
+    f = tmp_path / "lib.toml"
+    f.write_text('output_dir = "out"\n[[jobs]]\nexemplar = "tex/bread.png"\nrecipe = "fast"\nsheet = false\n')
+    build_many(f, quiet=True)
+    got = ts.load(tmp_path / "out" / "bread.tiles")
+    assert cli_main(["build", str(tmp_path / "tex" / "bread.png"), "-o", str(tmp_path / "c.tiles"), "--seed", "1",
+                     "--recipe", "fast", "-q"]) == 0  # fmt: skip
+    want = ts.load(tmp_path / "c.tiles")
+    assert got.n_tiles == 256 and got.params["recipe"] == want.params["recipe"] == {
+        "name": "fast",
+        "applied": ["tileset"],
+    }
+    assert np.array_equal(got.tiles, want.tiles)

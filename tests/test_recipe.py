@@ -177,3 +177,17 @@ def test_cli_recipe_is_recorded_and_shown(tmp_path, crop):
     assert cli(["build", str(src), "-o", str(out), "--seed", "1", "--recipe", "fast", "-q"]) == 0
     t = tilesynth.load(out)
     assert t.n_tiles == 256 and t.params["recipe"]["name"] == "fast"
+
+
+def test_cli_refuses_the_default_set_given_with_fast(tmp_path, crop, capsys):
+    """``--set c5 --recipe fast``: the default set given on purpose would be replaced by the recipe's c4."""
+    from tilesynth.cli.main import main as cli
+
+    src = tmp_path / "ex.png"
+    tilesynth.save_image(src, crop)
+    assert (
+        cli(["build", str(src), "-o", str(tmp_path / "a.tiles"), "--set", "c5", "--recipe", "fast", "-q"])
+        == 2
+    )
+    assert "--set c5 with --recipe fast" in capsys.readouterr().err
+    assert not (tmp_path / "a.tiles").exists()

@@ -52,7 +52,7 @@ name or writing the same file): the error names the job (its number in the file 
     tile_size = 48                    # any preset key can be overridden per job
 
 Build options (preset or job): ``scheme``, ``set``, ``tile_size``, ``select``, ``polish``, ``generations``,
-``population``, ``seed``; ω only: ``normalise``, ``match`` (ssd | circle | midpoints | best-cut), ``match_k`` (int
+``population``, ``seed``; ω only: ``recipe`` (default | fast | objects, as ``tilesynth build --recipe``), ``normalise``, ``match`` (ssd | circle | midpoints | best-cut), ``match_k`` (int
 or "all", best-cut only), ``metric`` (color | eq2 | eq3), ``smooth``, ``literal_border``; ω and swang:
 ``gradients`` (patch | tile); wang only: ``cut`` (dp | graph), ``overlap``, ``corners`` (free | pinned),
 ``samples`` (diamond | square); swang only: ``supplementary`` (ssd | cut); wang, swang and omega: ``border_tries``

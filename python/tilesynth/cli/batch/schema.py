@@ -10,6 +10,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+from ...builder.recipe import NAMED_RECIPES
 from ...errors import ParameterError
 from .materials import params as _material_params  # material maps, mask, alpha
 
@@ -70,6 +71,7 @@ _BUILD_OPTIONS: dict[str, tuple[str, tuple | None, tuple[str, ...], Any]] = {
     "samples": ("str", ("diamond", "square"), ("wang",), "diamond"),
     "supplementary": ("str", ("ssd", "cut"), ("swang",), "ssd"),
     "border_tries": ("int", None, ("wang", "swang", "omega"), None),
+    "recipe": ("str", tuple(NAMED_RECIPES), ("omega",), None),
 }
 
 
@@ -259,6 +261,8 @@ def _effective(
         raise BatchError(f'{where}: field \'generations\': only used with select = "ga" or "ais"')
     if opts["select"] == "random" and opts["population"] is not None:
         raise BatchError(f"{where}: field 'population': not used with select = \"random\"")
+    if scheme == "omega" and opts["recipe"] == "fast" and "set" in given:
+        raise BatchError(f"{where}: field 'set' with recipe = \"fast\": the fast recipe chooses the set (c4)")
     if scheme == "omega" and opts["match_k"] is not None and opts["match"] != "best-cut":
         raise BatchError(f"{where}: field 'match_k': only used with match = \"best-cut\"")
     if scheme == "omega" and opts["metric"] == "eq2" and opts["select"] not in (None, "random"):

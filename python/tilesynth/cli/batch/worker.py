@@ -274,6 +274,8 @@ def _build_tileset(spec: dict[str, Any], image: Any, bits: Any, threads: int | N
         extra = dict(cut=o["cut"], overlap=o["overlap"], corners=o["corners"], samples=o["samples"])
     else:
         extra = dict(gradients=o["gradients"], supplementary=o["supplementary"])
+    if scheme == "omega" and o["recipe"] is not None:
+        extra["recipe"] = o["recipe"]
     if scheme in ("wang", "swang", "omega") and o["border_tries"] is not None:
         extra["border_tries"] = o["border_tries"]
     from .materials import build_keywords  # material maps, mask, alpha
