@@ -790,7 +790,7 @@ def _levelled(tileset: Any, spec: MapSpec, arr: np.ndarray) -> np.ndarray:
         f = arr.astype(np.float64) / (_scale(arr) or 1.0)
         cache[key] = (arr, f + level_field(levels[spec.name], levels["corners"], f.shape, LEVEL_BLOCK))
         lru = cache.get("fused")
-        for k in [k for k in (lru or {}) if k[0] == spec.name]:
+        for k in [k for k in (lru or {}) if len(k) == 2 and k[0] == spec.name]:
             cache["fused_bytes"] -= lru.pop(k).nbytes
     return cache[key][1]
 
@@ -837,6 +837,84 @@ def fused_tiles(tileset: Any, spec: MapSpec, arr: np.ndarray, tiles: np.ndarray)
     out = np.stack([lru[(spec.name, int(t))] for t in tiles]) if tiles.size else np.zeros((0,) + arr.shape)
     for t in tiles:
         lru.move_to_end((spec.name, int(t)))
+    while cache.get("fused_bytes", 0) > FUSED_CACHE_BYTES and len(lru) > tiles.size:
+        _, old = lru.popitem(last=False)
+        cache["fused_bytes"] -= old.nbytes
+    return out
+
+
+SEAMS: tuple[str, ...] = ("blend", "fuse")
+"""How the seams of smoothed scalar and normal maps are treated (:func:`seams_method`)."""
+
+DEFAULT_SEAMS = "blend"
+"""The default seam treatment: the blend from the labels' coverage (:mod:`tilesynth.synth.seams`), which keeps the
+relief (measured, ``benches/relief-results.md``: height std 0.9-1.0x of the exemplar's, cliffs at or below the
+exemplar's own) where the fusion flattens it (0.2-0.8x); and it is local, so the GPU can do the same."""
+
+
+def seams_method(seams: Any) -> str:
+    """The seam treatment ``seams`` names: None (:data:`DEFAULT_SEAMS`), "blend" or "fuse"."""
+    if seams is None:
+        return DEFAULT_SEAMS
+    if not isinstance(seams, str) or seams not in SEAMS:
+        raise ParameterError(f"seams = {seams!r}: expected None, {' or '.join(repr(v) for v in SEAMS)}")
+    return seams
+
+
+def map_provenance(tileset: Any) -> Any:
+    """The labels and source table the seam blend reads: the set's provenance, or for a set held as pixels the
+    factorisation of its ``source`` (also for Poisson-smoothed sets, whose maps are laid out from the same
+    sources), found once per set; None when some tile has more than 255 pieces (the fusion is used then)."""
+    if tileset.provenance is not None:
+        return tileset.provenance
+    cache = _cache(tileset)
+    src = tileset.source
+    if "prov" not in cache or cache["prov"][0] is not src:
+        from ..tileset.provenance import factorise
+
+        cache["prov"] = (src, factorise(src))
+    return cache["prov"][1]
+
+
+def blended_tiles(tileset: Any, spec: MapSpec, arr: np.ndarray, tiles: np.ndarray) -> np.ndarray:
+    """The tiles ``tiles`` of map ``arr`` (scalar or normal kind) with their seams blended
+    (:func:`tilesynth.synth.seams.blend_tiles`, at the kind's level), in the map's sample type; normal maps read
+    their vectors renormalised once per set (the copies' bytes where a pixel has one source); recently blended
+    tiles come from the set's cache (:data:`FUSED_CACHE_BYTES`, shared with the fused tiles)."""
+    from collections import OrderedDict
+
+    from ..synth.seams import blend_tiles
+
+    cache = _cache(tileset)
+    lru: OrderedDict = cache.setdefault("fused", OrderedDict())
+    src = _copied_map(tileset, spec, arr)
+    key0 = ("blend", spec.name)
+    if cache.get(key0) is not src:  # a replaced map drops its blended tiles
+        for k in [k for k in lru if k[:2] == key0]:
+            cache["fused_bytes"] -= lru.pop(k).nbytes
+        cache[key0] = src
+    tiles = np.asarray(tiles, np.int64).reshape(-1)
+    missing = np.array([int(t) for t in tiles if (*key0, int(t)) not in lru], np.int64)
+    if missing.size:
+        made = blend_tiles(
+            src,
+            map_provenance(tileset),
+            missing,
+            kind=spec.kind,
+            encoding=spec.encoding or "unorm",
+            y_down=spec.normal_y == "down",
+        )
+        for t, tile in zip(missing, made):
+            lru[(*key0, int(t))] = tile
+            cache["fused_bytes"] = cache.get("fused_bytes", 0) + tile.nbytes
+    n = tileset.tile_size
+    out = (
+        np.stack([lru[(*key0, int(t))] for t in tiles])
+        if tiles.size
+        else np.zeros((0, n, n, arr.shape[2]), arr.dtype)
+    )
+    for t in tiles:
+        lru.move_to_end((*key0, int(t)))
     while cache.get("fused_bytes", 0) > FUSED_CACHE_BYTES and len(lru) > tiles.size:
         _, old = lru.popitem(last=False)
         cache["fused_bytes"] -= old.nbytes
@@ -896,10 +974,13 @@ def map_atlas(
     smooth: bool | None = None,
     threads: int | None = None,
     tiles: np.ndarray | None = None,
+    seams: str | None = None,
 ) -> np.ndarray:
     """The tiles ``(k, N, N, C)`` of one map of ``tileset`` (``tiles``: their indices; None: every tile): copied
-    through the provenance, fused across the seams or Poisson-smoothed in the cut regions when :func:`smooths`
-    says so (never for labels), normal vectors renormalised. Scalar and normal maps are fused for the tiles
+    through the provenance, or where :func:`smooths` says so (never for labels) scalar and normal maps with
+    their seams treated by ``seams`` (:func:`seams_method`: "blend", the default, :func:`blended_tiles`;
+    "fuse", the gradient-domain fusion below) and colour maps Poisson-smoothed in the cut regions, normal
+    vectors renormalised. With ``seams="fuse"`` scalar and normal maps are fused for the tiles
     asked only (:func:`fused_tiles`, the bytes of :func:`fuse_map_atlas`); a colour map of a Poisson-smoothed set
     needs the whole set. The vectors of a normal map are turned with their pixels where a matching patch was
     rotated or mirrored (``--augment``: :func:`~tilesynth.builder.matching.augment.transform_normal_codes`, exact
@@ -909,6 +990,13 @@ def map_atlas(
     from .matching.augment import pixel_transforms, transform_normal_codes
 
     idx = np.arange(tileset.n_tiles) if tiles is None else np.asarray(tiles, np.int64).reshape(-1)
+    if (
+        spec.kind in SMOOTH_KINDS
+        and smooths(tileset, spec, smooth)
+        and seams_method(seams) == "blend"
+        and map_provenance(tileset) is not None
+    ):  # the default: the seam blend from the labels (rotated or mirrored entries are turned by the blend)
+        return blended_tiles(tileset, spec, arr, idx)
     turns = pixel_transforms(tileset)
     if turns is not None:  # rotated or mirrored patches: every step and vector turns with its patch
         src = tileset.source
@@ -957,12 +1045,15 @@ def synthesize_maps(
     smooth: bool | None = None,
     normal_y: str | None = None,
     offset: tuple[int, int] = (0, 0),
+    seams: str | None = None,
 ) -> dict[str, np.ndarray]:
     """Every map stored in a material tile set, laid out like the colour output of ``index_map``:
     ``{name: (height, width, C)}`` in each map's own sample type. ``smooth``: None (:func:`smooths`: scalar and
     normal maps, and every map of a smoothed set), True or False (labels are never smoothed); ``normal_y``: "up" / "down" converts normal maps recorded in the other
     convention (None: as recorded); ``offset = (oy, ox)``: the window starts that many pixels into the first
-    cell of ``index_map`` (as :func:`tilesynth.synthesize` lays a window at any ``origin``).
+    cell of ``index_map`` (as :func:`tilesynth.synthesize` lays a window at any ``origin``); ``seams``: how the
+    seams of smoothed scalar and normal maps are treated (:func:`seams_method`): "blend" (None, the default:
+    :mod:`tilesynth.synth.seams`, relief kept) or "fuse" (the gradient-domain fusion, flatter).
 
     **Per window.** Only the tiles the window shows are made: copied maps are gathered from the map through the
     provenance (:func:`tilesynth.tileset.provenance.gather`), fused maps are fused for those tiles (the level
@@ -979,6 +1070,7 @@ def synthesize_maps(
         raise ParameterError(f"normal_y = {normal_y!r}: must be None, 'up' or 'down'")
     if smooth is not None and not isinstance(smooth, (bool, np.bool_)):
         raise ParameterError(f"smooth = {smooth!r}: must be None, True or False")
+    seams = seams_method(seams)
     threads = threads_arg(threads)
     w, h = positive_int(width, "width"), positive_int(height, "height")
     specs = tileset.map_specs or []
@@ -1017,7 +1109,9 @@ def synthesize_maps(
 
             gather(_copied_map(tileset, spec, arr), prov, imap, img, (oy, ox), threads=threads)  # copies
         else:
-            atlas = np.ascontiguousarray(map_atlas(tileset, spec, arr, smooth, threads, tiles=shown))
+            atlas = np.ascontiguousarray(
+                map_atlas(tileset, spec, arr, smooth, threads, tiles=shown, seams=seams)
+            )
             _core.tile_copy_window(atlas, local, (oy, ox), img, threads)
         if spec.kind == "normal" and normal_y is not None and normal_y != spec.normal_y:
             img = convert_normal_y(img, spec.encoding or "unorm")
