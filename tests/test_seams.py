@@ -18,11 +18,26 @@ from tilesynth.synth import seams
 from tilesynth.tileset.provenance import Provenance, dihedral_grid
 
 
-def _oracle_weight(lab: np.ndarray, e: int, level: float, y: int, x: int) -> float:
+def _extended(lab: np.ndarray, reach: int) -> np.ndarray:
+    """Labels within ``reach`` of the border replaced by the nearest border pixel's (the row's end first)."""
+    n = lab.shape[0]
+    out = lab.copy()
+    for y in range(n):
+        for x in range(n):
+            dy, dx = min(y, n - 1 - y), min(x, n - 1 - x)
+            if min(dy, dx) < reach:
+                if dy <= dx:
+                    out[y, x] = lab[0 if y < n - 1 - y else n - 1, x]
+                else:
+                    out[y, x] = lab[y, 0 if x < n - 1 - x else n - 1]
+    return out
+
+
+def _oracle_weight(lab: np.ndarray, e: int, level: float, y: int, x: int, reach: int = 1) -> float:
     """Steps 1-3 of the module docstring, one pixel at a time, in plain Python."""
     n = lab.shape[0]
     d = min(y, x, n - 1 - y, n - 1 - x)
-    lod = min(level, math.log2(1 + d))
+    lod = min(level, math.log2(reach + d))
     l0 = math.floor(lod)
     f = lod - l0
 
@@ -72,14 +87,17 @@ def _random_prov(k: int, n: int, e: int, seed: int, ex: int, turns: bool = True)
     return Provenance(labels=labels, table=table)
 
 
-@pytest.mark.parametrize("n,level", [(12, 3.0), (16, 2.0), (10, 2.5)])
-def test_weights_match_the_pixel_by_pixel_oracle(n, level):
+@pytest.mark.parametrize(
+    "n,level,reach", [(12, 3.0, 1), (16, 2.0, 1), (10, 2.5, 1), (16, 3.0, 4), (13, 2.2, 2)]
+)
+def test_weights_match_the_pixel_by_pixel_oracle(n, level, reach):
     prov = _random_prov(2, n, 4, seed=n, ex=20)
-    w = seams.blend_weights(prov.labels, 4, level)
+    w = seams.blend_weights(prov.labels, 4, level, reach)
     np.testing.assert_allclose(w.sum(axis=1), 1.0, atol=1e-12)
     for t in range(2):
+        lab = _extended(prov.labels[t], reach)
         for e in range(4):
-            ref = [[_oracle_weight(prov.labels[t], e, level, y, x) for x in range(n)] for y in range(n)]
+            ref = [[_oracle_weight(lab, e, level, y, x, reach) for x in range(n)] for y in range(n)]
             np.testing.assert_allclose(w[t, e], ref, atol=1e-12)
 
 
@@ -114,7 +132,7 @@ def test_scalar_blend_matches_the_oracle_with_mirrored_reads():
     r = np.random.default_rng(4)
     img = r.integers(0, 65536, (20, 18, 1), dtype=np.uint16)
     prov = _random_prov(2, 12, 3, seed=7, ex=18)
-    got = seams.blend_tiles(img, prov, np.arange(2), "scalar", level=2.0)
+    got = seams.blend_tiles(img, prov, np.arange(2), "scalar", bands={"high": 2.0})
     for t in range(2):
         ref = _oracle_scalar(img, prov, t, 2.0)
         want = np.rint(np.clip(ref, 0, 1) * 65535)
@@ -124,13 +142,74 @@ def test_scalar_blend_matches_the_oracle_with_mirrored_reads():
         )  # sums in another order: a rounding tie may differ
 
 
+def _oracle_mip(img: np.ndarray, level: int, r: float, c: float) -> np.ndarray:
+    """The box mip of ``img`` at ``level`` (partial blocks: their own pixels), bilinear at the centre of level-0
+    pixel (r, c), texels mirrored."""
+    h, w = img.shape[:2]
+    s = 2**level
+    mh, mw = -(-h // s), -(-w // s)
+
+    def texel(i: int, j: int) -> np.ndarray:
+        i, j = _mirror(i, mh), _mirror(j, mw)
+        block = img[i * s : min((i + 1) * s, h), j * s : min((j + 1) * s, w)].astype(np.float64) / 65535.0
+        return block.reshape(-1, img.shape[2]).mean(axis=0)
+
+    u, v = (r + 0.5) / s - 0.5, (c + 0.5) / s - 0.5
+    i0, j0 = math.floor(u), math.floor(v)
+    fu, fv = u - i0, v - j0
+    return (1 - fu) * ((1 - fv) * texel(i0, j0) + fv * texel(i0, j0 + 1)) + fu * (
+        (1 - fv) * texel(i0 + 1, j0) + fv * texel(i0 + 1, j0 + 1)
+    )
+
+
+def test_two_band_scalar_blend_matches_the_oracle():
+    """Step 5 for scalar maps: the low band (the mip at ``split``, weights of level ``low`` from the labels
+    extended ``reach`` px from the border, variance-preserving about the map's mean) plus the detail (the value
+    minus its low band, weights of level ``high``)."""
+    r = np.random.default_rng(6)
+    img = r.integers(0, 65536, (22, 19, 1), dtype=np.uint16)
+    n = 64
+    prov = _random_prov(1, n, 3, seed=3, ex=19)
+    bands = {"low": 4.0, "high": 2.0, "split": 2.0, "reach": 8}
+    assert seams.tile_bands(seams.check_bands(bands, "scalar"), n) == {**bands, "reach": 8.0}
+    got = seams.blend_tiles(img, prov, [0], "scalar", bands=bands)[0, ..., 0].astype(np.float64)
+    mu = img.astype(np.float64).mean() / 65535.0
+    lab, tab = prov.labels[0], prov.table[0]
+    ext = _extended(lab, 8)
+    grids = [dihedral_grid(s, n) for s in range(8)]
+    for y, x in [
+        (0, 0),
+        (0, 31),
+        (0, 33),
+        (3, 20),
+        (10, 10),
+        (20, 40),
+        (31, 32),
+        (50, 7),
+        (63, 63),
+        (62, 30),
+    ]:
+        low = sq = detail = 0.0
+        for e in range(tab.shape[0]):
+            rr, cc = (int(v) for v in grids[tab[e, 0]][y, x] + tab[e, 1:])
+            rr, cc = _mirror(rr, 22), _mirror(cc, 19)
+            band = _oracle_mip(img, 2, rr, cc)[0]
+            wl = _oracle_weight(ext, e, 4.0, y, x, 8)
+            wh = _oracle_weight(lab, e, 2.0, y, x)
+            low += wl * band
+            sq += wl * wl
+            detail += wh * (img[rr, cc, 0] / 65535.0 - band)
+        want = np.rint(np.clip(mu + (low - mu) / math.sqrt(sq) + detail, 0, 1) * 65535)
+        assert abs(got[y, x] - want) <= 1, (y, x)
+
+
 def test_normal_blend_matches_the_oracle_in_slope_space():
     r = np.random.default_rng(5)
     v = r.normal(size=(20, 20, 3)) * [0.4, 0.4, 0.0] + [0, 0, 1]
     v /= np.linalg.norm(v, axis=-1, keepdims=True)
     img = materials.renormalise_image(np.rint((v * 0.5 + 0.5) * 255).astype(np.uint8), "unorm")
     prov = _random_prov(2, 12, 3, seed=9, ex=20)
-    got = decode(seams.blend_tiles(img, prov, np.arange(2), "normal", level=2.0), "unorm")
+    got = decode(seams.blend_tiles(img, prov, np.arange(2), "normal", bands={"high": 2.0}), "unorm")
     n = prov.tile_size
     grids = [dihedral_grid(s, n) for s in range(8)]
     for t in range(2):
@@ -155,7 +234,12 @@ def test_bad_levels_and_kinds_are_refused():
     img = np.zeros((10, 10, 1), np.uint8)
     for bad in (-1, 9, float("nan"), "3", True):
         with pytest.raises(ParameterError, match="level"):
-            seams.blend_tiles(img, prov, [0], "scalar", level=bad)
+            seams.blend_tiles(img, prov, [0], "scalar", bands={"high": bad})
+    for bad in ({}, {"mid": 2}, {"split": 3}, [2], {"low": 4, "reach": 3}, {"low": 4, "reach": True}):
+        with pytest.raises(ParameterError, match="bands"):
+            seams.blend_tiles(img, prov, [0], "scalar", bands=bad)
+    with pytest.raises(ParameterError, match="bands"):
+        seams.blend_tiles(np.zeros((10, 10, 3), np.uint8), prov, [0], "normal", bands={"low": 4})
     with pytest.raises(ParameterError, match="kind"):
         seams.blend_tiles(img, prov, [0], "label")
 
@@ -183,10 +267,11 @@ def _rocks(size: int = 96, seed: int = 3) -> tuple[np.ndarray, dict[str, np.ndar
     return np.rint(albedo * 255).astype(np.uint8), maps
 
 
-@pytest.fixture(scope="module")
-def rock_set():
-    albedo, maps = _rocks()
-    return ts.build(albedo, maps=maps, tileset="c3", tile_size=24, seed=1)
+@pytest.fixture(scope="module", params=[24, 64], ids=["one-band", "two-bands"])
+def rock_set(request):
+    n = request.param
+    albedo, maps = _rocks(96 if n == 24 else 192)
+    return ts.build(albedo, maps=maps, tileset="c3", tile_size=n, seed=1)
 
 
 def _steps(a: np.ndarray) -> np.ndarray:
@@ -210,21 +295,43 @@ def test_blend_keeps_the_relief_and_removes_the_cliffs(rock_set):
     assert std["blend"] > std["fuse"]  # the fusion flattens, the blend does not
 
 
-def test_blend_is_the_copies_away_from_seams_and_on_the_border_ring(rock_set):
+def test_blend_is_the_copies_where_every_band_has_one_source(rock_set):
     t = rock_set
-    idx = np.arange(t.n_tiles)
+    prov = materials.map_provenance(t)
+    e = prov.table.shape[1]
     for d in t.map_specs:
         spec = materials.MapSpec.from_dict(d)
         arr = t.maps[spec.name]
         blended = materials.map_atlas(t, spec, arr)
         copies = materials.map_atlas(t, spec, arr, smooth=False)
-        assert np.array_equal(blended[:, 0], copies[:, 0]) and np.array_equal(
-            blended[:, :, -1], copies[:, :, -1]
-        )
-        prov = materials.map_provenance(t)
-        single = seams.blend_weights(prov.labels[idx], prov.table.shape[1], 3.0).max(axis=1) >= 1.0
+        bands = seams.tile_bands(seams.BANDS[spec.kind], t.tile_size)
+        single = seams.blend_weights(prov.labels, e, bands["high"]).max(axis=1) >= 1.0
+        if "low" in bands:
+            single &= (
+                seams.blend_weights(prov.labels, e, bands["low"], int(bands["reach"])).max(axis=1) >= 1.0
+            )
+        assert 0.05 < single.mean() < 1.0
         assert np.array_equal(blended[single], copies[single])
         assert not np.array_equal(blended, copies)
+
+
+def test_tilings_stay_seamless_at_tile_borders(rock_set):
+    """Across a tile border both sides blend the same sources with the same weights: the steps there are the
+    sources' own (as the copies'), not the cut's."""
+    t = rock_set
+    n, size = t.tile_size, 4 * t.tile_size
+    _, imap = ts.synthesize(t, size, size, seed=3)
+    steps = {}
+    for how in ("copies", "blend"):
+        kw = {"smooth": False} if how == "copies" else {}
+        h = materials.synthesize_maps(t, imap, size, size, **kw)["height"][..., 0] / 65535.0
+        steps[how] = (np.abs(h[:, n::n] - h[:, n - 1 : -1 : n]), np.abs(np.diff(h, axis=1)))
+    (ref, inside), (border, _) = steps["copies"], steps["blend"]
+    assert np.quantile(ref, 0.99) < np.quantile(
+        inside, 0.999
+    )  # copies are seamless at tile borders (premise)
+    assert np.quantile(border, 0.99) <= 1.5 * np.quantile(ref, 0.99) + 1e-3
+    assert border.max() <= 1.5 * ref.max() + 1e-3
 
 
 def test_blended_normals_are_unit_length_and_follow_the_height(rock_set):
@@ -265,3 +372,25 @@ def test_fusion_is_still_selectable_and_bad_values_are_refused(rock_set):
     for bad in ("poisson", 1, ""):
         with pytest.raises(ParameterError, match="seams"):
             materials.synthesize_maps(t, imap, 64, 64, seams=bad)
+
+
+def test_cli_map_seams_selects_the_fusion(rock_set, tmp_path):
+    from tilesynth.cli.main import main
+
+    p = tmp_path / "r.tiles"
+    rock_set.save(p)
+    outs = {}
+    for how in ("blend", "fuse"):
+        o = tmp_path / f"{how}.png"
+        assert main(
+            ["synth", str(p), "-o", str(o), "--size", "72x72", "--seed", "4", "--map-seams", how, "-q"]
+        ) in (
+            0,
+            None,
+        )
+        outs[how] = ts.load_raster(tmp_path / f"{how}-height.png")
+    t = ts.load(p)
+    imap = ts.synthesize(t, 72, 72, seed=4)[1]
+    assert np.array_equal(outs["blend"], materials.synthesize_maps(t, imap, 72, 72)["height"])
+    assert np.array_equal(outs["fuse"], materials.synthesize_maps(t, imap, 72, 72, seams="fuse")["height"])
+    assert not np.array_equal(outs["blend"], outs["fuse"])

@@ -260,6 +260,15 @@ def _add_synth_parser(sub) -> None:  # noqa: ANN001
         "domain, tile borders kept), never smooths its labels",
     )
     s.add_argument(
+        "--map-seams",
+        default="blend",
+        choices=("blend", "fuse"),
+        help="how the seams of the scalar and normal maps a material set stores are treated when smoothed "
+        "(--map-smooth auto/on): blend (default: each cut blended over about 8 px from the two sources, "
+        "relief kept) or fuse (the gradient-domain fusion of every seam over the tile interior: no level "
+        "offsets left, but flatter relief)",
+    )
+    s.add_argument(
         "--bits",
         type=_bits,
         choices=(8, 16),
@@ -688,6 +697,7 @@ def _synth(
     wrap: bool = False,
     normal_y: str | None = None,
     map_flag: str = "--index-map",
+    map_seams: str = "blend",
 ) -> None:
     from ..base.progress import Progress
     from ..base.validate import seed_int
@@ -757,7 +767,7 @@ def _synth(
         _synth_write_maps(prog, ts, maps, imap, size, threads, smooth_maps)
         n = ts.tile_size  # the maps' window starts where the colour's does: at the origin's pixel in its cell
         offset = (origin[1] % n, origin[0] % n) if index_map is None else (0, 0)
-        write_map_outputs(prog, ts, stored, imap, size, threads, stored_smooth, normal_y, offset)
+        write_map_outputs(prog, ts, stored, imap, size, threads, stored_smooth, normal_y, offset, map_seams)
     how = f"seed {seed}" if seed is not None else f"map {map_path}"
     prog.message(
         f"wrote {output}: {size[0]}x{size[1]}, {imap.shape[1]}x{imap.shape[0]} tiles, {how}, "
@@ -1109,6 +1119,7 @@ def _run_command(args: argparse.Namespace) -> int:
             args.wrap,
             args.normal_y,
             "--map" if getattr(args, "old_map_flag", False) else "--index-map",
+            args.map_seams,
         )
         # after the work, so that an error stays one line
         if getattr(args, "old_map_flag", False) and not args.quiet:
