@@ -876,48 +876,94 @@ def map_provenance(tileset: Any) -> Any:
     return cache["prov"][1]
 
 
-def blended_tiles(tileset: Any, spec: MapSpec, arr: np.ndarray, tiles: np.ndarray) -> np.ndarray:
-    """The tiles ``tiles`` of map ``arr`` (scalar or normal kind) with their seams blended
-    (:func:`tilesynth.synth.seams.blend_tiles`, at the kind's level), in the map's sample type; normal maps read
-    their vectors renormalised once per set (the copies' bytes where a pixel has one source); recently blended
-    tiles come from the set's cache (:data:`FUSED_CACHE_BYTES`, shared with the fused tiles)."""
-    from collections import OrderedDict
-
-    from ..synth.seams import blend_tiles
+def _blend_sources(tileset: Any, spec: MapSpec, arr: np.ndarray) -> tuple:
+    """What the seam blend of a map reads, once per set: ``(codes, values, low, mu, bands)``: the map's samples
+    as the copies read them (normal maps renormalised), the values blended (float64: samples over their
+    maximum, a normal map's slopes), the low band's mip (or None), the map's mean, the bands for the set's tile
+    size (:func:`tilesynth.synth.seams.tile_bands`)."""
+    from ..synth import seams
 
     cache = _cache(tileset)
-    lru: OrderedDict = cache.setdefault("fused", OrderedDict())
-    src = _copied_map(tileset, spec, arr)
-    key0 = ("blend", spec.name)
-    if cache.get(key0) is not src:  # a replaced map drops its blended tiles
-        for k in [k for k in lru if k[:2] == key0]:
-            cache["fused_bytes"] -= lru.pop(k).nbytes
-        cache[key0] = src
-    tiles = np.asarray(tiles, np.int64).reshape(-1)
-    missing = np.array([int(t) for t in tiles if (*key0, int(t)) not in lru], np.int64)
-    if missing.size:
-        made = blend_tiles(
-            src,
-            map_provenance(tileset),
-            missing,
-            kind=spec.kind,
-            encoding=spec.encoding or "unorm",
-            y_down=spec.normal_y == "down",
-        )
-        for t, tile in zip(missing, made):
-            lru[(*key0, int(t))] = tile
-            cache["fused_bytes"] = cache.get("fused_bytes", 0) + tile.nbytes
+    key = ("blend", spec.name)
+    if key not in cache or cache[key][0] is not arr:
+        codes = _copied_map(tileset, spec, arr)
+        bands = seams.tile_bands(seams.check_bands(None, spec.kind), tileset.tile_size)
+        if spec.kind == "normal":
+            values = np.ascontiguousarray(seams.normal_slopes(codes, spec.encoding or "unorm"))
+        else:
+            values = codes.astype(np.float64) / (_scale(arr) or 1.0)
+        low = seams.box_mip(values, int(bands["split"])) if "low" in bands else None
+        mu = values.reshape(-1, values.shape[2]).mean(axis=0)
+        cache[key] = (arr, (codes, values, low, mu, bands))
+    return cache[key][1]
+
+
+def blend_window(
+    tileset: Any,
+    spec: MapSpec,
+    arr: np.ndarray,
+    index_map: np.ndarray,
+    height: int,
+    width: int,
+    offset: tuple[int, int] = (0, 0),
+    threads: int | None = None,
+) -> np.ndarray | None:
+    """The window ``(height, width, C)`` of map ``arr`` (scalar or normal kind) laid out by ``index_map`` at
+    ``offset`` with its seams blended (:mod:`tilesynth.synth.seams`; the Rust kernel ``seam_blend``, whose
+    oracle is :func:`tilesynth.synth.seams.blend_tiles`), in the map's sample type; None when the set's
+    provenance has rotated or mirrored entries (then :func:`blended_tiles` blends per tile in numpy)."""
+    from .. import _core
+    from ..io.normal_codes import encode_unit
+    from ..tileset.provenance import gather
+
+    prov = map_provenance(tileset)
+    if prov is None or (prov.table[..., 0] > 0).any():
+        return None
+    codes, values, low, mu, bands = _blend_sources(tileset, spec, arr)
+    imap = np.ascontiguousarray(index_map, dtype=np.int32)
+    out = np.empty((height, width, values.shape[2]), np.float64)
+    single = np.empty((height, width), np.uint8)
+    lows = low if low is not None else np.zeros((1, 1, values.shape[2]))
+    _core.seam_blend(
+        values, lows, [float(m) for m in mu], prov.labels, prov.table, imap, offset, float(bands["high"]),
+        float(bands["low"]) if low is not None else None, int(bands.get("split", 0)), int(bands.get("reach", 1)),
+        out, single, threads,
+    )  # fmt: skip
+    img = np.empty((height, width, arr.shape[2]), arr.dtype)
+    gather(
+        codes, prov, imap, img, offset, threads=threads
+    )  # the copies, kept where one entry has every weight
+    mixed = single == 0
+    if spec.kind == "normal":
+        sl = out[mixed]
+        img[mixed] = encode_unit(np.concatenate([sl, np.ones((sl.shape[0], 1))], axis=1), arr.dtype,
+                                 spec.encoding or "unorm")  # fmt: skip
+    elif _scale(arr):
+        img[mixed] = np.rint(np.clip(out[mixed], 0.0, 1.0) * _scale(arr)).astype(arr.dtype)
+    else:
+        img[mixed] = out[mixed].astype(np.float32)
+    return img
+
+
+def blended_tiles(tileset: Any, spec: MapSpec, arr: np.ndarray, tiles: np.ndarray) -> np.ndarray:
+    """The tiles ``tiles`` ``(k, N, N, C)`` of map ``arr`` (scalar or normal kind) with their seams blended, in
+    the map's sample type: :func:`blend_window` of a one-column index map, or for a set with rotated or
+    mirrored entries :func:`tilesynth.synth.seams.blend_tiles` (numpy, the vectors turned with their entries),
+    a bounded chunk of tiles at a time."""
+    from ..synth.seams import blend_tiles
+
     n = tileset.tile_size
-    out = (
-        np.stack([lru[(*key0, int(t))] for t in tiles])
-        if tiles.size
-        else np.zeros((0, n, n, arr.shape[2]), arr.dtype)
-    )
-    for t in tiles:
-        lru.move_to_end((*key0, int(t)))
-    while cache.get("fused_bytes", 0) > FUSED_CACHE_BYTES and len(lru) > tiles.size:
-        _, old = lru.popitem(last=False)
-        cache["fused_bytes"] -= old.nbytes
+    idx = np.asarray(tiles, np.int64).reshape(-1)
+    out = np.empty((idx.size, n, n, arr.shape[2]), arr.dtype)
+    step = max(1, (1 << 20) // (n * n))  # a bounded chunk: about 1 Mi pixels per call
+    for lo in range(0, idx.size, step):
+        part = idx[lo : lo + step]
+        got = blend_window(tileset, spec, arr, part.reshape(-1, 1), part.size * n, n)
+        if got is None:
+            src = _copied_map(tileset, spec, arr)
+            got = blend_tiles(src, map_provenance(tileset), part, kind=spec.kind, encoding=spec.encoding or "unorm",
+                              y_down=spec.normal_y == "down")  # fmt: skip
+        out[lo : lo + part.size] = got.reshape(part.size, n, n, arr.shape[2])
     return out
 
 
@@ -1104,7 +1150,14 @@ def synthesize_maps(
         spec = MapSpec.from_dict(d)
         arr = tileset.maps[spec.name]
         img = np.empty((h, w, arr.shape[2]), arr.dtype)
-        if prov is not None and not smooths(tileset, spec, smooth):
+        blended = None
+        if spec.kind in SMOOTH_KINDS and smooths(tileset, spec, smooth) and seams == "blend":
+            blended = blend_window(
+                tileset, spec, arr, imap, h, w, (oy, ox), threads
+            )  # straight to the window
+        if blended is not None:
+            img = blended
+        elif prov is not None and not smooths(tileset, spec, smooth):
             from ..tileset.provenance import gather
 
             gather(_copied_map(tileset, spec, arr), prov, imap, img, (oy, ox), threads=threads)  # copies

@@ -80,6 +80,7 @@ __all__ = [
     "coverage",
     "entry_coords",
     "mirror",
+    "normal_slopes",
     "sample_coverage",
 ]
 
@@ -212,7 +213,8 @@ def check_level(level: Any, name: str = "level") -> float:
     return lv
 
 
-def _slopes(codes: np.ndarray, encoding: str) -> np.ndarray:
+def normal_slopes(codes: np.ndarray, encoding: str) -> np.ndarray:
+    """float64 ``(..., 2)``: the slopes ``(n_x, n_y) / max(n_z, ZMIN)`` of normal samples ``(..., 3)``."""
     from ..io.normal_codes import decode
 
     v = decode(codes, encoding)
@@ -343,7 +345,7 @@ def blend_tiles(
         # a pixel whose weights are 1 for one entry is that entry's copy, byte for byte
         own = np.take_along_axis(vals, lab[:, None, :, :, None].astype(np.int64), axis=1)[:, 0]
         if kind == "normal":
-            s = _slopes(vals, encoding)
+            s = normal_slopes(vals, encoding)
             sl = (wts[..., None] * s).sum(axis=1)
             nv = np.concatenate([sl, np.ones(sl.shape[:-1] + (1,))], axis=-1)
             blended = encode_unit(nv[~single], img.dtype, encoding)
