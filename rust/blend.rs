@@ -41,6 +41,7 @@ struct Pyramid {
     n: usize,
     e: usize,
     reach: usize,
+    ext: Vec<u8>,
     levels: Vec<(usize, Vec<f64>)>,
 }
 
@@ -92,8 +93,15 @@ impl Pyramid {
             n,
             e,
             reach,
+            ext,
             levels,
         }
+    }
+
+    /// The label the pyramid was built from at tile pixel `(y, x)` (extended from the border ring).
+    #[inline]
+    fn label_at(&self, y: usize, x: usize) -> usize {
+        self.ext[y * self.n + x] as usize
     }
 
     /// Adds `scale` times the bilinear sample of level `l` at pixel `(y, x)` to `w`.
@@ -118,6 +126,66 @@ impl Pyramid {
             let left = c(ya, xa) * (1.0 - fy) + c(yb, xa) * fy;
             let right = c(ya, xb) * (1.0 - fy) + c(yb, xb) * fy;
             *wk += (left * (1.0 - fx) + right * fx) * scale;
+        }
+    }
+
+    /// The level and trilinear share of tile pixel `(y, x)` for a band of `level`.
+    #[inline]
+    fn lod(&self, level: f64, y: usize, x: usize) -> (usize, f64) {
+        let n = self.n;
+        let d = y.min(x).min(n - 1 - y).min(n - 1 - x);
+        let lod = level.min(((self.reach + d) as f64).log2());
+        let l0 = lod.floor();
+        (l0 as usize, lod - l0)
+    }
+
+    /// The weight of entry `k` alone at tile pixel `(y, x)` (the same arithmetic as [`Pyramid::weights`]).
+    #[inline]
+    fn weight_of(&self, level: f64, y: usize, x: usize, k: usize) -> f64 {
+        let (l0, f) = self.lod(level, y, x);
+        let mut w = [0.0f64; 1];
+        self.add_one(l0, y, x, 1.0 - f, k, &mut w[0]);
+        if f > 0.0 {
+            self.add_one(l0 + 1, y, x, f, k, &mut w[0]);
+        }
+        w[0]
+    }
+
+    #[inline]
+    fn add_one(&self, l: usize, y: usize, x: usize, scale: f64, k: usize, wk: &mut f64) {
+        let (nl, data) = &self.levels[l];
+        let s = (1u64 << l) as f64;
+        let axis = |i: usize| {
+            let u = (i as f64 + 0.5) / s - 0.5;
+            let i0 = u.floor();
+            let f = u - i0;
+            let a = (i0 as i64).clamp(0, *nl as i64 - 1) as usize;
+            let b = (i0 as i64 + 1).clamp(0, *nl as i64 - 1) as usize;
+            (a, b, f)
+        };
+        let (ya, yb, fy) = axis(y);
+        let (xa, xb, fx) = axis(x);
+        let e = self.e;
+        let c = |i: usize, j: usize| data[(i * nl + j) * e + k];
+        let left = c(ya, xa) * (1.0 - fy) + c(yb, xa) * fy;
+        let right = c(ya, xb) * (1.0 - fy) + c(yb, xb) * fy;
+        *wk += (left * (1.0 - fx) + right * fx) * scale;
+    }
+
+    /// The weights at `(y, x)` into `w`: the own entry's alone first, and when it is 1 the others are 0 (their
+    /// coverage is 0 wherever the own entry's is 1), so only mixed pixels pay for every entry.
+    #[inline]
+    fn weights_fast(&self, level: f64, y: usize, x: usize, own: usize, w: &mut [f64]) {
+        let wo = if own < self.e {
+            self.weight_of(level, y, x, own)
+        } else {
+            0.0
+        };
+        if wo >= 1.0 {
+            w.iter_mut().for_each(|v| *v = 0.0);
+            w[own] = wo;
+        } else {
+            self.weights(level, y, x, w);
         }
     }
 
@@ -315,13 +383,19 @@ pub fn blend_window(
                 let t = map[(gy / n, gx / n)] as usize;
                 let (py_, px_) = (gy % n, gx % n);
                 let (hi, lo) = &pyramids[cells[(gy / n - cy0) * ccols + gx / n - cx0]];
-                hi.weights(bands.high, py_, px_, &mut wh);
+                let own = lab[(t * n + py_) * n + px_] as usize;
+                hi.weights_fast(bands.high, py_, px_, own, &mut wh);
                 let mut one = wh.iter().any(|&v| v >= 1.0);
-                if let (Some(lo), Some((level, _, _))) = (lo, bands.low) {
-                    lo.weights(level, py_, px_, &mut wl);
+                if let (Some(lo), Some((level, _, reach))) = (lo, bands.low) {
+                    // the low band's labels near the border are the border ring's, not the pixel's own
+                    let lown = if reach > 1 {
+                        lo.label_at(py_, px_)
+                    } else {
+                        own
+                    };
+                    lo.weights_fast(level, py_, px_, lown, &mut wl);
                     one &= wl.iter().any(|&v| v >= 1.0);
                 }
-                let own = lab[(t * n + py_) * n + px_] as usize;
                 let src = |j: usize| {
                     let row = &tab[(t * e + j) * 3..(t * e + j) * 3 + 3];
                     let (dy, dx) = dihedral(0, n, py_, px_);
