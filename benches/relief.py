@@ -315,7 +315,7 @@ def timing(path: Path, repeat: int, windows: int) -> dict:
 
 
 # ------------------------------------------------------------------------------------------------ figures
-def figure(path: str, ex: dict, outs: dict, size: int = 192, relief: float = 60.0) -> None:
+def figure(path: str, ex: dict, outs: dict, size: int = 160, relief: float = 60.0) -> None:
     """Rows: height (grey, the exemplar's range), the shaded height (Lambert on its gradient x ``4·relief``,
     light from the upper left: cliffs show as lines) and the shaded normal map (x and y doubled); columns:
     exemplar, copies, fusion, blend, hex."""
@@ -338,7 +338,7 @@ def figure(path: str, ex: dict, outs: dict, size: int = 192, relief: float = 60.
     gap, sep = np.ones((size, 4)), np.ones((4, 5 * size + 16))
     strips = [np.hstack([c for p in r for c in (p, gap)][:-1]) for r in rows]
     img = np.vstack([strips[0], sep, strips[1], sep, strips[2]])
-    ts.save_image(path, np.rint(img * 255).astype(np.uint8)[..., None].repeat(3, axis=2))
+    ts.save_image(path, np.rint(img * 255).astype(np.uint8)[..., None])  # grey: small files
 
 
 # ---------------------------------------------------------------------------------------------------- main

@@ -27,12 +27,15 @@ maps={...})``, ``tilesynth build EX --map height=H.png``) chooses them on every 
 4. **Maps travel with the set.** Every map is stored in the tile set (``map_<name>.npy`` in its own sample type,
    with its kind and weight in ``manifest.json`` ``maps``), and :func:`synthesize_maps` lays each out through the
    same provenance and cuts as the colour (``synth``, ``export`` and ``report`` write all of them). Scalar and
-   normal maps are fused across every seam of the tile in the gradient domain by default (:func:`smooths`,
-   :mod:`tilesynth.builder.fusion`: a smooth map shows the level offset of two patches as a cliff that no cut
-   avoids; a first stage moves the exemplar's levels by one smooth correction shared by every copy of a pixel,
-   :func:`~tilesynth.builder.fusion.exemplar_levels`, then the tile interior is fused with the border ring kept as
-   the first stage left it, so tilings stay seamless; ``level=False`` skips the first stage); ``smooth=False`` /
-   ``--map-smooth off`` gives pure copies.
+   normal maps are blended across their seams by default (:func:`smooths`, :mod:`tilesynth.synth.seams`: a
+   smooth map shows the level offset of two patches as a cliff that no cut avoids; near a cut the pieces that
+   cover the pixel's neighbourhood are read at the pixel and weighted by their share of the tile labels'
+   coverage, the low frequencies of scalar maps over a wider band and variance-preserving, so the relief keeps
+   its amplitude: ``benches/relief-results.md``). ``seams="fuse"`` / ``--map-seams fuse`` selects the former
+   gradient-domain fusion (:mod:`tilesynth.builder.fusion`: a first stage moves the exemplar's levels by one
+   smooth correction shared by every copy of a pixel, :func:`~tilesynth.builder.fusion.exemplar_levels`, then
+   the tile interior is fused with the border ring kept; it leaves no level offset but flattens rocks' relief
+   to 0.2-0.3x); ``smooth=False`` / ``--map-smooth off`` gives pure copies.
 
 **Default weights** (0.5 for scalar and normal maps, :data:`DEFAULT_WEIGHTS`). Measured on the bench's 4 derived
 materials with 2 seeds each (``benches/materials.py``): with the fusion, the maps' cut seams are 0.85-1.34 whatever
@@ -67,8 +70,8 @@ gradient term) and the patch baseline (not measured).
 kind       meaning                                                default weight  in synthesis
 =========  =====================================================  ==============  ====================================
 colour     sRGB colour (albedo, base colour, emissive)            1               copied; smoothed with the colour
-scalar     linear data (height, roughness, metallic, AO, ...)     0.5             fused across the seams
-normal     tangent-space normal, 3 channels, Y up or down         0.5             fused, renormalised, unit codes
+scalar     linear data (height, roughness, metallic, AO, ...)     0.5             blended across the seams
+normal     tangent-space normal, 3 channels, Y up or down         0.5             blended, unit codes
 label      mask, material ID, segmentation (any integer value)    0               exact copies, never smoothed
 =========  =====================================================  ==============  ====================================
 
@@ -665,21 +668,22 @@ def renormalise_image(a: np.ndarray, encoding: str) -> np.ndarray:
     return _renormalise(flat, length > 1e-3, encoding).reshape(a.shape)
 
 
-#: The kinds whose maps are smoothed (fused across the seams, :func:`fuse_map_atlas`) by default, even when the
-#: albedo is not.
+#: The kinds whose maps are smoothed (blended across the seams, :func:`blended_tiles`, or fused,
+#: :func:`fuse_map_atlas`: :func:`seams_method`) by default, even when the albedo is not.
 SMOOTH_KINDS: tuple[str, ...] = ("scalar", "normal")
 
 
 def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
-    """Whether map ``spec`` of ``tileset`` is smoothed (scalar and normal maps: fused across their seams,
-    :func:`fuse_map_atlas`; colour maps: the colour's Poisson smoothing): never for labels; for ``smooth=None``
+    """Whether map ``spec`` of ``tileset`` is smoothed (scalar and normal maps: their seams blended or fused,
+    :func:`seams_method`; colour maps: the colour's Poisson smoothing): never for labels; for ``smooth=None``
     (the default) when the colour tiles were smoothed, and for every scalar and normal map (:data:`SMOOTH_KINDS`)
     of every scheme (the fusion reads only the provenance's seams, so Cohen's Wang sets, without matching patches,
     are fused too). Why the maps without the albedo: the cuts of the joint build make the maps
     agree along the cut as well as the matching allows, but a smooth map (a height field) still shows the *level*
     offset between the two patches as a cliff along the curve (measured: ``benches/materials.py``, cut seam 4-15
-    as copies), while the albedo, whose pixel steps are large, hides the same offset; the gradient-domain fusion
-    removes the offset (cut seam 0.85-1.34) and keeps every border pixel, so tilings stay seamless.
+    as copies), while the albedo, whose pixel steps are large, hides the same offset; the seam blend spreads the
+    offset over the blend's width and keeps the relief (``benches/relief-results.md``), the gradient-domain
+    fusion removes it (cut seam 0.85-1.34) but flattens the relief; both keep tilings seamless.
     ``smooth=False`` gives pure copies."""
     from ..synth.synthesis import is_smoothed
 
@@ -1101,10 +1105,11 @@ def synthesize_maps(
     seams of smoothed scalar and normal maps are treated (:func:`seams_method`): "blend" (None, the default:
     :mod:`tilesynth.synth.seams`, relief kept) or "fuse" (the gradient-domain fusion, flatter).
 
-    **Per window.** Only the tiles the window shows are made: copied maps are gathered from the map through the
-    provenance (:func:`tilesynth.tileset.provenance.gather`), fused maps are fused for those tiles (the level
-    correction is solved once per set, at build time, :func:`map_levels`; recently fused tiles are cached with the
-    set, :data:`FUSED_CACHE_BYTES`). The bytes are those of laying out the whole set's map atlas."""
+    **Per window.** Only the pixels the window shows are made: copied maps are gathered from the map through the
+    provenance (:func:`tilesynth.tileset.provenance.gather`), blended maps are blended straight into the window
+    (:func:`blend_window`, the Rust kernel ``seam_blend``), fused maps are fused for the tiles shown (the level
+    correction is solved once per set, at build time, :func:`map_levels`; recently fused tiles are cached with
+    the set, :data:`FUSED_CACHE_BYTES`). The bytes are those of laying out the whole set's map atlas."""
     from .. import _core
     from ..base import kernels
     from ..base.validate import MAX_BYTES_ENV, fmt_bytes, memory_limit, positive_int, threads_arg

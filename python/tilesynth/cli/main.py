@@ -256,8 +256,8 @@ def _add_synth_parser(sub) -> None:  # noqa: ANN001
         choices=("auto", "on", "off"),
         help="Poisson-smooth the --with maps inside the cuts like the colour tiles: auto (default: if the "
         "tile set was built with --smooth), on, or off (pure copies: for labels, masks, IDs). The maps a "
-        "material set stores (build --map): auto fuses its scalar and normal maps across the seams (gradient "
-        "domain, tile borders kept), never smooths its labels",
+        "material set stores (build --map): auto treats the seams of its scalar and normal maps as "
+        "--map-seams says, never smooths its labels",
     )
     s.add_argument(
         "--map-seams",
