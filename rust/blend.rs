@@ -6,7 +6,7 @@
 //! labels) and, with a low band, `g_e(p)` (level `low`, the labels extended `reach` px from the tile border),
 //! each a trilinear sample of the tile's coverage pyramid at `lod = min(L, log2(R + d))`; every entry with a
 //! non-zero weight read at the pixel (`D_s(p) + b`, mirrored into the map). Out:
-//! `μ + (Σ g a − μ) / √Σ g² + Σ h (v − a)` with a low band (`a`: the low mip sampled bilinearly), `Σ h v`
+//! `μ + (Σ g a − μ) / √Σ g² + Σ h (v − a)` with a low band (`a`: the low band of the value read, given at every pixel), `Σ h v`
 //! without. The arithmetic (f64) is done in the oracle's order, so the two agree to the last bit in practice.
 //! `single[y, x]` is 1 where one entry has every weight (the pixel is that entry's copy).
 
@@ -15,13 +15,13 @@ use crate::provenance::dihedral;
 use ndarray::{ArrayView2, ArrayView3, ArrayViewMut2, ArrayViewMut3, Axis};
 use rayon::prelude::*;
 
-/// The bands of a blend: the detail's level and, optionally, the low band's `(level, split, reach)`.
+/// The bands of a blend: the detail's level and, optionally, the low band's `(level, reach)`.
 #[derive(Clone, Copy, Debug)]
 pub struct Bands {
     /// Level of the high band's weights.
     pub high: f64,
-    /// Level of the low band's weights, the mip level of the low band, the reach of its border labels.
-    pub low: Option<(f64, u32, usize)>,
+    /// Level of the low band's weights and the reach of its border labels.
+    pub low: Option<(f64, usize)>,
 }
 
 /// GL `MIRRORED_REPEAT` of an index into `0..size`.
@@ -205,8 +205,9 @@ impl Pyramid {
 }
 
 /// Checks and runs the blend of a window (module docstring). `values` `(H, W, C)` the map (floats: codes over
-/// their maximum, or a normal map's slopes), `low` `(mh, mw, C)` its box mip at the low band's `split` level
-/// (unused without a low band), `mu` its mean per channel; `labels` / `table` / `map` / `offset` as
+/// their maximum, or a normal map's slopes), `low` `(H, W, C)` its low band at every pixel (the box mip at the
+/// `split` level sampled bilinearly at the pixel's centre; unused without a low band), `mu` its mean per
+/// channel; `labels` / `table` / `map` / `offset` as
 /// [`crate::provenance::gather_window_into`] (every entry must be symmetry 0: rotated entries are turned by
 /// the caller); `out` `(h, w, C)`, `single` `(h, w)`.
 #[allow(clippy::too_many_arguments)]
@@ -257,17 +258,11 @@ pub fn blend_window(
             }
         }
     }
-    if let Some((_, split, reach)) = bands.low {
-        let (mh, mw, mc) = low.dim();
-        let s = 1usize << split.min(16);
-        if split > 16 || mh != vh.div_ceil(s) || mw != vw.div_ceil(s) || mc != c {
+    if let Some((_, reach)) = bands.low {
+        if low.dim() != (vh, vw, c) {
             return Err(TilesynthError::shape(
                 "low",
-                format!(
-                    "({}, {}, {c}) (the values' box mip at level {split})",
-                    vh.div_ceil(s),
-                    vw.div_ceil(s)
-                ),
+                format!("({vh}, {vw}, {c}) (the values' low band at every pixel)"),
                 fmt_shape(low.shape()),
             ));
         }
@@ -345,7 +340,7 @@ pub fn blend_window(
             let hi = Pyramid::new(l, n, e, 1, top(bands.high));
             let lo = bands
                 .low
-                .map(|(level, _, reach)| Pyramid::new(l, n, e, reach, top(level)));
+                .map(|(level, reach)| Pyramid::new(l, n, e, reach, top(level)));
             (hi, lo)
         })
         .collect();
@@ -360,8 +355,6 @@ pub fn blend_window(
                 .expect("a shown tile")
         })
         .collect();
-    let mh = low.dim().0;
-    let mw = low.dim().1;
     let out_s = out
         .as_slice_mut()
         .ok_or_else(|| TilesynthError::param("out", "a strided view", "must be C-contiguous"))?;
@@ -386,7 +379,7 @@ pub fn blend_window(
                 let own = lab[(t * n + py_) * n + px_] as usize;
                 hi.weights_fast(bands.high, py_, px_, own, &mut wh);
                 let mut one = wh.iter().any(|&v| v >= 1.0);
-                if let (Some(lo), Some((level, _, reach))) = (lo, bands.low) {
+                if let (Some(lo), Some((level, reach))) = (lo, bands.low) {
                     // the low band's labels near the border are the border ring's, not the pixel's own
                     let lown = if reach > 1 {
                         lo.label_at(py_, px_)
@@ -425,8 +418,7 @@ pub fn blend_window(
                         }
                         o.copy_from_slice(&acc);
                     }
-                    Some((_, split, _)) => {
-                        let s = (1u64 << split) as f64;
+                    Some(_) => {
                         acc.iter_mut().for_each(|v| *v = 0.0);
                         lowacc.iter_mut().for_each(|v| *v = 0.0);
                         let mut sq = 0.0f64;
@@ -435,19 +427,11 @@ pub fn blend_window(
                                 continue; // adds exactly nothing: skipped (the same bits as the oracle)
                             }
                             let (r, cc) = src(j);
-                            let u = (r as f64 + 0.5) / s - 0.5;
-                            let v = (cc as f64 + 0.5) / s - 0.5;
-                            let (i0, j0) = (u.floor(), v.floor());
-                            let (fu, fv) = (u - i0, v - j0);
-                            let (a, b) = (mirror(i0 as i64, mh), mirror(i0 as i64 + 1, mh));
-                            let (p, q) = (mirror(j0 as i64, mw), mirror(j0 as i64 + 1, mw));
-                            let m = |i: usize, jj: usize, ch: usize| lows[(i * mw + jj) * c + ch];
+                            let at = (r * vw + cc) * c;
                             for ch in 0..c {
-                                let band = (1.0 - fu)
-                                    * ((1.0 - fv) * m(a, p, ch) + fv * m(a, q, ch))
-                                    + fu * ((1.0 - fv) * m(b, p, ch) + fv * m(b, q, ch));
+                                let band = lows[at + ch];
                                 lowacc[ch] += wl[j] * band;
-                                acc[ch] += wh[j] * (vals[(r * vw + cc) * c + ch] - band);
+                                acc[ch] += wh[j] * (vals[at + ch] - band);
                             }
                             sq += wl[j] * wl[j];
                         }

@@ -291,7 +291,6 @@ def seam_blend(
     offset: tuple[int, int],
     high: float,
     low_level: float | None,
-    split: int,
     reach: int,
     out: npt.NDArray[np.float64],
     single: npt.NDArray[np.uint8],

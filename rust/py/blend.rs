@@ -12,11 +12,11 @@ use pyo3::prelude::*;
 
 /// Fills `out` `(h, w, C)` float64 with the seam blend of the map `values` `(H, W, C)` float64 over the
 /// window of the tiling by `index_map` at pixel `offset = (oy, ox)` into its first cell, and `single` `(h, w)`
-/// uint8 with 1 where one entry has every weight (`tilesynth.synth.seams`: the formula). `low` `(mh, mw, C)`:
-/// the map's box mip at level `split`, `mu`: its mean per channel (both unused when `low_level` is None);
+/// uint8 with 1 where one entry has every weight (`tilesynth.synth.seams`: the formula). `low` `(H, W, C)`:
+/// the map's low band at every pixel, `mu`: its mean per channel (both unused when `low_level` is None);
 /// `reach`: the low band's border labels. Untransformed entries only. GIL released.
 #[pyfunction]
-#[pyo3(signature = (values, low, mu, labels, table, index_map, offset, high, low_level, split, reach, out, single, threads=None))]
+#[pyo3(signature = (values, low, mu, labels, table, index_map, offset, high, low_level, reach, out, single, threads=None))]
 #[allow(clippy::too_many_arguments)]
 fn seam_blend<'py>(
     py: Python<'py>,
@@ -29,7 +29,6 @@ fn seam_blend<'py>(
     offset: (usize, usize),
     high: f64,
     low_level: Option<f64>,
-    split: u32,
     reach: usize,
     mut out: PyReadwriteArray3<'py, f64>,
     mut single: PyReadwriteArray2<'py, u8>,
@@ -53,7 +52,7 @@ fn seam_blend<'py>(
         let (v, l, lab) = (values.as_array(), low.as_array(), labels.as_array());
         let bands = Bands {
             high,
-            low: low_level.map(|lv| (lv, split, reach)),
+            low: low_level.map(|lv| (lv, reach)),
         };
         let (o, s) = (out.as_array_mut(), single.as_array_mut());
         run(py, threads, || {

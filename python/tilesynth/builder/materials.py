@@ -896,7 +896,11 @@ def _blend_sources(tileset: Any, spec: MapSpec, arr: np.ndarray) -> tuple:
             values = np.ascontiguousarray(seams.normal_slopes(codes, spec.encoding or "unorm"))
         else:
             values = codes.astype(np.float64) / (_scale(arr) or 1.0)
-        low = seams.box_mip(values, int(bands["split"])) if "low" in bands else None
+        low = None
+        if "low" in bands:  # the low band at every exemplar pixel: the kernel reads one value per entry
+            split = int(bands["split"])
+            grid = np.mgrid[0 : values.shape[0], 0 : values.shape[1]].transpose(1, 2, 0)
+            low = np.ascontiguousarray(seams.sample_mip(seams.box_mip(values, split), split, grid))
         mu = values.reshape(-1, values.shape[2]).mean(axis=0)
         cache[key] = (arr, (codes, values, low, mu, bands))
     return cache[key][1]
@@ -930,8 +934,7 @@ def blend_window(
     lows = low if low is not None else np.zeros((1, 1, values.shape[2]))
     _core.seam_blend(
         values, lows, [float(m) for m in mu], prov.labels, prov.table, imap, offset, float(bands["high"]),
-        float(bands["low"]) if low is not None else None, int(bands.get("split", 0)), int(bands.get("reach", 1)),
-        out, single, threads,
+        float(bands["low"]) if low is not None else None, int(bands.get("reach", 1)), out, single, threads,
     )  # fmt: skip
     img = np.empty((height, width, arr.shape[2]), arr.dtype)
     gather(
