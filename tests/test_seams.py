@@ -260,7 +260,9 @@ def _rocks(size: int = 96, seed: int = 3) -> tuple[np.ndarray, dict[str, np.ndar
     n = np.stack([-gx, gy, np.ones_like(gx)], axis=-1)
     n /= np.linalg.norm(n, axis=-1, keepdims=True)
     albedo = np.clip(np.stack([h, h * 0.8, 0.5 * r.random((size, size))], -1), 0, 1)
+    rough = np.clip(0.5 + 0.4 * np.sin(xx / 7.0) * np.cos(yy / 5.0) + 0.1 * r.random((size, size)), 0, 1)
     maps = {
+        "roughness": np.rint(rough * 255).astype(np.uint8)[..., None],  # two scalar maps: blended together
         "height": np.rint(h * 65535).astype(np.uint16)[..., None],
         "normal": materials.renormalise_image(np.rint((n * 0.5 + 0.5) * 255).astype(np.uint8), "unorm"),
     }
@@ -271,7 +273,8 @@ def _rocks(size: int = 96, seed: int = 3) -> tuple[np.ndarray, dict[str, np.ndar
 def rock_set(request):
     n = request.param
     albedo, maps = _rocks(96 if n == 24 else 192)
-    return ts.build(albedo, maps=maps, tileset="c3", tile_size=n, seed=1)
+    # roughness with weight 0: laid out and blended, but not part of the cut
+    return ts.build(albedo, maps=maps, tileset="c3", tile_size=n, seed=1, map_weights={"roughness": 0})
 
 
 def _steps(a: np.ndarray) -> np.ndarray:

@@ -906,6 +906,74 @@ def _blend_sources(tileset: Any, spec: MapSpec, arr: np.ndarray) -> tuple:
     return cache[key][1]
 
 
+def blend_windows(
+    tileset: Any,
+    items: list[tuple[MapSpec, np.ndarray]],
+    index_map: np.ndarray,
+    height: int,
+    width: int,
+    offset: tuple[int, int] = (0, 0),
+    threads: int | None = None,
+) -> dict[str, np.ndarray] | None:
+    """The windows ``{name: (height, width, C)}`` of maps ``items`` (``[(spec, array)]``, all scalar or one
+    normal map: the same bands) laid out by ``index_map`` at ``offset`` with their seams blended
+    (:mod:`tilesynth.synth.seams`; the Rust kernel ``seam_blend``, whose oracle is
+    :func:`tilesynth.synth.seams.blend_tiles`), each in its sample type. Scalar maps are blended in one call
+    (their channels side by side: the weights are found once per pixel; each channel's result is the one it
+    has alone). None when the set's provenance has rotated or mirrored entries (then :func:`blended_tiles`
+    blends per tile in numpy)."""
+    from .. import _core
+    from ..io.normal_codes import encode_unit
+    from ..tileset.provenance import gather
+
+    prov = map_provenance(tileset)
+    if prov is None or (prov.table[..., 0] > 0).any() or not items:
+        return None
+    srcs = [_blend_sources(tileset, spec, arr) for spec, arr in items]
+    bands = srcs[0][4]
+    if any(x[4] != bands for x in srcs):
+        raise ValueError("blend_windows: the maps' bands differ; blend them apart")
+    if len(srcs) == 1:
+        values, low, mu = srcs[0][1:4]
+    else:  # side by side, once per set
+        cache = _cache(tileset)
+        key = ("blend-stack", tuple(spec.name for spec, _ in items))
+        ids = tuple(id(x[1]) for x in srcs)
+        if key not in cache or cache[key][0] != ids:
+            low = (
+                None if srcs[0][2] is None else np.ascontiguousarray(np.concatenate([x[2] for x in srcs], 2))
+            )
+            cache[key] = (ids, np.ascontiguousarray(np.concatenate([x[1] for x in srcs], axis=2)), low,
+                          np.concatenate([x[3] for x in srcs]))  # fmt: skip
+        values, low, mu = cache[key][1:]
+    imap = np.ascontiguousarray(index_map, dtype=np.int32)
+    out = np.empty((height, width, values.shape[2]), np.float64)
+    single = np.empty((height, width), np.uint8)
+    lows = low if low is not None else np.zeros((1, 1, values.shape[2]))
+    _core.seam_blend(
+        values, lows, [float(m) for m in mu], prov.labels, prov.table, imap, offset, float(bands["high"]),
+        float(bands["low"]) if low is not None else None, int(bands.get("reach", 1)), out, single, threads,
+    )  # fmt: skip
+    mixed = single == 0
+    result = {}
+    ch = 0
+    for (spec, arr), (codes, vals, *_rest) in zip(items, srcs):
+        part = out[..., ch : ch + vals.shape[2]]
+        ch += vals.shape[2]
+        img = np.empty((height, width, arr.shape[2]), arr.dtype)
+        gather(codes, prov, imap, img, offset, threads=threads)  # the copies, kept where one entry weighs 1
+        if spec.kind == "normal":
+            sl = part[mixed]
+            img[mixed] = encode_unit(np.concatenate([sl, np.ones((sl.shape[0], 1))], axis=1), arr.dtype,
+                                     spec.encoding or "unorm")  # fmt: skip
+        elif _scale(arr):
+            img[mixed] = np.rint(np.clip(part[mixed], 0.0, 1.0) * _scale(arr)).astype(arr.dtype)
+        else:
+            img[mixed] = part[mixed].astype(np.float32)
+        result[spec.name] = img
+    return result
+
+
 def blend_window(
     tileset: Any,
     spec: MapSpec,
@@ -916,40 +984,9 @@ def blend_window(
     offset: tuple[int, int] = (0, 0),
     threads: int | None = None,
 ) -> np.ndarray | None:
-    """The window ``(height, width, C)`` of map ``arr`` (scalar or normal kind) laid out by ``index_map`` at
-    ``offset`` with its seams blended (:mod:`tilesynth.synth.seams`; the Rust kernel ``seam_blend``, whose
-    oracle is :func:`tilesynth.synth.seams.blend_tiles`), in the map's sample type; None when the set's
-    provenance has rotated or mirrored entries (then :func:`blended_tiles` blends per tile in numpy)."""
-    from .. import _core
-    from ..io.normal_codes import encode_unit
-    from ..tileset.provenance import gather
-
-    prov = map_provenance(tileset)
-    if prov is None or (prov.table[..., 0] > 0).any():
-        return None
-    codes, values, low, mu, bands = _blend_sources(tileset, spec, arr)
-    imap = np.ascontiguousarray(index_map, dtype=np.int32)
-    out = np.empty((height, width, values.shape[2]), np.float64)
-    single = np.empty((height, width), np.uint8)
-    lows = low if low is not None else np.zeros((1, 1, values.shape[2]))
-    _core.seam_blend(
-        values, lows, [float(m) for m in mu], prov.labels, prov.table, imap, offset, float(bands["high"]),
-        float(bands["low"]) if low is not None else None, int(bands.get("reach", 1)), out, single, threads,
-    )  # fmt: skip
-    img = np.empty((height, width, arr.shape[2]), arr.dtype)
-    gather(
-        codes, prov, imap, img, offset, threads=threads
-    )  # the copies, kept where one entry has every weight
-    mixed = single == 0
-    if spec.kind == "normal":
-        sl = out[mixed]
-        img[mixed] = encode_unit(np.concatenate([sl, np.ones((sl.shape[0], 1))], axis=1), arr.dtype,
-                                 spec.encoding or "unorm")  # fmt: skip
-    elif _scale(arr):
-        img[mixed] = np.rint(np.clip(out[mixed], 0.0, 1.0) * _scale(arr)).astype(arr.dtype)
-    else:
-        img[mixed] = out[mixed].astype(np.float32)
-    return img
+    """:func:`blend_windows` of one map: its window ``(height, width, C)``, or None."""
+    got = blend_windows(tileset, [(spec, arr)], index_map, height, width, offset, threads)
+    return None if got is None else got[spec.name]
 
 
 def blended_tiles(tileset: Any, spec: MapSpec, arr: np.ndarray, tiles: np.ndarray) -> np.ndarray:
@@ -1154,17 +1191,21 @@ def synthesize_maps(
     local = np.ascontiguousarray(np.searchsorted(shown, imap), dtype=np.int32)
     prov = tileset.provenance
     out = {}
+    # blended maps straight into the window: the scalar ones in one call, each normal map alone
+    blend = [MapSpec.from_dict(d) for d in specs]
+    blend = [s for s in blend if s.kind in SMOOTH_KINDS and smooths(tileset, s, smooth) and seams == "blend"]
+    groups = [[s for s in blend if s.kind == "scalar"]] + [[s] for s in blend if s.kind == "normal"]
+    windows: dict[str, np.ndarray] = {}
+    for group in groups:
+        if group:
+            items = [(s, tileset.maps[s.name]) for s in group]
+            windows.update(blend_windows(tileset, items, imap, h, w, (oy, ox), threads) or {})
     for d in specs:
         spec = MapSpec.from_dict(d)
         arr = tileset.maps[spec.name]
         img = np.empty((h, w, arr.shape[2]), arr.dtype)
-        blended = None
-        if spec.kind in SMOOTH_KINDS and smooths(tileset, spec, smooth) and seams == "blend":
-            blended = blend_window(
-                tileset, spec, arr, imap, h, w, (oy, ox), threads
-            )  # straight to the window
-        if blended is not None:
-            img = blended
+        if spec.name in windows:
+            img = windows[spec.name]
         elif prov is not None and not smooths(tileset, spec, smooth):
             from ..tileset.provenance import gather
 
