@@ -13,6 +13,7 @@
 //!   conjugate gradients to a stated relative residual.
 //! - [`provenance`]: tile sets as provenance (labels and a per-tile source table) and the gather of any window
 //!   of a tiling straight from the exemplar.
+//! - [`blend`]: the seam blend of smooth material maps over a window (labels' coverage, two bands).
 //! - [`synth`]: copying tiles into a large output by an index map.
 //! - [`hash`]: the hashed lookup of complete tile sets (pcg3d of lattice coordinates, `HASH-SPEC.md`).
 //! - [`population`]: the ω-tile objective `E` for whole populations of gene vectors (exact, cached
@@ -28,6 +29,7 @@
 #![deny(missing_docs)]
 #![warn(clippy::all)]
 
+pub mod blend;
 pub mod error;
 pub mod gradients;
 pub mod hash;

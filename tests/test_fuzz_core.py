@@ -339,6 +339,54 @@ def provenance_gather(d: st.DrawFn):
 
 
 @st.composite
+def seam_blend(d: st.DrawFn):
+    broken = d(
+        st.sampled_from(
+            ["none", "none", "none", "values", "low", "mu", "table", "index_map", "out", "levels"]
+        )
+    )
+    eh, ew, c = d(st.integers(1, 8)), d(st.integers(1, 8)), d(st.integers(1, 2))
+    values = fuzzing.fill((eh, ew, c), "float64", "unit", d(st.integers(0, 99)))
+    src = _provenance_source(d, eh, ew)
+    try:
+        with np.errstate(all="ignore"):  # careless sources: a cast may overflow
+            src = np.ascontiguousarray(src, np.int32)
+        got = _core.provenance_factorise(src)
+    except CORE_ERRORS:
+        got = None
+    labels, table = got if got is not None else (np.zeros((1, 1, 1), np.uint8), np.zeros((1, 1, 3), np.int32))
+    k, n = labels.shape[:2]
+    low_level = d(st.sampled_from([None, 1.0, 2.5]))
+    low = fuzzing.fill((eh, ew, c), "float64", "unit", d(st.integers(0, 99)))
+    mu = [0.5] * c
+    high, reach = d(st.sampled_from([0.0, 1.0, 3.0])), d(st.sampled_from([1, 2, 4]))
+    if broken == "values":
+        values = d(arrays(d(st.integers(0, 4)), "float64", None, max_side=8))
+    elif broken == "low":
+        low = d(arrays(d(st.integers(0, 4)), "float64", None, max_side=5))
+        low_level = 2.0
+    elif broken == "mu":
+        mu = d(st.sampled_from([[], [0.1] * (c + 1), "x"]))
+    elif broken == "table":
+        table = d(arrays(d(st.integers(2, 4)), I32, None, lo=-9, hi=12, max_side=5))
+    elif broken == "levels":
+        high = d(st.sampled_from([-1.0, 9.0, float("nan")]))
+        reach = d(st.sampled_from([0, 3, 256, -1]))
+        low_level = 2.0
+    h, w = d(st.integers(0, 9)), d(st.integers(0, 9))
+    rows, cols = -(-h // n) + 1, -(-w // n) + 1
+    if broken == "index_map":
+        imap = d(arrays(2, I32, (None, None), lo=-1, hi=k + 1))
+    else:
+        imap = np.random.default_rng(d(st.integers(0, 99))).integers(0, k, (rows, cols)).astype(np.int32)
+    offset = (d(st.integers(0, n)), d(st.integers(0, n)))
+    out = d(arrays(3, "float64", (None, None, c), max_side=9)) if broken == "out" else np.zeros((h, w, c))
+    single = np.zeros(out.shape[:2], np.uint8)
+    args = (values, low, mu, labels, table, imap, offset, high, low_level, reach, out, single)
+    return _core.seam_blend, args, {"threads": d(threads())}, (10, 11)
+
+
+@st.composite
 def png_unfilter(d: st.DrawFn):
     rows, row_bytes = d(sizes(-1, 6)), d(sizes(-1, 12))
     bpp = d(st.one_of(st.integers(1, 8), st.integers(1, 8), sizes(-1, 9)))
@@ -613,6 +661,7 @@ ENTRY_POINTS = {
     "_best_matches_sorting": best_matches_sorting,
     "provenance_factorise": provenance_factorise,
     "provenance_gather": provenance_gather,
+    "seam_blend": seam_blend,
     "quadrant_map": quadrant_map,
     "best_matches_quadrants": best_matches_quadrants,
 }

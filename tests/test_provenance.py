@@ -219,7 +219,7 @@ def test_material_build_stores_levels_and_v2_maps_are_the_whole_atlas_ones(mater
         img, imap = ts.synthesize(back, w, h, seed=6, origin=origin)
         n = t.tile_size
         offset = (origin[1] % n, origin[0] % n)
-        got = materials.synthesize_maps(back, imap, w, h, offset=offset)
+        got = materials.synthesize_maps(back, imap, w, h, offset=offset, seams="fuse")  # the fusion's levels
         want = _whole_atlas_maps(t, imap, w, h, offset)
         assert not back.has_pixels()
         for name in want:
@@ -244,9 +244,9 @@ def test_material_v1_file_levels_are_solved_once(material, tmp_path):
     back = TileSet.load(p)
     assert back.map_levels is None  # version 1 stores no levels: solved on first use, then kept
     img, imap = ts.synthesize(back, 40, 40, seed=2)
-    a = materials.synthesize_maps(back, imap, 40, 40)
+    a = materials.synthesize_maps(back, imap, 40, 40, seams="fuse")
     assert set(back.map_levels) == set(material.map_levels)
-    b = materials.synthesize_maps(material, imap, 40, 40)
+    b = materials.synthesize_maps(material, imap, 40, 40, seams="fuse")
     for name in a:
         assert np.array_equal(a[name], b[name])
 

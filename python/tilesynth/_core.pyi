@@ -52,6 +52,8 @@ __all__ = [
     # tile sets as provenance (rust/py/provenance.rs)
     "provenance_factorise",
     "provenance_gather",
+    # the seam blend of smooth material maps (rust/py/blend.rs)
+    "seam_blend",
     # matching from shared quadrants (rust/py/ssd.rs)
     "quadrant_map",
     "best_matches_quadrants",
@@ -275,6 +277,23 @@ def provenance_gather(
     index_map: npt.NDArray[np.int32],
     offset: tuple[int, int],
     out: np.ndarray,
+    threads: int | None = None,
+) -> None: ...
+
+# the seam blend of smooth material maps (rust/py/blend.rs)
+def seam_blend(
+    values: npt.NDArray[np.float64],
+    low: npt.NDArray[np.float64],
+    mu: list[float],
+    labels: npt.NDArray[np.uint8],
+    table: npt.NDArray[np.int32],
+    index_map: npt.NDArray[np.int32],
+    offset: tuple[int, int],
+    high: float,
+    low_level: float | None,
+    reach: int,
+    out: npt.NDArray[np.float64],
+    single: npt.NDArray[np.uint8],
     threads: int | None = None,
 ) -> None: ...
 

@@ -5,6 +5,7 @@
 //! Constants that Python needs (default eps, Poisson tolerance, λ, ω, the thread cap, the Wang side indices)
 //! are exported once from here (see [`add_constants`]); the Python layer imports them.
 
+mod blend;
 mod convert;
 mod errors;
 mod gradients;
@@ -91,5 +92,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     testing::register(m)?;
     gradients::register(m)?;
     provenance::register(m)?;
+    blend::register(m)?;
     Ok(())
 }

@@ -27,12 +27,15 @@ maps={...})``, ``tilesynth build EX --map height=H.png``) chooses them on every 
 4. **Maps travel with the set.** Every map is stored in the tile set (``map_<name>.npy`` in its own sample type,
    with its kind and weight in ``manifest.json`` ``maps``), and :func:`synthesize_maps` lays each out through the
    same provenance and cuts as the colour (``synth``, ``export`` and ``report`` write all of them). Scalar and
-   normal maps are fused across every seam of the tile in the gradient domain by default (:func:`smooths`,
-   :mod:`tilesynth.builder.fusion`: a smooth map shows the level offset of two patches as a cliff that no cut
-   avoids; a first stage moves the exemplar's levels by one smooth correction shared by every copy of a pixel,
-   :func:`~tilesynth.builder.fusion.exemplar_levels`, then the tile interior is fused with the border ring kept as
-   the first stage left it, so tilings stay seamless; ``level=False`` skips the first stage); ``smooth=False`` /
-   ``--map-smooth off`` gives pure copies.
+   normal maps are blended across their seams by default (:func:`smooths`, :mod:`tilesynth.synth.seams`: a
+   smooth map shows the level offset of two patches as a cliff that no cut avoids; near a cut the pieces that
+   cover the pixel's neighbourhood are read at the pixel and weighted by their share of the tile labels'
+   coverage, the low frequencies of scalar maps over a wider band and variance-preserving, so the relief keeps
+   its amplitude: ``benches/relief-results.md``). ``seams="fuse"`` / ``--map-seams fuse`` selects the former
+   gradient-domain fusion (:mod:`tilesynth.builder.fusion`: a first stage moves the exemplar's levels by one
+   smooth correction shared by every copy of a pixel, :func:`~tilesynth.builder.fusion.exemplar_levels`, then
+   the tile interior is fused with the border ring kept; it leaves no level offset but flattens rocks' relief
+   to 0.2-0.3x); ``smooth=False`` / ``--map-smooth off`` gives pure copies.
 
 **Default weights** (0.5 for scalar and normal maps, :data:`DEFAULT_WEIGHTS`). Measured on the bench's 4 derived
 materials with 2 seeds each (``benches/materials.py``): with the fusion, the maps' cut seams are 0.85-1.34 whatever
@@ -67,8 +70,8 @@ gradient term) and the patch baseline (not measured).
 kind       meaning                                                default weight  in synthesis
 =========  =====================================================  ==============  ====================================
 colour     sRGB colour (albedo, base colour, emissive)            1               copied; smoothed with the colour
-scalar     linear data (height, roughness, metallic, AO, ...)     0.5             fused across the seams
-normal     tangent-space normal, 3 channels, Y up or down         0.5             fused, renormalised, unit codes
+scalar     linear data (height, roughness, metallic, AO, ...)     0.5             blended across the seams
+normal     tangent-space normal, 3 channels, Y up or down         0.5             blended, unit codes
 label      mask, material ID, segmentation (any integer value)    0               exact copies, never smoothed
 =========  =====================================================  ==============  ====================================
 
@@ -665,21 +668,22 @@ def renormalise_image(a: np.ndarray, encoding: str) -> np.ndarray:
     return _renormalise(flat, length > 1e-3, encoding).reshape(a.shape)
 
 
-#: The kinds whose maps are smoothed (fused across the seams, :func:`fuse_map_atlas`) by default, even when the
-#: albedo is not.
+#: The kinds whose maps are smoothed (blended across the seams, :func:`blended_tiles`, or fused,
+#: :func:`fuse_map_atlas`: :func:`seams_method`) by default, even when the albedo is not.
 SMOOTH_KINDS: tuple[str, ...] = ("scalar", "normal")
 
 
 def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
-    """Whether map ``spec`` of ``tileset`` is smoothed (scalar and normal maps: fused across their seams,
-    :func:`fuse_map_atlas`; colour maps: the colour's Poisson smoothing): never for labels; for ``smooth=None``
+    """Whether map ``spec`` of ``tileset`` is smoothed (scalar and normal maps: their seams blended or fused,
+    :func:`seams_method`; colour maps: the colour's Poisson smoothing): never for labels; for ``smooth=None``
     (the default) when the colour tiles were smoothed, and for every scalar and normal map (:data:`SMOOTH_KINDS`)
     of every scheme (the fusion reads only the provenance's seams, so Cohen's Wang sets, without matching patches,
     are fused too). Why the maps without the albedo: the cuts of the joint build make the maps
     agree along the cut as well as the matching allows, but a smooth map (a height field) still shows the *level*
     offset between the two patches as a cliff along the curve (measured: ``benches/materials.py``, cut seam 4-15
-    as copies), while the albedo, whose pixel steps are large, hides the same offset; the gradient-domain fusion
-    removes the offset (cut seam 0.85-1.34) and keeps every border pixel, so tilings stay seamless.
+    as copies), while the albedo, whose pixel steps are large, hides the same offset; the seam blend spreads the
+    offset over the blend's width and keeps the relief (``benches/relief-results.md``), the gradient-domain
+    fusion removes it (cut seam 0.85-1.34) but flattens the relief; both keep tilings seamless.
     ``smooth=False`` gives pure copies."""
     from ..synth.synthesis import is_smoothed
 
@@ -790,7 +794,7 @@ def _levelled(tileset: Any, spec: MapSpec, arr: np.ndarray) -> np.ndarray:
         f = arr.astype(np.float64) / (_scale(arr) or 1.0)
         cache[key] = (arr, f + level_field(levels[spec.name], levels["corners"], f.shape, LEVEL_BLOCK))
         lru = cache.get("fused")
-        for k in [k for k in (lru or {}) if k[0] == spec.name]:
+        for k in [k for k in (lru or {}) if len(k) == 2 and k[0] == spec.name]:
             cache["fused_bytes"] -= lru.pop(k).nbytes
     return cache[key][1]
 
@@ -840,6 +844,170 @@ def fused_tiles(tileset: Any, spec: MapSpec, arr: np.ndarray, tiles: np.ndarray)
     while cache.get("fused_bytes", 0) > FUSED_CACHE_BYTES and len(lru) > tiles.size:
         _, old = lru.popitem(last=False)
         cache["fused_bytes"] -= old.nbytes
+    return out
+
+
+SEAMS: tuple[str, ...] = ("blend", "fuse")
+"""How the seams of smoothed scalar and normal maps are treated (:func:`seams_method`)."""
+
+DEFAULT_SEAMS = "blend"
+"""The default seam treatment: the blend from the labels' coverage (:mod:`tilesynth.synth.seams`), which keeps the
+relief (measured, ``benches/relief-results.md``: height std 0.9-1.0x of the exemplar's, cliffs at or below the
+exemplar's own) where the fusion flattens it (0.2-0.8x); and it is local, so the GPU can do the same."""
+
+
+def seams_method(seams: Any) -> str:
+    """The seam treatment ``seams`` names: None (:data:`DEFAULT_SEAMS`), "blend" or "fuse"."""
+    if seams is None:
+        return DEFAULT_SEAMS
+    if not isinstance(seams, str) or seams not in SEAMS:
+        raise ParameterError(f"seams = {seams!r}: expected None, {' or '.join(repr(v) for v in SEAMS)}")
+    return seams
+
+
+def map_provenance(tileset: Any) -> Any:
+    """The labels and source table the seam blend reads: the set's provenance, or for a set held as pixels the
+    factorisation of its ``source`` (also for Poisson-smoothed sets, whose maps are laid out from the same
+    sources), found once per set; None when some tile has more than 255 pieces (the fusion is used then)."""
+    if tileset.provenance is not None:
+        return tileset.provenance
+    cache = _cache(tileset)
+    src = tileset.source
+    if "prov" not in cache or cache["prov"][0] is not src:
+        from ..tileset.provenance import factorise
+
+        cache["prov"] = (src, factorise(src))
+    return cache["prov"][1]
+
+
+def _blend_sources(tileset: Any, spec: MapSpec, arr: np.ndarray) -> tuple:
+    """What the seam blend of a map reads, once per set: ``(codes, values, low, mu, bands)``: the map's samples
+    as the copies read them (normal maps renormalised), the values blended (float64: samples over their
+    maximum, a normal map's slopes), the low band's mip (or None), the map's mean, the bands for the set's tile
+    size (:func:`tilesynth.synth.seams.tile_bands`)."""
+    from ..synth import seams
+
+    cache = _cache(tileset)
+    key = ("blend", spec.name)
+    if key not in cache or cache[key][0] is not arr:
+        codes = _copied_map(tileset, spec, arr)
+        bands = seams.tile_bands(seams.check_bands(None, spec.kind), tileset.tile_size)
+        if spec.kind == "normal":
+            values = np.ascontiguousarray(seams.normal_slopes(codes, spec.encoding or "unorm"))
+        else:
+            values = codes.astype(np.float64) / (_scale(arr) or 1.0)
+        low = None
+        if "low" in bands:  # the low band at every exemplar pixel: the kernel reads one value per entry
+            split = int(bands["split"])
+            grid = np.mgrid[0 : values.shape[0], 0 : values.shape[1]].transpose(1, 2, 0)
+            low = np.ascontiguousarray(seams.sample_mip(seams.box_mip(values, split), split, grid))
+        mu = values.reshape(-1, values.shape[2]).mean(axis=0)
+        cache[key] = (arr, (codes, values, low, mu, bands))
+    return cache[key][1]
+
+
+def blend_windows(
+    tileset: Any,
+    items: list[tuple[MapSpec, np.ndarray]],
+    index_map: np.ndarray,
+    height: int,
+    width: int,
+    offset: tuple[int, int] = (0, 0),
+    threads: int | None = None,
+) -> dict[str, np.ndarray] | None:
+    """The windows ``{name: (height, width, C)}`` of maps ``items`` (``[(spec, array)]``, all scalar or one
+    normal map: the same bands) laid out by ``index_map`` at ``offset`` with their seams blended
+    (:mod:`tilesynth.synth.seams`; the Rust kernel ``seam_blend``, whose oracle is
+    :func:`tilesynth.synth.seams.blend_tiles`), each in its sample type. Scalar maps are blended in one call
+    (their channels side by side: the weights are found once per pixel; each channel's result is the one it
+    has alone). None when the set's provenance has rotated or mirrored entries (then :func:`blended_tiles`
+    blends per tile in numpy)."""
+    from .. import _core
+    from ..io.normal_codes import encode_unit
+    from ..tileset.provenance import gather
+
+    prov = map_provenance(tileset)
+    if prov is None or (prov.table[..., 0] > 0).any() or not items:
+        return None
+    srcs = [_blend_sources(tileset, spec, arr) for spec, arr in items]
+    bands = srcs[0][4]
+    if any(x[4] != bands for x in srcs):
+        raise ValueError("blend_windows: the maps' bands differ; blend them apart")
+    if len(srcs) == 1:
+        values, low, mu = srcs[0][1:4]
+    else:  # side by side, once per set
+        cache = _cache(tileset)
+        key = ("blend-stack", tuple(spec.name for spec, _ in items))
+        ids = tuple(id(x[1]) for x in srcs)
+        if key not in cache or cache[key][0] != ids:
+            low = (
+                None if srcs[0][2] is None else np.ascontiguousarray(np.concatenate([x[2] for x in srcs], 2))
+            )
+            cache[key] = (ids, np.ascontiguousarray(np.concatenate([x[1] for x in srcs], axis=2)), low,
+                          np.concatenate([x[3] for x in srcs]))  # fmt: skip
+        values, low, mu = cache[key][1:]
+    imap = np.ascontiguousarray(index_map, dtype=np.int32)
+    out = np.empty((height, width, values.shape[2]), np.float64)
+    single = np.empty((height, width), np.uint8)
+    lows = low if low is not None else np.zeros((1, 1, values.shape[2]))
+    _core.seam_blend(
+        values, lows, [float(m) for m in mu], prov.labels, prov.table, imap, offset, float(bands["high"]),
+        float(bands["low"]) if low is not None else None, int(bands.get("reach", 1)), out, single, threads,
+    )  # fmt: skip
+    mixed = single == 0
+    result = {}
+    ch = 0
+    for (spec, arr), (codes, vals, *_rest) in zip(items, srcs):
+        part = out[..., ch : ch + vals.shape[2]]
+        ch += vals.shape[2]
+        img = np.empty((height, width, arr.shape[2]), arr.dtype)
+        gather(codes, prov, imap, img, offset, threads=threads)  # the copies, kept where one entry weighs 1
+        if spec.kind == "normal":
+            sl = part[mixed]
+            img[mixed] = encode_unit(np.concatenate([sl, np.ones((sl.shape[0], 1))], axis=1), arr.dtype,
+                                     spec.encoding or "unorm")  # fmt: skip
+        elif _scale(arr):
+            img[mixed] = np.rint(np.clip(part[mixed], 0.0, 1.0) * _scale(arr)).astype(arr.dtype)
+        else:
+            img[mixed] = part[mixed].astype(np.float32)
+        result[spec.name] = img
+    return result
+
+
+def blend_window(
+    tileset: Any,
+    spec: MapSpec,
+    arr: np.ndarray,
+    index_map: np.ndarray,
+    height: int,
+    width: int,
+    offset: tuple[int, int] = (0, 0),
+    threads: int | None = None,
+) -> np.ndarray | None:
+    """:func:`blend_windows` of one map: its window ``(height, width, C)``, or None."""
+    got = blend_windows(tileset, [(spec, arr)], index_map, height, width, offset, threads)
+    return None if got is None else got[spec.name]
+
+
+def blended_tiles(tileset: Any, spec: MapSpec, arr: np.ndarray, tiles: np.ndarray) -> np.ndarray:
+    """The tiles ``tiles`` ``(k, N, N, C)`` of map ``arr`` (scalar or normal kind) with their seams blended, in
+    the map's sample type: :func:`blend_window` of a one-column index map, or for a set with rotated or
+    mirrored entries :func:`tilesynth.synth.seams.blend_tiles` (numpy, the vectors turned with their entries),
+    a bounded chunk of tiles at a time."""
+    from ..synth.seams import blend_tiles
+
+    n = tileset.tile_size
+    idx = np.asarray(tiles, np.int64).reshape(-1)
+    out = np.empty((idx.size, n, n, arr.shape[2]), arr.dtype)
+    step = max(1, (1 << 20) // (n * n))  # a bounded chunk: about 1 Mi pixels per call
+    for lo in range(0, idx.size, step):
+        part = idx[lo : lo + step]
+        got = blend_window(tileset, spec, arr, part.reshape(-1, 1), part.size * n, n)
+        if got is None:
+            src = _copied_map(tileset, spec, arr)
+            got = blend_tiles(src, map_provenance(tileset), part, kind=spec.kind, encoding=spec.encoding or "unorm",
+                              y_down=spec.normal_y == "down")  # fmt: skip
+        out[lo : lo + part.size] = got.reshape(part.size, n, n, arr.shape[2])
     return out
 
 
@@ -896,10 +1064,13 @@ def map_atlas(
     smooth: bool | None = None,
     threads: int | None = None,
     tiles: np.ndarray | None = None,
+    seams: str | None = None,
 ) -> np.ndarray:
     """The tiles ``(k, N, N, C)`` of one map of ``tileset`` (``tiles``: their indices; None: every tile): copied
-    through the provenance, fused across the seams or Poisson-smoothed in the cut regions when :func:`smooths`
-    says so (never for labels), normal vectors renormalised. Scalar and normal maps are fused for the tiles
+    through the provenance, or where :func:`smooths` says so (never for labels) scalar and normal maps with
+    their seams treated by ``seams`` (:func:`seams_method`: "blend", the default, :func:`blended_tiles`;
+    "fuse", the gradient-domain fusion below) and colour maps Poisson-smoothed in the cut regions, normal
+    vectors renormalised. With ``seams="fuse"`` scalar and normal maps are fused for the tiles
     asked only (:func:`fused_tiles`, the bytes of :func:`fuse_map_atlas`); a colour map of a Poisson-smoothed set
     needs the whole set. The vectors of a normal map are turned with their pixels where a matching patch was
     rotated or mirrored (``--augment``: :func:`~tilesynth.builder.matching.augment.transform_normal_codes`, exact
@@ -909,6 +1080,13 @@ def map_atlas(
     from .matching.augment import pixel_transforms, transform_normal_codes
 
     idx = np.arange(tileset.n_tiles) if tiles is None else np.asarray(tiles, np.int64).reshape(-1)
+    if (
+        spec.kind in SMOOTH_KINDS
+        and smooths(tileset, spec, smooth)
+        and seams_method(seams) == "blend"
+        and map_provenance(tileset) is not None
+    ):  # the default: the seam blend from the labels (rotated or mirrored entries are turned by the blend)
+        return blended_tiles(tileset, spec, arr, idx)
     turns = pixel_transforms(tileset)
     if turns is not None:  # rotated or mirrored patches: every step and vector turns with its patch
         src = tileset.source
@@ -957,17 +1135,21 @@ def synthesize_maps(
     smooth: bool | None = None,
     normal_y: str | None = None,
     offset: tuple[int, int] = (0, 0),
+    seams: str | None = None,
 ) -> dict[str, np.ndarray]:
     """Every map stored in a material tile set, laid out like the colour output of ``index_map``:
     ``{name: (height, width, C)}`` in each map's own sample type. ``smooth``: None (:func:`smooths`: scalar and
     normal maps, and every map of a smoothed set), True or False (labels are never smoothed); ``normal_y``: "up" / "down" converts normal maps recorded in the other
     convention (None: as recorded); ``offset = (oy, ox)``: the window starts that many pixels into the first
-    cell of ``index_map`` (as :func:`tilesynth.synthesize` lays a window at any ``origin``).
+    cell of ``index_map`` (as :func:`tilesynth.synthesize` lays a window at any ``origin``); ``seams``: how the
+    seams of smoothed scalar and normal maps are treated (:func:`seams_method`): "blend" (None, the default:
+    :mod:`tilesynth.synth.seams`, relief kept) or "fuse" (the gradient-domain fusion, flatter).
 
-    **Per window.** Only the tiles the window shows are made: copied maps are gathered from the map through the
-    provenance (:func:`tilesynth.tileset.provenance.gather`), fused maps are fused for those tiles (the level
-    correction is solved once per set, at build time, :func:`map_levels`; recently fused tiles are cached with the
-    set, :data:`FUSED_CACHE_BYTES`). The bytes are those of laying out the whole set's map atlas."""
+    **Per window.** Only the pixels the window shows are made: copied maps are gathered from the map through the
+    provenance (:func:`tilesynth.tileset.provenance.gather`), blended maps are blended straight into the window
+    (:func:`blend_window`, the Rust kernel ``seam_blend``), fused maps are fused for the tiles shown (the level
+    correction is solved once per set, at build time, :func:`map_levels`; recently fused tiles are cached with
+    the set, :data:`FUSED_CACHE_BYTES`). The bytes are those of laying out the whole set's map atlas."""
     from .. import _core
     from ..base import kernels
     from ..base.validate import MAX_BYTES_ENV, fmt_bytes, memory_limit, positive_int, threads_arg
@@ -979,6 +1161,7 @@ def synthesize_maps(
         raise ParameterError(f"normal_y = {normal_y!r}: must be None, 'up' or 'down'")
     if smooth is not None and not isinstance(smooth, (bool, np.bool_)):
         raise ParameterError(f"smooth = {smooth!r}: must be None, True or False")
+    seams = seams_method(seams)
     threads = threads_arg(threads)
     w, h = positive_int(width, "width"), positive_int(height, "height")
     specs = tileset.map_specs or []
@@ -1008,16 +1191,29 @@ def synthesize_maps(
     local = np.ascontiguousarray(np.searchsorted(shown, imap), dtype=np.int32)
     prov = tileset.provenance
     out = {}
+    # blended maps straight into the window: the scalar ones in one call, each normal map alone
+    blend = [MapSpec.from_dict(d) for d in specs]
+    blend = [s for s in blend if s.kind in SMOOTH_KINDS and smooths(tileset, s, smooth) and seams == "blend"]
+    groups = [[s for s in blend if s.kind == "scalar"]] + [[s] for s in blend if s.kind == "normal"]
+    windows: dict[str, np.ndarray] = {}
+    for group in groups:
+        if group:
+            items = [(s, tileset.maps[s.name]) for s in group]
+            windows.update(blend_windows(tileset, items, imap, h, w, (oy, ox), threads) or {})
     for d in specs:
         spec = MapSpec.from_dict(d)
         arr = tileset.maps[spec.name]
         img = np.empty((h, w, arr.shape[2]), arr.dtype)
-        if prov is not None and not smooths(tileset, spec, smooth):
+        if spec.name in windows:
+            img = windows[spec.name]
+        elif prov is not None and not smooths(tileset, spec, smooth):
             from ..tileset.provenance import gather
 
             gather(_copied_map(tileset, spec, arr), prov, imap, img, (oy, ox), threads=threads)  # copies
         else:
-            atlas = np.ascontiguousarray(map_atlas(tileset, spec, arr, smooth, threads, tiles=shown))
+            atlas = np.ascontiguousarray(
+                map_atlas(tileset, spec, arr, smooth, threads, tiles=shown, seams=seams)
+            )
             _core.tile_copy_window(atlas, local, (oy, ox), img, threads)
         if spec.kind == "normal" and normal_y is not None and normal_y != spec.normal_y:
             img = convert_normal_y(img, spec.encoding or "unorm")

@@ -256,8 +256,17 @@ def _add_synth_parser(sub) -> None:  # noqa: ANN001
         choices=("auto", "on", "off"),
         help="Poisson-smooth the --with maps inside the cuts like the colour tiles: auto (default: if the "
         "tile set was built with --smooth), on, or off (pure copies: for labels, masks, IDs). The maps a "
-        "material set stores (build --map): auto fuses its scalar and normal maps across the seams (gradient "
-        "domain, tile borders kept), never smooths its labels",
+        "material set stores (build --map): auto treats the seams of its scalar and normal maps as "
+        "--map-seams says, never smooths its labels",
+    )
+    s.add_argument(
+        "--map-seams",
+        default="blend",
+        choices=("blend", "fuse"),
+        help="how the seams of the scalar and normal maps a material set stores are treated when smoothed "
+        "(--map-smooth auto/on): blend (default: each cut blended over about 8 px from the two sources, "
+        "relief kept) or fuse (the gradient-domain fusion of every seam over the tile interior: no level "
+        "offsets left, but flatter relief)",
     )
     s.add_argument(
         "--bits",
@@ -694,6 +703,7 @@ def _synth(
     wrap: bool = False,
     normal_y: str | None = None,
     map_flag: str = "--index-map",
+    map_seams: str = "blend",
 ) -> None:
     from ..base.progress import Progress
     from ..base.validate import seed_int
@@ -763,7 +773,7 @@ def _synth(
         _synth_write_maps(prog, ts, maps, imap, size, threads, smooth_maps)
         n = ts.tile_size  # the maps' window starts where the colour's does: at the origin's pixel in its cell
         offset = (origin[1] % n, origin[0] % n) if index_map is None else (0, 0)
-        write_map_outputs(prog, ts, stored, imap, size, threads, stored_smooth, normal_y, offset)
+        write_map_outputs(prog, ts, stored, imap, size, threads, stored_smooth, normal_y, offset, map_seams)
     how = f"seed {seed}" if seed is not None else f"map {map_path}"
     prog.message(
         f"wrote {output}: {size[0]}x{size[1]}, {imap.shape[1]}x{imap.shape[0]} tiles, {how}, "
@@ -1115,6 +1125,7 @@ def _run_command(args: argparse.Namespace) -> int:
             args.wrap,
             args.normal_y,
             "--map" if getattr(args, "old_map_flag", False) else "--index-map",
+            args.map_seams,
         )
         # after the work, so that an error stays one line
         if getattr(args, "old_map_flag", False) and not args.quiet:

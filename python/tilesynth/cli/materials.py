@@ -172,9 +172,11 @@ def write_map_outputs(
     smooth: bool | None,
     normal_y: str | None,
     offset: tuple[int, int] = (0, 0),
+    seams: str | None = None,
 ) -> None:
     """Synthesize and write every stored map of ``ts`` (:func:`tilesynth.builder.materials.synthesize_maps`),
-    the window at pixel ``offset = (oy, ox)`` into the first cell of ``imap`` (the colour's, for ``--origin``)."""
+    the window at pixel ``offset = (oy, ox)`` into the first cell of ``imap`` (the colour's, for ``--origin``);
+    ``seams``: the seam treatment of its smoothed scalar and normal maps (``--map-seams``)."""
     from ..builder.materials import synthesize_maps
     from ..io.images import atomic_open, save_image
 
@@ -184,7 +186,15 @@ def write_map_outputs(
         return
     prog("material maps", 0, 1)
     outs = synthesize_maps(
-        ts, imap, size[0], size[1], threads=threads, smooth=smooth, normal_y=normal_y, offset=offset
+        ts,
+        imap,
+        size[0],
+        size[1],
+        threads=threads,
+        smooth=smooth,
+        normal_y=normal_y,
+        offset=offset,
+        seams=seams,
     )
     from ..builder.materials import MapSpec, smooths
 
@@ -198,8 +208,9 @@ def write_map_outputs(
         else:
             save_image(target, arr)
         fused = smoothed[name] and kinds[name] in ("scalar", "normal")
+        treated = ", blended across the seams" if seams in (None, "blend") else ", fused across the seams"
         how = (
-            (", fused across the seams" if fused else ", Poisson-smoothed inside the cuts")
+            (treated if fused else ", Poisson-smoothed inside the cuts")
             if smoothed[name]
             else ", pure copies"
         )
