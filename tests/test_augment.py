@@ -246,6 +246,28 @@ def test_normals_of_turned_patches_turn_with_them(mode, normal_y, smooth):
         assert cx > 0.8 and cy > 0.8, (tt, cx, cy)
 
 
+def test_copied_normals_of_turned_patches_turn_in_the_window_too(tmp_path):
+    """``synthesize_maps(smooth=False)`` of a saved set (copies gathered through the provenance, per window) turns
+    the vectors of rotated / mirrored patches as the whole-set atlas does (it gathered the codes unturned: bumps
+    lit from the wrong side in those tiles)."""
+    from tilesynth.builder import materials
+
+    albedo, height, normal = _bumps(128)
+    built = ts.build(albedo, tileset="16a", tile_size=32, seed=1, augment="rotate",
+                     maps={"normal": normal, "height": height}, map_weights={"normal": 0})  # fmt: skip
+    built.save(tmp_path / "a.tiles")
+    t = ts.load(tmp_path / "a.tiles")
+    assert t.provenance is not None  # the per-window gather is the path under test
+    assert any(v != 0 for v in t.params["match_transforms"])
+    _, imap = ts.synthesize(t, 96, 96, seed=3)
+    got = materials.synthesize_maps(t, imap, 96, 96, smooth=False)["normal"]
+    spec = materials.MapSpec.from_dict([d for d in t.map_specs if d["name"] == "normal"][0])
+    atlas = np.ascontiguousarray(materials.map_atlas(t, spec, t.maps["normal"], False))
+    n = t.tile_size
+    want = atlas[imap].transpose(0, 2, 1, 3, 4).reshape(imap.shape[0] * n, imap.shape[1] * n, -1)[:96, :96]
+    np.testing.assert_array_equal(got, want)
+
+
 def test_turned_normal_codes_are_exact_and_agree_with_the_vectors():
     r = np.random.default_rng(0)
     v = r.normal(size=(8, 50, 3))

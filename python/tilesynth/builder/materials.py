@@ -1125,6 +1125,12 @@ def _copied_map(tileset: Any, spec: MapSpec, arr: np.ndarray) -> np.ndarray:
     return cache[key][1]
 
 
+def _turned(tileset: Any) -> bool:
+    """Whether some matching patch of ``tileset`` was rotated or mirrored (``--augment``): the copies of a normal
+    map must then turn their vectors, which the provenance gather does not do (:func:`map_atlas` does)."""
+    return any(t != 0 for t in (tileset.params.get("match_transforms") or []))
+
+
 def synthesize_maps(
     tileset: Any,
     index_map: np.ndarray,
@@ -1206,7 +1212,11 @@ def synthesize_maps(
         img = np.empty((h, w, arr.shape[2]), arr.dtype)
         if spec.name in windows:
             img = windows[spec.name]
-        elif prov is not None and not smooths(tileset, spec, smooth):
+        elif (
+            prov is not None
+            and not smooths(tileset, spec, smooth)
+            and not (spec.kind == "normal" and _turned(tileset))
+        ):
             from ..tileset.provenance import gather
 
             gather(_copied_map(tileset, spec, arr), prov, imap, img, (oy, ox), threads=threads)  # copies
