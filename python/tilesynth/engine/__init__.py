@@ -670,7 +670,7 @@ def _export_v2(
     from . import provenance_export as pe
     from .sources import SHADER_FILES_V2
 
-    entries = pe.exemplar_maps(tileset, maps, bits, normal_y)
+    entries = pe.exemplar_maps(tileset, maps, bits, normal_y, _map_array)
     blend = pe.check_blend_levels(blend_levels, [e["name"] for e in entries])
     n_cov = pe.coverage_count(tileset.tile_size)
     names = pe.export_files_v2(entries, n_cov)
@@ -695,7 +695,7 @@ def _export_v2(
 
     with file_set():
         files: list[str] = []
-        written = pe.write_textures(form, entries, blend, normal_y, out, files, progress)
+        written = pe.write_textures(form, entries, blend, normal_y, out, files, _write_level, progress)
         if lookup == "hash":
             lookup_entry = _hash_lookup(hl, seed, wrap)
         else:

@@ -255,14 +255,15 @@ def gpu_bytes(
 
 # ------------------------------------------------------------------------------------------------ the maps
 def exemplar_maps(
-    tileset: Any, maps: dict[str, Any] | None, bits: int, normal_y: str
+    tileset: Any, maps: dict[str, Any] | None, bits: int, normal_y: str, check_map: Any
 ) -> list[dict[str, Any]]:
     """Every map of a version-2 export, level 0 as exported: ``[{"name", "array", "kind", "srgb", "encoding",
     "normal_y"}]``, the albedo (the exemplar at ``bits``) first, then the tile set's material maps, then ``maps``.
-    ``normal_y`` is the export's convention (``+y`` / ``-y``): normal maps are converted to it."""
+    ``normal_y`` is the export's convention (``+y`` / ``-y``): normal maps are converted to it. ``check_map(name,
+    value, exemplar_shape)`` checks an extra map and returns it as ``(H, W, C)`` (the exporter's, shared with the
+    atlas)."""
     from ..builder.materials import MapSpec, _with_normal_encoding, convert_normal_y, infer_kind
     from ..cli.argtypes import normal_y_value
-    from . import _map_array
 
     want = normal_y_value(normal_y)
     out: list[dict[str, Any]] = [
@@ -293,7 +294,7 @@ def exemplar_maps(
             )
         if not isinstance(name, str) or not name or not all(ch.isalnum() or ch in "-_" for ch in name):
             raise ParameterError(f"map name {name!r}: letters, digits, '-' and '_' only")
-        a = _map_array(name, value, tileset.exemplar.shape[:2])
+        a = check_map(name, value, tileset.exemplar.shape[:2])
         enc = _with_normal_encoding(name, a)
         kind = "normal" if enc is not None else infer_kind(name)
         kind = "scalar" if kind == "normal" and enc is None else kind
@@ -372,12 +373,12 @@ def write_textures(
     normal_y: str,
     out: Any,
     files: list[str],
+    write_level: Any,
     progress: Any = None,
 ) -> dict[str, Any]:
-    """Write the maps (full chains), the bits, the coverage levels and the table into ``out``; the manifest's
-    ``maps`` and ``labels`` entries."""
+    """Write the maps (full chains, each level by ``write_level(path, array)``: the exporter's, PNG or OpenEXR),
+    the bits, the coverage levels and the table into ``out``; the manifest's ``maps`` and ``labels`` entries."""
     from ..builder.materials import infer_kind
-    from . import _write_level
 
     map_entries = []
     for k, e in enumerate(entries):
@@ -390,7 +391,7 @@ def write_textures(
         levels = []
         for lv, a in enumerate(chain):
             fname = f"map_{e['name']}.{ext}" if lv == 0 else f"map_{e['name']}_mip{lv}.{ext}"
-            _write_level(out / fname, a)
+            write_level(out / fname, a)
             files.append(fname)
             levels.append({"level": lv, "file": fname, "width": int(a.shape[1]), "height": int(a.shape[0])})
         me: dict[str, Any] = {
