@@ -303,10 +303,81 @@ def test_viewer_selftest_passes_and_the_file_is_a_few_times_the_maps(browser, tm
     rep = run_page(browser, out / "viewer.html", "?selftest")
     assert rep.get("error") is None and rep["status"] == "PASS" and rep["dom_status"] == "PASS 0", rep
     names = [c["name"] for c in rep["cases"]]
-    assert any("level 5" in n for n in names) and any("fetch" in n for n in names)
+    assert any("level 5" in n for n in names) and any("fetch" in n for n in names)  # 128 px: levels 1-6
     html = (out / "viewer.html").read_text()
     assert all(f'"name": "{mp["name"]}"' in html for mp in m["maps"]) and "lit preview" in html
     map_bytes = sum((out / lv["file"]).stat().st_size for mp in m["maps"] for lv in mp["levels"])
     size = (out / "viewer.html").stat().st_size
     print(f"viewer {size} B, maps' PNG levels {map_bytes} B: {size / map_bytes:.2f}x")
     assert size <= 3 * map_bytes
+
+
+def test_v2_wgsl_level0_is_bit_equal_in_webgpu(browser, tmp_path, aug_set):
+    """The version-2 WGSL map lookup (textureLoad and textureSampleGrad at texel centres, a compute pass in
+    Chromium's WebGPU) equals the CPU for the albedo and the normals of a set with every symmetry."""
+
+    from webgl import run_webgpu_page, wgsl_v2_page
+
+    from tilesynth.engine import shader_source
+    from tilesynth.engine.reference import to_rgba8
+
+    maps = _derived_maps(aug_set.exemplar)
+    out = tmp_path / "x"
+    m, imap, r = _exported(aug_set, out, maps=maps, index_size=(8, 8))
+    cfg = v2.config_for(aug_set, m, out, imap, [])
+    lab = m["labels"]
+
+    def enc(a: np.ndarray) -> str:
+        return base64.b64encode(np.ascontiguousarray(a).tobytes()).decode()
+
+    def level(a: np.ndarray) -> dict:
+        return {"w": int(a.shape[1]), "h": int(a.shape[0]), "data": enc(a)}
+
+    from tilesynth.io.images import load_raster
+
+    def load(f: str) -> np.ndarray:
+        a = np.asarray(load_raster(out / f))
+        return a[:, :, None] if a.ndim == 2 else a
+
+    data_maps = []
+    for name in ("albedo", "normal"):
+        mp = next(x for x in m["maps"] if x["name"] == name)
+        levels = [level(to_rgba8(v2.to_preview8(load(lv["file"])))) for lv in mp["levels"]]
+        data_maps.append({"normal": mp["normal"], "levels": levels})
+    params = np.zeros(12, np.int32)
+    params[:4] = cfg["layout"]
+    params[4:8] = cfg["lookup"]
+    params[8:10] = cfg["wrap"]
+    params[10] = cfg["seed"]
+    data = {
+        "bits": level(load(lab["bits"]["file"])[:, :, 0]),
+        "coverage": [level(load(lv["file"])[:, :, 0]) for lv in lab["coverage"]["levels"]],
+        "table": level(
+            np.fromfile(out / lab["table"]["file"], "<i4").reshape(lab["table"]["height"], 256, 4)
+        ),
+        "index": level(imap.astype("<u2")),
+        "params": enc(params),
+        "maps": data_maps,
+        "cases": [],
+    }
+    n = aug_set.tile_size
+    for i, name in enumerate(("albedo", "normal")):
+        for x0, y0 in ((-n - 5, -n - 11), (2 * n - 13, 3 * n - 20), (-100003, -77777)):
+            data["cases"].append(
+                {"name": f"{name} fetch {x0},{y0}", "kind": "fetch", "map": i, "origin": [x0, y0], "w": 40,
+                 "h": 36, "scale": 1.0, "tol": 0, "ref": enc(r.texels(name, x0, y0, 40, 36))}
+            )  # fmt: skip
+            exact = np.rint(r.sampled(name, x0, y0, 40, 36, 1.0)).astype(np.uint8)
+            data["cases"].append(
+                {"name": f"{name} centres {x0},{y0}", "kind": "grad", "map": i, "origin": [x0, y0], "w": 40,
+                 "h": 36, "scale": 1.0, "tol": 0, "ref": enc(exact)}
+            )  # fmt: skip
+    page = tmp_path / "wgsl2.html"
+    page.write_text(wgsl_v2_page(data, shader_source("tilesynth_v2.wgsl")), encoding="utf-8")
+    rep = run_webgpu_page(browser, page)
+    print(rep["cases"])
+    if "adapter" in str(rep.get("error", "")).lower() or "navigator.gpu" in str(rep.get("error", "")):
+        pytest.skip(f"no WebGPU adapter in this browser: {rep['error']}")
+    assert rep.get("error") is None, rep
+    assert rep["status"] == "PASS" and len(rep["cases"]) == 12, rep["cases"]
+    assert all(c["differing"] == 0 and c["max_diff"] == 0 for c in rep["cases"]), rep["cases"]

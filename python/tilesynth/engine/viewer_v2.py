@@ -116,7 +116,8 @@ def to_preview8(img: np.ndarray) -> np.ndarray:
 
 
 def default_cases(r: ReferenceV2) -> list[dict[str, Any]]:
-    """Level 0 exact (texelFetch and texel centres) and levels 1..5 of the albedo within the tolerance."""
+    """Level 0 exact (texelFetch and texel centres) and levels 1..6 (64x; fewer for an exemplar under 128 px) of
+    the albedo within the tolerance (:data:`MIP_RMS`)."""
     n = r.n
     cases = []
     w = h = min(48, 2 * n)
@@ -128,7 +129,9 @@ def default_cases(r: ReferenceV2) -> list[dict[str, Any]]:
     x0, y0 = -n // 2 - 3, -n - 9
     exact = np.rint(r.sampled("albedo", x0, y0, w, h, 1.0)).astype(np.uint8)
     cases.append(case("textureGrad at texel centres", "grad", (x0, y0), w, h, 1.0, 0, exact))
-    for lv in range(1, 6):
+    ex = r.tileset.exemplar.shape
+    top = min(6, max(1, int(np.log2(min(ex[0], ex[1]))) - 1))  # to 64x, while the exemplar has 2 x 2 texels
+    for lv in range(1, top + 1):
         f = 2**lv
         ww = hh = 32
         m = np.clip(np.rint(r.sampled("albedo", -n, -2 * n, ww, hh, f, lv)), 0, 255).astype(np.uint8)
