@@ -163,9 +163,10 @@ def test_every_mip_level_within_tolerance_and_contrast_far_out(browser, tmp_path
 
 
 def test_fetch_counts(browser, tmp_path, c5_set):
-    """Counted in the shader with four maps and two blend levels (0 and 2): at most 1 + 2 + M texture fetches
-    where no footprint straddles a cut (table, one label fetch per blend level, one per map), at most 1 + 2 + 2M
-    where one does (two per map)."""
+    """Counted in the shader with four maps and two blend levels (0 and 2): at most 1 + 3 + M texture fetches
+    where no footprint straddles a cut (table; the label: one fetch for blend level 0, two for level 2 where it is
+    above the footprint, the bit and the coverage; one per map), at most 1 + 3 + 2M where one does (two per
+    map)."""
     tileset = c5_set
     maps = _derived_maps(tileset.exemplar)
     m, imap, r = _exported(tileset, tmp_path / "x", maps=maps, blend_levels={"height": 2, "normal": 2})
@@ -189,7 +190,7 @@ def test_fetch_counts(browser, tmp_path, c5_set):
         out,
     )
     for _, away, at, _ in out:
-        assert away <= mm + 3 and at <= 2 * mm + 3, out
+        assert away <= mm + 4 and at <= 2 * mm + 4, out
     assert any(share > 0 for *_, share in out)  # the straddling path is exercised
 
 

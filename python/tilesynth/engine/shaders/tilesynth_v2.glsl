@@ -119,22 +119,31 @@ TsSite ts_site(vec2 uv, vec2 duvdx, vec2 duvdy) {
     return s;
 }
 
-// Weight of entry B (the matching patch) at level max(footprint, blend_level): below level 1 the pixel's own
-// label bit (a hard cut: level 0 is exactly the CPU synthesis); from level 1 the coverage of B, bilinear at the
-// sample point, at label level max(L, 2) (the coverage texture starts at label level 2), trilinear between
-// levels, clamped inside the tile's cell. One fetch.
+// The label bit of the pixel under the sample (1: entry B). One fetch.
+float ts_bit(TsSite s) {
+    int n = ts_layout.x;
+    ivec2 ip = clamp(ivec2(floor(s.p)), ivec2(0), ivec2(n - 1));
+    int c = ts_layout.y;
+    ivec2 cell = ivec2((s.tile % c) * (n / 8), (s.tile / c) * n);
+    TS_COUNT(1);
+    uint byte = texelFetch(ts_bits, cell + ivec2(ip.x / 8, ip.y), 0).r;
+    return float((byte >> uint(ip.x % 8)) & 1u);
+}
+
+// Weight of entry B (the matching patch) at level max(footprint, blend_level). Below level 1: the pixel's own
+// label bit, a hard cut (level 0 is exactly the CPU synthesis); one fetch. From level 1: the coverage of B,
+// bilinear at the sample point, at label level max(L, 2) (the coverage texture starts at label level 2),
+// trilinear between levels, clamped inside the tile's cell; one fetch. B fades out within min(2^L, N/16) pixels
+// of the tile's edge: the neighbour's matching patch is not looked up, while the kept border ring (entry A)
+// continues across the edge, so both sides of an edge agree. A blend level above the footprint is a seam
+// treatment: there B alone is shown inside the cut (so the intermediate tile under the cut, with its quadrant
+// seams, never shows) and B fades out over about 2^L pixels outside it (weight min(1, 2 x coverage), 1 at the
+// cut where the coverage is about 1/2); one more fetch (the bit).
 float ts_weight(TsSite s, float blend_level) {
     if (s.ent.xy == s.ent.zw) return 0.0;  // one source in this quadrant: no label needed
     float lw = max(s.lod, blend_level);
+    if (lw < 1.0) return ts_bit(s);
     int n = ts_layout.x;
-    if (lw < 1.0) {
-        ivec2 ip = clamp(ivec2(floor(s.p)), ivec2(0), ivec2(n - 1));
-        int c = ts_layout.y;
-        ivec2 cell = ivec2((s.tile % c) * (n / 8), (s.tile / c) * n);
-        TS_COUNT(1);
-        uint byte = texelFetch(ts_bits, cell + ivec2(ip.x / 8, ip.y), 0).r;
-        return float((byte >> uint(ip.x % 8)) & 1u);
-    }
     float lc = clamp(lw - 2.0, 0.0, float(ts_layout.w));
     float side = float(n / 4);
     float half_texel = 0.5 * exp2(ceil(lc));  // half a texel of the coarser level, in level-0 coverage texels
@@ -142,7 +151,12 @@ float ts_weight(TsSite s, float blend_level) {
     int c = ts_layout.z;
     vec2 pos = vec2(float(s.tile % c), float(s.tile / c)) * side + q;
     TS_COUNT(1);
-    return textureLod(ts_coverage, pos / vec2(textureSize(ts_coverage, 0)), lc).r;
+    float w = textureLod(ts_coverage, pos / vec2(textureSize(ts_coverage, 0)), lc).r;
+    vec2 e = min(s.p, float(n) - s.p);
+    w *= clamp(min(e.x, e.y) / min(exp2(lw), float(n) / 16.0), 0.0, 1.0);
+    // seam treatment: B inside the cut, outside a fade from 1 at the cut (coverage 1/2) to 0 about 2^L out
+    if (blend_level > s.lod) w = max(ts_bit(s), min(1.0, 2.0 * w));
+    return w;
 }
 
 // Source position (x, y) in exemplar pixels of tile position p (x, y) through entry (code, bx), and the linear

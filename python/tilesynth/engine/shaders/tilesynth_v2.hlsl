@@ -95,17 +95,22 @@ TsSite ts_site(float2 uv, float2 duvdx, float2 duvdy) {
 
 bool ts_one_source(TsSite s) { return all(s.ent.xy == s.ent.zw); }
 
+// The label bit of the pixel under the sample (1: entry B).
+float ts_bit(TsSite s) {
+    int n = ts_layout.x;
+    int2 ip = clamp(int2(floor(s.p)), int2(0, 0), int2(n - 1, n - 1));
+    int c = ts_layout.y;
+    int2 cell = int2((s.tile % c) * (n / 8), (s.tile / c) * n);
+    uint byte = ts_bits.Load(int3(cell + int2(ip.x / 8, ip.y), 0));
+    return float((byte >> uint(ip.x % 8)) & 1u);
+}
+
+// Weight of entry B at level max(footprint, blend_level): see tilesynth_v2.glsl.
 float ts_weight(TsSite s, float blend_level) {
     if (ts_one_source(s)) return 0.0;
     float lw = max(s.lod, blend_level);
+    if (lw < 1.0) return ts_bit(s);
     int n = ts_layout.x;
-    if (lw < 1.0) {
-        int2 ip = clamp(int2(floor(s.p)), int2(0, 0), int2(n - 1, n - 1));
-        int c = ts_layout.y;
-        int2 cell = int2((s.tile % c) * (n / 8), (s.tile / c) * n);
-        uint byte = ts_bits.Load(int3(cell + int2(ip.x / 8, ip.y), 0));
-        return float((byte >> uint(ip.x % 8)) & 1u);
-    }
     float lc = clamp(lw - 2.0, 0.0, float(ts_layout.w));
     float side = float(n / 4);
     float half_texel = 0.5 * exp2(ceil(lc));
@@ -114,7 +119,11 @@ float ts_weight(TsSite s, float blend_level) {
     float2 pos = float2(float(s.tile % c), float(s.tile / c)) * side + q;
     uint cw, ch, cl;
     ts_coverage.GetDimensions(0, cw, ch, cl);
-    return ts_coverage.SampleLevel(ts_sampler, pos / float2(cw, ch), lc);
+    float w = ts_coverage.SampleLevel(ts_sampler, pos / float2(cw, ch), lc);
+    float2 e = min(s.p, float(n).xx - s.p);
+    w *= clamp(min(e.x, e.y) / min(exp2(lw), float(n) / 16.0), 0.0, 1.0);
+    if (blend_level > s.lod) w = max(ts_bit(s), min(1.0, 2.0 * w));
+    return w;
 }
 
 float2 ts_src(int code, int bx, float2 p) {

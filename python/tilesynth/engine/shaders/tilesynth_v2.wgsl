@@ -102,24 +102,33 @@ fn ts_site(uv: vec2<f32>, duvdx: vec2<f32>, duvdy: vec2<f32>) -> TsSite {
 
 fn ts_one_source(s: TsSite) -> bool { return all(s.ent.xy == s.ent.zw); }
 
+// The label bit of the pixel under the sample (1: entry B).
+fn ts_bit(s: TsSite) -> f32 {
+    let n = ts.grid.x;
+    let ip = clamp(vec2<i32>(floor(s.p)), vec2<i32>(0), vec2<i32>(n - 1));
+    let c = ts.grid.y;
+    let cell = vec2<i32>((s.tile % c) * (n / 8), (s.tile / c) * n);
+    let byte = textureLoad(ts_bits, cell + vec2<i32>(ip.x / 8, ip.y), 0).r;
+    return f32((byte >> u32(ip.x % 8)) & 1u);
+}
+
+// Weight of entry B at level max(footprint, blend_level): see tilesynth_v2.glsl.
 fn ts_weight(s: TsSite, blend_level: f32) -> f32 {
     if (ts_one_source(s)) { return 0.0; }
     let lw = max(s.lod, blend_level);
+    if (lw < 1.0) { return ts_bit(s); }
     let n = ts.grid.x;
-    if (lw < 1.0) {
-        let ip = clamp(vec2<i32>(floor(s.p)), vec2<i32>(0), vec2<i32>(n - 1));
-        let c = ts.grid.y;
-        let cell = vec2<i32>((s.tile % c) * (n / 8), (s.tile / c) * n);
-        let byte = textureLoad(ts_bits, cell + vec2<i32>(ip.x / 8, ip.y), 0).r;
-        return f32((byte >> u32(ip.x % 8)) & 1u);
-    }
     let lc = clamp(lw - 2.0, 0.0, f32(ts.grid.w));
     let side = f32(n / 4);
     let half_texel = 0.5 * exp2(ceil(lc));
     let q = clamp(s.p * 0.25, vec2<f32>(min(half_texel, 0.5 * side)), vec2<f32>(max(side - half_texel, 0.5 * side)));
     let c = ts.grid.z;
     let pos = vec2<f32>(f32(s.tile % c), f32(s.tile / c)) * side + q;
-    return textureSampleLevel(ts_coverage, ts_sampler, pos / vec2<f32>(textureDimensions(ts_coverage, 0)), lc).r;
+    var w = textureSampleLevel(ts_coverage, ts_sampler, pos / vec2<f32>(textureDimensions(ts_coverage, 0)), lc).r;
+    let e = min(s.p, vec2<f32>(f32(n)) - s.p);
+    w *= clamp(min(e.x, e.y) / min(exp2(lw), f32(n) / 16.0), 0.0, 1.0);
+    if (blend_level > s.lod) { w = max(ts_bit(s), min(1.0, 2.0 * w)); }
+    return w;
 }
 
 fn ts_src(code: i32, bx: i32, p: vec2<f32>) -> vec2<f32> {
