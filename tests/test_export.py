@@ -388,3 +388,41 @@ def test_index_map_search_reports_progress(tmp_path, omega_set):
     for stage in stages:
         done = [c for c in calls if c[0] == stage]
         assert done[-1][1] == done[-1][2]  # each stage ends complete
+
+
+def test_export_format_choice_and_blend_level_errors(tmp_path, omega_set, wang_set, capsys):
+    """format: auto picks version 2 for a pure-copy omega set and the atlas for Wang tiles; 'provenance' refuses
+    what cannot be version 2, saying why; blend levels are checked (name, range) and only for version 2."""
+    from tilesynth.cli.main import main
+
+    assert export(omega_set, tmp_path / "a", index_size=(2, 2))["format_version"] == 2
+    assert export(wang_set, tmp_path / "b", index_size=(2, 2))["format_version"] == 1
+    assert export(omega_set, tmp_path / "c", index_size=(2, 2), format="atlas")["format_version"] == 1
+    # map_smooth on asks for the CPU fusion, stored only in an atlas
+    assert export(omega_set, tmp_path / "d", index_size=(2, 2), map_smooth="on")["format_version"] == 1
+    for tileset, kw, word in (
+        (wang_set, {"format": "provenance"}, "one-bit quadrant form"),
+        (omega_set, {"format": "provenance", "map_smooth": "on"}, "map_smooth"),
+        (omega_set, {"format": "v3"}, "format"),
+        (omega_set, {"blend_levels": {"nope": 1}}, "no map named 'nope'"),
+        (omega_set, {"blend_levels": {"albedo": -1}}, r"blend_levels\['albedo'\]"),
+        (omega_set, {"blend_levels": {"albedo": True}}, r"blend_levels\['albedo'\]"),
+        (omega_set, {"blend_levels": [1]}, "blend_levels"),
+        (omega_set, {"blend_levels": {"albedo": 1}, "format": "atlas"}, "only for the provenance export"),
+    ):
+        with pytest.raises(ParameterError, match=word):
+            export(tileset, tmp_path / "e", index_size=(2, 2), **kw)
+    m = export(omega_set, tmp_path / "f", index_size=(2, 2), blend_levels={"albedo": 1.5})
+    assert m["maps"][0]["blend_level"] == 1.5
+    src = tmp_path / "s.tiles"
+    omega_set.save(src)
+    base = ["export", str(src), "-o", str(tmp_path / "g"), "--index-size", "2x2"]
+    assert main([*base, "--blend-level", "albedo"]) == 2
+    assert "expected MAP=L" in capsys.readouterr().err
+    assert main([*base, "--blend-level", "albedo=x"]) == 2
+    assert main([*base, "--blend-level", "albedo=2"]) == 0
+    got = json.loads((tmp_path / "g" / "manifest.json").read_text())
+    assert got["format_version"] == 2 and got["maps"][0]["blend_level"] == 2.0
+    assert main([*base, "--format", "atlas"]) == 0
+    assert json.loads((tmp_path / "g" / "manifest.json").read_text())["format_version"] == 1
+    assert not (tmp_path / "g" / "table.bin").exists()  # the re-export removed the version-2 files
