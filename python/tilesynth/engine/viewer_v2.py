@@ -48,7 +48,7 @@ MIP_RMS = 4.0
 (:attr:`ReferenceV2.phase_floor`) is the RMS between the reference and the same box filter on a grid shifted by
 half a block, computed for the case's window, so the tolerance follows the texture's own contrast at that level
 (the shift the exemplar's mips see is anywhere from 0 to a whole block). Measured: GPU RMS / floor 0.97-1.39 at
-levels 1-8 on lettuce (c5, tiles of 64; RMS 3.9-8.4), RMS 2.1-5.9 at levels 1-7 on the default 512² build of
+levels 1-8 on lettuce (c5, tiles of 64; RMS 3.9-8.4), RMS 1.8-6.3 at levels 1-7 on the default 512² build of
 cracked mud. The rest above the floor: the coverage weights (label level 2 serves levels 1-2) and bilinear
 interpolation of two sources across a cut."""
 PHASE_FACTOR = 1.5
