@@ -58,7 +58,8 @@ def _common(p: argparse.ArgumentParser) -> None:
         default="auto",
         choices=("auto", "provenance", "atlas"),
         help="provenance (export version 2: each exemplar map once with full mips, one-bit labels and a "
-        "per-tile source table; GPU memory about the maps' own), atlas (version 1: every tile's pixels with "
+        "per-tile source table; GPU memory: the maps' own plus about 8 bytes per exemplar pixel of labels for "
+        "the default c5 set, 1.6x a 4-map 512² material), atlas (version 1: every tile's pixels with "
         "gutters, mips to level 3), auto (default: provenance for pure-copy omega sets, else atlas)",
     )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
