@@ -400,6 +400,10 @@ def test_export_format_choice_and_blend_level_errors(tmp_path, omega_set, wang_s
     assert export(omega_set, tmp_path / "c", index_size=(2, 2), format="atlas")["format_version"] == 1
     # map_smooth on asks for the CPU fusion, stored only in an atlas
     assert export(omega_set, tmp_path / "d", index_size=(2, 2), map_smooth="on")["format_version"] == 1
+    odd = ts.build_omega(omega_set.exemplar, tileset="16a", tile_size=36, seed=1)  # not a multiple of 8
+    assert export(odd, tmp_path / "o", index_size=(2, 2))["format_version"] == 1
+    with pytest.raises(ParameterError, match="multiple of 8"):
+        export(odd, tmp_path / "o", index_size=(2, 2), format="provenance")
     for tileset, kw, word in (
         (wang_set, {"format": "provenance"}, "one-bit quadrant form"),
         (omega_set, {"format": "provenance", "map_smooth": "on"}, "map_smooth"),
