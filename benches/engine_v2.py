@@ -177,6 +177,36 @@ def browser(size: int) -> None:
     print("level | v1 RMS | v1 contrast | v2 RMS | v2 contrast   (of 255; contrast = luma std / reference's)")
     for row in rows:
         print(" | ".join(map(str, row)))
+    counts(tiles, exe, run_page)
+
+
+def counts(tiles, exe, run_page) -> None:
+    """Texture fetches per pixel counted in the shader (TS_COUNT_FETCHES), 4 maps, every blend level 0, hash."""
+    n = tiles.tile_size
+    maps = derived_maps(tiles.exemplar)
+    dummy = np.zeros((64, 64, 4), np.uint8)
+    scales = (1.0, 2.0, 8.0, 64.0)
+    cases = [
+        xv.case(f"{s}", "count", (-n - 0.3, -2 * n + 0.7), 64, 64, s, 255, dummy, dump=True) for s in scales
+    ]
+    with tempfile.TemporaryDirectory() as d:
+        d = Path(d)
+        m = export(tiles, d / "v2", maps=maps, seed=7)
+        cfg = v2.config_for(tiles, m, d / "v2", None, cases)
+        cfg["autorun"] = True
+        (d / "p.html").write_text(v2.page(cfg))
+        rep = run_page(exe, d / "p.html", timeout=900)
+    mm = len(m["maps"])
+    print(
+        f"fetches per pixel, M = {mm}: zoom-out | mean | share at M + 1 | share at M + 2 | max | share straddling"
+    )
+    for c in rep["cases"]:
+        img = np.frombuffer(base64.b64decode(c["image"]), np.uint8).reshape(64, 64, 4)
+        k = img[..., 0].astype(int)
+        print(
+            f"{c['name']}x | {k.mean():.2f} | {(k <= mm + 1).mean():.3f} | {(k == mm + 2).mean():.3f} | {k.max()} | "
+            f"{(img[..., 1] > 127).mean():.3f}"
+        )
 
 
 def main() -> None:
@@ -184,7 +214,14 @@ def main() -> None:
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--browser", action="store_true")
     ap.add_argument("--no-v1", action="store_true")
+    ap.add_argument("--counts", action="store_true", help="only the fetch counts (browser)")
     a = ap.parse_args()
+    if a.counts:
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+        from webgl import find_browser, run_page
+
+        counts(ts.build_omega(exemplar(a.size), seed=1), find_browser(), run_page)
+        return
     memory(a.size, with_v1=not a.no_v1 and a.size <= 512)
     if a.browser:
         browser(a.size)

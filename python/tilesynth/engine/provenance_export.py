@@ -27,7 +27,8 @@ of 1 bits) is what weights the two sources where a filter footprint straddles a 
                            reduced per tile (a cell never bleeds into its neighbour) down to one texel a tile
 ``table.bin``              int32 little-endian ``(ceil(4K / 256), 256, 4)``: an RGBA32I texture of width
                            256, texel ``i = 4t + q`` (q = quadrant: 2·(y >= N/2) + (x >= N/2)) holds
-                           ``(code_A, bx_A, code_B, bx_B)``, ``code = ((by + 32768) << 3) | s``
+                           ``(code_A, bx_A, code_B, bx_B)``, ``code = (r << 19) | ((by + 32768) << 3) | s``
+                           with ``r`` = ``r_in`` in ``code_A``, ``r_out`` in ``code_B`` (:func:`quadrant_radii`)
 =========================  ==============================================================================
 """
 
@@ -136,12 +137,43 @@ def quadrant_form(prov: Any) -> QuadrantForm | None:
     return QuadrantForm(bits, entries)
 
 
+RADIUS_MAX = 4095
+"""Largest radius field (half pixels): 2047.5 px, tiles up to 4094 px."""
+
+
+def quadrant_radii(form: QuadrantForm) -> tuple[np.ndarray, np.ndarray]:
+    """int64 ``(K, 4)`` each: ``r_in`` and ``r_out`` of every tile quadrant in half pixels, distances of pixel
+    centres from the tile's centre: every pixel of the quadrant nearer than ``r_in / 2`` px has bit 1 (entry B),
+    every one farther than ``r_out / 2`` px bit 0 (entry A), each with half a pixel to spare (so float rounding
+    in a shader can never flip a pixel). The shaders skip the label fetch outside that band: an ω cut region is
+    a blob about the tile's centre."""
+    k, n = form.n_tiles, form.tile_size
+    yy, xx = np.mgrid[0:n, 0:n]
+    dist2 = 2.0 * np.hypot(xx + 0.5 - n / 2, yy + 0.5 - n / 2)  # half pixels
+    q = quadrant_of(n)
+    r_in = np.full((k, 4), RADIUS_MAX, np.int64)
+    r_out = np.zeros((k, 4), np.int64)
+    for j in range(4):
+        d = dist2[q == j]
+        b = form.bits[:, q == j]  # (K, P)
+        a_min = np.where(~b, d[None], np.inf).min(axis=1)
+        b_max = np.where(b, d[None], -np.inf).max(axis=1)
+        r_in[:, j] = np.where(np.isfinite(a_min), np.clip(np.floor(a_min) - 1, 0, RADIUS_MAX), RADIUS_MAX)
+        r_out[:, j] = np.where(np.isfinite(b_max), np.clip(np.ceil(b_max) + 1, 0, RADIUS_MAX), 0)
+    return r_in, r_out
+
+
 def pack_table(form: QuadrantForm) -> np.ndarray:
     """int32 ``(rows, TABLE_WIDTH, 4)``: the RGBA32I source-table texture (module docstring)."""
     e = form.entries.astype(np.int64)  # (K, 4, 2, 3)
-    if (e[..., 1] + BIAS < 0).any() or (e[..., 1] + BIAS >= 1 << 28).any():
-        raise ParameterError("a source row lies outside [-32768, 2^28 - 32768): cannot be packed")
+    if (e[..., 1] + BIAS < 0).any() or (e[..., 1] + BIAS >= 1 << 16).any():
+        raise ParameterError("a source row lies outside [-32768, 32768): cannot be packed")
+    if form.tile_size > 2048:  # a corner is 0.71 N from the centre: 1.42 N half pixels, within RADIUS_MAX
+        raise ParameterError(f"tile size {form.tile_size}: at most 2048 for the table's radii")
+    r_in, r_out = quadrant_radii(form)
     code = ((e[..., 1] + BIAS) << 3) | e[..., 0]
+    code[..., 0] |= r_in << 19
+    code[..., 1] |= r_out << 19
     texel = np.stack([code[..., 0], e[..., 0, 2], code[..., 1], e[..., 1, 2]], axis=-1).reshape(-1, 4)
     rows = -(-texel.shape[0] // TABLE_WIDTH)
     out = np.zeros((rows * TABLE_WIDTH, 4), np.int32)
@@ -459,7 +491,9 @@ def write_textures(
             "width": TABLE_WIDTH,
             "height": int(table.shape[0]),
             "encoding": "int32 little-endian, rows of width texels of (code_A, bx_A, code_B, bx_B), texel 4t + q; "
-            "code = ((by + 32768) << 3) | s, s the symmetry D_s (tilesynth.tileset.provenance)",
+            "code = (r << 19) | ((by + 32768) << 3) | s, s the symmetry D_s (tilesynth.tileset.provenance); r in "
+            "half pixels from the tile centre: in code_A r_in (pixels nearer are entry B), in code_B r_out "
+            "(pixels farther are entry A)",
             "bias": BIAS,
         },
     }

@@ -14,7 +14,9 @@
 //   float w3 = ts_weight(s, 3.0);                 // another blend level: 1 more fetch (share it between maps)
 //   vec4 height = ts_map(height_tex, s, w3, 0);
 //   vec4 normal = ts_map(normal_tex, s, w3, 1);   // 1: unsigned +y normal codes turned with their patch
-// Texture fetches per pixel: 1 (table) + one per distinct blend level + M maps (2M where 0 < weight < 1).
+// Texture fetches per pixel: 1 (table) + M maps where no filter reaches the quadrant's label band (ts_r_in ..
+// ts_r_out); in it one more per distinct blend level (two for a blend level above the footprint near the cut),
+// and 2 per map where 0 < weight < 1.
 //
 // Uniforms (from manifest.json "textures" and "lookup"):
 //   ts_bits      labels_bits.png as R8UI (NEAREST, texelFetch only)
@@ -91,7 +93,7 @@ int ts_tile_index(ivec2 cell) {
 
 // What every map of one pixel shares.
 struct TsSite {
-    ivec4 ent;    // table texel: (code_A, bx_A, code_B, bx_B), code = ((by + 32768) << 3) | symmetry
+    ivec4 ent;    // table texel: (code_A, bx_A, code_B, bx_B), code = (radius << 19) | ((by + 32768) << 3) | symmetry
     int tile;
     vec2 p;       // position in the tile in pixels, [0, N)^2, (x, y)
     vec2 gx, gy;  // d(p)/dx, d(p)/dy (pixels per screen pixel)
@@ -119,10 +121,18 @@ TsSite ts_site(vec2 uv, vec2 duvdx, vec2 duvdy) {
     return s;
 }
 
-// The label bit of the pixel under the sample (1: entry B). One fetch.
+// The radii of the sample's quadrant (pixels from the tile's centre): nearer than r_in every pixel is entry B,
+// farther than r_out entry A (the label band between them holds the cut).
+float ts_r_in(TsSite s) { return float(s.ent.x >> 19) * 0.5; }
+float ts_r_out(TsSite s) { return float(s.ent.z >> 19) * 0.5; }
+
+// The label bit of the pixel under the sample (1: entry B): one fetch inside the label band, none outside it.
 float ts_bit(TsSite s) {
     int n = ts_layout.x;
     ivec2 ip = clamp(ivec2(floor(s.p)), ivec2(0), ivec2(n - 1));
+    float d = length(vec2(ip) + 0.5 - 0.5 * float(n));
+    if (d < ts_r_in(s)) return 1.0;
+    if (d > ts_r_out(s)) return 0.0;
     int c = ts_layout.y;
     ivec2 cell = ivec2((s.tile % c) * (n / 8), (s.tile / c) * n);
     TS_COUNT(1);
@@ -131,27 +141,38 @@ float ts_bit(TsSite s) {
 }
 
 // Weight of entry B (the matching patch) at level max(footprint, blend_level). Below level 1: the pixel's own
-// label bit, a hard cut (level 0 is exactly the CPU synthesis); one fetch. From level 1: the coverage of B,
-// bilinear at the sample point, at label level max(L, 2) (the coverage texture starts at label level 2),
-// trilinear between levels, clamped inside the tile's cell; one fetch. B fades out within min(2^L, N/16) pixels
-// of the tile's edge: the neighbour's matching patch is not looked up, while the kept border ring (entry A)
-// continues across the edge, so both sides of an edge agree. A blend level above the footprint is a seam
-// treatment: there B alone is shown inside the cut (so the intermediate tile under the cut, with its quadrant
-// seams, never shows) and B fades out over about 2^L pixels outside it (weight min(1, 2 x coverage), 1 at the
-// cut where the coverage is about 1/2); one more fetch (the bit).
+// label bit, a hard cut (level 0 is exactly the CPU synthesis). From level 1: the coverage of B, bilinear at the
+// sample point, at label level max(L, 2) (the coverage texture starts at label level 2), trilinear between
+// levels, clamped inside the tile's cell. B fades out within min(2^L, N/16) pixels of the tile's edge: the
+// neighbour's matching patch is not looked up, while the kept border ring (entry A) continues across the edge,
+// so both sides of an edge agree. A blend level above the footprint is a seam treatment: there B alone is shown
+// inside the cut (so the intermediate tile under the cut, with its quadrant seams, never shows) and B fades out
+// over about 2^L pixels outside it (weight min(1, 2 x coverage), 1 at the cut where the coverage is about 1/2).
+// Fetches: none where the filter's reach lies outside the quadrant's label band (ts_r_in, ts_r_out); there the
+// weight is 0 or 1 without a look; else one (bit or coverage), two for a seam treatment near the cut.
 float ts_weight(TsSite s, float blend_level) {
     if (s.ent.xy == s.ent.zw) return 0.0;  // one source in this quadrant: no label needed
     float lw = max(s.lod, blend_level);
     if (lw < 1.0) return ts_bit(s);
     int n = ts_layout.x;
     float lc = clamp(lw - 2.0, 0.0, float(ts_layout.w));
-    float side = float(n / 4);
-    float half_texel = 0.5 * exp2(ceil(lc));  // half a texel of the coarser level, in level-0 coverage texels
-    vec2 q = clamp(s.p * 0.25, vec2(min(half_texel, 0.5 * side)), vec2(max(side - half_texel, 0.5 * side)));
-    int c = ts_layout.z;
-    vec2 pos = vec2(float(s.tile % c), float(s.tile / c)) * side + q;
-    TS_COUNT(1);
-    float w = textureLod(ts_coverage, pos / vec2(textureSize(ts_coverage, 0)), lc).r;
+    float d = length(s.p - 0.5 * float(n));
+    // the pixels under the coverage texels a bilinear (or trilinear) sample reads: 1.5 texels a side, x sqrt 2
+    float reach = 2.2 * exp2(ceil(lc) + 2.0);
+    float w;
+    if (d + reach < ts_r_in(s)) {
+        w = 1.0;
+    } else if (d - reach > ts_r_out(s)) {
+        w = 0.0;
+    } else {
+        float side = float(n / 4);
+        float half_texel = 0.5 * exp2(ceil(lc));  // half a texel of the coarser level, in level-0 coverage texels
+        vec2 q = clamp(s.p * 0.25, vec2(min(half_texel, 0.5 * side)), vec2(max(side - half_texel, 0.5 * side)));
+        int c = ts_layout.z;
+        vec2 pos = vec2(float(s.tile % c), float(s.tile / c)) * side + q;
+        TS_COUNT(1);
+        w = textureLod(ts_coverage, pos / vec2(textureSize(ts_coverage, 0)), lc).r;
+    }
     vec2 e = min(s.p, float(n) - s.p);
     w *= clamp(min(e.x, e.y) / min(exp2(lw), float(n) / 16.0), 0.0, 1.0);
     // seam treatment: B inside the cut, outside a fade from 1 at the cut (coverage 1/2) to 0 about 2^L out
@@ -168,7 +189,7 @@ vec2 ts_src(int code, int bx, vec2 p) {
     if (sym >= 4) x = n - x;
     int k = sym & 3;
     vec2 rc = k == 0 ? vec2(y, x) : k == 1 ? vec2(x, n - y) : k == 2 ? vec2(n - y, n - x) : vec2(n - x, y);
-    return vec2(rc.y + float(bx), rc.x + float((code >> 3) - 32768));
+    return vec2(rc.y + float(bx), rc.x + float(((code >> 3) & 0xFFFF) - 32768));
 }
 
 vec2 ts_turn(int code, vec2 g) {
@@ -230,6 +251,6 @@ vec4 ts_fetch_map(sampler2D map, ivec2 p, int normal) {
     if (sym >= 4) x = m - x;
     int k = sym & 3;
     ivec2 rc = k == 0 ? ivec2(y, x) : k == 1 ? ivec2(x, m - y) : k == 2 ? ivec2(m - y, m - x) : ivec2(m - x, y);
-    vec4 v = texelFetch(map, ivec2(rc.y + bx, rc.x + (code >> 3) - 32768), 0);
+    vec4 v = texelFetch(map, ivec2(rc.y + bx, rc.x + ((code >> 3) & 0xFFFF) - 32768), 0);
     return ts_turn_normal(v, code, normal);
 }

@@ -66,7 +66,7 @@ int ts_tile_index(int2 cell) {
 }
 
 struct TsSite {
-    int4 ent;     // (code_A, bx_A, code_B, bx_B), code = ((by + 32768) << 3) | symmetry
+    int4 ent;     // (code_A, bx_A, code_B, bx_B), code = (radius << 19) | ((by + 32768) << 3) | symmetry
     int tile;
     float2 p;     // position in the tile in pixels (x, y)
     float2 gx, gy;
@@ -95,10 +95,17 @@ TsSite ts_site(float2 uv, float2 duvdx, float2 duvdy) {
 
 bool ts_one_source(TsSite s) { return all(s.ent.xy == s.ent.zw); }
 
-// The label bit of the pixel under the sample (1: entry B).
+// The radii of the sample's quadrant (pixels from the tile's centre): see tilesynth_v2.glsl.
+float ts_r_in(TsSite s) { return float(s.ent.x >> 19) * 0.5; }
+float ts_r_out(TsSite s) { return float(s.ent.z >> 19) * 0.5; }
+
+// The label bit of the pixel under the sample (1: entry B): one fetch inside the label band, none outside it.
 float ts_bit(TsSite s) {
     int n = ts_layout.x;
     int2 ip = clamp(int2(floor(s.p)), int2(0, 0), int2(n - 1, n - 1));
+    float d = length(float2(ip) + 0.5 - 0.5 * float(n));
+    if (d < ts_r_in(s)) return 1.0;
+    if (d > ts_r_out(s)) return 0.0;
     int c = ts_layout.y;
     int2 cell = int2((s.tile % c) * (n / 8), (s.tile / c) * n);
     uint byte = ts_bits.Load(int3(cell + int2(ip.x / 8, ip.y), 0));
@@ -112,14 +119,23 @@ float ts_weight(TsSite s, float blend_level) {
     if (lw < 1.0) return ts_bit(s);
     int n = ts_layout.x;
     float lc = clamp(lw - 2.0, 0.0, float(ts_layout.w));
-    float side = float(n / 4);
-    float half_texel = 0.5 * exp2(ceil(lc));
-    float2 q = clamp(s.p * 0.25, min(half_texel, 0.5 * side).xx, max(side - half_texel, 0.5 * side).xx);
-    int c = ts_layout.z;
-    float2 pos = float2(float(s.tile % c), float(s.tile / c)) * side + q;
-    uint cw, ch, cl;
-    ts_coverage.GetDimensions(0, cw, ch, cl);
-    float w = ts_coverage.SampleLevel(ts_sampler, pos / float2(cw, ch), lc);
+    float d = length(s.p - 0.5 * float(n));
+    float reach = 2.2 * exp2(ceil(lc) + 2.0);
+    float w;
+    if (d + reach < ts_r_in(s)) {
+        w = 1.0;
+    } else if (d - reach > ts_r_out(s)) {
+        w = 0.0;
+    } else {
+        float side = float(n / 4);
+        float half_texel = 0.5 * exp2(ceil(lc));
+        float2 q = clamp(s.p * 0.25, min(half_texel, 0.5 * side).xx, max(side - half_texel, 0.5 * side).xx);
+        int c = ts_layout.z;
+        float2 pos = float2(float(s.tile % c), float(s.tile / c)) * side + q;
+        uint cw, ch, cl;
+        ts_coverage.GetDimensions(0, cw, ch, cl);
+        w = ts_coverage.SampleLevel(ts_sampler, pos / float2(cw, ch), lc);
+    }
     float2 e = min(s.p, float(n).xx - s.p);
     w *= clamp(min(e.x, e.y) / min(exp2(lw), float(n) / 16.0), 0.0, 1.0);
     if (blend_level > s.lod) w = max(ts_bit(s), min(1.0, 2.0 * w));
@@ -133,7 +149,7 @@ float2 ts_src(int code, int bx, float2 p) {
     if (sym >= 4) x = n - x;
     int k = sym & 3;
     float2 rc = k == 0 ? float2(y, x) : k == 1 ? float2(x, n - y) : k == 2 ? float2(n - y, n - x) : float2(n - x, y);
-    return float2(rc.y + float(bx), rc.x + float((code >> 3) - 32768));
+    return float2(rc.y + float(bx), rc.x + float(((code >> 3) & 0xFFFF) - 32768));
 }
 
 float2 ts_turn(int code, float2 g) {
@@ -188,7 +204,7 @@ float4 ts_fetch_map(Texture2D<float4> map, int2 p, int normal) {
     if (sym >= 4) x = m - x;
     int k = sym & 3;
     int2 rc = k == 0 ? int2(y, x) : k == 1 ? int2(x, m - y) : k == 2 ? int2(m - y, m - x) : int2(m - x, y);
-    float4 v = map.Load(int3(rc.y + bx, rc.x + (code >> 3) - 32768, 0));
+    float4 v = map.Load(int3(rc.y + bx, rc.x + ((code >> 3) & 0xFFFF) - 32768, 0));
     return ts_turn_normal(v, code, normal);
 }
 

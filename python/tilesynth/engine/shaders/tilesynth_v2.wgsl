@@ -72,7 +72,7 @@ fn ts_tile_index(cell0: vec2<i32>) -> i32 {
 }
 
 struct TsSite {
-    ent: vec4<i32>,   // (code_A, bx_A, code_B, bx_B), code = ((by + 32768) << 3) | symmetry
+    ent: vec4<i32>,   // (code_A, bx_A, code_B, bx_B), code = (radius << 19) | ((by + 32768) << 3) | symmetry
     tile: i32,
     p: vec2<f32>,     // position in the tile in pixels (x, y)
     gx: vec2<f32>,
@@ -102,10 +102,17 @@ fn ts_site(uv: vec2<f32>, duvdx: vec2<f32>, duvdy: vec2<f32>) -> TsSite {
 
 fn ts_one_source(s: TsSite) -> bool { return all(s.ent.xy == s.ent.zw); }
 
-// The label bit of the pixel under the sample (1: entry B).
+// The radii of the sample's quadrant (pixels from the tile's centre): see tilesynth_v2.glsl.
+fn ts_r_in(s: TsSite) -> f32 { return f32(s.ent.x >> 19u) * 0.5; }
+fn ts_r_out(s: TsSite) -> f32 { return f32(s.ent.z >> 19u) * 0.5; }
+
+// The label bit of the pixel under the sample (1: entry B): one fetch inside the label band, none outside it.
 fn ts_bit(s: TsSite) -> f32 {
     let n = ts.grid.x;
     let ip = clamp(vec2<i32>(floor(s.p)), vec2<i32>(0), vec2<i32>(n - 1));
+    let d = length(vec2<f32>(ip) + 0.5 - 0.5 * f32(n));
+    if (d < ts_r_in(s)) { return 1.0; }
+    if (d > ts_r_out(s)) { return 0.0; }
     let c = ts.grid.y;
     let cell = vec2<i32>((s.tile % c) * (n / 8), (s.tile / c) * n);
     let byte = textureLoad(ts_bits, cell + vec2<i32>(ip.x / 8, ip.y), 0).r;
@@ -119,12 +126,21 @@ fn ts_weight(s: TsSite, blend_level: f32) -> f32 {
     if (lw < 1.0) { return ts_bit(s); }
     let n = ts.grid.x;
     let lc = clamp(lw - 2.0, 0.0, f32(ts.grid.w));
-    let side = f32(n / 4);
-    let half_texel = 0.5 * exp2(ceil(lc));
-    let q = clamp(s.p * 0.25, vec2<f32>(min(half_texel, 0.5 * side)), vec2<f32>(max(side - half_texel, 0.5 * side)));
-    let c = ts.grid.z;
-    let pos = vec2<f32>(f32(s.tile % c), f32(s.tile / c)) * side + q;
-    var w = textureSampleLevel(ts_coverage, ts_sampler, pos / vec2<f32>(textureDimensions(ts_coverage, 0)), lc).r;
+    let d = length(s.p - 0.5 * f32(n));
+    let reach = 2.2 * exp2(ceil(lc) + 2.0);
+    var w: f32;
+    if (d + reach < ts_r_in(s)) {
+        w = 1.0;
+    } else if (d - reach > ts_r_out(s)) {
+        w = 0.0;
+    } else {
+        let side = f32(n / 4);
+        let half_texel = 0.5 * exp2(ceil(lc));
+        let q = clamp(s.p * 0.25, vec2<f32>(min(half_texel, 0.5 * side)), vec2<f32>(max(side - half_texel, 0.5 * side)));
+        let c = ts.grid.z;
+        let pos = vec2<f32>(f32(s.tile % c), f32(s.tile / c)) * side + q;
+        w = textureSampleLevel(ts_coverage, ts_sampler, pos / vec2<f32>(textureDimensions(ts_coverage, 0)), lc).r;
+    }
     let e = min(s.p, vec2<f32>(f32(n)) - s.p);
     w *= clamp(min(e.x, e.y) / min(exp2(lw), f32(n) / 16.0), 0.0, 1.0);
     if (blend_level > s.lod) { w = max(ts_bit(s), min(1.0, 2.0 * w)); }
@@ -140,7 +156,7 @@ fn ts_src(code: i32, bx: i32, p: vec2<f32>) -> vec2<f32> {
     let k = sym & 3;
     var rc = vec2<f32>(y, x);
     if (k == 1) { rc = vec2<f32>(x, n - y); } else if (k == 2) { rc = vec2<f32>(n - y, n - x); } else if (k == 3) { rc = vec2<f32>(n - x, y); }
-    return vec2<f32>(rc.y + f32(bx), rc.x + f32((code >> 3u) - 32768));
+    return vec2<f32>(rc.y + f32(bx), rc.x + f32(((code >> 3u) & 0xFFFF) - 32768));
 }
 
 fn ts_turn(code: i32, g: vec2<f32>) -> vec2<f32> {
@@ -204,7 +220,7 @@ fn ts_fetch_map(map: texture_2d<f32>, p: vec2<i32>, normal: i32) -> vec4<f32> {
     let k = sym & 3;
     var rc = vec2<i32>(y, x);
     if (k == 1) { rc = vec2<i32>(x, m - y); } else if (k == 2) { rc = vec2<i32>(m - y, m - x); } else if (k == 3) { rc = vec2<i32>(m - x, y); }
-    let v = textureLoad(map, vec2<i32>(rc.y + bx, rc.x + (code >> 3u) - 32768), 0);
+    let v = textureLoad(map, vec2<i32>(rc.y + bx, rc.x + ((code >> 3u) & 0xFFFF) - 32768), 0);
     return ts_turn_normal(v, code, normal);
 }
 
