@@ -43,6 +43,7 @@ from . import atlas as _atlas
 
 __all__ = [
     "BIAS",
+    "RADIUS_MAX",
     "TABLE_WIDTH",
     "QuadrantForm",
     "coverage_levels",
@@ -52,6 +53,7 @@ __all__ = [
     "pack_table",
     "quadrant_form",
     "quadrant_of",
+    "quadrant_radii",
 ]
 
 TABLE_WIDTH = 256
