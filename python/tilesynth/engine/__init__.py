@@ -1,7 +1,13 @@
-"""Engine export: padded atlases with per-tile mips, a toroidal index map or the hashed lookup, a manifest with a
-JSON Schema, lookup shaders (GLSL ES 3.00 / 4.x, WGSL, HLSL, Godot) and an offline WebGL2 viewer.
+"""Engine export: a toroidal index map or the hashed lookup, a manifest with a JSON Schema, lookup shaders
+(GLSL ES 3.00 / 4.x, WGSL, HLSL, Godot) and an offline WebGL2 viewer, with the tiles in one of two forms:
 
-``tilesynth export X.tiles -o DIR`` / :func:`export` writes into DIR:
+* **version 2** (the default for pure-copy ω sets, ``format="provenance"``): each exemplar map once with its full
+  mip chain, one-bit labels with their coverage and a per-tile source table; shaders for M maps
+  (:mod:`.provenance_export`, :mod:`.viewer_v2`, ``shaders/tilesynth_v2.*``, ``docs/engine.md``);
+* **version 1** (``format="atlas"``; Poisson-smoothed and version-1 pixel sets, Wang tiles, ``map_smooth="on"``):
+  padded atlases with per-tile mips, described below.
+
+For version 1, ``tilesynth export X.tiles -o DIR --format atlas`` / :func:`export` writes into DIR:
 
 =========================  ========================================================================================
 file                       content
