@@ -52,7 +52,7 @@ def omega64(lettuce: np.ndarray):
 
 
 def _exported(tileset, out: Path, **kw):
-    m = export(tileset, out, **kw)
+    m = export(tileset, out, format="atlas", **kw)
     imap = xv.read_index(out, m)
     levels = xv.albedo_levels(out, m)
     return m, imap, levels, xv.Reference(tileset, m, imap, levels)

@@ -272,25 +272,33 @@ def set16a_file(tmp_path_factory, small_exemplar):
     return p
 
 
-def test_export_compares_every_file_it_writes_with_its_inputs(set16a_file, exemplar_png, tmp_path, capsys):
-    """A tile set or --with map named like a mip level, a map atlas, the index map or a shader in the output
-    folder: refused before anything is written."""
+@pytest.mark.parametrize("fmt", ["atlas", "provenance"])
+def test_export_compares_every_file_it_writes_with_its_inputs(
+    set16a_file, exemplar_png, tmp_path, capsys, fmt
+):
+    """A tile set or --with map named like a mip level, a map atlas, the index map, a shader, the labels or
+    the source table in the output folder: refused before anything is written (both export formats)."""
     out = tmp_path / "exp"
     (out / "shaders").mkdir(parents=True)
+    pre, sh = ("atlas", "tilesynth") if fmt == "atlas" else ("map", "tilesynth_v2")
     cases = [
-        (_copy(set16a_file, out / "atlas_albedo_mip2.png"), []),
-        (_copy(set16a_file, out / "shaders" / "tilesynth.wgsl"), []),
+        (_copy(set16a_file, out / f"{pre}_albedo_mip2.png"), []),
+        (_copy(set16a_file, out / "shaders" / f"{sh}.wgsl"), []),
         (_copy(set16a_file, out / "index.png"), []),
     ]
+    if fmt == "provenance":
+        cases += [
+            (_copy(set16a_file, out / n), []) for n in ("labels_bits.png", "table.bin", "labels_coverage.png")
+        ]
     ts = _copy(set16a_file, tmp_path / "in.tiles")
     h = _copy(exemplar_png, tmp_path / "h.png")
     cases.append(
-        (ts, ["--with", str(_copy(exemplar_png, out / "atlas_albedo_mip1.png"))])
+        (ts, ["--with", str(_copy(exemplar_png, out / f"{pre}_albedo_mip1.png"))])
     )  # named like a mip
-    cases.append((ts, ["--with", str(_copy(exemplar_png, out / "atlas_h_mip3.png")), "--with", str(h)]))
+    cases.append((ts, ["--with", str(_copy(exemplar_png, out / f"{pre}_h_mip3.png")), "--with", str(h)]))
     for tiles, extra in cases:
         before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
-        assert main(["export", str(tiles), "-o", str(out), *extra]) == 2
+        assert main(["export", str(tiles), "-o", str(out), "--format", fmt, *extra]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "same file" in err, err
         assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
@@ -360,10 +368,12 @@ def test_export_collision_property(tiles_name, map_names, viewer):
         before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
         if clash:
             with pytest.raises(ParameterError, match="same file as the input"):
-                export(ts, out, maps=maps, viewer=viewer, source_path=tiles_path, inputs=inputs)
+                export(
+                    ts, out, maps=maps, viewer=viewer, source_path=tiles_path, inputs=inputs, format="atlas"
+                )
             assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
         else:
-            export(ts, out, maps=maps, viewer=viewer, source_path=tiles_path, inputs=inputs)
+            export(ts, out, maps=maps, viewer=viewer, source_path=tiles_path, inputs=inputs, format="atlas")
             written = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()}
             assert written == writes | {tiles_name, *map_names}
 

@@ -291,8 +291,8 @@ def test_atlas_export_of_a_v2_material_set_is_the_built_sets(material, tmp_path)
     p = tmp_path / "m.tiles"
     material.save(p)
     back = TileSet.load(p)
-    export(material, tmp_path / "a", index_size=(4, 4))
-    export(back, tmp_path / "b", index_size=(4, 4))
+    export(material, tmp_path / "a", index_size=(4, 4), format="atlas")
+    export(back, tmp_path / "b", index_size=(4, 4), format="atlas")
     files = sorted((tmp_path / "a").glob("atlas_*.png"))
     assert len(files) == 20 and sorted(f.name for f in (tmp_path / "b").glob("atlas_*.png")) == [
         f.name for f in files

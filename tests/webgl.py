@@ -318,3 +318,104 @@ def evaluate_async(
             proc.kill()
         os.close(w_in)
         os.close(r_out)
+
+
+WGSL_V2_PAGE = """<!DOCTYPE html><html><body><div id="selftest-status">pending</div><pre id="selftest-result"></pre>
+<script id="lib" type="text/wgsl">__LIB__</script>
+<script>
+"use strict";
+const D = __DATA__;
+const st = document.getElementById("selftest-status"), res = document.getElementById("selftest-result");
+let DONE; window.tsDone = new Promise(r => { DONE = r; });
+const ENTRY = `
+struct Job { mode: u32, w: u32, h: u32, normal: i32, origin: vec2<f32>, scale: f32, _p: f32 };
+@group(1) @binding(0) var m0: texture_2d<f32>;
+@group(1) @binding(1) var<storage, read_write> jout: array<vec4<u32>>;
+@group(1) @binding(2) var<uniform> job: Job;
+@compute @workgroup_size(64) fn main(@builtin(global_invocation_id) g: vec3<u32>) {
+  let i = g.x;
+  if (i >= job.w * job.h) { return; }
+  let f = vec2<f32>(f32(i % job.w), f32(i / job.w));
+  var v: vec4<f32>;
+  if (job.mode == 1u) {
+    v = ts_fetch_map(m0, vec2<i32>(floor(job.origin)) + vec2<i32>(f), job.normal);
+  } else {
+    let n = f32(ts.grid.x);
+    let uv = (job.origin + (f + 0.5) * job.scale) / n;
+    let gr = job.scale / n;
+    let s = ts_site(uv, vec2<f32>(gr, 0.0), vec2<f32>(0.0, gr));
+    v = ts_map(m0, s, ts_weight(s, 0.0), job.normal);
+  }
+  jout[i] = vec4<u32>(round(clamp(v, vec4<f32>(0.0), vec4<f32>(1.0)) * 255.0));
+}`;
+function b64(s) { const b = atob(s); const a = new Uint8Array(b.length); for (let i = 0; i < b.length; i++) a[i] = b.charCodeAt(i); return a; }
+(async () => {
+ try {
+  if (!navigator.gpu) throw new Error("no navigator.gpu");
+  const adapter = await navigator.gpu.requestAdapter();
+  if (!adapter) throw new Error("no WebGPU adapter");
+  const dev = await adapter.requestDevice();
+  dev.pushErrorScope("validation");
+  const mod = dev.createShaderModule({code: document.getElementById("lib").textContent + ENTRY});
+  const info = await mod.getCompilationInfo();
+  const errs = info.messages.filter(m => m.type === "error").map(m => m.lineNum + ": " + m.message);
+  if (errs.length) throw new Error("WGSL: " + errs.join("; "));
+  const pipe = dev.createComputePipeline({layout: "auto", compute: {module: mod, entryPoint: "main"}});
+  const TU = GPUTextureUsage, U = GPUBufferUsage;
+  function texture(format, levels, bpp) {  // levels: [{w, h, data (base64)}]
+    const t = dev.createTexture({size: [levels[0].w, levels[0].h], format, mipLevelCount: levels.length, usage: TU.TEXTURE_BINDING | TU.COPY_DST});
+    levels.forEach((L, lv) => dev.queue.writeTexture({texture: t, mipLevel: lv}, b64(L.data), {bytesPerRow: L.w * bpp, rowsPerImage: L.h}, [L.w, L.h]));
+    return t;
+  }
+  const bits = texture("r8uint", [D.bits], 1), cov = texture("r8unorm", D.coverage, 1);
+  const table = texture("rgba32sint", [D.table], 16), index = texture("r16uint", [D.index], 2);
+  const sampler = dev.createSampler({magFilter: "linear", minFilter: "linear", mipmapFilter: "linear", addressModeU: "clamp-to-edge", addressModeV: "clamp-to-edge"});
+  const params = dev.createBuffer({size: 48, usage: U.UNIFORM | U.COPY_DST});
+  dev.queue.writeBuffer(params, 0, new Int32Array(b64(D.params).buffer));
+  const g0 = dev.createBindGroup({layout: pipe.getBindGroupLayout(0), entries: [
+    {binding: 0, resource: bits.createView()}, {binding: 1, resource: cov.createView()},
+    {binding: 2, resource: index.createView()}, {binding: 3, resource: {buffer: params}},
+    {binding: 4, resource: table.createView()}, {binding: 5, resource: sampler}]});
+  const maps = D.maps.map(m => texture("rgba8unorm", m.levels, 4));
+  const cases = [];
+  let bad = 0;
+  for (const c of D.cases) {
+    const n = c.w * c.h;
+    const outb = dev.createBuffer({size: n * 16, usage: U.STORAGE | U.COPY_SRC});
+    const rd = dev.createBuffer({size: n * 16, usage: U.MAP_READ | U.COPY_DST});
+    const jb = dev.createBuffer({size: 32, usage: U.UNIFORM | U.COPY_DST});
+    const job = new ArrayBuffer(32), u32 = new Uint32Array(job), i32 = new Int32Array(job), f32 = new Float32Array(job);
+    u32[0] = c.kind === "fetch" ? 1 : 2; u32[1] = c.w; u32[2] = c.h; i32[3] = D.maps[c.map].normal;
+    f32[4] = c.origin[0]; f32[5] = c.origin[1]; f32[6] = c.scale;
+    dev.queue.writeBuffer(jb, 0, job);
+    const g1 = dev.createBindGroup({layout: pipe.getBindGroupLayout(1), entries: [
+      {binding: 0, resource: maps[c.map].createView()}, {binding: 1, resource: {buffer: outb}}, {binding: 2, resource: {buffer: jb}}]});
+    const enc = dev.createCommandEncoder(); const pass = enc.beginComputePass(); pass.setPipeline(pipe);
+    pass.setBindGroup(0, g0); pass.setBindGroup(1, g1); pass.dispatchWorkgroups(Math.ceil(n / 64)); pass.end();
+    enc.copyBufferToBuffer(outb, 0, rd, 0, n * 16); dev.queue.submit([enc.finish()]);
+    await rd.mapAsync(GPUMapMode.READ); const out = new Uint32Array(rd.getMappedRange().slice(0)); rd.unmap();
+    const ref = b64(c.ref);
+    let diff = 0, maxd = 0;
+    for (let p = 0; p < n; p++) {
+      let pd = 0;
+      for (let k = 0; k < 4; k++) pd = Math.max(pd, Math.abs(out[4 * p + k] - ref[4 * p + k]));
+      if (pd > c.tol) diff++;
+      maxd = Math.max(maxd, pd);
+    }
+    if (diff) bad++;
+    cases.push({name: c.name, pixels: n, differing: diff, max_diff: maxd});
+  }
+  const err = await dev.popErrorScope();
+  if (err) throw new Error("WebGPU: " + err.message);
+  st.textContent = (bad ? "FAIL " : "PASS ") + bad;
+  res.textContent = JSON.stringify({status: bad ? "FAIL" : "PASS", cases});
+ } catch (e) { st.textContent = "FAIL error"; res.textContent = JSON.stringify({status: "FAIL", error: String(e), cases: []}); }
+ DONE(res.textContent);
+})();
+</script></body></html>"""
+
+
+def wgsl_v2_page(data: dict, wgsl: str) -> str:
+    """A WebGPU page running the version-2 WGSL map lookup in a compute pass over the windows of ``data``
+    (textures as base64 levels, the parameters, cases with reference bytes)."""
+    return WGSL_V2_PAGE.replace("__LIB__", wgsl).replace("__DATA__", json.dumps(data))

@@ -52,6 +52,16 @@ def _common(p: argparse.ArgumentParser) -> None:
         default=0,
         help="index-map mode: seed of the tiling (default 0)",
     )
+    p.add_argument(
+        "--format",
+        dest="export_format",
+        default="auto",
+        choices=("auto", "provenance", "atlas"),
+        help="provenance (export version 2: each exemplar map once with full mips, one-bit labels and a "
+        "per-tile source table; GPU memory: the maps' own plus about 8 bytes per exemplar pixel of labels for "
+        "the default c5 set, 1.6x a 4-map 512² material), atlas (version 1: every tile's pixels with "
+        "gutters, mips to level 3), auto (default: provenance for pure-copy omega sets, else atlas)",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
@@ -94,6 +104,15 @@ def add_parsers(sub: Any) -> None:
         help="Y convention of the exported normal maps: up (OpenGL, default) or down (DirectX); +y and -y are "
         "accepted too (the manifest records +y or -y)",
     )
+    e.add_argument(
+        "--blend-level",
+        dest="blend_levels",
+        action="append",
+        default=[],
+        metavar="MAP=L",
+        help="provenance export: the level L (>= 0) from which map MAP's two sources are weighted by the label "
+        "coverage across a cut (default 0 for every map: a hard cut at level 0); repeatable",
+    )
     e.add_argument("--viewer", action="store_true", help="also write viewer.html (offline WebGL2 viewer)")
     v = sub.add_parser("view", help="write one self-contained offline HTML viewer (WebGL2) of a tile set")
     v.add_argument("tileset", help="tile-set file (.tiles)")
@@ -121,6 +140,7 @@ def run(args: argparse.Namespace) -> None:
         "index_size": args.index_size,
         "index_seed": args.index_seed,
         "source_path": args.tileset,
+        "format": args.export_format,
     }
     if args.command == "export":
         maps = {}
@@ -131,6 +151,17 @@ def run(args: argparse.Namespace) -> None:
             maps[name] = load_raster(mp)
         from ..base.progress import Progress
 
+        blend = {}
+        for item in args.blend_levels:
+            name, sep, value = item.partition("=")
+            try:
+                blend[name] = float(value)
+            except ValueError:
+                raise ParameterError(f"--blend-level {item!r}: expected MAP=L with L a number") from None
+            if not sep:
+                raise ParameterError(f"--blend-level {item!r}: expected MAP=L")
+        if blend:
+            kw["blend_levels"] = blend
         m = export(
             tiles,
             args.output_dir,
@@ -144,11 +175,18 @@ def run(args: argparse.Namespace) -> None:
             progress=Progress(getattr(args, "quiet", False)),
             **kw,
         )
-        if not args.quiet:
+        if not args.quiet and m["format_version"] == 1:
             print(
                 f"wrote {len(m['files']) + 1} files to {args.output_dir} ({m['lookup']['mode']} lookup, "
                 f"{m['tile_count']} tiles, atlas {m['atlas']['width']}x{m['atlas']['height']}, "
                 f"mips to level {m['atlas']['max_level']})"
+            )
+        elif not args.quiet:
+            g = m["gpu_bytes"]
+            print(
+                f"wrote {len(m['files']) + 1} files to {args.output_dir} (provenance export, {m['lookup']['mode']} "
+                f"lookup, {m['tile_count']} tiles, {len(m['maps'])} map(s) with full mips, GPU "
+                f"{g['total'] / 2**20:.2f} MiB = {g['ratio_to_maps']:.2f}x the maps')"
             )
         return
     out = (

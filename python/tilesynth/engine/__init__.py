@@ -1,7 +1,13 @@
-"""Engine export: padded atlases with per-tile mips, a toroidal index map or the hashed lookup, a manifest with a
-JSON Schema, lookup shaders (GLSL ES 3.00 / 4.x, WGSL, HLSL, Godot) and an offline WebGL2 viewer.
+"""Engine export: a toroidal index map or the hashed lookup, a manifest with a JSON Schema, lookup shaders
+(GLSL ES 3.00 / 4.x, WGSL, HLSL, Godot) and an offline WebGL2 viewer, with the tiles in one of two forms:
 
-``tilesynth export X.tiles -o DIR`` / :func:`export` writes into DIR:
+* **version 2** (the default for pure-copy ω sets, ``format="provenance"``): each exemplar map once with its full
+  mip chain, one-bit labels with their coverage and a per-tile source table; shaders for M maps
+  (:mod:`.provenance_export`, :mod:`.viewer_v2`, ``shaders/tilesynth_v2.*``, ``docs/engine.md``);
+* **version 1** (``format="atlas"``; Poisson-smoothed and version-1 pixel sets, Wang tiles, ``map_smooth="on"``):
+  padded atlases with per-tile mips, described below.
+
+For version 1, ``tilesynth export X.tiles -o DIR --format atlas`` / :func:`export` writes into DIR:
 
 =========================  ========================================================================================
 file                       content
@@ -221,6 +227,8 @@ def export(
     source_path: str | os.PathLike[str] | None = None,
     inputs: list[tuple[str, Any]] | None = None,
     progress: Any = None,
+    format: str = "auto",
+    blend_levels: dict[str, float] | None = None,
 ) -> dict[str, Any]:
     """Export a tile set for real-time use (see the module docstring); returns the manifest.
 
@@ -249,6 +257,12 @@ def export(
     inputs : other input files, ``[(label, path)]``: with ``source_path``, none may be among the files written
         (:func:`tilesynth.io.paths.check_paths`, before anything is written).
     progress : a :class:`tilesynth.base.progress.Progress` (the atlases and the index map), or None.
+    format : ``"auto"`` (default): version 2 (:mod:`.provenance_export`: the exemplar maps with full mips, one-bit
+        labels and a source table) for a pure-copy set whose labels fit the one-bit quadrant form, else the
+        atlas (version 1); ``"provenance"``: version 2 or a ParameterError saying why not; ``"atlas"``: version 1.
+    blend_levels : version 2: ``{map name: L}``, the level from which each map's two sources are weighted by the
+        label coverage across a cut (default 0 for every map: a hard cut at level 0, coverage-weighted
+        minification only). Ignored by the atlas.
 
     The files are written as a unit (:func:`tilesynth.io.images.file_set`): an error, Ctrl-C or SIGTERM leaves
     the previous export in ``out_dir`` as it was; a re-export removes the previous export's files that the new
@@ -261,6 +275,18 @@ def export(
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ParameterError(f"out_dir = {str(out_dir)!r}: exists and is not a directory")
+    _check_choice(format, "format", ("auto", "provenance", "atlas"))
+    if format != "atlas":
+        form, why = provenance_form(tileset, map_smooth)
+        if form is None and format == "provenance":
+            raise ParameterError(f"format = 'provenance': {why}; use format='atlas'")
+        if form is not None:
+            return _export_v2(
+                tileset, out, form, maps, bits, lookup, hl, seed, wrap, index_size, index_seed, normal_y,
+                blend_levels, viewer, source_path, inputs, progress,
+            )  # fmt: skip
+    if blend_levels:
+        raise ParameterError("blend_levels: only for the provenance export (format='provenance')")
 
     levels = _atlas.max_mip_level(tileset.tile_size, padding)
     cols, rows = _atlas.grid_for(tileset.n_tiles)
@@ -317,7 +343,8 @@ def export(
 #: Names an export may write (and so may remove when a re-export no longer lists them): a manifest read back
 #: from disk is data, and a tampered one must not make a re-export delete anything else.
 _EXPORT_NAME = re.compile(
-    r"^(atlas_[A-Za-z0-9_-]+(_mip[0-9]+)?\.(png|exr)|index\.png|viewer\.html|shaders/tilesynth\.[a-z]+)$"
+    r"^((atlas|map)_[A-Za-z0-9_-]+(_mip[0-9]+)?\.(png|exr)|index\.png|viewer\.html|shaders/tilesynth(_v2)?\.[a-z]+"
+    r"|labels_bits\.png|labels_coverage(_mip[0-9]+)?\.png|table\.bin)$"
 )
 
 #: Largest ``manifest.json`` read back from a previous export (a real one is a few hundred kB at most).
@@ -603,3 +630,129 @@ def _version() -> str:
     from .._version import __version__
 
     return __version__
+
+
+# ------------------------------------------------------------------------------- version 2 (provenance)
+def provenance_form(tileset: Any, map_smooth: str = "auto") -> tuple[Any, str]:
+    """``(QuadrantForm, "")`` when the set can be exported as version 2 (:mod:`.provenance_export`), else
+    ``(None, why not)``."""
+    from .provenance_export import quadrant_form
+
+    if map_smooth == "on":
+        return None, "map_smooth = 'on' asks for the CPU fusion of the maps, which only the atlas stores"
+    if tileset.storage() != 2:
+        return None, "the tile set is not a pure copy of its exemplar (Poisson-smoothed or version-1 pixels)"
+    if tileset.tile_size % 8:
+        return None, f"tile size {tileset.tile_size} is not a multiple of 8 (the one-bit label texture)"
+    form = quadrant_form(tileset._provenance())
+    if form is None:
+        return None, (
+            "its labels do not fit the one-bit quadrant form (at most two sources per tile quadrant, the "
+            "second shared by the tile: omega sets); Wang tiles and others are exported as an atlas"
+        )
+    return form, ""
+
+
+def _export_v2(
+    tileset: Any,
+    out: Path,
+    form: Any,
+    maps: dict[str, Any] | None,
+    bits: int,
+    lookup: str,
+    hl: dict[str, Any] | None,
+    seed: int,
+    wrap: tuple[int, int] | None,
+    index_size: tuple[int, int] | None,
+    index_seed: int,
+    normal_y: str,
+    blend_levels: dict[str, float] | None,
+    viewer: bool,
+    source_path: str | os.PathLike[str] | None,
+    inputs: list[tuple[str, Any]] | None,
+    progress: Any,
+) -> dict[str, Any]:
+    """:func:`export` of version 2 (the arguments already checked, but the maps and blend levels)."""
+    from . import provenance_export as pe
+    from .sources import SHADER_FILES_V2
+
+    entries = pe.exemplar_maps(tileset, maps, bits, normal_y, _map_array)
+    blend = pe.check_blend_levels(blend_levels, [e["name"] for e in entries])
+    n_cov = pe.coverage_count(tileset.tile_size)
+    names = pe.export_files_v2(entries, n_cov)
+    if lookup == "index_map":
+        names.append("index.png")
+    names += [f"shaders/{s}" for s in SHADER_FILES_V2]
+    if viewer:
+        names.append("viewer.html")
+    names.append("manifest.json")
+    from ..io.paths import check_paths, file_identity
+
+    ins = [("tileset", source_path), *(inputs or [])]
+    check_paths(ins, [(f"output file {n}", out / n) for n in names], writable=(out / "shaders").is_dir())
+    if lookup == "index_map":
+        _index_size(tileset.definition, index_size)
+    previous = previous_export_files(out)
+    taken = {file_identity(p) for _, p in ins if p is not None}
+    previous = {n for n in previous if file_identity(out / n) not in taken}
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "shaders").mkdir(exist_ok=True)
+    from ..io.images import file_set
+
+    with file_set():
+        files: list[str] = []
+        written = pe.write_textures(form, entries, blend, normal_y, out, files, _write_level, progress)
+        if lookup == "hash":
+            lookup_entry = _hash_lookup(hl, seed, wrap)
+        else:
+            lookup_entry = _write_index_map(tileset.definition, out, index_size, index_seed, files, progress)
+        for s in SHADER_FILES_V2:
+            _write_text(out / "shaders" / s, shader_source(s))
+            files.append(f"shaders/{s}")
+        shapes = [(*e["array"].shape, e["array"].dtype.itemsize) for e in entries]
+        mem = pe.gpu_bytes(shapes, tileset.n_tiles, tileset.tile_size)
+        manifest = {
+            "format": EXPORT_FORMAT,
+            "format_version": 2,
+            "tilesynth_version": tileset.version or _version(),
+            "scheme": tileset.scheme,
+            "tile_set": getattr(tileset.definition, "name", ""),
+            "tile_size": tileset.tile_size,
+            "tile_count": tileset.n_tiles,
+            "exemplar": {"width": int(tileset.exemplar.shape[1]), "height": int(tileset.exemplar.shape[0])},
+            "maps": written["maps"],
+            "labels": written["labels"],
+            "lookup": lookup_entry,
+            "coordinates": "uv in tile units, pixel (x, y) of the texture covers [x/N, (x+1)/N) x [y/N, (y+1)/N), "
+            "y down",
+            "filter": "maps and coverage LINEAR_MIPMAP_LINEAR, CLAMP_TO_EDGE, every level; bits, table and index "
+            "NEAREST (texelFetch)",
+            "gpu_bytes": {**mem, "ratio_to_maps": mem["total"] / mem["maps"]},
+            "source": {
+                "content_digest": tileset.content_digest(),
+                "file": os.path.basename(source_path) if source_path else None,
+                "file_sha256": _file_digest(Path(source_path)) if source_path else None,
+            },
+            "shaders": {
+                "glsl": "shaders/tilesynth_v2.glsl",
+                "wgsl": "shaders/tilesynth_v2.wgsl",
+                "hlsl": "shaders/tilesynth_v2.hlsl",
+                "godot": "shaders/tilesynth_v2.gdshader",
+            },
+            "files": None,
+        }
+        if viewer:
+            from .viewer_v2 import write_viewer
+
+            write_viewer(tileset, out / "viewer.html", manifest, out)
+            files.append("viewer.html")
+        manifest["files"] = sorted(files)
+        try:
+            validate_manifest(manifest)
+        except ImportError:
+            pass
+        _write_text(out / "manifest.json", json.dumps(manifest, indent=1) + "\n")
+    for name in sorted(previous - set(files)):
+        with contextlib.suppress(OSError):
+            (out / name).unlink()
+    return manifest

@@ -102,3 +102,39 @@ def box_level(img: np.ndarray, level: int, srgb: bool) -> np.ndarray:
     if srgb:
         x[..., :colour] = _atlas.linear_to_srgb(x[..., :colour])
     return np.clip(np.rint(x * 255.0), 0, 255).astype(np.uint8)
+
+
+def map_window(
+    tileset: Any,
+    array: np.ndarray,
+    index_of: Callable,
+    x0: int,
+    y0: int,
+    w: int,
+    h: int,
+    normal: int = 0,
+) -> np.ndarray:
+    """``(h, w, C)`` pixels of the infinite texture of a map pixel-aligned with the exemplar (``array`` in its
+    own sample type), gathered through the tile set's provenance (pure copies); a normal map (``normal`` the
+    shaders' code: 1 / 2 unsigned +y / -y, 3 / 4 signed) has its vectors turned with their patches."""
+    from ..tileset.provenance import gather
+
+    prov = tileset._provenance()
+    n = tileset.tile_size
+    cx0, cy0 = x0 // n, y0 // n
+    cx1, cy1 = (x0 + w - 1) // n, (y0 + h - 1) // n
+    cy, cx = np.mgrid[cy0 : cy1 + 1, cx0 : cx1 + 1]
+    sub = np.ascontiguousarray(index_of(cx, cy), dtype=np.int32)
+    a = np.ascontiguousarray(array if array.ndim == 3 else array[:, :, None])
+    out = np.empty((h, w, a.shape[2]), a.dtype)
+    gather(a, prov, sub, out, offset=(y0 - cy0 * n, x0 - cx0 * n))
+    if normal:
+        from ..builder.matching.augment import transform_normal_codes
+
+        sym = np.asarray(prov.table)[..., 0]  # (K, L)
+        yy = np.arange(h)[:, None] + y0
+        xx = np.arange(w)[None, :] + x0
+        t = sub[yy // n - cy0, xx // n - cx0]
+        s = sym[t, prov.labels[t, yy % n, xx % n]]
+        out = transform_normal_codes(out, s, "snorm" if normal >= 3 else "unorm", y_down=normal in (2, 4))
+    return out

@@ -1,0 +1,256 @@
+// tilesynth_v2.glsl: per-pixel lookup of a tilesynth export version 2 (manifest.json "format"
+// "tilesynth-export", "format_version" 2: the exemplar maps with full mips, one-bit labels, their coverage and a
+// per-tile source table). GLSL ES 3.00 (WebGL2) and desktop GLSL 4.00+; no #version line: prepend
+//   "#version 300 es\nprecision highp float;\nprecision highp int;\n"   or   "#version 400\n".
+//
+// Coordinates: uv is the continuous (unwrapped) texture coordinate in TILE units: pixel (x, y) of the infinite
+// texture (x right, y down, as in the PNGs) covers uv in [x/N, (x+1)/N) x [y/N, (y+1)/N). Re-centre uv by whole
+// periods when it gets large (float precision), as in version 1.
+//
+// Use (M maps, each with its own blend level L_map from the manifest, "blend_level"):
+//   TsSite s = ts_site(uv, dFdx(uv), dFdy(uv));   // cell, tile, quadrant, footprint, table: 1 texelFetch
+//   float w0 = ts_weight(s, 0.0);                 // label (bit or coverage) at level max(footprint, 0): 1 fetch
+//   vec4 albedo = ts_map(albedo_tex, s, w0, 0);   // 1 textureGrad, 2 where the footprint straddles a cut
+//   float w3 = ts_weight(s, 3.0);                 // another blend level: 1 more fetch (share it between maps)
+//   vec4 height = ts_map(height_tex, s, w3, 0);
+//   vec4 normal = ts_map(normal_tex, s, w3, 1);   // 1: unsigned +y normal codes turned with their patch
+// Texture fetches per pixel: 1 (table) + M maps where no filter reaches the quadrant's label band (ts_r_in ..
+// ts_r_out); in it one more per distinct blend level (two for a blend level above the footprint near the cut),
+// and 2 per map where 0 < weight < 1.
+//
+// Uniforms (from manifest.json "textures" and "lookup"):
+//   ts_bits      labels_bits.png as R8UI (NEAREST, texelFetch only)
+//   ts_coverage  labels_coverage.png + its levels as R8 (LINEAR_MIPMAP_LINEAR, CLAMP_TO_EDGE, max level = the
+//                manifest's coverage max_level)
+//   ts_table     table.bin as RGBA32I, width 256 (NEAREST, texelFetch only)
+//   ts_index     index_map mode: index.png as R16UI; hash mode: any unsigned-integer texture on its own unit
+//   ts_layout    (tile_size N, bits columns, coverage columns, coverage max level)
+//   ts_lookup, ts_seed, ts_wrap: as version 1 (mode 0 index map, 1 corner hash, 2 edge hash)
+//   every map: its full mip chain, LINEAR_MIPMAP_LINEAR, CLAMP_TO_EDGE.
+// Define TS_COUNT_FETCHES before this file to count texture fetches in the global ts_fetches (tests).
+#ifdef TS_COUNT_FETCHES
+int ts_fetches = 0;
+#define TS_COUNT(k) ts_fetches += (k)
+#else
+#define TS_COUNT(k)
+#endif
+
+uniform highp usampler2D ts_bits;
+uniform highp sampler2D ts_coverage;
+uniform highp isampler2D ts_table;
+uniform highp usampler2D ts_index;
+uniform ivec4 ts_layout;
+uniform ivec4 ts_lookup;
+uniform uint ts_seed;
+uniform ivec2 ts_wrap;
+
+// pcg3d of Jarzynski & Olano (JCGT 9(3), 2020); unsigned arithmetic wraps mod 2^32 (GLSL ES 3.00 4.1.3).
+uvec3 ts_pcg3d(uvec3 v) {
+    v = v * 1664525u + 1013904223u;
+    v.x += v.y * v.z; v.y += v.z * v.x; v.z += v.x * v.y;
+    v ^= v >> 16u;
+    v.x += v.y * v.z; v.y += v.z * v.x; v.z += v.x * v.y;
+    return v;
+}
+
+uint ts_hash(int x, int y, uint seed, uint role) {
+    return ts_pcg3d(uvec3(uint(x), uint(y), seed ^ (role * 0x9E3779B9u))).x;
+}
+
+int ts_floordiv(int a, int b) { return a >= 0 ? a / b : -1 - (~a) / b; }
+int ts_emod(int a, int b) { return a - b * ts_floordiv(a, b); }
+
+uint ts_lattice(ivec2 v, uint role) {
+    if (ts_wrap.x > 0) v = ivec2(ts_emod(v.x, ts_wrap.x), ts_emod(v.y, ts_wrap.y));
+    return ts_hash(v.x, v.y, ts_seed, role);
+}
+
+// Tile index of a cell (any ivec2, negative included): the version-1 lookup, unchanged.
+int ts_tile_index(ivec2 cell) {
+    if (ts_lookup.x == 0) {
+        ivec2 sz = textureSize(ts_index, 0);
+        TS_COUNT(1);
+        return int(texelFetch(ts_index, ivec2(ts_emod(cell.x, sz.x), ts_emod(cell.y, sz.y)), 0).r);
+    }
+    if (ts_wrap.x > 0) cell = ivec2(ts_emod(cell.x, ts_wrap.x), ts_emod(cell.y, ts_wrap.y));
+    uint V = uint(ts_lookup.w);
+    uint v = ts_lattice(cell, 3u) % V;
+    if (ts_lookup.x == 1) {
+        uint K = uint(ts_lookup.y);
+        uint tl = ts_lattice(cell, 0u) % K;
+        uint tr = ts_lattice(cell + ivec2(1, 0), 0u) % K;
+        uint bl = ts_lattice(cell + ivec2(0, 1), 0u) % K;
+        uint br = ts_lattice(cell + ivec2(1, 1), 0u) % K;
+        return int((((tl * K + bl) * K + tr) * K + br) * V + v);
+    }
+    uint Kh = uint(ts_lookup.y), Kv = uint(ts_lookup.z);
+    uint n = ts_lattice(cell, 1u) % Kh;
+    uint s = ts_lattice(cell + ivec2(0, 1), 1u) % Kh;
+    uint w = ts_lattice(cell, 2u) % Kv;
+    uint e = ts_lattice(cell + ivec2(1, 0), 2u) % Kv;
+    return int((((n * Kv + e) * Kh + s) * Kv + w) * V + v);
+}
+
+// What every map of one pixel shares.
+struct TsSite {
+    ivec4 ent;    // table texel: (code_A, bx_A, code_B, bx_B), code = (radius << 19) | ((by + 32768) << 3) | symmetry
+    int tile;
+    vec2 p;       // position in the tile in pixels, [0, N)^2, (x, y)
+    vec2 gx, gy;  // d(p)/dx, d(p)/dy (pixels per screen pixel)
+    float lod;    // footprint level log2(max(|gx|, |gy|)), as the GL scale factor
+};
+
+ivec4 ts_table_texel(int tile, vec2 p) {
+    int h = ts_layout.x / 2;
+    int q = (p.y >= float(h) ? 2 : 0) + (p.x >= float(h) ? 1 : 0);
+    int i = 4 * tile + q;
+    TS_COUNT(1);
+    return texelFetch(ts_table, ivec2(i % 256, i / 256), 0);
+}
+
+TsSite ts_site(vec2 uv, vec2 duvdx, vec2 duvdy) {
+    TsSite s;
+    vec2 cellf = floor(uv);
+    float n = float(ts_layout.x);
+    s.tile = ts_tile_index(ivec2(cellf));
+    s.p = (uv - cellf) * n;
+    s.gx = duvdx * n;
+    s.gy = duvdy * n;
+    s.lod = 0.5 * log2(max(max(dot(s.gx, s.gx), dot(s.gy, s.gy)), 1e-20));
+    s.ent = ts_table_texel(s.tile, s.p);
+    return s;
+}
+
+// The radii of the sample's quadrant (pixels from the tile's centre): nearer than r_in every pixel is entry B,
+// farther than r_out entry A (the label band between them holds the cut).
+float ts_r_in(TsSite s) { return float(s.ent.x >> 19) * 0.5; }
+float ts_r_out(TsSite s) { return float(s.ent.z >> 19) * 0.5; }
+
+// The label bit of the pixel under the sample (1: entry B): one fetch inside the label band, none outside it.
+float ts_bit(TsSite s) {
+    int n = ts_layout.x;
+    ivec2 ip = clamp(ivec2(floor(s.p)), ivec2(0), ivec2(n - 1));
+    float d = length(vec2(ip) + 0.5 - 0.5 * float(n));
+    if (d < ts_r_in(s)) return 1.0;
+    if (d > ts_r_out(s)) return 0.0;
+    int c = ts_layout.y;
+    ivec2 cell = ivec2((s.tile % c) * (n / 8), (s.tile / c) * n);
+    TS_COUNT(1);
+    uint byte = texelFetch(ts_bits, cell + ivec2(ip.x / 8, ip.y), 0).r;
+    return float((byte >> uint(ip.x % 8)) & 1u);
+}
+
+// Weight of entry B (the matching patch) at level max(footprint, blend_level). Below level 1: the pixel's own
+// label bit, a hard cut (level 0 is exactly the CPU synthesis). From level 1: the coverage of B, bilinear at the
+// sample point, at label level max(L, 2) (the coverage texture starts at label level 2), trilinear between
+// levels, clamped inside the tile's cell. B fades out within min(2^L, N/16) pixels of the tile's edge: the
+// neighbour's matching patch is not looked up, while the kept border ring (entry A) continues across the edge,
+// so both sides of an edge agree. A blend level above the footprint is a seam treatment: there B alone is shown
+// inside the cut (so the intermediate tile under the cut, with its quadrant seams, never shows) and B fades out
+// over about 2^L pixels outside it (weight min(1, 2 x coverage), 1 at the cut where the coverage is about 1/2).
+// Fetches: none where the filter's reach lies outside the quadrant's label band (ts_r_in, ts_r_out); there the
+// weight is 0 or 1 without a look; else one (bit or coverage), two for a seam treatment near the cut.
+float ts_weight(TsSite s, float blend_level) {
+    if (s.ent.xy == s.ent.zw) return 0.0;  // one source in this quadrant: no label needed
+    float lw = max(s.lod, blend_level);
+    if (lw < 1.0) return ts_bit(s);
+    int n = ts_layout.x;
+    float lc = clamp(lw - 2.0, 0.0, float(ts_layout.w));
+    float d = length(s.p - 0.5 * float(n));
+    // the pixels under the coverage texels a bilinear (or trilinear) sample reads: 1.5 texels a side, x sqrt 2
+    float reach = 2.2 * exp2(ceil(lc) + 2.0);
+    float w;
+    if (d + reach < ts_r_in(s)) {
+        w = 1.0;
+    } else if (d - reach > ts_r_out(s)) {
+        w = 0.0;
+    } else {
+        float side = float(n / 4);
+        float half_texel = 0.5 * exp2(ceil(lc));  // half a texel of the coarser level, in level-0 coverage texels
+        vec2 q = clamp(s.p * 0.25, vec2(min(half_texel, 0.5 * side)), vec2(max(side - half_texel, 0.5 * side)));
+        int c = ts_layout.z;
+        vec2 pos = vec2(float(s.tile % c), float(s.tile / c)) * side + q;
+        TS_COUNT(1);
+        w = textureLod(ts_coverage, pos / vec2(textureSize(ts_coverage, 0)), lc).r;
+    }
+    vec2 e = min(s.p, float(n) - s.p);
+    w *= clamp(min(e.x, e.y) / min(exp2(lw), float(n) / 16.0), 0.0, 1.0);
+    // seam treatment: B inside the cut, outside a fade from 1 at the cut (coverage 1/2) to 0 about 2^L out
+    if (blend_level > s.lod) w = max(ts_bit(s), min(1.0, 2.0 * w));
+    return w;
+}
+
+// Source position (x, y) in exemplar pixels of tile position p (x, y) through entry (code, bx), and the linear
+// part of the symmetry applied to a vector.
+vec2 ts_src(int code, int bx, vec2 p) {
+    int sym = code & 7;
+    float n = float(ts_layout.x);
+    float y = p.y, x = p.x;
+    if (sym >= 4) x = n - x;
+    int k = sym & 3;
+    vec2 rc = k == 0 ? vec2(y, x) : k == 1 ? vec2(x, n - y) : k == 2 ? vec2(n - y, n - x) : vec2(n - x, y);
+    return vec2(rc.y + float(bx), rc.x + float(((code >> 3) & 0xFFFF) - 32768));
+}
+
+vec2 ts_turn(int code, vec2 g) {
+    int sym = code & 7;
+    float y = g.y, x = g.x;
+    if (sym >= 4) x = -x;
+    int k = sym & 3;
+    vec2 rc = k == 0 ? vec2(y, x) : k == 1 ? vec2(x, -y) : k == 2 ? vec2(-y, -x) : vec2(-x, y);
+    return rc.yx;
+}
+
+// A tangent-space normal turned with its patch (normal: 1 unsigned +y codes, 2 unsigned -y, 3 signed +y,
+// 4 signed -y; 0 no turn). R (an anticlockwise quarter turn on screen) takes (x, y) to (-y, x), y up.
+vec4 ts_turn_normal(vec4 c, int code, int normal) {
+    int sym = code & 7;
+    if (normal == 0 || sym == 0) return c;
+    vec2 v = normal <= 2 ? c.xy * 2.0 - 1.0 : c.xy;
+    if (normal == 2 || normal == 4) v.y = -v.y;
+    for (int i = 0; i < (sym & 3); i++) v = vec2(-v.y, v.x);
+    if (sym >= 4) v.x = -v.x;
+    if (normal == 2 || normal == 4) v.y = -v.y;
+    c.xy = normal <= 2 ? v * 0.5 + 0.5 : v;
+    return c;
+}
+
+vec4 ts_entry(sampler2D map, TsSite s, int code, int bx, int normal) {
+    vec2 size = vec2(textureSize(map, 0));
+    vec2 src = ts_src(code, bx, s.p);
+    TS_COUNT(1);
+    vec4 c = textureGrad(map, src / size, ts_turn(code, s.gx) / size, ts_turn(code, s.gy) / size);
+    return ts_turn_normal(c, code, normal);
+}
+
+// One map at the site: entry A, entry B or both weighted by w (the weight of B).
+vec4 ts_map(sampler2D map, TsSite s, float w, int normal) {
+    if (w <= 0.0 || s.ent.xy == s.ent.zw) return ts_entry(map, s, s.ent.x, s.ent.y, normal);
+    if (w >= 1.0) return ts_entry(map, s, s.ent.z, s.ent.w, normal);
+    return mix(ts_entry(map, s, s.ent.x, s.ent.y, normal), ts_entry(map, s, s.ent.z, s.ent.w, normal), w);
+}
+
+vec4 ts_sample_map(sampler2D map, vec2 uv, float blend_level, int normal) {
+    TsSite s = ts_site(uv, dFdx(uv), dFdy(uv));
+    return ts_map(map, s, ts_weight(s, blend_level), normal);
+}
+
+// The exact texel (x, y) of the infinite texture of one map (no filtering): table, bit and map texelFetch.
+vec4 ts_fetch_map(sampler2D map, ivec2 p, int normal) {
+    int n = ts_layout.x;
+    ivec2 cell = ivec2(ts_floordiv(p.x, n), ts_floordiv(p.y, n));
+    int tile = ts_tile_index(cell);
+    ivec2 l = p - cell * n;
+    ivec4 ent = ts_table_texel(tile, vec2(l) + 0.5);
+    int c = ts_layout.y;
+    uint byte = texelFetch(ts_bits, ivec2((tile % c) * (n / 8) + l.x / 8, (tile / c) * n + l.y), 0).r;
+    bool b = ((byte >> uint(l.x % 8)) & 1u) == 1u;
+    int code = b ? ent.z : ent.x, bx = b ? ent.w : ent.y;
+    // integer symmetry: D_s of pixel (row, col) with m = N - 1
+    int sym = code & 7, m = n - 1, y = l.y, x = l.x;
+    if (sym >= 4) x = m - x;
+    int k = sym & 3;
+    ivec2 rc = k == 0 ? ivec2(y, x) : k == 1 ? ivec2(x, m - y) : k == 2 ? ivec2(m - y, m - x) : ivec2(m - x, y);
+    vec4 v = texelFetch(map, ivec2(rc.y + bx, rc.x + ((code >> 3) & 0xFFFF) - 32768), 0);
+    return ts_turn_normal(v, code, normal);
+}

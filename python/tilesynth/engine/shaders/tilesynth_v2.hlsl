@@ -1,0 +1,214 @@
+// tilesynth_v2.hlsl: per-pixel lookup of a tilesynth export version 2 (provenance), HLSL (Shader Model 4.0+).
+// Same functions, hash, conventions and fetch counts as tilesynth_v2.glsl (see its header: TsSite, ts_site,
+// ts_weight, ts_map). Registers: change to fit your root signature / effect.
+//   ts_bits      labels_bits.png as R8_UINT (Load only)
+//   ts_coverage  labels_coverage.png + levels as R8_UNORM, sampled with ts_sampler
+//   ts_table     table.bin as R32G32B32A32_SINT, width 256 (Load only)
+//   ts_index     index_map mode: index.png as R16_UINT (hash mode: any 1x1 uint texture, never read)
+//   ts_sampler   MIN_MAG_MIP_LINEAR, CLAMP: for the coverage and every map
+// Every map: a Texture2D<float4> with its full mip chain, passed to ts_map.
+Texture2D<uint> ts_bits : register(t0);
+Texture2D<float> ts_coverage : register(t1);
+Texture2D<uint> ts_index : register(t2);
+Texture2D<int4> ts_table : register(t3);
+SamplerState ts_sampler : register(s0);
+cbuffer TsParams : register(b0) {
+    int4 ts_layout;      // tile size N, bits columns, coverage columns, coverage max level
+    int4 ts_lookup;      // mode (0 index map, 1 hash corner, 2 hash edge), K (or Kh), Kv, V
+    int2 ts_wrap;        // hash period in tiles (0, 0: none)
+    uint ts_seed;
+    uint ts_pad;
+};
+
+uint3 ts_pcg3d(uint3 v) {
+    v = v * 1664525u + 1013904223u;
+    v.x += v.y * v.z; v.y += v.z * v.x; v.z += v.x * v.y;
+    v ^= v >> 16u;
+    v.x += v.y * v.z; v.y += v.z * v.x; v.z += v.x * v.y;
+    return v;
+}
+
+uint ts_hash(int x, int y, uint seed, uint role) {
+    return ts_pcg3d(uint3(asuint(x), asuint(y), seed ^ (role * 0x9E3779B9u))).x;
+}
+
+int ts_floordiv(int a, int b) { return a >= 0 ? a / b : -1 - (~a) / b; }
+int ts_emod(int a, int b) { return a - b * ts_floordiv(a, b); }
+
+uint ts_lattice(int2 v, uint role) {
+    if (ts_wrap.x > 0) v = int2(ts_emod(v.x, ts_wrap.x), ts_emod(v.y, ts_wrap.y));
+    return ts_hash(v.x, v.y, ts_seed, role);
+}
+
+int ts_tile_index(int2 cell) {
+    if (ts_lookup.x == 0) {
+        uint w, h;
+        ts_index.GetDimensions(w, h);
+        return int(ts_index.Load(int3(ts_emod(cell.x, int(w)), ts_emod(cell.y, int(h)), 0)));
+    }
+    if (ts_wrap.x > 0) cell = int2(ts_emod(cell.x, ts_wrap.x), ts_emod(cell.y, ts_wrap.y));
+    uint V = uint(ts_lookup.w);
+    uint v = ts_lattice(cell, 3u) % V;
+    if (ts_lookup.x == 1) {
+        uint K = uint(ts_lookup.y);
+        uint tl = ts_lattice(cell, 0u) % K;
+        uint tr = ts_lattice(cell + int2(1, 0), 0u) % K;
+        uint bl = ts_lattice(cell + int2(0, 1), 0u) % K;
+        uint br = ts_lattice(cell + int2(1, 1), 0u) % K;
+        return int((((tl * K + bl) * K + tr) * K + br) * V + v);
+    }
+    uint Kh = uint(ts_lookup.y), Kv = uint(ts_lookup.z);
+    uint n = ts_lattice(cell, 1u) % Kh;
+    uint s = ts_lattice(cell + int2(0, 1), 1u) % Kh;
+    uint w = ts_lattice(cell, 2u) % Kv;
+    uint e = ts_lattice(cell + int2(1, 0), 2u) % Kv;
+    return int((((n * Kv + e) * Kh + s) * Kv + w) * V + v);
+}
+
+struct TsSite {
+    int4 ent;     // (code_A, bx_A, code_B, bx_B), code = (radius << 19) | ((by + 32768) << 3) | symmetry
+    int tile;
+    float2 p;     // position in the tile in pixels (x, y)
+    float2 gx, gy;
+    float lod;
+};
+
+int4 ts_table_texel(int tile, float2 p) {
+    float h = float(ts_layout.x / 2);
+    int q = (p.y >= h ? 2 : 0) + (p.x >= h ? 1 : 0);
+    int i = 4 * tile + q;
+    return ts_table.Load(int3(i % 256, i / 256, 0));
+}
+
+TsSite ts_site(float2 uv, float2 duvdx, float2 duvdy) {
+    TsSite s;
+    float2 cellf = floor(uv);
+    float n = float(ts_layout.x);
+    s.tile = ts_tile_index(int2(cellf));
+    s.p = (uv - cellf) * n;
+    s.gx = duvdx * n;
+    s.gy = duvdy * n;
+    s.lod = 0.5 * log2(max(max(dot(s.gx, s.gx), dot(s.gy, s.gy)), 1e-20));
+    s.ent = ts_table_texel(s.tile, s.p);
+    return s;
+}
+
+bool ts_one_source(TsSite s) { return all(s.ent.xy == s.ent.zw); }
+
+// The radii of the sample's quadrant (pixels from the tile's centre): see tilesynth_v2.glsl.
+float ts_r_in(TsSite s) { return float(s.ent.x >> 19) * 0.5; }
+float ts_r_out(TsSite s) { return float(s.ent.z >> 19) * 0.5; }
+
+// The label bit of the pixel under the sample (1: entry B): one fetch inside the label band, none outside it.
+float ts_bit(TsSite s) {
+    int n = ts_layout.x;
+    int2 ip = clamp(int2(floor(s.p)), int2(0, 0), int2(n - 1, n - 1));
+    float d = length(float2(ip) + 0.5 - 0.5 * float(n));
+    if (d < ts_r_in(s)) return 1.0;
+    if (d > ts_r_out(s)) return 0.0;
+    int c = ts_layout.y;
+    int2 cell = int2((s.tile % c) * (n / 8), (s.tile / c) * n);
+    uint byte = ts_bits.Load(int3(cell + int2(ip.x / 8, ip.y), 0));
+    return float((byte >> uint(ip.x % 8)) & 1u);
+}
+
+// Weight of entry B at level max(footprint, blend_level): see tilesynth_v2.glsl.
+float ts_weight(TsSite s, float blend_level) {
+    if (ts_one_source(s)) return 0.0;
+    float lw = max(s.lod, blend_level);
+    if (lw < 1.0) return ts_bit(s);
+    int n = ts_layout.x;
+    float lc = clamp(lw - 2.0, 0.0, float(ts_layout.w));
+    float d = length(s.p - 0.5 * float(n));
+    float reach = 2.2 * exp2(ceil(lc) + 2.0);
+    float w;
+    if (d + reach < ts_r_in(s)) {
+        w = 1.0;
+    } else if (d - reach > ts_r_out(s)) {
+        w = 0.0;
+    } else {
+        float side = float(n / 4);
+        float half_texel = 0.5 * exp2(ceil(lc));
+        float2 q = clamp(s.p * 0.25, min(half_texel, 0.5 * side).xx, max(side - half_texel, 0.5 * side).xx);
+        int c = ts_layout.z;
+        float2 pos = float2(float(s.tile % c), float(s.tile / c)) * side + q;
+        uint cw, ch, cl;
+        ts_coverage.GetDimensions(0, cw, ch, cl);
+        w = ts_coverage.SampleLevel(ts_sampler, pos / float2(cw, ch), lc);
+    }
+    float2 e = min(s.p, float(n).xx - s.p);
+    w *= clamp(min(e.x, e.y) / min(exp2(lw), float(n) / 16.0), 0.0, 1.0);
+    if (blend_level > s.lod) w = max(ts_bit(s), min(1.0, 2.0 * w));
+    return w;
+}
+
+float2 ts_src(int code, int bx, float2 p) {
+    int sym = code & 7;
+    float n = float(ts_layout.x);
+    float y = p.y, x = p.x;
+    if (sym >= 4) x = n - x;
+    int k = sym & 3;
+    float2 rc = k == 0 ? float2(y, x) : k == 1 ? float2(x, n - y) : k == 2 ? float2(n - y, n - x) : float2(n - x, y);
+    return float2(rc.y + float(bx), rc.x + float(((code >> 3) & 0xFFFF) - 32768));
+}
+
+float2 ts_turn(int code, float2 g) {
+    int sym = code & 7;
+    float y = g.y, x = g.x;
+    if (sym >= 4) x = -x;
+    int k = sym & 3;
+    float2 rc = k == 0 ? float2(y, x) : k == 1 ? float2(x, -y) : k == 2 ? float2(-y, -x) : float2(-x, y);
+    return rc.yx;
+}
+
+// normal: 0 no turn, 1 / 2 unsigned codes +y / -y, 3 / 4 signed vectors +y / -y.
+float4 ts_turn_normal(float4 c, int code, int normal) {
+    int sym = code & 7;
+    if (normal == 0 || sym == 0) return c;
+    float2 v = normal <= 2 ? c.xy * 2.0 - 1.0 : c.xy;
+    bool down = normal == 2 || normal == 4;
+    if (down) v.y = -v.y;
+    for (int i = 0; i < (sym & 3); i++) v = float2(-v.y, v.x);
+    if (sym >= 4) v.x = -v.x;
+    if (down) v.y = -v.y;
+    c.xy = normal <= 2 ? v * 0.5 + 0.5 : v;
+    return c;
+}
+
+float4 ts_entry(Texture2D<float4> map, TsSite s, int code, int bx, int normal) {
+    uint w, h, levels;
+    map.GetDimensions(0, w, h, levels);
+    float2 size = float2(w, h);
+    float2 src = ts_src(code, bx, s.p);
+    float4 c = map.SampleGrad(ts_sampler, src / size, ts_turn(code, s.gx) / size, ts_turn(code, s.gy) / size);
+    return ts_turn_normal(c, code, normal);
+}
+
+float4 ts_map(Texture2D<float4> map, TsSite s, float w, int normal) {
+    if (w <= 0.0 || ts_one_source(s)) return ts_entry(map, s, s.ent.x, s.ent.y, normal);
+    if (w >= 1.0) return ts_entry(map, s, s.ent.z, s.ent.w, normal);
+    return lerp(ts_entry(map, s, s.ent.x, s.ent.y, normal), ts_entry(map, s, s.ent.z, s.ent.w, normal), w);
+}
+
+float4 ts_fetch_map(Texture2D<float4> map, int2 p, int normal) {
+    int n = ts_layout.x;
+    int2 cell = int2(ts_floordiv(p.x, n), ts_floordiv(p.y, n));
+    int tile = ts_tile_index(cell);
+    int2 l = p - cell * n;
+    int4 ent = ts_table_texel(tile, float2(l) + 0.5);
+    int c = ts_layout.y;
+    uint byte = ts_bits.Load(int3((tile % c) * (n / 8) + l.x / 8, (tile / c) * n + l.y, 0));
+    bool b = ((byte >> uint(l.x % 8)) & 1u) == 1u;
+    int code = b ? ent.z : ent.x, bx = b ? ent.w : ent.y;
+    int sym = code & 7, m = n - 1, y = l.y, x = l.x;
+    if (sym >= 4) x = m - x;
+    int k = sym & 3;
+    int2 rc = k == 0 ? int2(y, x) : k == 1 ? int2(x, m - y) : k == 2 ? int2(m - y, m - x) : int2(m - x, y);
+    float4 v = map.Load(int3(rc.y + bx, rc.x + ((code >> 3) & 0xFFFF) - 32768, 0));
+    return ts_turn_normal(v, code, normal);
+}
+
+float4 ts_sample_map(Texture2D<float4> map, float2 uv, float blend_level, int normal) {
+    TsSite s = ts_site(uv, ddx(uv), ddy(uv));
+    return ts_map(map, s, ts_weight(s, blend_level), normal);
+}

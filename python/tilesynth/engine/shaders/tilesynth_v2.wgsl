@@ -1,0 +1,231 @@
+// tilesynth_v2.wgsl: per-pixel lookup of a tilesynth export version 2 (provenance), WGSL. Same functions, hash,
+// conventions and fetch counts as tilesynth_v2.glsl (see its header: TsSite, ts_site, ts_weight, ts_map).
+// Bindings (change the group/binding numbers to fit your pipeline):
+//   ts_bits      labels_bits.png as an r8uint texture (textureLoad only)
+//   ts_coverage  labels_coverage.png + levels as r8unorm, sampled with ts_sampler
+//   ts_table     table.bin as an rgba32sint texture of width 256 (textureLoad only)
+//   ts_index     index_map mode: index.png as r16uint (hash mode: any 1x1 u32 texture, never read)
+//   ts_sampler   linear min/mag/mipmap, clamp-to-edge: for the coverage and every map
+//   ts           the parameters: grid = N, bits columns, coverage columns, coverage max level; lookup = mode
+//                (0 index map, 1 hash corner, 2 hash edge), K (or Kh), Kv, V; wrap = hash period (0 0: none)
+// Every map: a texture_2d<f32> with its full mip chain, passed to ts_map with ts_sampler.
+// Host layout of TsParams (48 bytes): grid @0, lookup @16, wrap @32, seed @40, _pad @44.
+struct TsParams {
+    grid: vec4<i32>,
+    lookup: vec4<i32>,
+    wrap: vec2<i32>,
+    seed: u32,
+    _pad: u32,
+};
+@group(0) @binding(0) var ts_bits: texture_2d<u32>;
+@group(0) @binding(1) var ts_coverage: texture_2d<f32>;
+@group(0) @binding(2) var ts_index: texture_2d<u32>;
+@group(0) @binding(3) var<uniform> ts: TsParams;
+@group(0) @binding(4) var ts_table: texture_2d<i32>;
+@group(0) @binding(5) var ts_sampler: sampler;
+
+fn ts_pcg3d(v0: vec3<u32>) -> vec3<u32> {
+    var v = v0 * 1664525u + 1013904223u;
+    v.x += v.y * v.z; v.y += v.z * v.x; v.z += v.x * v.y;
+    v ^= v >> vec3<u32>(16u);
+    v.x += v.y * v.z; v.y += v.z * v.x; v.z += v.x * v.y;
+    return v;
+}
+
+fn ts_hash(x: i32, y: i32, seed: u32, role: u32) -> u32 {
+    return ts_pcg3d(vec3<u32>(bitcast<u32>(x), bitcast<u32>(y), seed ^ (role * 0x9E3779B9u))).x;
+}
+
+fn ts_floordiv(a: i32, b: i32) -> i32 { return select(-1 - (~a) / b, a / b, a >= 0); }
+fn ts_emod(a: i32, b: i32) -> i32 { return a - b * ts_floordiv(a, b); }
+
+fn ts_lattice(v0: vec2<i32>, role: u32) -> u32 {
+    var v = v0;
+    if (ts.wrap.x > 0) { v = vec2<i32>(ts_emod(v.x, ts.wrap.x), ts_emod(v.y, ts.wrap.y)); }
+    return ts_hash(v.x, v.y, ts.seed, role);
+}
+
+fn ts_tile_index(cell0: vec2<i32>) -> i32 {
+    var cell = cell0;
+    if (ts.lookup.x == 0) {
+        let sz = vec2<i32>(textureDimensions(ts_index, 0));
+        return i32(textureLoad(ts_index, vec2<i32>(ts_emod(cell.x, sz.x), ts_emod(cell.y, sz.y)), 0).r);
+    }
+    if (ts.wrap.x > 0) { cell = vec2<i32>(ts_emod(cell.x, ts.wrap.x), ts_emod(cell.y, ts.wrap.y)); }
+    let V = u32(ts.lookup.w);
+    let v = ts_lattice(cell, 3u) % V;
+    if (ts.lookup.x == 1) {
+        let K = u32(ts.lookup.y);
+        let tl = ts_lattice(cell, 0u) % K;
+        let tr = ts_lattice(cell + vec2<i32>(1, 0), 0u) % K;
+        let bl = ts_lattice(cell + vec2<i32>(0, 1), 0u) % K;
+        let br = ts_lattice(cell + vec2<i32>(1, 1), 0u) % K;
+        return i32((((tl * K + bl) * K + tr) * K + br) * V + v);
+    }
+    let Kh = u32(ts.lookup.y);
+    let Kv = u32(ts.lookup.z);
+    let n = ts_lattice(cell, 1u) % Kh;
+    let s = ts_lattice(cell + vec2<i32>(0, 1), 1u) % Kh;
+    let w = ts_lattice(cell, 2u) % Kv;
+    let e = ts_lattice(cell + vec2<i32>(1, 0), 2u) % Kv;
+    return i32((((n * Kv + e) * Kh + s) * Kv + w) * V + v);
+}
+
+struct TsSite {
+    ent: vec4<i32>,   // (code_A, bx_A, code_B, bx_B), code = (radius << 19) | ((by + 32768) << 3) | symmetry
+    tile: i32,
+    p: vec2<f32>,     // position in the tile in pixels (x, y)
+    gx: vec2<f32>,
+    gy: vec2<f32>,
+    lod: f32,
+};
+
+fn ts_table_texel(tile: i32, p: vec2<f32>) -> vec4<i32> {
+    let h = f32(ts.grid.x / 2);
+    let q = select(0, 2, p.y >= h) + select(0, 1, p.x >= h);
+    let i = 4 * tile + q;
+    return textureLoad(ts_table, vec2<i32>(i % 256, i / 256), 0);
+}
+
+fn ts_site(uv: vec2<f32>, duvdx: vec2<f32>, duvdy: vec2<f32>) -> TsSite {
+    var s: TsSite;
+    let cellf = floor(uv);
+    let n = f32(ts.grid.x);
+    s.tile = ts_tile_index(vec2<i32>(cellf));
+    s.p = (uv - cellf) * n;
+    s.gx = duvdx * n;
+    s.gy = duvdy * n;
+    s.lod = 0.5 * log2(max(max(dot(s.gx, s.gx), dot(s.gy, s.gy)), 1e-20));
+    s.ent = ts_table_texel(s.tile, s.p);
+    return s;
+}
+
+fn ts_one_source(s: TsSite) -> bool { return all(s.ent.xy == s.ent.zw); }
+
+// The radii of the sample's quadrant (pixels from the tile's centre): see tilesynth_v2.glsl.
+fn ts_r_in(s: TsSite) -> f32 { return f32(s.ent.x >> 19u) * 0.5; }
+fn ts_r_out(s: TsSite) -> f32 { return f32(s.ent.z >> 19u) * 0.5; }
+
+// The label bit of the pixel under the sample (1: entry B): one fetch inside the label band, none outside it.
+fn ts_bit(s: TsSite) -> f32 {
+    let n = ts.grid.x;
+    let ip = clamp(vec2<i32>(floor(s.p)), vec2<i32>(0), vec2<i32>(n - 1));
+    let d = length(vec2<f32>(ip) + 0.5 - 0.5 * f32(n));
+    if (d < ts_r_in(s)) { return 1.0; }
+    if (d > ts_r_out(s)) { return 0.0; }
+    let c = ts.grid.y;
+    let cell = vec2<i32>((s.tile % c) * (n / 8), (s.tile / c) * n);
+    let byte = textureLoad(ts_bits, cell + vec2<i32>(ip.x / 8, ip.y), 0).r;
+    return f32((byte >> u32(ip.x % 8)) & 1u);
+}
+
+// Weight of entry B at level max(footprint, blend_level): see tilesynth_v2.glsl.
+fn ts_weight(s: TsSite, blend_level: f32) -> f32 {
+    if (ts_one_source(s)) { return 0.0; }
+    let lw = max(s.lod, blend_level);
+    if (lw < 1.0) { return ts_bit(s); }
+    let n = ts.grid.x;
+    let lc = clamp(lw - 2.0, 0.0, f32(ts.grid.w));
+    let d = length(s.p - 0.5 * f32(n));
+    let reach = 2.2 * exp2(ceil(lc) + 2.0);
+    var w: f32;
+    if (d + reach < ts_r_in(s)) {
+        w = 1.0;
+    } else if (d - reach > ts_r_out(s)) {
+        w = 0.0;
+    } else {
+        let side = f32(n / 4);
+        let half_texel = 0.5 * exp2(ceil(lc));
+        let q = clamp(s.p * 0.25, vec2<f32>(min(half_texel, 0.5 * side)), vec2<f32>(max(side - half_texel, 0.5 * side)));
+        let c = ts.grid.z;
+        let pos = vec2<f32>(f32(s.tile % c), f32(s.tile / c)) * side + q;
+        w = textureSampleLevel(ts_coverage, ts_sampler, pos / vec2<f32>(textureDimensions(ts_coverage, 0)), lc).r;
+    }
+    let e = min(s.p, vec2<f32>(f32(n)) - s.p);
+    w *= clamp(min(e.x, e.y) / min(exp2(lw), f32(n) / 16.0), 0.0, 1.0);
+    if (blend_level > s.lod) { w = max(ts_bit(s), min(1.0, 2.0 * w)); }
+    return w;
+}
+
+fn ts_src(code: i32, bx: i32, p: vec2<f32>) -> vec2<f32> {
+    let sym = code & 7;
+    let n = f32(ts.grid.x);
+    let y = p.y;
+    var x = p.x;
+    if (sym >= 4) { x = n - x; }
+    let k = sym & 3;
+    var rc = vec2<f32>(y, x);
+    if (k == 1) { rc = vec2<f32>(x, n - y); } else if (k == 2) { rc = vec2<f32>(n - y, n - x); } else if (k == 3) { rc = vec2<f32>(n - x, y); }
+    return vec2<f32>(rc.y + f32(bx), rc.x + f32(((code >> 3u) & 0xFFFF) - 32768));
+}
+
+fn ts_turn(code: i32, g: vec2<f32>) -> vec2<f32> {
+    let sym = code & 7;
+    let y = g.y;
+    var x = g.x;
+    if (sym >= 4) { x = -x; }
+    let k = sym & 3;
+    var rc = vec2<f32>(y, x);
+    if (k == 1) { rc = vec2<f32>(x, -y); } else if (k == 2) { rc = vec2<f32>(-y, -x); } else if (k == 3) { rc = vec2<f32>(-x, y); }
+    return rc.yx;
+}
+
+// normal: 0 no turn, 1 / 2 unsigned codes +y / -y, 3 / 4 signed vectors +y / -y.
+fn ts_turn_normal(c0: vec4<f32>, code: i32, normal: i32) -> vec4<f32> {
+    let sym = code & 7;
+    if (normal == 0 || sym == 0) { return c0; }
+    var c = c0;
+    var v = select(c.xy, c.xy * 2.0 - 1.0, normal <= 2);
+    let down = normal == 2 || normal == 4;
+    if (down) { v.y = -v.y; }
+    for (var i = 0; i < (sym & 3); i++) { v = vec2<f32>(-v.y, v.x); }
+    if (sym >= 4) { v.x = -v.x; }
+    if (down) { v.y = -v.y; }
+    let o = select(v, v * 0.5 + 0.5, normal <= 2);
+    c.x = o.x;
+    c.y = o.y;
+    return c;
+}
+
+fn ts_entry(map: texture_2d<f32>, s: TsSite, code: i32, bx: i32, normal: i32) -> vec4<f32> {
+    let size = vec2<f32>(textureDimensions(map, 0));
+    let src = ts_src(code, bx, s.p);
+    let c = textureSampleGrad(map, ts_sampler, src / size, ts_turn(code, s.gx) / size, ts_turn(code, s.gy) / size);
+    return ts_turn_normal(c, code, normal);
+}
+
+fn ts_map(map: texture_2d<f32>, s: TsSite, w: f32, normal: i32) -> vec4<f32> {
+    if (w <= 0.0 || ts_one_source(s)) { return ts_entry(map, s, s.ent.x, s.ent.y, normal); }
+    if (w >= 1.0) { return ts_entry(map, s, s.ent.z, s.ent.w, normal); }
+    return mix(ts_entry(map, s, s.ent.x, s.ent.y, normal), ts_entry(map, s, s.ent.z, s.ent.w, normal), w);
+}
+
+// The exact texel (x, y) of the infinite texture of one map (textureLoad only: any shader stage).
+fn ts_fetch_map(map: texture_2d<f32>, p: vec2<i32>, normal: i32) -> vec4<f32> {
+    let n = ts.grid.x;
+    let cell = vec2<i32>(ts_floordiv(p.x, n), ts_floordiv(p.y, n));
+    let tile = ts_tile_index(cell);
+    let l = p - cell * n;
+    let ent = ts_table_texel(tile, vec2<f32>(l) + 0.5);
+    let c = ts.grid.y;
+    let byte = textureLoad(ts_bits, vec2<i32>((tile % c) * (n / 8) + l.x / 8, (tile / c) * n + l.y), 0).r;
+    let b = ((byte >> u32(l.x % 8)) & 1u) == 1u;
+    let code = select(ent.x, ent.z, b);
+    let bx = select(ent.y, ent.w, b);
+    let sym = code & 7;
+    let m = n - 1;
+    let y = l.y;
+    var x = l.x;
+    if (sym >= 4) { x = m - x; }
+    let k = sym & 3;
+    var rc = vec2<i32>(y, x);
+    if (k == 1) { rc = vec2<i32>(x, m - y); } else if (k == 2) { rc = vec2<i32>(m - y, m - x); } else if (k == 3) { rc = vec2<i32>(m - x, y); }
+    let v = textureLoad(map, vec2<i32>(rc.y + bx, rc.x + ((code >> 3u) & 0xFFFF) - 32768), 0);
+    return ts_turn_normal(v, code, normal);
+}
+
+// Call from uniform control flow (dpdx/dpdy).
+fn ts_sample_map(map: texture_2d<f32>, uv: vec2<f32>, blend_level: f32, normal: i32) -> vec4<f32> {
+    let s = ts_site(uv, dpdx(uv), dpdy(uv));
+    return ts_map(map, s, ts_weight(s, blend_level), normal);
+}

@@ -1,0 +1,395 @@
+"""Export version 2 (provenance: the exemplar maps with full mips, one-bit labels, coverage, a source table) in a
+real browser (headless Chromium, WebGL2 on SwiftShader) against the CPU.
+
+Level 0 must be bit-equal to :func:`tilesynth.synthesize` (colour) and to the provenance gather (every other map,
+normals turned with their patches); every mip level within the stated tolerance of a box filter of the exact
+synthesis; far zoom-out keeps the reference's contrast; fetch counts are counted in the shader.
+Skipped, with the reason, only when no Chromium can be found (``tests/webgl.py``).
+"""
+
+from __future__ import annotations
+
+import base64
+from pathlib import Path
+
+import numpy as np
+import pytest
+from webgl import browser_or_skip, run_page
+
+import tilesynth as ts
+from tilesynth.engine import export
+from tilesynth.engine import viewer as xv
+from tilesynth.engine import viewer_v2 as v2
+
+
+@pytest.fixture(scope="module")
+def browser() -> str:
+    return browser_or_skip()
+
+
+def _derived_maps(ex: np.ndarray) -> dict[str, np.ndarray]:
+    """Height (16-bit), unit normals (+y up, 8-bit) and roughness (8-bit) derived from an exemplar's luma."""
+    luma = ex[..., :3] @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    gy, gx = np.gradient(luma * 6.0)
+    n = np.stack([-gx, gy, np.ones_like(gx)], axis=-1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    return {
+        "height": np.round(luma * 65535).astype(np.uint16),
+        "normal": np.round((n * 0.5 + 0.5) * 255).astype(np.uint8),
+        "roughness": np.round((1 - luma) * 255).astype(np.uint8),
+    }
+
+
+@pytest.fixture(scope="module")
+def aug_set(small_exemplar: np.ndarray):
+    """A 16a set whose matching patches are rotated and mirrored (every symmetry D_s in use)."""
+    return ts.build_omega(small_exemplar, tileset="16a", tile_size=32, seed=1, augment="all")
+
+
+@pytest.fixture(scope="module")
+def c5_set(lettuce: np.ndarray):
+    """The default complete set (625 tiles, hash lookup) on a 128 px crop."""
+    return ts.build_omega(np.ascontiguousarray(lettuce[:128, :128]), tileset="c5", tile_size=32, seed=1)
+
+
+@pytest.fixture(scope="module")
+def big_set(lettuce: np.ndarray):
+    """Tiles of 64 on a 256 px crop: room for levels 1-6 (the 64x zoom-out test)."""
+    return ts.build_omega(np.ascontiguousarray(lettuce[:256, :256]), tileset="c5", tile_size=64, seed=3)
+
+
+def _exported(tileset, out: Path, maps=None, **kw):
+    m = export(tileset, out, maps=maps, **kw)
+    assert m["format_version"] == 2
+    imap = xv.read_index(out, m)
+    r = v2.ReferenceV2(tileset, m, imap, v2.arrays_of(tileset, m, out))
+    return m, imap, r
+
+
+def _run(browser: str, tmp: Path, tileset, m, imap, out: Path, cases) -> dict:
+    cfg = v2.config_for(tileset, m, out, imap, cases)
+    cfg["autorun"] = True
+    page = tmp / "page.html"
+    page.write_text(v2.page(cfg), encoding="utf-8")
+    rep = run_page(browser, page)
+    assert rep.get("error") is None, rep
+    return rep
+
+
+def _on(c: dict, map_index: int) -> dict:
+    c["map"] = map_index
+    return c
+
+
+def _level0_cases(r: v2.ReferenceV2, names: list[str], n: int) -> list[dict]:
+    cases = []
+    windows = [
+        ("negative origin, 4 tiles", -n - 5, -n - 11, 40, 36),
+        ("straddling borders", 2 * n - 13, 3 * n - 20, 45, 33),
+        ("far negative", -100003, -77777, 37, 29),
+        ("far positive", 2**20 + 7, 2**19 - 5, 31, 27),
+    ]
+    for i, name in enumerate(names):
+        for label, x0, y0, w, h in windows:
+            ref = r.texels(name, x0, y0, w, h)
+            cases.append(_on(xv.case(f"{name} fetch {label}", "fetch", (x0, y0), w, h, 1.0, 0, ref), i))
+        for x0, y0 in ((-n - 6, -2 * n + 3), (3 * n - 17, n - 9)):
+            exact = np.rint(r.sampled(name, x0, y0, 40, 40, 1.0)).astype(np.uint8)
+            cases.append(
+                _on(xv.case(f"{name} centres {x0},{y0}", "grad", (x0, y0), 40, 40, 1.0, 0, exact), i)
+            )
+    return cases
+
+
+@pytest.mark.parametrize("which", ["aug-index", "c5-hash"])
+def test_level0_is_bit_equal_to_the_cpu_for_every_map(browser, tmp_path, which, aug_set, c5_set):
+    """texelFetch and textureGrad at texel centres: the albedo equals synthesize, the other maps the provenance
+    gather (the normals turned with their rotated / mirrored patches), bit for bit."""
+    tileset = aug_set if which == "aug-index" else c5_set
+    maps = _derived_maps(tileset.exemplar)
+    kw = {"index_size": (8, 8)} if which == "aug-index" else {"seed": 0xDEADBEEF}
+    m, imap, r = _exported(tileset, tmp_path / "x", maps=maps, **kw)
+    assert m["lookup"]["mode"] == ("index_map" if which == "aug-index" else "hash")
+    names = [mp["name"] for mp in m["maps"]]
+    assert names == ["albedo", "height", "normal", "roughness"]
+    assert {mp["name"]: mp["normal"] for mp in m["maps"]} == {
+        "albedo": 0,
+        "height": 0,
+        "normal": 1,
+        "roughness": 0,
+    }
+    rep = _run(
+        browser, tmp_path, tileset, m, imap, tmp_path / "x", _level0_cases(r, names, tileset.tile_size)
+    )
+    assert rep["status"] == "PASS" and rep["dom_status"] == "PASS 0", rep
+    assert all(c["differing"] == 0 and c["max_diff"] == 0 for c in rep["cases"]), rep["cases"]
+    assert sum(c["pixels"] for c in rep["cases"]) > 20000
+    if which == "aug-index":  # the symmetries are really exercised
+        assert len(np.unique(tileset._provenance().table[..., 0])) >= 6
+
+
+def _luma(img: np.ndarray) -> np.ndarray:
+    return img[..., :3].astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722])
+
+
+def test_every_mip_level_within_tolerance_and_contrast_far_out(browser, tmp_path, big_set):
+    """Levels 1..8 against the box filter of the exact synthesis: RMS within max(MIP_RMS, PHASE_FACTOR x the window's
+    phase floor); at 64x zoom-out the contrast (standard deviation of the luma) within 10 % of the reference's."""
+    tileset = big_set
+    n = tileset.tile_size
+    m, imap, r = _exported(tileset, tmp_path / "x", seed=7)
+    cases, refs, floors = [], {}, {}
+    for lv in range(1, 9):
+        f = 2**lv
+        w = h = 32 if lv < 6 else 48
+        ox, oy = -3 * n - 0.37 * f, -5 * n + 0.21 * f
+        ref = np.clip(np.rint(r.sampled("albedo", ox, oy, w, h, f, lv)), 0, 255).astype(np.uint8)
+        refs[lv] = ref
+        floors[lv] = r.phase_floor
+        cases.append(xv.case(f"L{lv}", "grad", (ox, oy), w, h, f, 255, ref, dump=True))
+    rep = _run(browser, tmp_path, tileset, m, imap, tmp_path / "x", cases)
+    got = {c["name"]: c for c in rep["cases"]}
+    lines = []
+    for lv in range(1, 9):
+        c = got[f"L{lv}"]
+        img = np.frombuffer(base64.b64decode(c["image"]), np.uint8).reshape(refs[lv].shape)
+        contrast = _luma(img).std() / max(_luma(refs[lv]).std(), 1e-9)
+        lines.append((lv, round(c["rms"], 2), round(floors[lv], 2), c["max_diff"], round(contrast, 3)))
+    print("level, RMS (of 255), phase floor, max diff, contrast GPU / reference:", lines)
+    for lv, rms, floor, _, contrast in lines:
+        assert rms <= max(v2.MIP_RMS, v2.PHASE_FACTOR * floor), lines
+        if lv == 6:
+            assert abs(contrast - 1) <= 0.10, lines
+
+
+def test_fetch_counts(browser, tmp_path, c5_set):
+    """Counted in the shader with four maps. Every blend level 0: at most M + 2 texture fetches where no
+    footprint straddles a cut (table, label, one per map), at most 2M + 2 where one does; outside the quadrant's
+    label band (the radii in the table) the label is not looked up: M + 1 there, the share of such pixels
+    reported. Blend levels 0 and 2 (height, normal): at most 1 + 3 + M and 1 + 3 + 2M (the level-2 seam
+    treatment near a cut reads the bit and the coverage)."""
+    tileset = c5_set
+    maps = _derived_maps(tileset.exemplar)
+    n = tileset.tile_size
+    dummy = np.zeros((48, 48, 4), np.uint8)
+    cases = [
+        xv.case(f"count at {s}x", "count", (-n - 0.3, -2 * n + 0.7), 48, 48, s, 255, dummy, dump=True)
+        for s in (1.0, 2.0, 8.0)
+    ]
+    mm = len(maps) + 1
+    for blend, extra in (({}, 0), ({"height": 2, "normal": 2}, 2)):
+        out = tmp_path / f"x{extra}"
+        m, imap, r = _exported(tileset, out, maps=maps, blend_levels=blend)
+        rep = _run(browser, tmp_path, tileset, m, imap, out, cases)
+        rows = []
+        for c in rep["cases"]:
+            img = np.frombuffer(base64.b64decode(c["image"]), np.uint8).reshape(48, 48, 4)
+            count, straddles = img[..., 0].astype(int), img[..., 1] > 127
+            away = int(count[~straddles].max()) if (~straddles).any() else 0
+            at = int(count[straddles].max()) if straddles.any() else 0
+            rows.append(
+                (c["name"], away, at, round(float(straddles.mean()), 3), round(float((count <= mm + 1).mean()), 3),
+                 round(float(count.mean()), 2))
+            )  # fmt: skip
+        print(
+            f"M = {mm}, blend levels {blend or 'all 0'}: (case, max fetches away from cuts, max where a footprint "
+            "straddles one, share straddling, share at <= M + 1, mean)",
+            rows,
+        )
+        for _, away, at, _, _, _ in rows:
+            assert away <= mm + 2 + extra and at <= 2 * mm + 2 + extra, rows
+        assert any(row[3] > 0 for row in rows)  # the straddling path is exercised
+        if (
+            not blend
+        ):  # the label band spares the label fetch (at 2x and beyond its reach covers a 32 px tile)
+            assert rows[0][4] > 0.3, rows
+
+
+# ------------------------------------------------------------------------------- the other shading languages
+DATA = Path(__file__).parent / "data"
+
+
+@pytest.mark.parametrize("target", ["glsl-es300", "glsl-400", "hlsl", "godot-as-glsl"])
+def test_v2_shaders_compile_with_glslang(tmp_path, target):
+    """The version-2 GLSL (ES 3.00 and desktop 4.00, with and without the fetch counter) and HLSL (to SPIR-V)
+    compile with Khronos' glslang; the Godot shader too, once its Godot-only syntax (shader_type, uniform hints
+    and defaults, the fragment() built-ins) is rewritten as GLSL ES 3.00 (no Godot compiler here)."""
+    import re
+    import shutil
+    import subprocess
+
+    from tilesynth.engine import shader_source
+
+    exe = shutil.which("glslangValidator")
+    if exe is None:
+        pytest.skip("glslangValidator not found (apt-get install glslang-tools)")
+    es = "#version 300 es\nprecision highp float;\nprecision highp int;\n"
+    use = (
+        "void main() { TsSite s = ts_site(uv, dFdx(uv), dFdy(uv));"
+        " o = ts_map(m0, s, ts_weight(s, 0.0), 1) + ts_fetch_map(m0, ivec2(uv), 2)"
+        " + ts_sample_map(m0, uv, 3.0, 0); }\n"
+    )
+    if target == "hlsl":
+        src = shader_source("tilesynth_v2.hlsl") + (
+            "Texture2D<float4> m0 : register(t4);\n"
+            "float4 main(float2 uv : TEXCOORD0) : SV_Target { TsSite s = ts_site(uv, ddx(uv), ddy(uv));"
+            " return ts_map(m0, s, ts_weight(s, 0.0), 1) + ts_fetch_map(m0, int2(uv), 3)"
+            " + ts_sample_map(m0, uv, 2.0, 0); }\n"
+        )
+        f = tmp_path / "t.hlsl"
+        cmd = [exe, "-D", "-V", "-e", "main", "-S", "frag", "-o", str(tmp_path / "t.spv"), str(f)]
+    elif target == "godot-as-glsl":
+        s = shader_source("tilesynth_v2.gdshader").replace("shader_type spatial;", "")
+        s = re.sub(r"uniform (\w+) (\w+)\s*:[^;=]*", r"uniform \1 \2", s)
+        s = re.sub(r"(uniform [^;]*?)\s*=\s*[^;]*;", r"\1;", s)
+        s = s.replace(
+            "void fragment() {",
+            "out vec4 o; void main() { vec3 ALBEDO, NORMAL_MAP; float ROUGHNESS; vec2 UV = gl_FragCoord.xy;",
+        )
+        src = es + s.rstrip()[:-1] + " o = vec4(ALBEDO + NORMAL_MAP, ROUGHNESS); }\n"
+        f = tmp_path / "g.frag"
+        cmd = [exe, str(f)]
+    else:
+        head = es + "#define TS_COUNT_FETCHES\n" if target == "glsl-es300" else "#version 400\n"
+        src = (
+            head
+            + shader_source("tilesynth_v2.glsl")
+            + "in vec2 uv; out vec4 o; uniform sampler2D m0;\n"
+            + use
+        )
+        f = tmp_path / "t.frag"
+        cmd = [exe, str(f)]
+    f.write_text(src)
+    out = subprocess.run(cmd, capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_v2_wgsl_validates_with_naga(tmp_path):
+    """The version-2 WGSL with a fragment entry point using every function validates with naga (wgpu's
+    compiler)."""
+    import shutil
+    import subprocess
+
+    from tilesynth.engine import shader_source
+
+    exe = shutil.which("naga")
+    if exe is None:
+        pytest.skip("naga not found (cargo install naga-cli)")
+    f = tmp_path / "t.wgsl"
+    f.write_text(
+        shader_source("tilesynth_v2.wgsl") + "@group(1) @binding(0) var m0: texture_2d<f32>;\n"
+        "@fragment fn main(@location(0) uv: vec2<f32>) -> @location(0) vec4<f32> {\n"
+        "  let s = ts_site(uv, dpdx(uv), dpdy(uv));\n"
+        "  return ts_map(m0, s, ts_weight(s, 0.0), 1) + ts_fetch_map(m0, vec2<i32>(uv), 1)"
+        " + ts_sample_map(m0, uv, 2.0, 0);\n}\n"
+    )
+    out = subprocess.run([exe, str(f)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_v2_wgsl_hash_and_tile_index_match_the_vectors_in_webgpu(browser, tmp_path):
+    """The version-2 WGSL's hash and tile index through Chromium's WebGPU (the version-1 harness: the index
+    texture and the parameters sit at the same bindings and offsets)."""
+    import json
+
+    from webgl import run_webgpu_page, wgsl_page
+
+    from tilesynth.engine import shader_source
+
+    vectors = json.loads((DATA / "hash_vectors.json").read_text())
+    page = tmp_path / "wgsl.html"
+    page.write_text(wgsl_page(vectors, shader_source("tilesynth_v2.wgsl")), encoding="utf-8")
+    rep = run_webgpu_page(browser, page)
+    if "adapter" in str(rep.get("error", "")).lower() or "navigator.gpu" in str(rep.get("error", "")):
+        pytest.skip(f"no WebGPU adapter in this browser: {rep['error']}")
+    assert rep.get("error") is None, rep
+    assert rep["checked"] == 1180 and rep["status"] == "PASS", rep["fails"]
+
+
+def test_viewer_selftest_passes_and_the_file_is_a_few_times_the_maps(browser, tmp_path, c5_set):
+    """The exported viewer (every map, lit preview) passes its own self-test (level 0 exact, levels 1-5 within
+    the tolerance) and is at most 3x the bytes of the maps' exported PNG levels, whatever the tile count."""
+    maps = _derived_maps(c5_set.exemplar)
+    out = tmp_path / "x"
+    m = export(c5_set, out, maps=maps, viewer=True, blend_levels={"height": 2, "normal": 2})
+    rep = run_page(browser, out / "viewer.html", "?selftest")
+    assert rep.get("error") is None and rep["status"] == "PASS" and rep["dom_status"] == "PASS 0", rep
+    names = [c["name"] for c in rep["cases"]]
+    assert any("level 5" in n for n in names) and any("fetch" in n for n in names)  # 128 px: levels 1-6
+    html = (out / "viewer.html").read_text()
+    assert all(f'"name": "{mp["name"]}"' in html for mp in m["maps"]) and "lit preview" in html
+    map_bytes = sum((out / lv["file"]).stat().st_size for mp in m["maps"] for lv in mp["levels"])
+    size = (out / "viewer.html").stat().st_size
+    print(f"viewer {size} B, maps' PNG levels {map_bytes} B: {size / map_bytes:.2f}x")
+    assert size <= 3 * map_bytes
+
+
+def test_v2_wgsl_level0_is_bit_equal_in_webgpu(browser, tmp_path, aug_set):
+    """The version-2 WGSL map lookup (textureLoad and textureSampleGrad at texel centres, a compute pass in
+    Chromium's WebGPU) equals the CPU for the albedo and the normals of a set with every symmetry."""
+
+    from webgl import run_webgpu_page, wgsl_v2_page
+
+    from tilesynth.engine import shader_source
+    from tilesynth.engine.reference import to_rgba8
+
+    maps = _derived_maps(aug_set.exemplar)
+    out = tmp_path / "x"
+    m, imap, r = _exported(aug_set, out, maps=maps, index_size=(8, 8))
+    cfg = v2.config_for(aug_set, m, out, imap, [])
+    lab = m["labels"]
+
+    def enc(a: np.ndarray) -> str:
+        return base64.b64encode(np.ascontiguousarray(a).tobytes()).decode()
+
+    def level(a: np.ndarray) -> dict:
+        return {"w": int(a.shape[1]), "h": int(a.shape[0]), "data": enc(a)}
+
+    from tilesynth.io.images import load_raster
+
+    def load(f: str) -> np.ndarray:
+        a = np.asarray(load_raster(out / f))
+        return a[:, :, None] if a.ndim == 2 else a
+
+    data_maps = []
+    for name in ("albedo", "normal"):
+        mp = next(x for x in m["maps"] if x["name"] == name)
+        levels = [level(to_rgba8(v2.to_preview8(load(lv["file"])))) for lv in mp["levels"]]
+        data_maps.append({"normal": mp["normal"], "levels": levels})
+    params = np.zeros(12, np.int32)
+    params[:4] = cfg["layout"]
+    params[4:8] = cfg["lookup"]
+    params[8:10] = cfg["wrap"]
+    params[10] = cfg["seed"]
+    data = {
+        "bits": level(load(lab["bits"]["file"])[:, :, 0]),
+        "coverage": [level(load(lv["file"])[:, :, 0]) for lv in lab["coverage"]["levels"]],
+        "table": level(
+            np.fromfile(out / lab["table"]["file"], "<i4").reshape(lab["table"]["height"], 256, 4)
+        ),
+        "index": level(imap.astype("<u2")),
+        "params": enc(params),
+        "maps": data_maps,
+        "cases": [],
+    }
+    n = aug_set.tile_size
+    for i, name in enumerate(("albedo", "normal")):
+        for x0, y0 in ((-n - 5, -n - 11), (2 * n - 13, 3 * n - 20), (-100003, -77777)):
+            data["cases"].append(
+                {"name": f"{name} fetch {x0},{y0}", "kind": "fetch", "map": i, "origin": [x0, y0], "w": 40,
+                 "h": 36, "scale": 1.0, "tol": 0, "ref": enc(r.texels(name, x0, y0, 40, 36))}
+            )  # fmt: skip
+            exact = np.rint(r.sampled(name, x0, y0, 40, 36, 1.0)).astype(np.uint8)
+            data["cases"].append(
+                {"name": f"{name} centres {x0},{y0}", "kind": "grad", "map": i, "origin": [x0, y0], "w": 40,
+                 "h": 36, "scale": 1.0, "tol": 0, "ref": enc(exact)}
+            )  # fmt: skip
+    page = tmp_path / "wgsl2.html"
+    page.write_text(wgsl_v2_page(data, shader_source("tilesynth_v2.wgsl")), encoding="utf-8")
+    rep = run_webgpu_page(browser, page)
+    print(rep["cases"])
+    if "adapter" in str(rep.get("error", "")).lower() or "navigator.gpu" in str(rep.get("error", "")):
+        pytest.skip(f"no WebGPU adapter in this browser: {rep['error']}")
+    assert rep.get("error") is None, rep
+    assert rep["status"] == "PASS" and len(rep["cases"]) == 12, rep["cases"]
+    assert all(c["differing"] == 0 and c["max_diff"] == 0 for c in rep["cases"]), rep["cases"]
