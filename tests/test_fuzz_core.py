@@ -15,6 +15,7 @@ profile's (``ci``: 40 per entry point; ``HYPOTHESIS_PROFILE=local`` for 200).
 from __future__ import annotations
 
 import inspect
+import warnings
 
 import fuzzing
 import numpy as np
@@ -308,7 +309,10 @@ def provenance_gather(d: st.DrawFn):
     exemplar = fuzzing.fill((eh, ew, c), dt, "unit", d(st.integers(0, 99)))
     src = _provenance_source(d, eh, ew)
     try:  # the careless sources of _provenance_source may not factorise: then a one-pixel set
-        got = _core.provenance_factorise(np.ascontiguousarray(src, np.int32))
+        with warnings.catch_warnings():  # a careless source (NaN, complex) cast to int32: any value will do
+            warnings.simplefilter("ignore")
+            src32 = np.ascontiguousarray(src, np.int32)
+        got = _core.provenance_factorise(src32)
     except CORE_ERRORS:
         got = None
     if got is None:
@@ -349,7 +353,10 @@ def seam_blend(d: st.DrawFn):
     values = fuzzing.fill((eh, ew, c), "float64", "unit", d(st.integers(0, 99)))
     src = _provenance_source(d, eh, ew)
     try:
-        with np.errstate(all="ignore"):  # careless sources: a cast may overflow
+        with (
+            warnings.catch_warnings()
+        ):  # a careless source (NaN, complex, overflow) cast to int32: any value will do
+            warnings.simplefilter("ignore")
             src = np.ascontiguousarray(src, np.int32)
         got = _core.provenance_factorise(src)
     except CORE_ERRORS:
