@@ -460,3 +460,21 @@ def test_quadrant_form_reproduces_the_provenance_and_its_radii_hold(omega_set, w
     assert np.array_equal(tab[:, 0] >> 19, r_in.reshape(-1)) and np.array_equal(
         tab[:, 2] >> 19, r_out.reshape(-1)
     )
+
+
+def test_cli_export_says_which_maps_the_gpu_cuts_hard(tmp_path, small_exemplar, capsys):
+    """A material's smooth maps are blended by ``synth`` but cut hard by the provenance shaders at blend level 0:
+    the export says so (and what to do); with a blend level for each, it does not."""
+    from tilesynth.cli.main import main
+
+    ex = np.ascontiguousarray(small_exemplar[:64, :64])
+    t = ts.build(ex, tileset="c2", tile_size=16, seed=1, maps={"height": ex[..., 0].copy()})
+    t.save(tmp_path / "m.tiles")
+    assert main(["export", str(tmp_path / "m.tiles"), "-o", str(tmp_path / "a")]) == 0
+    err = capsys.readouterr().err
+    assert "note: map(s) height: the shaders cut their seams hard" in err
+    assert (
+        main(["export", str(tmp_path / "m.tiles"), "-o", str(tmp_path / "b"), "--blend-level", "height=2"])
+        == 0
+    )
+    assert "note:" not in capsys.readouterr().err

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import sys
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -188,6 +189,18 @@ def run(args: argparse.Namespace) -> None:
                 f"lookup, {m['tile_count']} tiles, {len(m['maps'])} map(s) with full mips, GPU "
                 f"{g['total'] / 2**20:.2f} MiB = {g['ratio_to_maps']:.2f}x the maps')"
             )
+            hard = [
+                e["name"]
+                for e in m["maps"]
+                if e.get("kind") in ("scalar", "normal") and not e.get("blend_level")
+            ]
+            if hard:  # what the GPU shows differs from `synth` there: say so, and what to do about it
+                print(
+                    f"note: map(s) {', '.join(hard)}: the shaders cut their seams hard (tilesynth synth blends them, "
+                    "keeping the relief); --blend-level MAP=2 softens them on the GPU, --format atlas bakes synth's "
+                    "blend into an atlas (many times the memory)",
+                    file=sys.stderr,
+                )
         return
     out = (
         Path(args.output)
