@@ -2,7 +2,7 @@
 
 A colour-only build chooses its matching patches and cuts on the albedo alone; a height map sent through the
 same cuts afterwards (``synth --with``) is discontinuous wherever the albedo hid a seam that the height does not
-(issue 14: height cliffs along every cut). A **material build** (:func:`tilesynth.build_material`, ``tilesynth.build(img,
+(height cliffs along every cut). A **material build** (:func:`tilesynth.build_material`, ``tilesynth.build(img,
 maps={...})``, ``tilesynth build EX --map height=H.png``) chooses them on every map jointly:
 
 1. **Features.** Each map (and the albedo) is centred and divided by its own standard deviation (the square
@@ -46,7 +46,7 @@ score rose to 1.48-1.57 on the brick material, though its seam itself is fused a
 patches' own steps there). 0.5 keeps the maps in the joint matching and cut at about a third of the features'
 variance and costs the albedo less.
 
-**The cut of a material build** (:data:`MATERIAL_CUT_EPS`, issue 14). The cut weights of ω and s-Wang are
+**The cut of a material build** (:data:`MATERIAL_CUT_EPS`). The cut weights of ω and s-Wang are
 Kwatra's, ``(‖a − b‖(s) + ‖a − b‖(t)) / (Σ‖g‖ + eps)``: the gradient normalisation makes a step along an edge of
 the exemplar cheap, because a colour seam there hides in the edge. In a joint build the gradients are those of the
 feature image, so the cut is drawn along the *maps'* own edges too (a normal map's crease, a roughness step), and
@@ -246,7 +246,7 @@ def build_with_maps(
         src = ts.source
         tiles = albedo[src[..., 0], src[..., 1]]
         if is_smoothed(ts):
-            from .matching.augment import matching_patches  # issue 12: transformed matching patches (augment)
+            from .matching.augment import matching_patches  # transformed matching patches (augment)
 
             matching = matching_patches(albedo, ts)
             tiles, _ = smooth_tiles(tiles, matching, ts.cut_masks, threads=kwargs.get("threads"))

@@ -32,7 +32,7 @@ def smooths(tileset: Any, spec: MapSpec, smooth: bool | None = None) -> bool:
 
     if spec.kind == "label":
         return False
-    if spec.kind in SMOOTH_KINDS:  # the fusion needs only the provenance's seams: every scheme (issue 14:
+    if spec.kind in SMOOTH_KINDS:  # the fusion needs only the provenance's seams: every scheme (measured:
         return True if smooth is None else bool(smooth)  # Wang maps' seams were 4-43 as copies, 0.9-3.3 fused
     if smooth is None:  # a colour map: as the colour tiles were
         return bool(is_smoothed(tileset))

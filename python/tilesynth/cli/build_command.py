@@ -71,7 +71,7 @@ def _build(
     if select == "random" and population is not None:
         raise ParameterError(f"--population = {population}: not used with --select random")
     build = sc.build
-    if material:  # issue 14: a material build (every map checked before any work)
+    if material:  # a material build: every map checked before any work
         from ..builder.materials import check_maps
         from ..schemes import build_material
 
@@ -88,7 +88,7 @@ def _build(
 
     from ..measure.diagnose import InputWarning
 
-    with warnings.catch_warnings(record=True) as caught:  # issue 14: InputWarning -> "warning: ..." lines
+    with warnings.catch_warnings(record=True) as caught:  # InputWarning -> "warning: ..." lines
         warnings.simplefilter("always", InputWarning)  # other warnings keep their filters
         ts = build(
             image,
@@ -146,13 +146,13 @@ def _check_tileset_name(output: str) -> None:
 
 
 def _material_args(args: argparse.Namespace) -> dict | None:
-    from .materials import load_build_maps  # issue 14
+    from .materials import load_build_maps
 
     return load_build_maps(args)
 
 
 def _material_info(ts: Any) -> list[str]:
-    from .materials import info_lines  # issue 14
+    from .materials import info_lines
 
     return info_lines(ts)
 

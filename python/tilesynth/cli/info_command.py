@@ -99,7 +99,7 @@ def _storage_lines(st: dict) -> list[str]:
 
 
 def _mask_lines(p: dict) -> list[str]:
-    """``info``'s lines of the mask and the input warnings of a build (issue 14), none without them."""
+    """``info``'s lines of the mask and the input warnings of a build, none without them."""
     from ..measure.diagnose import info_lines
 
     return info_lines(p)
@@ -150,7 +150,7 @@ def _colours(layout: dict) -> list[str]:
 
 
 def _quality_lines(params: dict) -> list[str]:
-    from ..measure.build_measures import info_lines  # issue 15: the stored visible measures
+    from ..measure.build_measures import info_lines  # the stored visible measures
 
     return info_lines(params)
 
@@ -165,16 +165,14 @@ def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
     lines = [head + "".join(f", {k}={v}" for k, v in sorted(params.items()))]
     if "evaluations" in sel:
         obj = "normalised E" if sel.get("normalise") else "E"
-        if sel.get("objective") in ("cut", "sum-d", "visible"):  # issue 15: λ = 1, the first stage
+        if sel.get("objective") in ("cut", "sum-d", "visible"):  # λ = 1, the first stage
             obj = "normalised ΣD" if sel.get("normalise") else "ΣD"
         lines.append(
             f"              {sel['evaluations']} evaluations, {sel.get('generations', 0)} generation(s), "
             f"stopped by {sel.get('stop_reason', '?')}, {seconds or 0.0:.3f} s; "
             f"objective {obj} = {sel.get('objective_E', float('nan')):.6g}"
         )
-    if (
-        "border_tries" in sel
-    ):  # the Wang schemes' border-aware draws (issue 14); numbers checked by the manifest
+    if "border_tries" in sel:  # the Wang schemes' border-aware draws; numbers checked by the manifest
         lines.append(
             f"              border-aware: best of {sel['border_tries']} random draws, predicted border seam "
             f"{sel.get('border_seam_first', float('nan')):.3f} -> {sel.get('border_seam_predicted', float('nan')):.3f}"
@@ -192,7 +190,7 @@ def _selection_lines(sel: dict, seconds: float | None) -> list[str]:
             )
         )
     per = sel.get("periodic")
-    if isinstance(per, dict):  # issue 12: the periodic-exemplar rule (tilesynth.builder.periodic)
+    if isinstance(per, dict):  # the periodic-exemplar rule (tilesynth.builder.periodic)
         lines.append(
             f"              periodic exemplar: tile size {per.get('tile_size')} from its period (autocorrelation "
             f"{per.get('shift_correlation', float('nan')):.3f} at a one-tile shift), mode {per.get('mode')}"

@@ -175,11 +175,11 @@ def _run_command(args: argparse.Namespace) -> int:
         _metrics(args)
     elif args.command == "report":
         _report(args)
-    elif args.command == "batch":  # issue 17: exit status 1 when any job failed
+    elif args.command == "batch":  # exit status 1 when any job failed
         from .batch import cli_main as _batch_main
 
         return _batch_main(args)
-    elif args.command in ("export", "view"):  # issue 13
+    elif args.command in ("export", "view"):
         from .export import run as _run_export
 
         _run_export(args)
@@ -190,13 +190,13 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``tilesynth`` command; returns the exit status."""
     from ..base.signals import EXIT_TERMINATED, Terminated, install_sigterm
 
-    install_sigterm()  # SIGTERM removes the .part files like Ctrl-C (issue 16)
+    install_sigterm()  # SIGTERM removes the .part files like Ctrl-C
     try:
         args = build_parser().parse_args(argv)
         set_png_compression(getattr(args, "png_compression", None))
         from ..io.paths import check_command
 
-        check_command(args)  # before any work: no output may be an input or another output (issue 16)
+        check_command(args)  # before any work: no output may be an input or another output
         return _run_command(args)
     except UsageError as exc:
         print(f"{exc} (see 'tilesynth --help')", file=sys.stderr)

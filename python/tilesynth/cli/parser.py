@@ -95,10 +95,10 @@ def build_parser() -> argparse.ArgumentParser:
     _add_sheet_parser(sub)
     _add_demo_parser(sub)
     _add_metrics_parsers(sub)
-    from .batch import add_parser as _add_batch_parser  # issue 17: tilesynth batch
+    from .batch import add_parser as _add_batch_parser  # tilesynth batch
 
     _add_batch_parser(sub)
-    from .export import add_parsers as _add_export_parsers  # issue 13: export, view
+    from .export import add_parsers as _add_export_parsers  # export, view
 
     _add_export_parsers(sub)
     return p
@@ -273,7 +273,7 @@ def _add_synth_parser(sub) -> None:  # noqa: ANN001
         action="store_true",
         help="complete sets: make the output tile periodically (size a multiple of the tile size)",
     )
-    from .materials import add_synth_arguments  # issue 14: --normal-y
+    from .materials import add_synth_arguments  # --normal-y
 
     add_synth_arguments(s)
     s.add_argument("-q", "--quiet", action="store_true", help="no progress output")
@@ -319,7 +319,8 @@ def _add_demo_parser(sub) -> None:  # noqa: ANN001
 
 
 def _add_metrics_parsers(sub) -> None:  # noqa: ANN001
-    """``metrics`` and ``report`` (issue 6; implemented in :mod:`tilesynth.measure.metrics` / :mod:`tilesynth.measure.report`)."""
+    """``metrics`` and ``report`` (implemented in :mod:`tilesynth.measure.metrics` /
+    :mod:`tilesynth.measure.report`)."""
     from ..measure.metrics import DEFAULT_PATCH, DEFAULT_SAMPLE_SEED, DEFAULT_SAMPLE_SIZE, DEFAULT_STRIDE
 
     size = "x".join(map(str, DEFAULT_SAMPLE_SIZE))
@@ -386,7 +387,7 @@ def _add_metrics_parsers(sub) -> None:  # noqa: ANN001
 
 
 def _add_mask_options(parser: argparse.ArgumentParser) -> None:
-    """``--mask`` and ``--alpha`` (issue 14, :mod:`tilesynth.builder.masking`)."""
+    """``--mask`` and ``--alpha`` (:mod:`tilesynth.builder.masking`)."""
     parser.add_argument(
         "--mask",
         default=None,

@@ -58,7 +58,7 @@ def _synth(
     # refuse up front what cannot fit: the image, plus the copy the PNG encoder makes
     check_size(ts, size[0], size[1], out_dtype, copies=2)
     maps, smooth_maps = _synth_load_maps(ts, ts_path, output, with_maps, map_smooth)
-    from .materials import plan_map_outputs, write_map_outputs  # issue 14: the maps of a material set
+    from .materials import plan_map_outputs, write_map_outputs  # the maps of a material set
 
     stored_smooth = {"auto": None, "on": True, "off": False}[map_smooth]
     stored = plan_map_outputs(
@@ -158,12 +158,12 @@ def _synth_write_maps(
 
     for k, (mp, arr, target) in enumerate(maps):
         prog("maps", k, len(maps))
-        arr = requantise_with_map(Path(mp).stem, arr)  # issue 14: normal maps' copies at unit length too
+        arr = requantise_with_map(Path(mp).stem, arr)  # normal maps' copies at unit length too
         out_map = synthesize_map(ts, arr, imap, size[0], size[1], threads=threads, smooth=smooth_maps)
         out_map = turn_with_map(
             ts, Path(mp).stem, arr, out_map, imap
         )  # normals of turned patches (--augment)
-        if smooth_maps:  # issue 14: a normal map (by its name) renormalised where smoothed
+        if smooth_maps:  # a normal map (by its name) renormalised where smoothed
             from ..builder.materials import renormalise_with_map
 
             out_map = renormalise_with_map(ts, Path(mp).stem, arr, out_map, imap)

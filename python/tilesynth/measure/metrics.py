@@ -228,7 +228,7 @@ def objective(tileset: Any) -> dict[str, Any]:
 
 
 def _cut_score(costs: np.ndarray, n: int) -> float:
-    from .quality import cut_score  # issue 15
+    from .quality import cut_score
 
     return cut_score(costs, n)
 
@@ -277,7 +277,7 @@ def _measure(
         with step("seam score"):
             objs["seam"] = seam_score(img, tile_size)
         out["seam"] = objs["seam"].to_dict()
-        if tile_size > 2 * INNER_DEPTHS[0]:  # issue 12: lattice-parallel seams inside the tiles
+        if tile_size > 2 * INNER_DEPTHS[0]:  # lattice-parallel seams inside the tiles
             objs["inner_seam"] = inner_seam_score(img, tile_size)
         out["inner_seam"] = objs["inner_seam"].to_dict() if "inner_seam" in objs else None
     if exemplar is None:
@@ -299,7 +299,7 @@ def _measure(
         objs["repetition"] = repetition(img)
     out["repetition"] = objs["repetition"].to_dict()
     out["repetition"]["seconds"] = time.perf_counter() - t
-    if min(img.shape[:2]) >= COPY_PATCH:  # the measures of issue 12
+    if min(img.shape[:2]) >= COPY_PATCH:  # the non-periodicity measures
         objs["detail_repetition"] = detail_repetition(img)
         out["detail_repetition"] = objs["detail_repetition"].to_dict()
         objs["periodic_copies"] = periodic_copies(img)
@@ -312,7 +312,7 @@ def _measure(
         out["histogram"] = objs["histogram"].to_dict()
     else:
         out["histogram"] = None
-    out["texture_stats"] = _texture_stats(img, exemplar)  # issue 15
+    out["texture_stats"] = _texture_stats(img, exemplar)
     out["notes"] = notes
     return out, objs
 
@@ -394,7 +394,8 @@ def measure_tileset(
 
 class _Steps:
     """``with step(name):`` reports ``(name, 0, 1)`` before and ``(name, 1, 1)`` after to ``progress`` (if any),
-    so every metric step that takes more than a second shows up (issue 16: ``metrics`` ran minutes silently)."""
+    so every metric step that takes more than a second shows up (``metrics`` used to run for minutes
+    silently)."""
 
     def __init__(self, progress: Any) -> None:
         self.progress = progress
@@ -493,7 +494,7 @@ def _format_measures(m: dict[str, Any]) -> list[str]:
             f"histograms    {_num(hd['distance'], '.4f')}  (mean 1-D Wasserstein of colour channels and of "
             f"gradient magnitude at scales {hd['scales']})"
         )
-    tx = m.get("texture_stats")  # issue 15
+    tx = m.get("texture_stats")
     if tx:
         lines.append(
             f"texture stats {_num(tx['distance'], '.4f')}  (relative distance of the Gram matrices of fixed random "

@@ -15,7 +15,7 @@ from .metrics_common import _finite
 from .metrics_repetition import _luminance, detail_layer
 from .quality import _fast_len as _fft_size  # smallest 2^a·3^b·5^c >= n (fast FFT lengths)
 
-# ------------------------------------------------------------------------------ vertex saliency (issue 12)
+# -------------------------------------------------------------------------------------------- vertex saliency
 VERTEX_DISC = 0.22
 """Radius of the vertex discs of :func:`vertex_disc_radius`, as a fraction of the tile size N: the part of its
 colour's sample patch that a complete set's vertex shows whole (the shared vertex content the cuts leave to the
@@ -68,7 +68,7 @@ def _disc_sums(x: np.ndarray, kernel: np.ndarray) -> np.ndarray:
 
 class DiscSaliency:
     """How unusual every disc of radius ``radius`` of an exemplar is among all the exemplar's discs of that
-    radius (issue 12: the vertex content of a complete set).
+    radius (the vertex content of a complete set).
 
     Each disc (every window of ``2R`` x ``2R`` pixels inside the exemplar, the inscribed disc) is described by
     its mean colour (the first three channels; one for grey), its luminance standard deviation (coarse local

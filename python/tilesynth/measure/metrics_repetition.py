@@ -117,7 +117,7 @@ def repetition(image: np.ndarray) -> Repetition:
     return Repetition(peak=float(vals[best]), offset=(oy, ox), max_offset=(hm, wm), correlation=core)
 
 
-# ------------------------------------------------------------------------------------ non-periodicity (issue 12)
+# -------------------------------------------------------------------------------------------- non-periodicity
 COPY_PATCH = 16
 """Side of the grid patches of :func:`periodic_copies`."""
 COPY_TOLERANCE = (2.0 / 255.0) ** 2
@@ -256,7 +256,7 @@ def periodic_copies(
     and channels, values in [0, 1]) to the patch at one of the ``lags`` strongest autocorrelation lags of the
     detail layer (:func:`detail_repetition`), in either direction, is at most ``tolerance`` ((2/255)²). A patch
     whose partners all fall outside the image counts as no copy. A periodic image gives 1, noise 0; 69-89 % of
-    a 16a output's patches were such copies (issue 12), image quilting 0-5 %.
+    a 16a output's patches were such copies, image quilting 0-5 %.
     """
     img = as_image(image).astype(np.float64)
     p = positive_int(patch, "patch")
@@ -321,7 +321,7 @@ def repeated_patches(image: np.ndarray, patch: int = COPY_PATCH) -> RepeatedPatc
 
     Unlike :func:`periodic_copies` it looks at every offset, not only the dominant lags, so it counts content
     that recurs at irregular places: the vertex content of a corner-tile set (every vertex of one colour shows
-    the same sample patch; issue 12), a matching patch used by several tiles, a tile drawn twice, a quilting
+    the same sample patch), a matching patch used by several tiles, a tile drawn twice, a quilting
     block taken twice from the same place. It measures exact re-use, not only visible repetition: a copying
     method must re-use exemplar content once the output is larger than the exemplar (a 1024² output of a 512²
     exemplar uses every exemplar pixel about 4 times), so compare methods at the same sizes. 0 for blended or

@@ -115,7 +115,7 @@ def cut_seam_score(tileset: Any) -> dict[str, Any] | None:
         cut += int(across.sum())
         den += float(d.sum())
         pairs += int(d.size)
-        del d, across  # one axis at a time (issue 12: peak memory)
+        del d, across  # one axis at a time (peak memory)
     if cut == 0:
         return None
     return _finite({"score": _ratio(num / cut, den / pairs), "cut_pairs": cut, "pairs": pairs})
@@ -124,7 +124,7 @@ def cut_seam_score(tileset: Any) -> dict[str, Any] | None:
 def _squared_steps(tiles: Any, ax: int) -> np.ndarray:
     """``(np.diff(x, axis=ax) ** 2).sum(axis=-1)`` of ``x`` = the tiles as float64, computed a chunk of tiles
     at a time (every value is elementwise, so the same bytes): the whole float64 copy and its differences were
-    most of a c5 build's peak memory (issue 12)."""
+    most of a c5 build's peak memory."""
     t = np.asarray(tiles)
     shape = list(t.shape)
     shape[ax] -= 1
@@ -136,7 +136,7 @@ def _squared_steps(tiles: Any, ax: int) -> np.ndarray:
     return d
 
 
-# -------------------------------------------------------------------------------- inner-lattice seam (issue 12)
+# ----------------------------------------------------------------------------------------- inner-lattice seam
 INNER_DEPTHS = (1, 2, 3, 4)
 """Depths (pixels inside the tile borders) of the lines :func:`inner_seam_score` measures."""
 

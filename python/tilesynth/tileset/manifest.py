@@ -146,11 +146,11 @@ SELECTION = Obj(
         "normalise": Bool(),
         "history": Optional(_HISTORY),
         "polish": Optional(_POLISH),
-        # the border-aware random draws of the Wang schemes (issue 14, tilesynth.builder.genes.wang_borders)
+        # the border-aware random draws of the Wang schemes (tilesynth.builder.genes.wang_borders)
         "border_tries": _POS,
         "border_seam_first": Num(nan_ok=True),
         "border_seam_predicted": Num(nan_ok=True),
-        # issue 15: the objective and the cut re-ranking (tilesynth.builder.genes.cut_objective)
+        # the objective and the cut re-ranking (tilesynth.builder.genes.cut_objective)
         "objective": Str(("visible", "cut", "sum-d", "E", "window")),
         "cut": Optional(_CUT_RERANK),
         "visible": Optional(_VISIBLE_RERANK),
@@ -158,7 +158,7 @@ SELECTION = Obj(
         "border_criterion": Str(
             ("cap", "log", "min", "stats")
         ),  # ω and patch (tilesynth.builder.genes.omega_borders)
-        # issue 12: the "stats" criterion's distance and the periodic-exemplar rule (tilesynth.builder.periodic)
+        # the "stats" criterion's distance and the periodic-exemplar rule (tilesynth.builder.periodic)
         "sample_stats_predicted": Num(nan_ok=True),
         "sample_colour_predicted": Num(nan_ok=True),
         "vertex_saliency_predicted": Num(nan_ok=True),
@@ -184,7 +184,7 @@ SMOOTH = Obj(
     },
 )
 
-#: One map of a material build (issue 14, :mod:`tilesynth.builder.materials`): the top-level ``maps`` entries.
+#: One map of a material build (:mod:`tilesynth.builder.materials`): the top-level ``maps`` entries.
 MAP = Obj(
     required={
         "name": Str(max_len=64),
@@ -212,7 +212,7 @@ MATERIAL = Obj(
         "units": Str(),
     }
 )
-#: params.quality: the cheap visible measures stored at build time (issue 15, :mod:`tilesynth.measure.quality`);
+#: params.quality: the cheap visible measures stored at build time (:mod:`tilesynth.measure.quality`);
 #: null where a value is not finite (a cut score of a non-finite cost) or does not exist (no cut seam).
 QUALITY = Obj(
     optional={
@@ -248,15 +248,15 @@ PARAMS = Obj(
         "supplementary": Str(("ssd", "cut")),
         "sample_size": Optional(_POS),
         "threads": Optional(_POS),
-        # the levers of the complete sets (issue 12, tilesynth.builder.matching.levers)
+        # the levers of the complete sets (tilesynth.builder.matching.levers)
         "cut_region": Str(("circle", "free", "free8", "ring")),
         "cut_bias": Num(0.0),
         "diversity": _POS,
-        "augment": Str(("none", "flip", "rotate", "all")),  # issue 12: tilesynth.builder.matching.augment
+        "augment": Str(("none", "flip", "rotate", "all")),  # tilesynth.builder.matching.augment
         "match_transforms": List(Int(0, 7)),
-        "border_tries": _POS,  # the Wang schemes (issue 14)
-        "material": MATERIAL,  # issue 14
-        # issue 14: the exemplar's mask and the input warnings of the build (tilesynth.builder.masking, .diagnose)
+        "border_tries": _POS,  # the Wang schemes
+        "material": MATERIAL,  # a material build
+        # the exemplar's mask and the input warnings of the build (tilesynth.builder.masking, .diagnose)
         "mask": Obj(
             optional={
                 "source": Str(),
@@ -271,7 +271,7 @@ PARAMS = Obj(
         "warnings": List(
             Obj(optional={"code": Str(max_len=64), "message": Str(), "value": Num(), "threshold": Num()})
         ),
-        # the cheap visible measures of the build (issue 15, tilesynth.measure.quality.build_measures)
+        # the cheap visible measures of the build (tilesynth.measure.quality.build_measures)
         "quality": QUALITY,
     },
 )
@@ -312,7 +312,7 @@ MANIFEST = Obj(
     optional={
         "per_tile": List(Obj()),
         "arrays": ARRAYS,
-        "maps": List(MAP, max_len=64),  # issue 14: material maps
+        "maps": List(MAP, max_len=64),  # the maps of a material build
         "storage": Obj(  # format version 2: how the tiles are stored (tilesynth.tileset.provenance)
             required={"kind": Str(("provenance",)), "exemplar_dtype": Str(("float32", "uint8", "uint16"))},
         ),

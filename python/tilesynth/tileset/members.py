@@ -111,7 +111,7 @@ _MAP_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}")
 
 
 def _map_members(specs: Any, checked: bool = True) -> dict[str, str]:
-    """``{"map_<name>": dtype}`` of the maps of a material set (issue 14); ``checked=False`` skips what the
+    """``{"map_<name>": dtype}`` of the maps of a material set; ``checked=False`` skips what the
     schema has not yet vetted (entries that are not objects with a name and a dtype)."""
     out: dict[str, str] = {}
     for d in specs or []:
@@ -249,7 +249,7 @@ def _bzip2_member(name: str) -> bool:
 def _write_array(zf: zipfile.ZipFile, name: str, a: np.ndarray, bzip2: bool = False) -> None:
     """:func:`_write_member` of ``_npy_bytes(a)``, streamed: the same member bytes (the uncompressed size is
     set in advance, as ``writestr`` sets it, and ``np.lib.format.write_array`` writes the same header and data
-    in 16 MiB pieces), without the two whole in-memory copies of the array (issue 12: a c5 set's 123 MB of
+    in 16 MiB pieces), without the two whole in-memory copies of the array (a c5 set's 123 MB of
     tiles were the peak of saving it)."""
     a = np.ascontiguousarray(a)
     info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))

@@ -69,7 +69,7 @@ cuts NE, ES, SW, WN of every tile ``[D_overlap, n_overlap, D_path, n_path, D_bou
 :mod:`tilesynth.builder.wang`). They were added without changing ``format_version`` (still 1): every version-1 file
 stays valid and loads as before.
 
-Optional members of a material build (issue 14, :mod:`tilesynth.builder.materials`): ``map_<name>.npy``, one per map,
+Optional members of a material build (:mod:`tilesynth.builder.materials`): ``map_<name>.npy``, one per map,
 ``(H, W, C)`` uint8, uint16 or float32, pixel-aligned with the exemplar, and the manifest's top-level ``maps``
 list (one object per map, in order: ``name``, ``kind`` colour|scalar|normal|label, ``weight``, ``dtype``,
 ``channels``, ``suffix`` and for normals ``normal_y`` up|down and ``encoding`` unorm|snorm). The exemplar is the
@@ -267,7 +267,7 @@ class TileSet:
         else:
             out = dict(_ARRAYS)
         out.update({k: v for k, v in _OPTIONAL.items() if getattr(self, k) is not None})
-        out.update(_map_members(self.map_specs))  # issue 14: material maps, last
+        out.update(_map_members(self.map_specs))  # material maps, last
         if version == 2 and self.map_levels:
             out.update(_level_members(self.map_levels, self.map_specs))
         return out
@@ -470,10 +470,10 @@ class TileSet:
                     ex_dt = storage.get("exemplar_dtype") if isinstance(storage, dict) else None
                     members["exemplar"] = ex_dt if ex_dt in ("float32", "uint8", "uint16") else "float32"
                 if isinstance(manifest, dict) and isinstance(manifest.get("maps"), list):
-                    members.update(_map_members(manifest["maps"], checked=False))  # issue 14
+                    members.update(_map_members(manifest["maps"], checked=False))  # material maps
                     if v2:
                         members.update(_level_members(None, manifest["maps"], infos, checked=False))
-                check_archive(zf, manifest, members)  # schema and .npy headers (issue 16)
+                check_archive(zf, manifest, members)  # schema and .npy headers, before any array is read
                 _check_manifest(manifest)
                 map_specs = manifest.get("maps") or None
                 missing = [f"{m}.npy" for m in _map_members(map_specs) if f"{m}.npy" not in infos]
