@@ -12,6 +12,7 @@ import pytest
 
 import tilesynth
 from tilesynth.cli import main as cli
+from tilesynth.cli import parser as cli_parser
 from tilesynth.schemes import REGISTRY, SCHEMES, Option, Scheme, get_scheme
 from tilesynth.schemes.patch import build_patch
 
@@ -81,8 +82,8 @@ def test_a_new_scheme_is_registered_once_and_gets_its_flag(monkeypatch, small_ex
 
     toy = Scheme("toy", "toy tiles", "a test scheme", "corner", "4", build_toy,
                  options=(Option("flavour", "--flavour", "a toy option", choices=("plain", "spicy")),))  # fmt: skip
-    monkeypatch.setattr(cli, "REGISTRY", (*REGISTRY, toy))
-    monkeypatch.setattr(cli, "SCHEMES", (*SCHEMES, "toy"))
+    monkeypatch.setattr(cli_parser, "REGISTRY", (*REGISTRY, toy))
+    monkeypatch.setattr(cli_parser, "SCHEMES", (*SCHEMES, "toy"))
     monkeypatch.setattr(tilesynth.schemes, "REGISTRY", (*REGISTRY, toy))
     ex = tmp_path / "ex.png"
     tilesynth.save_image(ex, small_exemplar)

@@ -58,7 +58,7 @@ from .tileset.tilefile import TileSet
 load = TileSet.load
 """Load a ``.tiles`` file (alias of :meth:`TileSet.load`)."""
 
-from .engine import export  # noqa: E402 - issue 13: engine export (atlases, index map / hash, shaders, viewer)
+from .engine import export  # noqa: E402 - engine export (atlases, index map / hash, shaders, viewer)
 
 __all__ = [
     "SCHEMES",
@@ -126,10 +126,10 @@ __all__ = [
     "objects_intact",
 ]
 
-from .builder.materials import synthesize_maps  # noqa: E402 - issue 14: material builds
-from .layouts.hashed import LookupScheme, ts_hash  # noqa: E402 - issue 12: the hashed lookup
+from .builder.materials import synthesize_maps  # noqa: E402 - material builds
+from .layouts.hashed import LookupScheme, ts_hash  # noqa: E402 - the hashed lookup
 from .layouts.hashed import index_map as hashed_index_map  # noqa: E402
-from .measure.diagnose import InputWarning  # noqa: E402 - issue 14: warnings for suspicious inputs
+from .measure.diagnose import InputWarning  # noqa: E402 - warnings for suspicious inputs
 from .measure.lattice import lattice_folded, lattice_gradient, objects_intact  # noqa: E402
 from .measure.metrics import (  # noqa: E402
     detail_repetition,

@@ -1,4 +1,4 @@
-"""Seam-free gradient-domain fusion of composed tiles (issue 14): the smoothing of the scalar and normal maps of a
+"""Seam-free gradient-domain fusion of composed tiles: the smoothing of the scalar and normal maps of a
 material set.
 
 Why not the colour's Poisson smoothing. :func:`tilesynth.builder.smoothing.smooth_tiles` (002 §3.3, Pérez et al.
@@ -412,7 +412,7 @@ def exemplar_levels(
     turns: np.ndarray | None = None,
 ) -> np.ndarray:
     """A smooth correction ``φ`` ``(H, W, C)`` float64 *of the exemplar* such that the tiles copied from
-    ``values + φ`` through ``source`` have the least seams: the first stage of the maps' fusion (issue 14),
+    ``values + φ`` through ``source`` have the least seams: the first stage of the maps' fusion,
     before :func:`fuse_tiles` fuses what is left inside each tile. Arguments as :func:`seam_guidance`; ``turns``
     as :func:`seam_steps` (scalar maps only: a level of the exemplar is the same in every orientation).
 

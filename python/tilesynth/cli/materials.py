@@ -1,4 +1,4 @@
-"""Command-line glue of material builds (issue 14, :mod:`tilesynth.builder.materials`): the ``build`` flags ``--map``,
+"""Command-line glue of material builds (:mod:`tilesynth.builder.materials`): the ``build`` flags ``--map``,
 ``--map-kind``, ``--map-weight``, ``--normal-y``, and the ``synth`` outputs of the stored maps."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Unit-length encoding of normal vectors in 8- and 16-bit and float samples (issue 14).
+"""Unit-length encoding of normal vectors in 8- and 16-bit and float samples.
 
 **Decoding convention assumed** (the one of every common tool: Substance, Blender, Unreal, Unity, glTF):
 an unsigned sample ``c`` of a normal map with maximum code ``S`` (255 for 8-bit, 65535 for 16-bit) decodes to

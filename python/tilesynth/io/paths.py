@@ -161,7 +161,7 @@ def command_paths(args: Any) -> tuple[list[tuple[str, Any]], list[tuple[str, Any
         ins.append(("--mask", getattr(args, "mask", None)))
         ins.extend(
             ("--map", m.partition("=")[2]) for m in getattr(args, "material_maps", None) or []
-        )  # issue 14
+        )  # the material maps of a build
         outs.append(("--output", args.output, "tiles"))
         if args.sheet:
             outs.append(("--sheet", args.sheet, "image"))

@@ -363,7 +363,7 @@ def _smooth_map_atlas(tileset: TileSet, a: np.ndarray, atlas: np.ndarray, thread
     scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(a.dtype)
     f = a.astype(np.float32) / np.float32(scale) if scale else a
     from ..builder.matching.augment import (
-        matching_patches,  # issue 12: transformed matching patches (augment)
+        matching_patches,  # transformed matching patches (augment)
     )
 
     matching = matching_patches(f, tileset)

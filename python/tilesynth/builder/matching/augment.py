@@ -1,4 +1,4 @@
-"""Flip / rotate augmentation of the matching candidates of ω-tiles (issue 12, item 6: ``--augment``).
+"""Flip / rotate augmentation of the matching candidates of ω-tiles (``--augment``).
 
 For an isotropic texture a mirrored or rotated exemplar window is as good a piece of texture as the window
 itself. ``augment`` lets the matching patch O of every intermediate tile be a *transformed* exemplar window:
