@@ -109,7 +109,9 @@ def hash_layout(definition: Any) -> dict[str, int] | None:
         if n % (kh * kh * kv * kv):
             return None
         v = n // (kh * kh * kv * kv)
-        variants = getattr(definition, "variants", None) or (0,) * n  # issue 12: wc<K>x<V>
+        variants = (
+            getattr(definition, "variants", None) or (0,) * n
+        )  # the variants of a complete edge set (wc<K>x<V>)
         for t in range(n):
             rest, var = divmod(t, v)
             rest, w = divmod(rest, kv)
@@ -168,7 +170,7 @@ def build_maps(
     src = tileset.source
     cells = _atlas.padded_tiles(tileset.tiles, tileset.exemplar, src, padding)
     out["albedo"] = {"cells": _atlas.quantise(cells, bits), "kind": "tileset"}
-    out.update(_stored_maps(tileset, padding, map_smooth, normal_y))  # issue 14: a material set's own maps
+    out.update(_stored_maps(tileset, padding, map_smooth, normal_y))  # a material set's own maps
     for name, value in (maps or {}).items():
         if name in out and name != "albedo":
             raise ParameterError(
@@ -479,7 +481,7 @@ def _write_atlases(
         cells = info["cells"]
         srgb = (name == "albedo" or info.get("map_kind") == "colour") and cells.dtype != np.float32
         chain = _atlas.mip_chain(_atlas.pack(cells, cols, rows), levels, srgb)
-        if info.get("map_kind") == "normal":  # issue 14: filtered normals renormalised
+        if info.get("map_kind") == "normal":  # filtered normals, renormalised
             from ..builder.materials import renormalise_image
 
             chain = [chain[0], *(renormalise_image(lv, info.get("encoding", "unorm")) for lv in chain[1:])]

@@ -176,7 +176,7 @@ SCHEME = Scheme(
         Option(
             "augment",
             "--augment",
-            "matching patches may also be mirrored / rotated exemplar windows (for isotropic textures; issue 12, "
+            "matching patches may also be mirrored / rotated exemplar windows (for isotropic textures; "
             "tilesynth.builder.matching.augment): none (default), flip (4 mirrors), rotate (4 rotations), all (8); costs one "
             "matching search per orientation; only with --match ssd --metric color and no mask",
             choices=("none", "flip", "rotate", "all"),
