@@ -206,8 +206,19 @@ def material():
     return ts.build(albedo, maps=maps, tileset="c2", tile_size=16, seed=2)
 
 
-def test_material_build_stores_levels_and_v2_maps_are_the_whole_atlas_ones(material, tmp_path):
-    t = material
+@pytest.fixture
+def fused_material():
+    """A material set after one ``seams="fuse"`` synthesis: the fusion's levels solved on first use, kept."""
+    albedo, maps = _material()
+    t = ts.build(albedo, maps=maps, tileset="c2", tile_size=16, seed=2)
+    assert t.map_levels is None and "map_levels_s" not in t.timing  # the build no longer solves them
+    _, imap = ts.synthesize(t, 16, 16, seed=1)
+    materials.synthesize_maps(t, imap, 16, 16, seams="fuse")
+    return t
+
+
+def test_material_levels_are_solved_on_first_fuse_and_saved_with_the_set(fused_material, tmp_path):
+    t = fused_material
     assert set(t.map_levels) == {"corners", "height", "normal", "roughness"}
     p = tmp_path / "m.tiles"
     t.save(p, include_timing=False)
@@ -245,7 +256,7 @@ def test_material_v1_file_levels_are_solved_once(material, tmp_path):
     assert back.map_levels is None  # version 1 stores no levels: solved on first use, then kept
     img, imap = ts.synthesize(back, 40, 40, seed=2)
     a = materials.synthesize_maps(back, imap, 40, 40, seams="fuse")
-    assert set(back.map_levels) == set(material.map_levels)
+    assert set(back.map_levels) == {"corners", "height", "normal", "roughness"}
     b = materials.synthesize_maps(material, imap, 40, 40, seams="fuse")
     for name in a:
         assert np.array_equal(a[name], b[name])
@@ -324,11 +335,11 @@ def test_other_schemes_are_stored_as_provenance_and_synthesize_the_same(small_ex
         assert np.array_equal(back.labels, t.labels)
 
 
-def test_tampered_map_levels_are_refused(material, tmp_path):
+def test_tampered_map_levels_are_refused(fused_material, tmp_path):
     import io
 
     p = tmp_path / "m.tiles"
-    material.save(p, include_timing=False)
+    fused_material.save(p, include_timing=False)
     with zipfile.ZipFile(p) as zf:
         members = {n: zf.read(n) for n in zf.namelist()}
     x = np.load(io.BytesIO(members["level_height.npy"]))

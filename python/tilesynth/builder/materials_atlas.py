@@ -97,9 +97,10 @@ def _cache(tileset: Any) -> dict[str, Any]:
 def map_levels(tileset: Any, names: list[str] | None = None) -> dict[str, np.ndarray]:
     """The first stage of the seam treatment of every fused map (scalar and normal kinds) of ``tileset``: the
     solved block and corner levels of :func:`~tilesynth.builder.fusion.level_solution` per map, and the corner
-    pixels (``"corners"``, shared by every map), as a material build stores them (:attr:`TileSet.map_levels`).
-    The solve needs the whole set (every tile's provenance and copies); it is done once, at build time, and a
-    synthesis of any window reads the result (:func:`synthesize_maps`)."""
+    pixels (``"corners"``, shared by every map), as a set keeps them (:attr:`TileSet.map_levels`).
+    The solve needs the whole set (every tile's provenance and copies); it is done once per set, on the first
+    fused synthesis (``seams="fuse"``, not the default), and every later window reads the result
+    (:func:`synthesize_maps`)."""
     from .fusion import LEVEL_BLOCK, level_solution
 
     out: dict[str, np.ndarray] = {}

@@ -38,7 +38,7 @@ version 2, which stores the provenance instead of ``tiles.npy`` and ``source.npy
                            ``storage.exemplar_dtype`` says which)
 ``level_<map>.npy``        material sets: float64 ``(B + M, C)``, the solved block and corner levels of each fused
                            map (:func:`tilesynth.builder.materials.map_levels`), and ``level_corners.npy`` int64
-                           ``(M,)`` the corner pixels (the fusion's first stage, solved once at build time)
+                           ``(M,)`` the corner pixels (the fusion's first stage, solved on the first fused synthesis)
 =========================  ==================================================================================
 
 with ``genes``, ``tile_patches``, ``match_offsets``, ``D``, ``cut_costs``, the optional members and the maps as in
@@ -208,8 +208,9 @@ class TileSet:
     file_version: int | None = None
     """The format version of the file this set was loaded from (None: built in this process)."""
     map_levels: dict[str, Any] | None = None
-    """Material builds: the first stage of every fused map's seam treatment, computed once per set
-    (:func:`tilesynth.builder.materials.map_levels`); stored in version-2 files as ``level_<name>.npy``."""
+    """Material sets: the first stage of every fused map's seam treatment (``seams="fuse"``), solved on the first
+    fused synthesis and kept (:func:`tilesynth.builder.materials.map_levels`); stored in version-2 files as
+    ``level_<name>.npy`` when present."""
 
     # ---------------------------------------------------------------------------------------- provenance
     def _materialise(self, name: str) -> np.ndarray:
