@@ -11,7 +11,7 @@
 //! `single[y, x]` is 1 where one entry has every weight (the pixel is that entry's copy).
 
 use crate::error::{fmt_shape, Result, TilesynthError};
-use crate::provenance::dihedral;
+use crate::provenance::{check_window, dihedral};
 use ndarray::{ArrayView2, ArrayView3, ArrayViewMut2, ArrayViewMut3, Axis};
 use rayon::prelude::*;
 
@@ -43,6 +43,18 @@ struct Pyramid {
     reach: usize,
     ext: Vec<u8>,
     levels: Vec<(usize, Vec<f64>)>,
+}
+
+/// The bilinear taps of one pyramid level at one pixel ([`Pyramid::taps`]).
+struct Taps {
+    l: usize,
+    nl: usize,
+    ya: usize,
+    yb: usize,
+    fy: f64,
+    xa: usize,
+    xb: usize,
+    fx: f64,
 }
 
 impl Pyramid {
@@ -104,28 +116,51 @@ impl Pyramid {
         self.ext[y * self.n + x] as usize
     }
 
-    /// Adds `scale` times the bilinear sample of level `l` at pixel `(y, x)` to `w`.
+    /// The bilinear taps of level `l` at tile pixel `(y, x)`: the level's side, its two rows and columns and
+    /// the fractions (texel centres at `(i + 0.5) / 2^l - 0.5`, indices clamped to the level).
     #[inline]
-    fn add_sample(&self, l: usize, y: usize, x: usize, scale: f64, w: &mut [f64]) {
-        let (nl, data) = &self.levels[l];
+    fn taps(&self, l: usize, y: usize, x: usize) -> Taps {
+        let nl = self.levels[l].0;
         let s = (1u64 << l) as f64;
         let axis = |i: usize| {
             let u = (i as f64 + 0.5) / s - 0.5;
             let i0 = u.floor();
             let f = u - i0;
-            let a = (i0 as i64).clamp(0, *nl as i64 - 1) as usize;
-            let b = (i0 as i64 + 1).clamp(0, *nl as i64 - 1) as usize;
+            let a = (i0 as i64).clamp(0, nl as i64 - 1) as usize;
+            let b = (i0 as i64 + 1).clamp(0, nl as i64 - 1) as usize;
             (a, b, f)
         };
         let (ya, yb, fy) = axis(y);
         let (xa, xb, fx) = axis(x);
-        let e = self.e;
-        for (k, wk) in w.iter_mut().enumerate().take(e) {
-            let c = |i: usize, j: usize| data[(i * nl + j) * e + k];
-            // the oracle's order: rows (y) first, then columns (x), then the level's share
-            let left = c(ya, xa) * (1.0 - fy) + c(yb, xa) * fy;
-            let right = c(ya, xb) * (1.0 - fy) + c(yb, xb) * fy;
-            *wk += (left * (1.0 - fx) + right * fx) * scale;
+        Taps {
+            l,
+            nl,
+            ya,
+            yb,
+            fy,
+            xa,
+            xb,
+            fx,
+        }
+    }
+
+    /// Entry `k`'s coverage at the taps `t`, bilinear: rows (y) first, then columns (x), the oracle's order.
+    #[inline]
+    fn sample(&self, t: &Taps, k: usize) -> f64 {
+        let data = &self.levels[t.l].1;
+        let (nl, e) = (t.nl, self.e);
+        let c = |i: usize, j: usize| data[(i * nl + j) * e + k];
+        let left = c(t.ya, t.xa) * (1.0 - t.fy) + c(t.yb, t.xa) * t.fy;
+        let right = c(t.ya, t.xb) * (1.0 - t.fy) + c(t.yb, t.xb) * t.fy;
+        left * (1.0 - t.fx) + right * t.fx
+    }
+
+    /// Adds `scale` times the bilinear sample of level `l` at pixel `(y, x)` to `w` (every entry).
+    #[inline]
+    fn add_sample(&self, l: usize, y: usize, x: usize, scale: f64, w: &mut [f64]) {
+        let t = self.taps(l, y, x);
+        for (k, wk) in w.iter_mut().enumerate().take(self.e) {
+            *wk += self.sample(&t, k) * scale;
         }
     }
 
@@ -143,33 +178,12 @@ impl Pyramid {
     #[inline]
     fn weight_of(&self, level: f64, y: usize, x: usize, k: usize) -> f64 {
         let (l0, f) = self.lod(level, y, x);
-        let mut w = [0.0f64; 1];
-        self.add_one(l0, y, x, 1.0 - f, k, &mut w[0]);
+        let mut w = 0.0;
+        w += self.sample(&self.taps(l0, y, x), k) * (1.0 - f);
         if f > 0.0 {
-            self.add_one(l0 + 1, y, x, f, k, &mut w[0]);
+            w += self.sample(&self.taps(l0 + 1, y, x), k) * f;
         }
-        w[0]
-    }
-
-    #[inline]
-    fn add_one(&self, l: usize, y: usize, x: usize, scale: f64, k: usize, wk: &mut f64) {
-        let (nl, data) = &self.levels[l];
-        let s = (1u64 << l) as f64;
-        let axis = |i: usize| {
-            let u = (i as f64 + 0.5) / s - 0.5;
-            let i0 = u.floor();
-            let f = u - i0;
-            let a = (i0 as i64).clamp(0, *nl as i64 - 1) as usize;
-            let b = (i0 as i64 + 1).clamp(0, *nl as i64 - 1) as usize;
-            (a, b, f)
-        };
-        let (ya, yb, fy) = axis(y);
-        let (xa, xb, fx) = axis(x);
-        let e = self.e;
-        let c = |i: usize, j: usize| data[(i * nl + j) * e + k];
-        let left = c(ya, xa) * (1.0 - fy) + c(yb, xa) * fy;
-        let right = c(ya, xb) * (1.0 - fy) + c(yb, xb) * fy;
-        *wk += (left * (1.0 - fx) + right * fx) * scale;
+        w
     }
 
     /// The weights at `(y, x)` into `w`: the own entry's alone first, and when it is 1 the others are 0 (their
@@ -274,33 +288,8 @@ pub fn blend_window(
             ));
         }
     }
+    check_window(&map, k, n, (h, w), offset)?;
     let (oy, ox) = offset;
-    if oy >= n || ox >= n {
-        return Err(TilesynthError::param(
-            "offset",
-            format!("({oy}, {ox})"),
-            format!("must be below the tile size {n}"),
-        ));
-    }
-    let (rows, cols) = map.dim();
-    if rows * n < h + oy || cols * n < w + ox {
-        return Err(TilesynthError::shape(
-            "index_map",
-            format!(
-                "at least ({}, {}) tiles to cover the window",
-                (h + oy).div_ceil(n),
-                (w + ox).div_ceil(n)
-            ),
-            fmt_shape(map.shape()),
-        ));
-    }
-    if let Some(&bad) = map.iter().find(|&&t| t < 0 || t as usize >= k) {
-        return Err(TilesynthError::param(
-            "index_map",
-            bad,
-            format!("tile indices must be in [0, {k})"),
-        ));
-    }
     if let Some(&bad) = table
         .index_axis(Axis(2), 0)
         .iter()

@@ -128,6 +128,45 @@ pub fn factorise(source: ArrayView4<i32>) -> Result<Option<(Array3<u8>, Array3<i
     Ok(Some((labels, table)))
 }
 
+/// Checks a window of `h x w` pixels starting `offset = (oy, ox)` pixels into the first cell of `map`, a tile
+/// index map over `k` tiles of `n x n`: the offset inside a cell, the map covering the window, every index a
+/// tile. The window checks of [`gather_window_into`] and of the seam blend (`blend::blend_window`).
+pub(crate) fn check_window(
+    map: &ArrayView2<i32>,
+    k: usize,
+    n: usize,
+    (h, w): (usize, usize),
+    (oy, ox): (usize, usize),
+) -> Result<()> {
+    if oy >= n || ox >= n {
+        return Err(TilesynthError::param(
+            "offset",
+            format!("({oy}, {ox})"),
+            format!("must be below the tile size {n}"),
+        ));
+    }
+    let (rows, cols) = map.dim();
+    if rows * n < h + oy || cols * n < w + ox {
+        return Err(TilesynthError::shape(
+            "index_map",
+            format!(
+                "at least ({}, {}) tiles to cover the window",
+                (h + oy).div_ceil(n),
+                (w + ox).div_ceil(n)
+            ),
+            fmt_shape(map.shape()),
+        ));
+    }
+    if let Some(&bad) = map.iter().find(|&&t| t < 0 || t as usize >= k) {
+        return Err(TilesynthError::param(
+            "index_map",
+            bad,
+            format!("tile indices must be in [0, {k})"),
+        ));
+    }
+    Ok(())
+}
+
 /// Fills `out` `(H, W, C)` with the window of the tiling by `map` whose top-left pixel is `offset = (oy, ox)`
 /// pixels into the map's first cell, reading every pixel from `exemplar` `(EH, EW, C)` through the provenance
 /// `labels` `(K, N, N)` / `table` `(K, L, 3)`:
@@ -165,33 +204,9 @@ pub fn gather_window_into<T: Copy + Send + Sync>(
             fmt_shape(out.shape()),
         ));
     }
+    check_window(&map, k, n, (out_h, out_w), offset)?;
     let (oy, ox) = offset;
-    if oy >= n || ox >= n {
-        return Err(TilesynthError::param(
-            "offset",
-            format!("({oy}, {ox})"),
-            format!("must be below the tile size {n}"),
-        ));
-    }
-    let (rows, cols) = map.dim();
-    if rows * n < out_h + oy || cols * n < out_w + ox {
-        return Err(TilesynthError::shape(
-            "index_map",
-            format!(
-                "at least ({}, {}) tiles to cover the window",
-                (out_h + oy).div_ceil(n),
-                (out_w + ox).div_ceil(n)
-            ),
-            fmt_shape(map.shape()),
-        ));
-    }
-    if let Some(&bad) = map.iter().find(|&&t| t < 0 || t as usize >= k) {
-        return Err(TilesynthError::param(
-            "index_map",
-            bad,
-            format!("tile indices must be in [0, {k})"),
-        ));
-    }
+    let cols = map.ncols();
     if out_h == 0 || out_w == 0 || c == 0 {
         return Ok(());
     }
