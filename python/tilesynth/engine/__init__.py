@@ -294,21 +294,9 @@ def export(
     cols, rows = _atlas.grid_for(tileset.n_tiles)
     built = build_maps(tileset, maps, padding, bits, map_smooth, normal_y)
     names = export_files(built, levels, lookup == "index_map", viewer)
-    from ..io.paths import check_paths
-
-    ins = [("tileset", source_path), *(inputs or [])]
-    # before anything is written; in a directory not there yet, nothing can be an input (it is created below)
-    check_paths(ins, [(f"output file {n}", out / n) for n in names], writable=(out / "shaders").is_dir())
-    if lookup == "index_map":  # checked before any work
-        _index_size(tileset.definition, index_size)
-    previous = previous_export_files(out)
-    from ..io.paths import file_identity
-
-    # an input now stored under a name the previous export wrote (and this one does not) is not removed
-    taken = {file_identity(p) for _, p in ins if p is not None}
-    previous = {n for n in previous if file_identity(out / n) not in taken}
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "shaders").mkdir(exist_ok=True)
+    previous = _prepare_output(
+        out, names, [("tileset", source_path), *(inputs or [])], tileset, lookup, index_size
+    )
     from ..io.images import file_set
 
     # the whole set is committed as a unit: the previous export stays whole until every new file is written
@@ -330,16 +318,45 @@ def export(
 
             write_viewer(tileset, out / "viewer.html", manifest, built, out)
             files.append("viewer.html")
-        manifest["files"] = sorted(files)
-        try:
-            validate_manifest(manifest)
-        except ImportError:
-            pass
-        _write_text(out / "manifest.json", json.dumps(manifest, indent=1) + "\n")
-    for name in sorted(previous - set(files)):  # the previous export's files the new one does not list
+        _write_manifest(out, manifest, files)
+    _remove_stale(out, previous, files)
+    return manifest
+
+
+def _prepare_output(
+    out: Path, names: list[str], ins: list[tuple[str, Any]], tileset: Any, lookup: str, index_size: Any
+) -> set[str]:
+    """Before anything is written: every file the export writes (``names``) against every input ``ins`` (the one
+    rule of :mod:`tilesynth.io.paths`), the index-map size, the folders made. Returns the previous export's files
+    that a re-export may remove: those it listed, less any that is now one of the inputs."""
+    from ..io.paths import check_paths, file_identity
+
+    # in a directory not there yet, nothing can be an input (it is created below)
+    check_paths(ins, [(f"output file {n}", out / n) for n in names], writable=(out / "shaders").is_dir())
+    if lookup == "index_map":  # checked before any work
+        _index_size(tileset.definition, index_size)
+    taken = {file_identity(p) for _, p in ins if p is not None}
+    previous = {n for n in previous_export_files(out) if file_identity(out / n) not in taken}
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "shaders").mkdir(exist_ok=True)
+    return previous
+
+
+def _write_manifest(out: Path, manifest: dict[str, Any], files: list[str]) -> None:
+    """``manifest.json`` listing ``files``, checked against the schema where jsonschema is installed."""
+    manifest["files"] = sorted(files)
+    try:
+        validate_manifest(manifest)
+    except ImportError:
+        pass
+    _write_text(out / "manifest.json", json.dumps(manifest, indent=1) + "\n")
+
+
+def _remove_stale(out: Path, previous: set[str], files: list[str]) -> None:
+    """Removes the previous export's files that the new one does not list (after the new set is committed)."""
+    for name in sorted(previous - set(files)):
         with contextlib.suppress(OSError):
             (out / name).unlink()
-    return manifest
 
 
 #: Names an export may write (and so may remove when a re-export no longer lists them): a manifest read back
@@ -688,17 +705,9 @@ def _export_v2(
     if viewer:
         names.append("viewer.html")
     names.append("manifest.json")
-    from ..io.paths import check_paths, file_identity
-
-    ins = [("tileset", source_path), *(inputs or [])]
-    check_paths(ins, [(f"output file {n}", out / n) for n in names], writable=(out / "shaders").is_dir())
-    if lookup == "index_map":
-        _index_size(tileset.definition, index_size)
-    previous = previous_export_files(out)
-    taken = {file_identity(p) for _, p in ins if p is not None}
-    previous = {n for n in previous if file_identity(out / n) not in taken}
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "shaders").mkdir(exist_ok=True)
+    previous = _prepare_output(
+        out, names, [("tileset", source_path), *(inputs or [])], tileset, lookup, index_size
+    )
     from ..io.images import file_set
 
     with file_set():
@@ -748,13 +757,6 @@ def _export_v2(
 
             write_viewer(tileset, out / "viewer.html", manifest, out)
             files.append("viewer.html")
-        manifest["files"] = sorted(files)
-        try:
-            validate_manifest(manifest)
-        except ImportError:
-            pass
-        _write_text(out / "manifest.json", json.dumps(manifest, indent=1) + "\n")
-    for name in sorted(previous - set(files)):
-        with contextlib.suppress(OSError):
-            (out / name).unlink()
+        _write_manifest(out, manifest, files)
+    _remove_stale(out, previous, files)
     return manifest

@@ -199,12 +199,36 @@ def page(config: dict[str, Any]) -> str:
         for i, lv in enumerate(config["levels"])
     )
     config["levels"] = [{k: v for k, v in lv.items() if k != "png"} for lv in config["levels"]]
+    return fill_template(tpl, imgs, config, shader_source("tilesynth.glsl"))
+
+
+def fill_template(tpl: str, imgs: str, config: dict[str, Any], glsl: str) -> str:
+    """A viewer template with its images, configuration and shader put in (both export versions' pages)."""
     # Inside <script>, "</script", "<!--" and "<script" in a string (a tile set's name) would end the element or
     # change how the HTML parser reads it; JSON may write <, > and & as \u escapes, so none of them is left.
     cfg = json.dumps(config).replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
-    parts = {"<!--TS_IMAGES-->": imgs, "/*TS_CONFIG*/": cfg, "/*TS_GLSL*/": shader_source("tilesynth.glsl")}
+    parts = {"<!--TS_IMAGES-->": imgs, "/*TS_CONFIG*/": cfg, "/*TS_GLSL*/": glsl}
     # one pass over the template: text put in for one placeholder is never searched for another
     return re.sub("|".join(map(re.escape, parts)), lambda m: parts[m.group(0)], tpl)
+
+
+def embed_levels(levels: list[np.ndarray]) -> list[dict[str, Any]]:
+    """Images as the viewer embeds them: size and base64 PNG."""
+    return [
+        {"width": int(a.shape[1]), "height": int(a.shape[0]), "png": base64.b64encode(_png_bytes(a)).decode()}
+        for a in levels
+    ]
+
+
+def index_entry(imap: np.ndarray | None) -> dict[str, Any] | None:
+    """An index map as the viewer embeds it (little-endian uint16), or None for the hash lookup."""
+    if imap is None:
+        return None
+    return {
+        "width": int(imap.shape[1]),
+        "height": int(imap.shape[0]),
+        "data": base64.b64encode(imap.astype("<u2").tobytes()).decode(),
+    }
 
 
 def config_for(
@@ -224,25 +248,12 @@ def config_for(
         "lookup": lookup,
         "wrap": wrap,
         "seed": int(manifest["lookup"]["seed"] if seed is None else seed),
-        "levels": [
-            {
-                "width": int(a.shape[1]),
-                "height": int(a.shape[0]),
-                "png": base64.b64encode(_png_bytes(a)).decode(),
-            }
-            for a in levels
-        ],
+        "levels": embed_levels(levels),
         "autorun": False,
-        "index": None,
+        "index": index_entry(imap),
         "selftest": selftest,
         "init": [0.0, 0.0, 1.0],
     }
-    if imap is not None:
-        cfg["index"] = {
-            "width": int(imap.shape[1]),
-            "height": int(imap.shape[0]),
-            "data": base64.b64encode(imap.astype("<u2").tobytes()).decode(),
-        }
     return cfg
 
 

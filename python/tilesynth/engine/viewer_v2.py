@@ -13,8 +13,6 @@ of the exact synthesis (:class:`ReferenceV2`); ``#selftest-status`` says ``PASS 
 from __future__ import annotations
 
 import base64
-import json
-import re
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -22,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from . import reference as ref
-from .viewer import _png_bytes, case, lookup_uniforms, read_index
+from .viewer import case, embed_levels, fill_template, index_entry, lookup_uniforms, read_index
 
 __all__ = [
     "MIP_RMS",
@@ -141,13 +139,6 @@ def default_cases(r: ReferenceV2) -> list[dict[str, Any]]:
     return cases
 
 
-def _embed_levels(levels: list[np.ndarray]) -> list[dict[str, Any]]:
-    return [
-        {"width": int(a.shape[1]), "height": int(a.shape[0]), "png": base64.b64encode(_png_bytes(a)).decode()}
-        for a in levels
-    ]
-
-
 def config_for(
     tileset: Any,
     manifest: dict[str, Any],
@@ -175,7 +166,7 @@ def config_for(
                 "channels": m["channels"],
                 "normal": m["normal"],
                 "blend_level": m["blend_level"],
-                "levels": _embed_levels(levels),
+                "levels": embed_levels(levels),
             }
         )
     cov = [load(lv["file"])[:, :, 0] for lv in lab["coverage"]["levels"]]
@@ -188,24 +179,18 @@ def config_for(
         "wrap": wrap,
         "seed": int(manifest["lookup"]["seed"] if seed is None else seed),
         "maps": maps,
-        "bits": _embed_levels([load(lab["bits"]["file"])])[0],
-        "coverage": _embed_levels([c[:, :, None] for c in cov]),
+        "bits": embed_levels([load(lab["bits"]["file"])])[0],
+        "coverage": embed_levels([c[:, :, None] for c in cov]),
         "table": {
             "width": lab["table"]["width"],
             "height": lab["table"]["height"],
             "data": base64.b64encode(table.astype("<i4").tobytes()).decode(),
         },
         "autorun": False,
-        "index": None,
+        "index": index_entry(imap),
         "selftest": selftest,
         "init": [0.0, 0.0, 1.0],
     }
-    if imap is not None:
-        cfg["index"] = {
-            "width": int(imap.shape[1]),
-            "height": int(imap.shape[0]),
-            "data": base64.b64encode(imap.astype("<u2").tobytes()).decode(),
-        }
     return cfg
 
 
@@ -227,13 +212,7 @@ def page(config: dict[str, Any]) -> str:
     config["coverage"] = [{k: v for k, v in lv.items() if k != "png"} for lv in config["coverage"]]
     imgs.append(f'<img id="ts-bits" alt="" src="data:image/png;base64,{config["bits"]["png"]}">')
     config["bits"] = {k: v for k, v in config["bits"].items() if k != "png"}
-    cfg = json.dumps(config).replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
-    parts = {
-        "<!--TS_IMAGES-->": "".join(imgs),
-        "/*TS_CONFIG*/": cfg,
-        "/*TS_GLSL*/": shader_source("tilesynth_v2.glsl"),
-    }
-    return re.sub("|".join(map(re.escape, parts)), lambda m: parts[m.group(0)], tpl)
+    return fill_template(tpl, "".join(imgs), config, shader_source("tilesynth_v2.glsl"))
 
 
 def arrays_of(tileset: Any, manifest: dict[str, Any], out: Path) -> dict[str, np.ndarray]:
