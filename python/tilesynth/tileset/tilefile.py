@@ -96,18 +96,15 @@ tile set), and arrays of the wrong dtype or shape or with impossible values (til
 outside the exemplar, patch indices outside the genes, non-finite D or costs).
 
 The format's version and limits, the member names and how each member is checked and written live in
-:mod:`tilesynth.tileset.members` (re-exported here); this module is :class:`TileSet`.
+:mod:`tilesynth.tileset.members` (re-exported here), the reading of a file in :mod:`tilesynth.tileset.reader`,
+the consistency checks in :mod:`tilesynth.tileset.checks`; this module is :class:`TileSet`.
 """
 
 from __future__ import annotations
 
 import hashlib
-import io
-import json
-import lzma
 import os
 import zipfile
-import zlib
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -115,6 +112,7 @@ import numpy as np
 
 from ..errors import ParameterError, TileSetFormatError
 from ..io.images import atomic_path
+from .checks import CUT_STAT_NAMES, check_shapes, check_values
 from .members import (  # noqa: F401 - re-exported: tilesynth.tileset.tilefile.<name> stays the import path
     _ARRAYS,
     _ARRAYS_V2,
@@ -142,11 +140,10 @@ from .members import (  # noqa: F401 - re-exported: tilesynth.tileset.tilefile.<
     exemplar_digest,
     member_sizes,
 )
+from .reader import read_archive
 
 #: Names of the four cuts of a Wang tile, in the order of ``cut_stats``.
 CUT_NAMES: tuple[str, ...] = ("NE", "ES", "SW", "WN")
-#: The six values per cut in ``cut_stats``.
-CUT_STAT_NAMES: tuple[str, ...] = ("D_overlap", "n_overlap", "D_path", "n_path", "D_boundary", "cost")
 
 
 class _Materialised:
@@ -433,134 +430,8 @@ class TileSet:
 
         Never executes code from the file (see "Loading is safe" in the module docstring).
         """
-        p = os.fspath(path)
-        if os.path.isdir(p):
-            raise TileSetFormatError(f"tileset = {p!r}: is a directory, expected a .tiles file")
-        if not os.path.isfile(p):
-            what = "not a regular file (a device, FIFO or socket)" if os.path.exists(p) else "no such file"
-            raise TileSetFormatError(f"tileset = {p!r}: {what}")
-        try:
-            with zipfile.ZipFile(p) as zf:
-                infos = {i.filename: i for i in zf.infolist()}
-                unpacked = sum(i.file_size for i in infos.values())
-                if unpacked > MAX_UNPACKED_BYTES:
-                    raise TileSetFormatError(
-                        f"tileset = {p!r}: members unpack to {unpacked} bytes, more than the limit of "
-                        f"{MAX_UNPACKED_BYTES} (MAX_UNPACKED_BYTES)"
-                    )
-                if "manifest.json" in infos and infos["manifest.json"].file_size > MAX_MANIFEST_BYTES:
-                    raise TileSetFormatError(
-                        f"tileset = {p!r}: manifest.json unpacks to {infos['manifest.json'].file_size} bytes, more "
-                        f"than the limit of {MAX_MANIFEST_BYTES} (MAX_MANIFEST_BYTES)"
-                    )
-                manifest = json.loads(zf.read("manifest.json")) if "manifest.json" in infos else None
-                if isinstance(manifest, dict) and manifest.get("format_version") not in FORMAT_VERSIONS:
-                    _check_manifest(manifest)  # a future (or unknown) version: say so, not "missing members"
-                v2 = isinstance(manifest, dict) and manifest.get("format_version") == 2
-                required = _ARRAYS_V2 if v2 else _ARRAYS
-                missing = [m for m in ["manifest.json", *(f"{a}.npy" for a in required)] if m not in infos]
-                if missing:
-                    raise TileSetFormatError(
-                        f"tileset = {p!r}: not a tilesynth tile set (missing members {missing})"
-                    )
-                from .manifest import check_archive
-
-                members = {**required, **_OPTIONAL}
-                if v2:
-                    storage = manifest.get("storage")
-                    ex_dt = storage.get("exemplar_dtype") if isinstance(storage, dict) else None
-                    members["exemplar"] = ex_dt if ex_dt in ("float32", "uint8", "uint16") else "float32"
-                if isinstance(manifest, dict) and isinstance(manifest.get("maps"), list):
-                    members.update(_map_members(manifest["maps"], checked=False))  # material maps
-                    if v2:
-                        members.update(_level_members(None, manifest["maps"], infos, checked=False))
-                check_archive(zf, manifest, members)  # schema and .npy headers, before any array is read
-                _check_manifest(manifest)
-                map_specs = manifest.get("maps") or None
-                missing = [f"{m}.npy" for m in _map_members(map_specs) if f"{m}.npy" not in infos]
-                if missing:
-                    raise TileSetFormatError(f"manifest.json lists maps whose members are missing: {missing}")
-                timing = json.loads(zf.read("timing.json")) if "timing.json" in infos else {}
-                if not isinstance(timing, dict) or not all(
-                    isinstance(k, str) and isinstance(v, (int, float)) and not isinstance(v, bool)
-                    for k, v in timing.items()
-                ):
-                    raise TileSetFormatError("timing.json must map stage names to seconds")
-                arrays = {
-                    a: np.load(io.BytesIO(zf.read(f"{a}.npy")), allow_pickle=False)
-                    for a in [*required, *_OPTIONAL]
-                    if a in required or f"{a}.npy" in infos
-                }
-                maps = {
-                    m[4:]: np.load(io.BytesIO(zf.read(f"{m}.npy")), allow_pickle=False)
-                    for m in _map_members(map_specs)
-                } or None
-                levels = None
-                if v2:
-                    levels = {
-                        name[6:] if name != "level_corners" else "corners": np.load(
-                            io.BytesIO(zf.read(f"{name}.npy")), allow_pickle=False
-                        )
-                        for name in _level_members(None, map_specs, infos, checked=False)
-                    } or None
-        except TileSetFormatError as exc:
-            if str(exc).startswith("tileset = "):
-                raise
-            raise TileSetFormatError(f"tileset = {p!r}: {exc}") from None
-        except (
-            zipfile.BadZipFile,
-            zipfile.LargeZipFile,
-            json.JSONDecodeError,
-            UnicodeDecodeError,
-            ValueError,
-            OSError,
-            KeyError,
-            EOFError,
-            zlib.error,
-            lzma.LZMAError,
-            NotImplementedError,
-            RuntimeError,
-        ) as exc:
-            # RuntimeError: an encrypted member; NotImplementedError: an unknown compression method;
-            # LZMAError: a member that claims LZMA compression and is not (bz2 and deflate damage is OSError /
-            # zlib.error)
-            raise TileSetFormatError(
-                f"tileset = {p!r}: not a tilesynth tile set ({type(exc).__name__}: {exc})"
-            ) from None
-        extra: dict[str, Any] = {"file_version": manifest["format_version"], "map_levels": levels}
-        if manifest["format_version"] == 2:
-            from .provenance import Provenance
-
-            prov = Provenance(labels=arrays.pop("prov_labels"), table=arrays.pop("prov_table"))
-            packed = arrays.pop("cut_masks_packed")
-            n = prov.tile_size
-            try:
-                prov.check()
-            except TileSetFormatError as exc:
-                raise TileSetFormatError(f"tileset = {p!r}: {exc}") from None
-            codes = arrays.pop("exemplar")
-            top = {np.dtype(np.uint8): 255, np.dtype(np.uint16): 65535}.get(codes.dtype)
-            exemplar = codes if top is None else codes.astype(np.float32) / np.float32(top)
-            arrays.update(
-                tiles=None,
-                source=None,
-                exemplar=np.ascontiguousarray(exemplar, dtype=np.float32),
-                cut_masks=np.ascontiguousarray(np.unpackbits(packed, axis=-1, count=n).astype(bool)),
-            )
-            extra["provenance"] = prov
-        ts = cls(
-            scheme=manifest["scheme"],
-            layout=manifest["layout"],
-            E=float(manifest["E"]),
-            params=manifest["params"],
-            exemplar_info=manifest["exemplar"],
-            timing=timing,
-            version=manifest["tilesynth_version"],
-            maps=maps,
-            map_specs=map_specs,
-            **extra,
-            **arrays,
-        )
+        p, kwargs = read_archive(path)
+        ts = cls(**kwargs)
         try:
             ts._check(values=True)
         except TileSetFormatError as exc:
@@ -570,113 +441,9 @@ class TileSet:
     def _check(self, values: bool = False) -> None:
         """Consistency of dtypes and shapes, and with ``values`` of the array contents and the layout
         (raises TileSetFormatError). ``load`` checks everything; ``save`` the dtypes and shapes."""
-        self._check_shapes(values)
+        check_shapes(self, values)
         if values:
-            self._check_values()
-
-    def _check_shapes(self, values: bool) -> None:
-        """Dtypes and shapes of the arrays, and (with ``values``) the manifest's exemplar shape."""
-        for name, dt in self._arrays().items():
-            a = self._member(name)
-            if not isinstance(a, np.ndarray) or a.dtype != np.dtype(dt):
-                raise TileSetFormatError(f"array {name} must be {dt}, got {getattr(a, 'dtype', type(a))}")
-        lazy = not self.has_pixels() and self.provenance is not None
-        if lazy:  # a version-2 set: the tiles are the provenance's (checked at load), not in memory
-            k, n, n2, c = self.n_tiles, self.tile_size, self.tile_size, self.channels
-        else:
-            k, n, n2, c = self.tiles.shape
-        expect = {
-            **({} if lazy else {"source": (k, n, n, 2)}),
-            "cut_masks": (k, n, n),
-            "tile_patches": (k, 4),
-            "match_offsets": (k, 2),
-            "D": (k,),
-            "cut_costs": (k,),
-        }
-        if self.labels is not None:
-            expect["labels"] = (k, n, n)
-        if self.cut_stats is not None:
-            expect["cut_stats"] = (k, 4, len(CUT_STAT_NAMES))
-        if n != n2:
-            raise TileSetFormatError(f"tiles must be square, got shape {(k, n, n2, c)}")
-        for name, shape in expect.items():
-            if getattr(self, name).shape != shape:
-                raise TileSetFormatError(
-                    f"array {name} has shape {getattr(self, name).shape}, expected {shape}"
-                )
-        if len(self.layout.get("tiles", [])) != k:
-            raise TileSetFormatError(
-                f"layout lists {len(self.layout.get('tiles', []))} tiles, the arrays {k}"
-            )
-        if self.exemplar.ndim != 3 or self.exemplar.shape[2] != c:
-            raise TileSetFormatError(f"exemplar has shape {self.exemplar.shape}, expected (H, W, {c})")
-        if values and list(self.exemplar_info.get("shape", [])) != list(self.exemplar.shape):
-            raise TileSetFormatError(
-                f"manifest exemplar.shape {self.exemplar_info.get('shape')} disagrees with the exemplar array "
-                f"{list(self.exemplar.shape)}"
-            )
-        _check_map_shapes(self.maps, self.map_specs, self.exemplar.shape[:2])
-        _check_levels(self.map_levels, self.maps, self.exemplar.shape[:2])
-        if k == 0 or n == 0 or not 1 <= c <= 4 or 0 in self.exemplar.shape:
-            raise TileSetFormatError(
-                f"tiles have shape {(k, n, n, c)}, expected (K, N, N, C) with K, N >= 1 and C in 1..4"
-            )
-        if self.genes.ndim != 2 or self.genes.shape[1] != 2 or self.genes.shape[0] == 0:
-            raise TileSetFormatError(f"array genes has shape {self.genes.shape}, expected (n, 2) with n >= 1")
-
-    def _check_values(self) -> None:
-        """The array contents and the layout: values in range, positions inside the exemplar."""
-        lazy = not self.has_pixels() and self.provenance is not None
-        k = self.n_tiles
-        try:
-            from ..layouts.omega_sets import tileset_from_dict
-
-            defn = tileset_from_dict(self.layout)
-        except Exception as exc:  # noqa: BLE001 - tampered content may fail in any way; it is a format error
-            raise TileSetFormatError(
-                f"layout is not a tile-set definition ({type(exc).__name__}: {exc})"
-            ) from None
-        if len(defn.tiles) != k:
-            raise TileSetFormatError(f"layout lists {len(defn.tiles)} tiles, the arrays {k}")
-        h, w = self.exemplar.shape[:2]
-        for name in ("exemplar",) if lazy else ("tiles", "exemplar"):
-            a = getattr(self, name)
-            if not np.isfinite(a).all() or a.min() < 0 or a.max() > 1:
-                raise TileSetFormatError(f"array {name} has values outside [0, 1] (or NaN)")
-        for name, m in (self.maps or {}).items():
-            if m.dtype == np.float32 and not np.isfinite(m).all():
-                raise TileSetFormatError(f"map {name!r} has NaN or infinite values")
-        for name in ("D", "cut_costs"):
-            if not np.isfinite(getattr(self, name)).all():
-                raise TileSetFormatError(f"array {name} has non-finite values")
-        if lazy:
-            from .provenance import check_inside
-
-            if not check_inside(self.provenance, h, w):
-                raise TileSetFormatError(f"array prov_table points outside the {w}x{h} exemplar")
-        else:
-            src = self.source
-            if src.size and (src.min() < 0 or src[..., 0].max() >= h or src[..., 1].max() >= w):
-                raise TileSetFormatError(f"array source points outside the {w}x{h} exemplar")
-        n = self.tile_size
-        for name in ("genes", "match_offsets"):
-            g = getattr(self, name)
-            if name == "match_offsets" and (g == -1).any():
-                # a scheme without a matching patch (Cohen's Wang tiles) stores (-1, -1) for every tile; the
-                # format asks no scheme which: all -1, or all valid positions
-                if not (g == -1).all():
-                    raise TileSetFormatError(
-                        "array match_offsets must be all -1 (a scheme without matching patches) or patch positions"
-                    )
-                if isinstance(self.params.get("smooth"), dict):  # smoothing follows the matching patches
-                    raise TileSetFormatError(
-                        "array match_offsets of a smoothed tile set must hold patch positions"
-                    )
-                continue
-            if (g < 0).any() or (g[:, 0] > h - n).any() or (g[:, 1] > w - n).any():
-                raise TileSetFormatError(f"array {name} has patch positions outside the {w}x{h} exemplar")
-        if (self.tile_patches < 0).any() or (self.tile_patches >= self.genes.shape[0]).any():
-            raise TileSetFormatError(f"array tile_patches has indices outside [0, {self.genes.shape[0]})")
+            check_values(self)
 
     # ------------------------------------------------------------------------------------------ synthesis
     def synthesize(self, width: int, height: int, seed: int | None = None, **kwargs: Any):  # noqa: ANN201
