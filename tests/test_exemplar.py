@@ -88,3 +88,59 @@ def test_validated_image_trusts_only_that_object_and_only_inside(crop):
     ex.image[0, 0, 0] = np.nan  # outside the block the promise is gone: the array is checked again
     with pytest.raises(ParameterError, match="NaN"):
         validate.as_image(ex.image)
+
+
+def _material(crop):
+    h = np.ascontiguousarray(crop[..., 0]).astype(np.float32)
+    rough = (crop[..., 1] * 65535).round().astype(np.uint16)
+    return {"height": h, "roughness": rough}
+
+
+def test_a_material_build_checks_the_albedo_and_the_maps_once(crop, monkeypatch):
+    """The albedo is scanned once (the feature image derived from it is not checked again) and the maps are
+    checked once, before the build (it used to check the albedo, then the feature image in the builder)."""
+    from tilesynth.builder import exemplar as exemplar_mod
+
+    scans: list[str] = []
+    check = validate._check_image
+
+    def counting(image, name):
+        if np.shape(image)[:2] == crop.shape[:2]:
+            scans.append(name)
+        return check(image, name)
+
+    calls: list[int] = []
+    check_maps = exemplar_mod.check_maps
+
+    def counting_maps(*a, **k):
+        calls.append(1)
+        return check_maps(*a, **k)
+
+    monkeypatch.setattr(validate, "_check_image", counting)
+    monkeypatch.setattr(exemplar_mod, "check_maps", counting_maps)
+    ts = tilesynth.build(crop, maps=_material(crop), tileset="c3", tile_size=24, seed=1)
+    assert ts.params["material"]["joint"] is True
+    assert scans == ["exemplar"] and calls == [1]
+
+
+def test_exemplar_of_a_material_keeps_the_checked_maps_and_derives_the_features_once(crop):
+    maps = _material(crop)
+    ex = Exemplar.of(crop, maps=maps, map_weights={"albedo": 0.5})
+    assert [s.name for s, _ in ex.maps] == ["height", "roughness"]
+    assert [s.kind for s, _ in ex.maps] == ["scalar", "scalar"]
+    assert ex.albedo_weight == 0.5 and ex.joint
+    feats, record = ex.features()
+    again, _ = ex.features()
+    assert again is feats and feats.dtype == np.float32 and feats.flags.c_contiguous
+    assert feats.shape[:2] == crop.shape[:2] and record["albedo_weight"] == 0.5
+    assert "maps height+roughness" in repr(ex)
+    labels_only = Exemplar.of(crop, maps=maps, map_weights={"height": 0, "roughness": 0})
+    assert not labels_only.joint  # weight-0 maps only: the colour build, plus the maps
+    with pytest.raises(ParameterError, match="carries its own mask, alpha, info and maps"):
+        Exemplar.of(ex, maps=maps)
+    with pytest.raises(ParameterError, match="needs a material"):
+        Exemplar.of(crop).features()
+    with pytest.raises(ParameterError, match="map weight of 'albedo'"):
+        Exemplar.of(crop, maps=maps, map_weights={"albedo": -1})
+    with pytest.raises(ParameterError, match="map name 'albedo'"):
+        Exemplar.of(crop, maps={"albedo": maps["height"]})

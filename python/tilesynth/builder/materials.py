@@ -214,33 +214,36 @@ def build_with_maps(
     ``material_options`` (``Scheme.material_options``): builder options a joint build uses unless ``kwargs``
     give them (ω, s-Wang: ``eps`` = :data:`MATERIAL_CUT_EPS`); a colour-only build (only weight-0 maps) ignores
     them."""
-    from ..base.validate import as_image
     from ..synth.synthesis import is_smoothed
     from .compose import exemplar_record
-    from .masking import build_mask
+    from .exemplar import Exemplar
     from .smoothing import smooth_tiles
 
-    albedo = as_image(exemplar, "exemplar")
-    if np.may_share_memory(albedo, exemplar):
-        albedo = albedo.copy()
-    # The mask (an alpha channel or mask=) is resolved on the albedo here, and goes to the builder as an
-    # ExemplarMask: the feature image's 4th channel is a feature, never an alpha channel.
-    albedo, emask = build_mask(albedo, kwargs.pop("mask", None), kwargs.pop("alpha", "auto"))
-    kwargs["mask"], kwargs["alpha"] = emask, "colour"
-    specs = check_maps(albedo.shape, maps, map_kinds, map_weights, normal_y, map_suffixes)
-    aw = _weight((map_weights or {}).get("albedo", 1.0), "albedo")
-    joint = aw != 1.0 or any(s.weight > 0 for s, _ in specs)
+    # The albedo, its mask (an alpha channel or mask=) and the maps are checked once, here; the builder gets an
+    # Exemplar and does not check them again. The mask goes to the builder as the Exemplar's ExemplarMask: the
+    # feature image's 4th channel is a feature, never an alpha channel.
+    ex = Exemplar.of(
+        exemplar,
+        mask=kwargs.pop("mask", None),
+        alpha=kwargs.pop("alpha", "auto"),
+        info=kwargs.pop("exemplar_info", None),
+        maps=maps,
+        map_kinds=map_kinds,
+        map_weights=map_weights,
+        normal_y=normal_y,
+        map_suffixes=map_suffixes,
+    )
+    albedo, specs, joint = ex.image, ex.maps or [], ex.joint
     if joint:
-        # with a mask the search adds a penalty channel, and the image index takes at most 4 channels
-        k = FEATURE_CHANNELS - (emask is not None)
-        feats, record = feature_image(albedo, specs, aw, channels=k)
+        feats, record = ex.features()
         for key, value in (material_options or {}).items():  # the scheme's joint-build defaults
             kwargs.setdefault(key, value)
+        # the feature image is derived from the checked albedo: float32, C-contiguous, in [0, 1]
+        ts = build(Exemplar(feats, ex.mask, ex.info), **kwargs)
     else:  # only weight-0 maps (labels): the colour-only build, plus the maps
-        feats, record = albedo, {"feature_channels": int(albedo.shape[2]), "variance_kept": 1.0,
-                                 "feature_scale": 1.0, "albedo_weight": aw}  # fmt: skip
-    info = kwargs.pop("exemplar_info", None)
-    ts = build(feats, exemplar_info=info, **kwargs)
+        record = {"feature_channels": int(albedo.shape[2]), "variance_kept": 1.0,
+                  "feature_scale": 1.0, "albedo_weight": ex.albedo_weight}  # fmt: skip
+        ts = build(Exemplar(albedo, ex.mask, ex.info), **kwargs)
     if joint:
         src = ts.source
         tiles = albedo[src[..., 0], src[..., 1]]
@@ -251,7 +254,7 @@ def build_with_maps(
             tiles, _ = smooth_tiles(tiles, matching, ts.cut_masks, threads=kwargs.get("threads"))
         ts.tiles = np.ascontiguousarray(tiles, dtype=np.float32)
         ts.exemplar = albedo
-        ts.exemplar_info = exemplar_record(albedo, info)
+        ts.exemplar_info = exemplar_record(albedo, ex.info)
     record = {**record, "joint": bool(joint), "units": "feature"}
     fixed = {spec.name: spec.normalised for spec, _ in specs if spec.normalised}
     if fixed:
