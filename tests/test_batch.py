@@ -422,10 +422,6 @@ BAD = {
         '[[jobs]]\nexemplar = "tex/bread.png"\nrecipe = "quick"\n',
         "field 'recipe' = 'quick'",
     ),
-    "recipe fast with a set": (
-        '[[jobs]]\nexemplar = "tex/bread.png"\nrecipe = "fast"\nset = "c5"\n',
-        "field 'set' with recipe = \"fast\"",
-    ),
     "recipe with wang": (
         '[[jobs]]\nexemplar = "tex/bread.png"\nscheme = "wang"\nrecipe = "fast"\n',
         "field 'recipe'",
@@ -887,3 +883,10 @@ def test_a_job_recipe_builds_as_the_cli_does(lib_dir: Path, tmp_path: Path) -> N
         "applied": ["tileset"],
     }
     assert np.array_equal(got.tiles, want.tiles)
+    # a set given with the recipe wins, the default set included (it used to be refused: the default could not
+    # be told from "not given")
+    f.write_text('output_dir = "out2"\n[[jobs]]\nexemplar = "tex/bread.png"\nrecipe = "fast"\nset = "c3"\n'
+                 'sheet = false\n')  # fmt: skip
+    build_many(f, quiet=True)
+    given = ts.load(tmp_path / "out2" / "bread.tiles")
+    assert given.n_tiles == 81 and given.params["recipe"] == {"name": "fast", "applied": []}

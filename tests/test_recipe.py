@@ -25,11 +25,12 @@ def crop(small_exemplar):
 
 def test_build_omega_takes_every_choice_as_a_keyword_with_the_recipe_default():
     """The keyword API is the recipe: every field is a keyword of build_omega with the same default (the CLI
-    and the scheme registry read these defaults from the signature)."""
+    and the scheme registry read these defaults from the signature). ``tileset`` defaults to None, "not given":
+    the default recipe's set, or a named recipe's (a set given explicitly, the default one included, wins)."""
     params = inspect.signature(tilesynth.build_omega).parameters
     for name in FIELDS:
         assert params[name].kind is inspect.Parameter.KEYWORD_ONLY
-        assert params[name].default == getattr(DEFAULT, name), name
+        assert params[name].default == (None if name == "tileset" else getattr(DEFAULT, name)), name
     assert DEFAULT == Recipe()
 
 
@@ -138,6 +139,39 @@ def test_fast_is_c4_unless_a_set_is_given(crop):
     assert np.array_equal(t.tiles, tilesynth.build_omega(crop, seed=4, tileset="c4").tiles)
     given = tilesynth.build_omega(crop, seed=4, recipe="fast", tileset="c3")  # the keyword wins
     assert given.n_tiles == 81 and given.params["recipe"]["applied"] == []
+    c5 = tilesynth.build_omega(
+        crop, seed=4, recipe="fast", tileset="c5"
+    )  # the default set given explicitly too
+    assert c5.n_tiles == 625 and c5.params["recipe"]["applied"] == []
+    c4 = tilesynth.build_omega(crop, seed=4, recipe="fast", tileset="c4")  # given as the recipe would set it
+    assert c4.params["recipe"]["applied"] == ["tileset"] and c4.content_digest() == t.content_digest()
+
+
+def test_cli_fast_without_a_set_says_and_builds_c4_and_with_the_default_set_builds_it(crop, tmp_path, capsys):
+    from PIL import Image
+
+    from tilesynth.cli.main import main
+
+    src = tmp_path / "crop.png"
+    Image.fromarray((crop * 255).round().astype(np.uint8)).save(src)
+    assert main(["build", str(src), "-o", str(tmp_path / "f.tiles"), "--seed", "4", "--recipe", "fast"]) == 0
+    out = capsys.readouterr()
+    assert "(set c4," in out.err + out.out  # the set that was built, not the default's name
+    assert tilesynth.load(tmp_path / "f.tiles").n_tiles == 256
+    args = [
+        "build",
+        str(src),
+        "-o",
+        str(tmp_path / "d.tiles"),
+        "--seed",
+        "4",
+        "--recipe",
+        "fast",
+        "--set",
+        "c5",
+    ]
+    assert main([*args, "-q"]) == 0
+    assert tilesynth.load(tmp_path / "d.tiles").n_tiles == 625
 
 
 def test_objects_sizes_tiles_from_the_objects():
@@ -177,17 +211,3 @@ def test_cli_recipe_is_recorded_and_shown(tmp_path, crop):
     assert cli(["build", str(src), "-o", str(out), "--seed", "1", "--recipe", "fast", "-q"]) == 0
     t = tilesynth.load(out)
     assert t.n_tiles == 256 and t.params["recipe"]["name"] == "fast"
-
-
-def test_cli_refuses_the_default_set_given_with_fast(tmp_path, crop, capsys):
-    """``--set c5 --recipe fast``: the default set given on purpose would be replaced by the recipe's c4."""
-    from tilesynth.cli.main import main as cli
-
-    src = tmp_path / "ex.png"
-    tilesynth.save_image(src, crop)
-    assert (
-        cli(["build", str(src), "-o", str(tmp_path / "a.tiles"), "--set", "c5", "--recipe", "fast", "-q"])
-        == 2
-    )
-    assert "--set c5 with --recipe fast" in capsys.readouterr().err
-    assert not (tmp_path / "a.tiles").exists()

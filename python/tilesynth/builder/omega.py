@@ -167,7 +167,7 @@ def _omega_params(b: BuildOptions, opts: OmegaOptions, plan: CornerPlan, sel: di
 
 
 def build_omega(
-    exemplar: np.ndarray | Exemplar, *, tileset: str = DEFAULT.tileset, tile_size: int | None = None,
+    exemplar: np.ndarray | Exemplar, *, tileset: str | None = None, tile_size: int | None = None,
     genes: np.ndarray | None = None, seed: SeedLike = None, threads: int | None = None, eps: float = DEFAULT.eps,
     gradients: str = DEFAULT.gradients, keep_border: bool = DEFAULT.keep_border, progress: Progress | None = None,
     selection: dict[str, Any] | None = None, exemplar_info: dict[str, Any] | None = None,
@@ -186,7 +186,8 @@ def build_omega(
     matching, the selection and its objective, the border-aware draw, the periodic rule) are the fields of
     :class:`~tilesynth.builder.recipe.Recipe`, documented there with why each default was chosen: pass them as
     keywords, or a ``recipe`` (not both), or the name of a recipe (``"default"``, ``"fast"``, ``"objects"``:
-    :data:`~tilesynth.builder.recipe.NAMED_RECIPES` says what each trades) with keywords that override it. The others: ``genes`` (``(n, 2)`` top-left positions of the set's n
+    :data:`~tilesynth.builder.recipe.NAMED_RECIPES` says what each trades) with keywords that override it
+    (``tileset`` None: the recipe's set, ``DEFAULT.tileset`` = "c5" unless the named recipe picks one). The others: ``genes`` (``(n, 2)`` top-left positions of the set's n
     sample patches, in colour order; default: drawn or selected), ``seed`` (recorded; None draws one),
     ``threads`` (the result does not depend on it), ``progress`` (callback ``(stage, done, total)``),
     ``selection`` (how given genes were chosen, recorded), ``exemplar_info`` (facts to record: file, bit
@@ -207,6 +208,8 @@ def build_omega(
         kept, named = named_choices(recipe, exemplar.image, choices)
         choices.update(kept)
         recipe = None
+    if choices["tileset"] is None:  # not given: the default recipe's set
+        choices["tileset"] = DEFAULT.tileset
     if recipe is not None:  # the choices come from the recipe (keywords left at their defaults)
         recipe = Recipe.of(recipe, choices)
         choices = {k: getattr(recipe, k) for k in _RECIPE_FIELDS}

@@ -42,6 +42,7 @@ __all__ = [
     "CUT_REGIONS",
     "DEFAULT",
     "NAMED_RECIPES",
+    "NAMED_SETS",
     "PERIODIC_MODES",
     "OmegaOptions",
     "Recipe",
@@ -318,12 +319,17 @@ NAMED_RECIPES = {
 """The recipes a user picks by name (``build_omega(recipe="fast")``, ``tilesynth build --recipe fast``), with
 what each trades, measured. Choices given as keywords win over the named recipe's."""
 
+NAMED_SETS = {"fast": "c4"}
+"""The set a named recipe builds when no set is given (the others build :data:`DEFAULT`'s); the CLI and batch
+resolve ``--set`` / ``set`` with it, so that they print and record the set that is built."""
+
 
 def named_choices(
     name: Any, exemplar: np.ndarray, choices: dict[str, Any]
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """The choices of the named recipe ``name`` (:data:`NAMED_RECIPES`) that ``choices`` (a ``build_omega``
-    call's keywords) leave at their defaults, and the record stored in the tile set's ``params["recipe"]``.
+    call's keywords) leave unset (None: ``tileset`` and ``tile_size`` default to None, so a set or size given
+    explicitly, the default one included, wins), and the record stored in the tile set's ``params["recipe"]``.
     ``exemplar``: the validated exemplar image (the "objects" recipe measures its objects)."""
     if not isinstance(name, str) or name not in NAMED_RECIPES:
         raise ParameterError(
@@ -331,15 +337,17 @@ def named_choices(
         )
     want: dict[str, Any] = {}
     record: dict[str, Any] = {"name": name}
-    if name == "fast":
-        want["tileset"] = "c4"
-    elif name == "objects":
+    if name in NAMED_SETS:
+        want["tileset"] = NAMED_SETS[name]
+    if name == "objects":
         size, how = feature_tile_size(exemplar)
         record["feature_scale"] = {k: v for k, v in how.items() if k != "default"}
         if size is not None:
             want["tile_size"] = size
-    kept = {k: v for k, v in want.items() if not _differs(choices[k], getattr(DEFAULT, k))}
-    record["applied"] = sorted(kept)
+    kept = {k: v for k, v in want.items() if choices[k] is None}
+    # the recipe's choices in effect: those it set, and those given as it would have set them (the CLI and
+    # batch pass the recipe's set explicitly: NAMED_SETS)
+    record["applied"] = sorted(k for k, v in want.items() if k in kept or not _differs(choices[k], v))
     return kept, record
 
 

@@ -53,13 +53,10 @@ def _build(
 
     sc = get_scheme(scheme)
     prog = Progress(quiet)
-    recipe = (options or {}).get("recipe")
-    if recipe == "fast" and set_name == sc.default_set:  # build_omega reads a default keyword as not given
-        raise ParameterError(
-            f"--set {set_name} with --recipe fast: the fast recipe builds c4; leave out --recipe to build "
-            f"{set_name} (the default), or --set to build c4"
-        )
-    set_name = set_name or sc.default_set
+    from ..builder.recipe import NAMED_SETS
+
+    # without --set, the set of the named recipe (--recipe fast builds c4), else the scheme's default
+    set_name = set_name or NAMED_SETS.get((options or {}).get("recipe"), sc.default_set)
     sc.check_set(set_name)
     _check_tileset_name(output)
     image, bits = load_image(input_path)

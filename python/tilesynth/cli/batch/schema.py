@@ -10,7 +10,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
-from ...builder.recipe import NAMED_RECIPES
+from ...builder.recipe import NAMED_RECIPES, NAMED_SETS
 from ...errors import ParameterError
 from .materials import params as _material_params  # material maps, mask, alpha
 
@@ -255,14 +255,13 @@ def _effective(
     opts = {k: given.get(k, d) for k, (_, _, schemes, d) in _BUILD_OPTIONS.items() if scheme in schemes}
     from ...schemes import DEFAULT_SETS  # the same default set as `tilesynth build`
 
-    opts["set"] = opts["set"] or DEFAULT_SETS[scheme]
+    # as `tilesynth build`: without a set, the named recipe's (recipe = "fast": c4), else the scheme's default
+    opts["set"] = opts["set"] or NAMED_SETS.get(opts.get("recipe"), DEFAULT_SETS[scheme])
     _check_set(opts["set"], scheme, where)
     if opts["select"] in (None, "random", "best-of") and opts["generations"] is not None:
         raise BatchError(f'{where}: field \'generations\': only used with select = "ga" or "ais"')
     if opts["select"] == "random" and opts["population"] is not None:
         raise BatchError(f"{where}: field 'population': not used with select = \"random\"")
-    if scheme == "omega" and opts["recipe"] == "fast" and "set" in given:
-        raise BatchError(f"{where}: field 'set' with recipe = \"fast\": the fast recipe chooses the set (c4)")
     if scheme == "omega" and opts["match_k"] is not None and opts["match"] != "best-cut":
         raise BatchError(f"{where}: field 'match_k': only used with match = \"best-cut\"")
     if scheme == "omega" and opts["metric"] == "eq2" and opts["select"] not in (None, "random"):
