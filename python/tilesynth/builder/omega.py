@@ -182,23 +182,20 @@ def build_omega(
     """Build a set of ω-tiles from ``exemplar`` (an image ``(H, W[, C])``, uint8/uint16 or float in [0, 1], or
     an :class:`~tilesynth.builder.exemplar.Exemplar`).
 
-    The choices of the build (``tileset`` ... ``border_criterion``: the set, the tile size, the cut, the
-    matching, the selection and its objective, the border-aware draw, the periodic rule) are the fields of
-    :class:`~tilesynth.builder.recipe.Recipe`, documented there with why each default was chosen: pass them as
-    keywords, or a ``recipe`` (not both), or the name of a recipe (``"default"``, ``"fast"``, ``"objects"``:
-    :data:`~tilesynth.builder.recipe.NAMED_RECIPES` says what each trades) with keywords that override it
-    (``tileset`` None: the recipe's set, ``DEFAULT.tileset`` = "c5" unless the named recipe picks one). The others: ``genes`` (``(n, 2)`` top-left positions of the set's n
-    sample patches, in colour order; default: drawn or selected), ``seed`` (recorded; None draws one),
+    The choices of the build (``tileset`` ... ``border_criterion``: set, tile size, cut, matching, selection and
+    objective, border-aware draw, periodic rule) are the fields of :class:`~tilesynth.builder.recipe.Recipe`,
+    documented there with why each default was chosen: keywords, or a ``recipe`` (not both), or a recipe's name
+    (:data:`~tilesynth.builder.recipe.NAMED_RECIPES`: "default", "fast", "objects") that keywords override
+    (``tileset`` None: the named recipe's set, else "c5"). The others: ``genes`` (``(n, 2)`` top-left positions
+    of the sample patches, in colour order; default: drawn or selected), ``seed`` (recorded; None draws one),
     ``threads`` (the result does not depend on it), ``progress`` (callback ``(stage, done, total)``),
     ``selection`` (how given genes were chosen, recorded), ``exemplar_info`` (facts to record: file, bit
     depth), ``mask`` / ``alpha`` (pixels never used, :mod:`tilesynth.builder.masking`).
 
-    The stages, in order: the inputs validated once (:func:`~tilesynth.builder.options.common_options`), the
-    recipe resolved against the set and exemplar (:func:`~tilesynth.builder.recipe.resolve`), the genes chosen
-    (:func:`gene_stage`), the tiles built from them (:func:`tiles_stage`: intermediate tiles, matching patches,
-    cut and compose, after the candidates' re-ranking when the objective builds them), the tile set finished
-    (:func:`finish_stage`). D_j is the distance between intermediate tile j and its matching patch, E =
-    λ·ΣD_j + (1−λ)·Var(D_j) over each intermediate tile's smallest distance.
+    The stages: the inputs validated once (:func:`~tilesynth.builder.options.common_options`), the recipe
+    resolved (:func:`~tilesynth.builder.recipe.resolve`), the genes (:func:`gene_stage`), the tiles
+    (:func:`tiles_stage`: intermediate tiles, matching patches, cut and compose), the set (:func:`finish_stage`).
+    D_j: the distance of intermediate tile j to its matching patch; E = λ·ΣD_j + (1−λ)·Var(D_j).
     """
     choices = {k: v for k, v in locals().items() if k in _RECIPE_FIELDS}
     named = None
