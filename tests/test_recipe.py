@@ -211,3 +211,15 @@ def test_cli_recipe_is_recorded_and_shown(tmp_path, crop):
     assert cli(["build", str(src), "-o", str(out), "--seed", "1", "--recipe", "fast", "-q"]) == 0
     t = tilesynth.load(out)
     assert t.n_tiles == 256 and t.params["recipe"]["name"] == "fast"
+
+
+def test_build_omega_orchestrates_named_stages_in_sixty_lines():
+    """The build reads top-down: build_omega (signature and docstring included) only validates, resolves the
+    recipe and calls the named stages; what grows belongs in a stage."""
+    from tilesynth.builder import omega
+
+    lines, _ = inspect.getsourcelines(omega.build_omega)
+    assert len(lines) <= 60
+    body = inspect.getsource(omega.build_omega)
+    for stage in ("common_options(", "resolve(", "gene_stage(", "tiles_stage(", "finish_stage("):
+        assert stage in body, stage
