@@ -7,9 +7,11 @@ The exemplar is ``cracked-mud.png`` (512², ``/work/shared/textures``) upscaled 
 build's stages are those of a real one). Each case runs ``build_omega(exemplar, seed=1)`` (the default recipe:
 c5, 625 tiles, tile size a quarter of the side capped at 256) and saves the tile set, as ``tilesynth build``
 does. The CPU time (user + sys) and the peak RSS (``ru_maxrss``) come from ``os.wait4`` of the child;
-imports are included. Old and new alternate per size; ``--repeat`` runs per size and install, medians.
+imports are included. Old and new alternate per size; ``--repeat`` runs per size and install, medians. The
+wall time is reported beside it (what a user waits; the cut stage runs its tiles in parallel), and the
+table says whether the two installs' tile sets have the same content digest.
 
-The machine may be shared by other work: CPU time, not wall time, is what the table reports.
+The machine may be shared by other work: CPU time is the steadier figure; wall time depends on the load.
 
 Usage::
 
@@ -24,6 +26,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -39,12 +42,13 @@ if im.size != (size, size):
     im = im.resize((size, size), Image.BICUBIC)
 tiles = ts.build_omega(np.asarray(im), seed=1)
 tiles.save(out)
-print(tiles.tile_size, tiles.n_tiles)
+print(tiles.tile_size, tiles.n_tiles, tiles.content_digest()[:16])
 """
 
 
-def run(python: str, texture: str, size: int, out: str) -> tuple[float, float, str]:
-    """``(cpu_s, peak_rss_mb, child stdout)`` of one build in a child process."""
+def run(python: str, texture: str, size: int, out: str) -> tuple[float, float, float, str]:
+    """``(cpu_s, peak_rss_mb, wall_s, child stdout)`` of one build in a child process."""
+    t0 = time.perf_counter()
     proc = subprocess.Popen(
         [python, "-c", CHILD, texture, str(size), out], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL
     )
@@ -53,7 +57,7 @@ def run(python: str, texture: str, size: int, out: str) -> tuple[float, float, s
     _, status, ru = os.wait4(proc.pid, 0)
     if status != 0:
         raise SystemExit(f"{python}: build of {size}² failed (status {status})")
-    return ru.ru_utime + ru.ru_stime, ru.ru_maxrss / 1024, text.strip()
+    return ru.ru_utime + ru.ru_stime, ru.ru_maxrss / 1024, time.perf_counter() - t0, text.strip()
 
 
 def main() -> None:
@@ -67,28 +71,37 @@ def main() -> None:
     a = ap.parse_args()
     sizes = [int(s) for s in a.sizes.split(",")]
     old_sizes = set(sizes if a.old_sizes is None else (int(s) for s in a.old_sizes.split(",")))
-    print("| exemplar | tiles | before CPU s | before peak RSS MB | after CPU s | after peak RSS MB |")
-    print("|---|---|---|---|---|---|")
+    print(
+        "| exemplar | tiles | before CPU s | before peak RSS MB | before wall s | after CPU s | after peak RSS MB "
+        "| after wall s | same digest |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for size in sizes:
-            got: dict[str, list[tuple[float, float]]] = {"old": [], "new": []}
+            got: dict[str, list[tuple[float, float, float]]] = {"old": [], "new": []}
             desc = ""
+            digests: dict[str, str] = {}
             for _ in range(a.repeat):
                 for name, py in (("old", a.old_python), ("new", a.new_python)):
                     if py is None or (name == "old" and size not in old_sizes):
                         continue
-                    cpu, rss, desc = run(py, a.texture, size, os.path.join(tmp, f"{name}.tiles"))
-                    got[name].append((cpu, rss))
-                    print(f"# {name} {size}²: {cpu:.1f} s CPU, {rss:.0f} MB", file=sys.stderr, flush=True)
+                    cpu, rss, wall, desc = run(py, a.texture, size, os.path.join(tmp, f"{name}.tiles"))
+                    got[name].append((cpu, rss, wall))
+                    desc, _, digests[name] = desc.rpartition(" ")
+                    print(
+                        f"# {name} {size}²: {cpu:.1f} s CPU, {rss:.0f} MB, {wall:.1f} s wall",
+                        file=sys.stderr,
+                        flush=True,
+                    )
 
             def cell(name: str) -> str:
                 if not got[name]:
-                    return "- | -"
-                cpu = statistics.median(c for c, _ in got[name])
-                rss = statistics.median(r for _, r in got[name])
-                return f"{cpu:.1f} | {rss:.0f}"
+                    return "- | - | -"
+                cpu, rss, wall = (statistics.median(v[i] for v in got[name]) for i in range(3))
+                return f"{cpu:.1f} | {rss:.0f} | {wall:.1f}"
 
-            print(f"| {size}² | {desc} | {cell('old')} | {cell('new')} |", flush=True)
+            same = "-" if len(digests) < 2 else ("yes" if digests["old"] == digests["new"] else "**no**")
+            print(f"| {size}² | {desc} | {cell('old')} | {cell('new')} | {same} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -184,6 +184,19 @@ def grid_mincut(d: st.DrawFn):
 
 
 @st.composite
+def grid_mincuts(d: st.DrawFn):
+    """A stack of grids sharing one pair of hard masks (the batched free cuts of a chunk of tiles)."""
+    khw = (d(side(0, 3)), d(side(0, 6)), d(side(0, 6)))
+    lo, hi = d(st.sampled_from([(0.0, 10.0), (0.0, 1e300), (0.0, 1e-300)]))
+    wx, wy = d(arrays(3, F64, khw, lo=lo, hi=hi)), d(arrays(3, F64, khw, lo=lo, hi=hi))
+    src, snk = d(arrays(2, B, khw[1:])), d(arrays(2, B, khw[1:]))
+    if d(st.booleans()) and src.shape == snk.shape and src.dtype == snk.dtype == np.bool_:
+        snk = snk & ~src
+    kw = {"sink_cap": d(maybe(arrays(3, F64, khw, lo=lo, hi=hi))), "threads": d(threads())}
+    return _core.grid_mincuts, (wx, wy, src, snk), kw, ()
+
+
+@st.composite
 def grid_mincut8(d: st.DrawFn):
     """The 8-connected cut: the 4-connected strategy's arguments plus the two diagonal capacity arrays."""
     _, (wx, wy, src, snk), kw, _ = d(grid_mincut())
@@ -644,6 +657,7 @@ ENTRY_POINTS = {
     "PopulationEvaluator.dims": population_dims,
     "grid_mincut": grid_mincut,
     "grid_mincut8": grid_mincut8,
+    "grid_mincuts": grid_mincuts,
     "kwatra_weights": kwatra_weights,
     "omega_cuts": omega_cuts,
     "tile_copy": tile_copy,

@@ -205,3 +205,41 @@ def test_omega_cuts_are_minimum_cuts_networkx(seed):
     assert costs[0] == pytest.approx(ref, rel=1e-9, abs=1e-12)
     assert not mask[src].any() and mask[snk].all()
     assert cut_cost(mask, wx, wy) == pytest.approx(ref, rel=1e-9, abs=1e-12)
+
+
+@given(st.integers(0, 4), st.integers(1, 9), st.integers(1, 9), st.integers(0, 2**32 - 1), st.booleans())
+def test_grid_mincuts_is_every_grids_grid_mincut_at_any_thread_count(k, h, w, seed, soft):
+    """The batched cuts of a chunk of tiles (one pair of hard masks, per-grid weights and sink capacities):
+    each grid's labels and flow bit for bit as grid_mincut gives them, with 1 or 3 threads."""
+    from tilesynth.base import kernels
+
+    r = np.random.default_rng(seed)
+    wx = r.exponential(1.0, (k, h, w)) * (r.random((k, h, w)) < 0.9)
+    wy = r.exponential(1.0, (k, h, w)) * (r.random((k, h, w)) < 0.9)
+    lab = r.integers(0, 3, (h, w))
+    source, sink = lab == 1, lab == 2
+    caps = r.exponential(0.5, (k, h, w)) if soft else None
+    want = [
+        tilesynth.grid_mincut(wx[j], wy[j], source, sink, sink_cap=None if caps is None else caps[j])
+        for j in range(k)
+    ]
+    for threads in (1, 3):
+        labels, flows = kernels.grid_mincuts(wx, wy, source, sink, sink_cap=caps, threads=threads)
+        assert labels.shape == (k, h, w) and labels.dtype == np.bool_ and flows.shape == (k,)
+        for j, (lab_j, flow_j) in enumerate(want):
+            assert np.array_equal(labels[j], lab_j) and flows[j] == flow_j
+
+
+def test_grid_mincuts_names_the_argument_whose_shape_is_wrong():
+    from tilesynth.base import kernels
+
+    w = np.ones((2, 4, 5))
+    m = np.zeros((4, 5), bool)
+    with pytest.raises(tilesynth.ShapeError, match="wy"):
+        kernels.grid_mincuts(w, np.ones((2, 4, 4)), m, m)
+    with pytest.raises(tilesynth.ShapeError, match="sink_cap"):
+        kernels.grid_mincuts(w, w, m, m, sink_cap=np.ones((1, 4, 5)))
+    with pytest.raises(tilesynth.ShapeError, match="source_hard"):
+        kernels.grid_mincuts(w, w, np.zeros((4, 4), bool), m)
+    with pytest.raises(tilesynth.ParameterError, match="wx"):
+        kernels.grid_mincuts(-w, w, m, m)

@@ -21,6 +21,7 @@ __all__ = [
     "WangEvaluator",
     "grid_mincut",
     "grid_mincut8",
+    "grid_mincuts",
     "kwatra_weights",
     "omega_cuts",
     "poisson_smooth",
@@ -127,6 +128,14 @@ def grid_mincut8(
     source_cap: npt.NDArray[np.float64] | None = None,
     sink_cap: npt.NDArray[np.float64] | None = None,
 ) -> tuple[npt.NDArray[np.bool_], float]: ...
+def grid_mincuts(
+    wx: npt.NDArray[np.float64],
+    wy: npt.NDArray[np.float64],
+    source_hard: npt.NDArray[np.bool_],
+    sink_hard: npt.NDArray[np.bool_],
+    sink_cap: npt.NDArray[np.float64] | None = None,
+    threads: int | None = None,
+) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]: ...
 def kwatra_weights(
     a: npt.NDArray[np.float32],
     b: npt.NDArray[np.float32],

@@ -9,7 +9,8 @@
 
 use super::{Network, Topology, MAX_INDEX};
 use crate::error::{fmt_shape, try_collect, try_standard, try_vec, Result, TilesynthError};
-use ndarray::{Array2, ArrayView2};
+use ndarray::{Array2, Array3, ArrayView2, ArrayView3, Axis};
+use rayon::prelude::*;
 
 /// The minimum cut of a pixel grid, as returned by [`grid_mincut`].
 #[derive(Debug, Clone, PartialEq)]
@@ -97,6 +98,75 @@ pub fn grid_mincut(
     let mut net = build(h, w, wx, wy, src_hard, snk_hard, src_cap, snk_cap)?;
     let sol = net.solve("wx")?;
     grid_cut(h, w, src_hard, snk_hard, &sol.sink_side, sol.flow)
+}
+
+/// The minimum cuts of `K` independent grids of one shape and one pair of hard masks (the free cuts of a
+/// tile set, one grid per tile): [`grid_mincut`] of `wx[k]`, `wy[k]`, `source_hard`, `sink_hard` and
+/// `sink_cap[k]` for every `k`, solved in parallel on the caller's pool and returned in order, so the result
+/// is the per-grid calls' bit for bit at any thread count. `wx`, `wy` (and `sink_cap`): `(K, H, W)`.
+/// Returns the labels `(K, H, W)` and the flows; the first failing grid's error (by index) is returned.
+pub fn grid_mincuts(
+    wx: ArrayView3<f64>,
+    wy: ArrayView3<f64>,
+    source_hard: ArrayView2<bool>,
+    sink_hard: ArrayView2<bool>,
+    sink_cap: Option<ArrayView3<f64>>,
+) -> Result<GridCuts> {
+    let (k, h, w) = wx.dim();
+    let expected = fmt_shape(&[k, h, w]);
+    if wy.dim() != (k, h, w) {
+        return Err(TilesynthError::shape("wy", expected, fmt_shape(wy.shape())));
+    }
+    if let Some(c) = &sink_cap {
+        if c.dim() != (k, h, w) {
+            return Err(TilesynthError::shape(
+                "sink_cap",
+                expected,
+                fmt_shape(c.shape()),
+            ));
+        }
+    }
+    if source_hard.dim() != (h, w) || sink_hard.dim() != (h, w) {
+        let bad = if source_hard.dim() != (h, w) {
+            ("source_hard", source_hard.shape())
+        } else {
+            ("sink_hard", sink_hard.shape())
+        };
+        return Err(TilesynthError::shape(
+            bad.0,
+            fmt_shape(&[h, w]),
+            fmt_shape(bad.1),
+        ));
+    }
+    let cuts: Vec<GridCut> = (0..k)
+        .into_par_iter()
+        .map(|j| {
+            grid_mincut(
+                wx.index_axis(Axis(0), j),
+                wy.index_axis(Axis(0), j),
+                source_hard,
+                sink_hard,
+                None,
+                sink_cap.as_ref().map(|c| c.index_axis(Axis(0), j)),
+            )
+        })
+        .collect::<Result<_>>()?;
+    let mut labels = Array3::from_elem((k, h, w), false);
+    let mut flows = try_vec("wx", k, 0.0)?;
+    for (j, cut) in cuts.into_iter().enumerate() {
+        labels.index_axis_mut(Axis(0), j).assign(&cut.sink_side);
+        flows[j] = cut.flow;
+    }
+    Ok(GridCuts { labels, flows })
+}
+
+/// The minimum cuts of a stack of grids, as returned by [`grid_mincuts`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct GridCuts {
+    /// `(K, H, W)`: grid `k`'s [`GridCut::sink_side`].
+    pub labels: Array3<bool>,
+    /// Grid `k`'s [`GridCut::flow`].
+    pub flows: Vec<f64>,
 }
 
 /// The labelling of a solved grid network: hard pixels on their terminal's side, the rest as the solver

@@ -42,7 +42,7 @@ mod grid8;
 mod planar;
 
 pub(crate) use grid::GridNetwork;
-pub use grid::{grid_cut_cost, grid_mincut, GridCut};
+pub use grid::{grid_cut_cost, grid_mincut, grid_mincuts, GridCut, GridCuts};
 pub use grid8::{grid_cut_cost8, grid_mincut8};
 #[cfg(test)]
 pub(crate) use planar::planar_applies;

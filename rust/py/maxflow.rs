@@ -4,7 +4,7 @@ use super::convert::aligned;
 use super::errors::guard;
 use super::run;
 use crate::maxflow;
-use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
 
 /// Min-cut on a 4-connected grid: bool `(H, W)` labels (True = sink side) and the flow (= cut cost).
@@ -75,9 +75,38 @@ pub(super) fn grid_mincut8<'py>(
     })
 }
 
+/// Min-cuts of `K` 4-connected grids sharing their hard masks, in parallel: bool `(K, H, W)` labels and the
+/// `K` flows, each grid's as `grid_mincut` gives it.
+#[pyfunction]
+#[pyo3(signature = (wx, wy, source_hard, sink_hard, sink_cap=None, threads=None))]
+#[allow(clippy::type_complexity)]
+pub(super) fn grid_mincuts<'py>(
+    py: Python<'py>,
+    wx: PyReadonlyArray3<'py, f64>,
+    wy: PyReadonlyArray3<'py, f64>,
+    source_hard: PyReadonlyArray2<'py, bool>,
+    sink_hard: PyReadonlyArray2<'py, bool>,
+    sink_cap: Option<PyReadonlyArray3<'py, f64>>,
+    threads: Option<usize>,
+) -> PyResult<(Bound<'py, PyArray3<bool>>, Bound<'py, PyArray1<f64>>)> {
+    guard("grid_mincuts", || {
+        aligned("wx", &wx)?;
+        aligned("wy", &wy)?;
+        if let Some(a) = &sink_cap {
+            aligned("sink_cap", a)?;
+        }
+        let (wx, wy) = (wx.as_array(), wy.as_array());
+        let (src, snk) = (source_hard.as_array(), sink_hard.as_array());
+        let kc = sink_cap.as_ref().map(|a| a.as_array());
+        let cuts = run(py, threads, || maxflow::grid_mincuts(wx, wy, src, snk, kc))?;
+        Ok((cuts.labels.into_pyarray(py), cuts.flows.into_pyarray(py)))
+    })
+}
+
 /// Adds this family's bindings to the module.
 pub(super) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grid_mincut, m)?)?;
     m.add_function(wrap_pyfunction!(grid_mincut8, m)?)?;
+    m.add_function(wrap_pyfunction!(grid_mincuts, m)?)?;
     Ok(())
 }

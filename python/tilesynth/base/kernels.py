@@ -259,6 +259,27 @@ def grid_mincut(
     return _core.grid_mincut8(f64(wx, "wx"), f64(wy, "wy"), f64(wd, "wd"), f64(wa, "wa"), *terminals)
 
 
+def grid_mincuts(
+    wx: np.ndarray,
+    wy: np.ndarray,
+    source: np.ndarray,
+    sink: np.ndarray,
+    sink_cap: np.ndarray | None = None,
+    threads: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`grid_mincut` of ``K`` grids at once, in parallel: ``wx``, ``wy`` (and ``sink_cap``) ``(K, H, W)``,
+    one pair of hard masks ``(H, W)`` for all. Returns bool labels ``(K, H, W)`` (True on the sink side) and the
+    ``K`` flows, each grid's exactly as :func:`grid_mincut` gives it, at any thread count."""
+    return _core.grid_mincuts(
+        _real(wx, "wx", 3, "(K, H, W)"),
+        _real(wy, "wy", 3, "(K, H, W)"),
+        _mask(source, "source"),
+        _mask(sink, "sink"),
+        None if sink_cap is None else _real(sink_cap, "sink_cap", 3, "(K, H, W)"),
+        threads_arg(threads),
+    )
+
+
 def kwatra_weights(
     a: np.ndarray,
     b: np.ndarray,
@@ -510,6 +531,7 @@ __all__ = [
     "edge_weight_sums",
     "evaluate_population",
     "grid_mincut",
+    "grid_mincuts",
     "kwatra_weights",
     "omega_cuts",
     "patch_ssd",

@@ -137,7 +137,9 @@ def _cut(
     from .matching.levers import FREE_REGIONS, free_cuts  # the free cut regions
 
     if cut_region in FREE_REGIONS:
-        masks, costs = free_cuts(I_tiles, O_tiles, eps, grad, bias=cut_bias, cut_region=cut_region)
+        masks, costs = free_cuts(
+            I_tiles, O_tiles, eps, grad, bias=cut_bias, cut_region=cut_region, threads=b.threads
+        )
     else:
         masks, costs = kernels.omega_cuts(
             I_tiles, O_tiles, eps=eps, threads=b.threads, intermediate_grad=grad, keep_border=keep_border

@@ -175,8 +175,10 @@ def free_cuts(
     disc: int | None = None,
     bias: float | None = None,
     cut_region: str = "free",
+    threads: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Masks ``(K, N, N)`` (True = take O) and cut costs of a free cut region, one grid min cut per tile.
+    """Masks ``(K, N, N)`` (True = take O) and cut costs of a free cut region, one grid min cut per tile
+    (``threads`` at once; the result does not depend on it).
 
     ``cut_region`` "free" (tapered reward and ring penalty, :func:`free_weights`), "free8" (the same on the
     8-connected geo-cut grid, :func:`geo_weights`) or "ring" (a uniform reward, the first version). ``bias`` > 0
@@ -191,20 +193,43 @@ def free_cuts(
     bias = default_bias(cut_region, n) if bias is None else float(bias)
     reward, fx, fy = free_weights(n, bias, ring, tapered=cut_region in TAPERED_REGIONS)
     reward = np.where(free, reward, 0.0)
-    masks = np.zeros((k, n, n), bool)
-    costs = np.zeros(k)
-    for j in range(k):
-        wx, wy = kernels.kwatra_weights(
-            intermediate[j], matching[j], eps=eps, a_grad=None if grad is None else grad[j]
-        )
-        mean_w = float(np.concatenate([wx[:, :-1].ravel(), wy[:-1].ravel()]).mean())
-        cap = reward * mean_w if bias > 0 else None
-        if cut_region == "free8":
-            gx, gy, gd, ga = geo_weights(wx * fx, wy * fy)
+    if cut_region == "free8":
+        masks = np.zeros((k, n, n), bool)
+        costs = np.zeros(k)
+        for j in range(k):
+            wx, wy, cap = _free_weights(intermediate, matching, j, eps, grad, fx, fy, reward, bias)
+            gx, gy, gd, ga = geo_weights(wx, wy)
             masks[j], costs[j] = kernels.grid_mincut(gx, gy, src, sink, sink_cap=cap, wd=gd, wa=ga)
-        else:
-            masks[j], costs[j] = kernels.grid_mincut(wx * fx, wy * fy, src, sink, sink_cap=cap)
-    return masks, costs
+        return masks, costs
+    # the 4-connected cuts of a chunk solved in one call, in parallel (each grid's cut as grid_mincut gives it);
+    # the weights stay per tile: their mean is numpy's (pairwise) sum, which the recorded costs depend on
+    wxs, wys = np.empty((k, n, n)), np.empty((k, n, n))
+    caps = np.empty((k, n, n)) if bias > 0 else None
+    for j in range(k):
+        wxs[j], wys[j], cap = _free_weights(intermediate, matching, j, eps, grad, fx, fy, reward, bias)
+        if caps is not None:
+            caps[j] = cap
+    return kernels.grid_mincuts(wxs, wys, src, sink, sink_cap=caps, threads=threads)
+
+
+def _free_weights(
+    intermediate: np.ndarray,
+    matching: np.ndarray,
+    j: int,
+    eps: float,
+    grad: np.ndarray | None,
+    fx: np.ndarray,
+    fy: np.ndarray,
+    reward: np.ndarray,
+    bias: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Tile ``j``'s cut weights of :func:`free_cuts`: the Kwatra edge weights times the ring factors, and the
+    sink capacities (the reward times the tile's mean edge weight; None without a reward)."""
+    wx, wy = kernels.kwatra_weights(
+        intermediate[j], matching[j], eps=eps, a_grad=None if grad is None else grad[j]
+    )
+    mean_w = float(np.concatenate([wx[:, :-1].ravel(), wy[:-1].ravel()]).mean())
+    return wx * fx, wy * fy, reward * mean_w if bias > 0 else None
 
 
 def geo_weights(wx: np.ndarray, wy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
