@@ -827,6 +827,43 @@ mod tests {
     }
 
     #[test]
+    fn stacked_grids_are_each_grids_cut() {
+        let mut rng = SplitMix(31);
+        let (k, h, w) = (5, 6, 7);
+        let mut wx = ndarray::Array3::<f64>::zeros((k, h, w));
+        let mut wy = ndarray::Array3::<f64>::zeros((k, h, w));
+        let mut cap = ndarray::Array3::<f64>::zeros((k, h, w));
+        for v in wx.iter_mut().chain(wy.iter_mut()).chain(cap.iter_mut()) {
+            *v = 3.0 * rng.uniform();
+        }
+        let src = Array2::from_shape_fn((h, w), |(_, x)| x == 0);
+        let snk = Array2::from_shape_fn((h, w), |(_, x)| x == w - 1);
+        for with_cap in [false, true] {
+            let caps = with_cap.then(|| cap.view());
+            let got =
+                grid_mincuts(wx.view(), wy.view(), src.view(), snk.view(), caps.clone()).unwrap();
+            for j in 0..k {
+                let one = grid_mincut(
+                    wx.index_axis(Axis(0), j),
+                    wy.index_axis(Axis(0), j),
+                    src.view(),
+                    snk.view(),
+                    None,
+                    with_cap.then(|| cap.index_axis(Axis(0), j)),
+                )
+                .unwrap();
+                assert_eq!(got.labels.index_axis(Axis(0), j), one.sink_side);
+                assert_eq!(got.flows[j].to_bits(), one.flow.to_bits());
+            }
+        }
+        let bad = ndarray::Array3::<f64>::zeros((k, h, w - 1));
+        match grid_mincuts(wx.view(), bad.view(), src.view(), snk.view(), None) {
+            Err(TilesynthError::Shape { name, .. }) => assert_eq!(name, "wy"),
+            other => panic!("expected a shape error on wy, got {other:?}"),
+        }
+    }
+
+    #[test]
     fn errors() {
         let ones = Array2::<f64>::ones((3, 4));
         let f = Array2::from_elem((3, 4), false);
