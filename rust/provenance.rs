@@ -318,7 +318,7 @@ mod tests {
     #[test]
     fn dihedral_is_a_bijection() {
         for s in 0..8u8 {
-            let mut seen = vec![false; 25];
+            let mut seen = [false; 25];
             for y in 0..5 {
                 for x in 0..5 {
                     let (a, b) = dihedral(s, 5, y, x);

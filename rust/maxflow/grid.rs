@@ -840,8 +840,7 @@ mod tests {
         let snk = Array2::from_shape_fn((h, w), |(_, x)| x == w - 1);
         for with_cap in [false, true] {
             let caps = with_cap.then(|| cap.view());
-            let got =
-                grid_mincuts(wx.view(), wy.view(), src.view(), snk.view(), caps.clone()).unwrap();
+            let got = grid_mincuts(wx.view(), wy.view(), src.view(), snk.view(), caps).unwrap();
             for j in 0..k {
                 let one = grid_mincut(
                     wx.index_axis(Axis(0), j),
