@@ -44,6 +44,23 @@ def test_a_default_build_validates_its_exemplar_once_and_derives_its_luminance_o
     assert len(lums) == 1
 
 
+@pytest.mark.parametrize("scheme", ["wang", "swang", "patch"])
+def test_every_scheme_checks_its_exemplar_once(crop, scheme, monkeypatch):
+    """The papers' schemes run their stages inside the exemplar's validated block too (Wang's cut kernel and
+    the strict Wang tiles' supplementary search checked it a second time)."""
+    scans: list[str] = []
+    check = validate._check_image
+
+    def counting(image, name):
+        if np.shape(image)[:2] == crop.shape[:2]:
+            scans.append(name)
+        return check(image, name)
+
+    monkeypatch.setattr(validate, "_check_image", counting)
+    tilesynth.build(crop, scheme=scheme, seed=1, tile_size=32)
+    assert scans == ["exemplar"]
+
+
 def test_a_build_from_an_exemplar_equals_the_build_from_its_array(crop):
     a = tilesynth.build_omega(crop, tileset="c3", seed=4)
     b = tilesynth.build_omega(Exemplar.of(crop), tileset="c3", seed=4)

@@ -266,51 +266,52 @@ def build_swang(
         exemplar, tileset=tileset, resolve_set=_resolve_set, tile_size=tile_size, seed=seed, threads=threads,
         progress=progress, exemplar_info=exemplar_info, mask=mask, alpha=alpha,
     )  # fmt: skip
-    o = swang_options(b, supplementary=supplementary, candidates=candidates, gradients=gradients, eps=eps)
-    tries = check_border_tries(border_tries)
-    ex, defn, n = b.exemplar, b.definition, b.tile_size
-    k, tile_patches = len(defn), defn.sample_indices()
-    genes_arr, sel = choose_genes(
-        genes, n=defn.n_samples, size=n, shape=ex.shape, rng=b.rng,
-        evaluator=lambda: (lambda g, ev=SwangEvaluator(ex, n, tile_patches, mask=active(b.mask)): ev.evaluate(g, b.threads)),  # noqa: B008, E501 - one evaluator, built when selection starts
-        select=select, polish=polish, generations=generations, population=population,
-        select_params=select_params, selection=selection, ga_defaults=GA_DEFAULTS, progress=b.progress,
-        mask=b.mask,
-    )  # fmt: skip
-    genes_arr, sel = _border_draws(b, genes, select, polish, select_params, genes_arr, sel, n, tries)
-    t_sel = time.perf_counter()
-    b.report("initial tiles", 0, 1)
-    I_tiles, I_src, I_lab = _initial_tiles(ex, genes_arr, tile_patches, n)
-    b.report("initial tiles", 1, 1)
-    b.report("supplementary patches", 0, 1)
-    variants = np.asarray(defn.variants, np.int64)  # wc<K>x<V>: the variants of one edge tuple differ
-    nv = int(variants.max()) + 1
-    offsets, ssd = _supplementary_candidates(b, o, I_tiles, nv)
-    rank = None
-    if nv > 1 and o.method == "ssd":  # variant v: the (v+1)-th best SSD translation, N/4 from the others
-        rows = np.arange(k)
-        offsets, ssd = offsets[rows, variants][:, None], ssd[rows, variants][:, None]
-    elif nv > 1 and o.method == "cut":  # variant v: the (v+1)-th cheapest closed cut among the candidates
-        rank = variants
-    t_match = time.perf_counter()
-    b.report("supplementary patches", 1, 1)
-    b.report("cuts", 0, 1)
-    choice, masks, costs = _closed_cuts(b, o, I_tiles, I_src, offsets, rank)
-    t_cut = time.perf_counter()
-    b.report("cuts", 1, 1)
-    match = offsets[np.arange(k), choice].astype(np.int64)
-    D = ssd[np.arange(k), choice].astype(np.float64)
-    source = np.where(masks[..., None], offset_source(match, n), I_src).astype(np.int32)
-    params = {
-        "set": defn.name, "tile_size": n, "sample_size": n, "samples": "diamond", "supplementary": o.method,
-        "candidates": o.candidates if o.method == "cut" else None, "eps": float(o.eps), "gradients": o.gradients,
-        "lambda": LAMBDA, "match": "ssd", "seed": b.seed, "selection": sel, "border_tries": tries,
-    }  # fmt: skip
-    ts = finish_tileset(
-        scheme="swang", definition=defn, exemplar=ex, tiles=ex[source[..., 0], source[..., 1]], source=source,
-        cut_masks=masks, genes=genes_arr, tile_patches=tile_patches, match_offsets=match, D=D, cut_costs=costs,
-        E=energy(D), params=params, exemplar_info=b.exemplar_info,
-        timing={"selection_s": t_sel - b.started, "matching_s": t_match - t_sel, "cutting_s": t_cut - t_match},
-        started=b.started, labels=np.where(masks, SUPPLEMENTARY, I_lab),
-    )  # fmt: skip
-    return finish_build(ts, b)  # the mask record and the input warnings
+    with b.source.validated():  # the stages take the exemplar as validated here (checked once)
+        o = swang_options(b, supplementary=supplementary, candidates=candidates, gradients=gradients, eps=eps)
+        tries = check_border_tries(border_tries)
+        ex, defn, n = b.exemplar, b.definition, b.tile_size
+        k, tile_patches = len(defn), defn.sample_indices()
+        genes_arr, sel = choose_genes(
+            genes, n=defn.n_samples, size=n, shape=ex.shape, rng=b.rng,
+            evaluator=lambda: (lambda g, ev=SwangEvaluator(ex, n, tile_patches, mask=active(b.mask)): ev.evaluate(g, b.threads)),  # noqa: B008, E501 - one evaluator, built when selection starts
+            select=select, polish=polish, generations=generations, population=population,
+            select_params=select_params, selection=selection, ga_defaults=GA_DEFAULTS, progress=b.progress,
+            mask=b.mask,
+        )  # fmt: skip
+        genes_arr, sel = _border_draws(b, genes, select, polish, select_params, genes_arr, sel, n, tries)
+        t_sel = time.perf_counter()
+        b.report("initial tiles", 0, 1)
+        I_tiles, I_src, I_lab = _initial_tiles(ex, genes_arr, tile_patches, n)
+        b.report("initial tiles", 1, 1)
+        b.report("supplementary patches", 0, 1)
+        variants = np.asarray(defn.variants, np.int64)  # wc<K>x<V>: the variants of one edge tuple differ
+        nv = int(variants.max()) + 1
+        offsets, ssd = _supplementary_candidates(b, o, I_tiles, nv)
+        rank = None
+        if nv > 1 and o.method == "ssd":  # variant v: the (v+1)-th best SSD translation, N/4 from the others
+            rows = np.arange(k)
+            offsets, ssd = offsets[rows, variants][:, None], ssd[rows, variants][:, None]
+        elif nv > 1 and o.method == "cut":  # variant v: the (v+1)-th cheapest closed cut among the candidates
+            rank = variants
+        t_match = time.perf_counter()
+        b.report("supplementary patches", 1, 1)
+        b.report("cuts", 0, 1)
+        choice, masks, costs = _closed_cuts(b, o, I_tiles, I_src, offsets, rank)
+        t_cut = time.perf_counter()
+        b.report("cuts", 1, 1)
+        match = offsets[np.arange(k), choice].astype(np.int64)
+        D = ssd[np.arange(k), choice].astype(np.float64)
+        source = np.where(masks[..., None], offset_source(match, n), I_src).astype(np.int32)
+        params = {
+            "set": defn.name, "tile_size": n, "sample_size": n, "samples": "diamond", "supplementary": o.method,
+            "candidates": o.candidates if o.method == "cut" else None, "eps": float(o.eps), "gradients": o.gradients,
+            "lambda": LAMBDA, "match": "ssd", "seed": b.seed, "selection": sel, "border_tries": tries,
+        }  # fmt: skip
+        ts = finish_tileset(
+            scheme="swang", definition=defn, exemplar=ex, tiles=ex[source[..., 0], source[..., 1]], source=source,
+            cut_masks=masks, genes=genes_arr, tile_patches=tile_patches, match_offsets=match, D=D, cut_costs=costs,
+            E=energy(D), params=params, exemplar_info=b.exemplar_info,
+            timing={"selection_s": t_sel - b.started, "matching_s": t_match - t_sel, "cutting_s": t_cut - t_match},
+            started=b.started, labels=np.where(masks, SUPPLEMENTARY, I_lab),
+        )  # fmt: skip
+        return finish_build(ts, b)  # the mask record and the input warnings

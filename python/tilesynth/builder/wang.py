@@ -408,45 +408,46 @@ def build_wang(
         exemplar, tileset=tileset, resolve_set=_resolve_set, tile_size=tile_size, seed=seed, threads=threads,
         progress=progress, exemplar_info=exemplar_info, mask=mask, alpha=alpha,
     )  # fmt: skip
-    o = wang_options(b, overlap=overlap, corners=corners, samples=samples, cut=cut, omega=omega, eps=eps)
-    tries = check_border_tries(border_tries)
-    defn, n = b.definition, b.tile_size
-    if defn.n_variants > 1:  # a Cohen tile is its four edge samples: its variants would be copies
-        raise ParameterError(
-            f"tileset = {defn.name!r} has {defn.n_variants} variants per edge tuple: Cohen's Wang tiles are made "
-            "from their four edge samples alone, so variants would be identical; use --scheme swang (strict "
-            "Wang tiles, whose variants take different supplementary patches) or a set without variants"
+    with b.source.validated():  # the stages take the exemplar as validated here (checked once)
+        o = wang_options(b, overlap=overlap, corners=corners, samples=samples, cut=cut, omega=omega, eps=eps)
+        tries = check_border_tries(border_tries)
+        defn, n = b.definition, b.tile_size
+        if defn.n_variants > 1:  # a Cohen tile is its four edge samples: its variants would be copies
+            raise ParameterError(
+                f"tileset = {defn.name!r} has {defn.n_variants} variants per edge tuple: Cohen's Wang tiles are made "
+                "from their four edge samples alone, so variants would be identical; use --scheme swang (strict "
+                "Wang tiles, whose variants take different supplementary patches) or a set without variants"
+            )
+        tile_patches = defn.sample_indices()
+        genes_arr, sel = choose_genes(
+            genes, n=defn.n_samples, size=o.sample_size, shape=b.exemplar.shape, rng=b.rng,
+            evaluator=lambda: wang_evaluator(b, o, tile_patches), select=select, polish=polish,
+            generations=generations, population=population, select_params=select_params, selection=selection,
+            ga_defaults=GA_001, progress=b.progress, mask=b.mask, tile_size=n,
+        )  # fmt: skip
+        genes_arr, sel = _border_draws(
+            b, genes, select, polish, select_params, genes_arr, sel, o.sample_size, tries
         )
-    tile_patches = defn.sample_indices()
-    genes_arr, sel = choose_genes(
-        genes, n=defn.n_samples, size=o.sample_size, shape=b.exemplar.shape, rng=b.rng,
-        evaluator=lambda: wang_evaluator(b, o, tile_patches), select=select, polish=polish,
-        generations=generations, population=population, select_params=select_params, selection=selection,
-        ga_defaults=GA_001, progress=b.progress, mask=b.mask, tile_size=n,
-    )  # fmt: skip
-    genes_arr, sel = _border_draws(
-        b, genes, select, polish, select_params, genes_arr, sel, o.sample_size, tries
-    )
-    t_sel = time.perf_counter()
-    b.report("cuts", 0, 1)
-    labels, stats = kernels.wang_tiles(
-        b.exemplar, genes_arr, tile_patches, n, o.overlap, cut=o.cut, threads=b.threads, **o.kernel_args()
-    )
-    b.report("cuts", 1, 1)
-    t_cut = time.perf_counter()
-    source = sample_source(genes_arr, tile_patches, labels, n, (o.sample_size - n) // 2)
-    D = _sum4(stats[:, :, 4])
-    params = {
-        "set": defn.name, "tile_size": n, "samples": o.samples, "overlap": o.overlap, "sample_size": o.sample_size,
-        "corners": o.corners, "cut": o.cut, "omega": o.omega, "eps": float(o.eps), "seed": b.seed,
-        "selection": sel, "border_tries": tries,
-    }  # fmt: skip
-    ts = finish_tileset(
-        scheme="wang", definition=defn, exemplar=b.exemplar, tiles=b.exemplar[source[..., 0], source[..., 1]],
-        source=source, cut_masks=(labels == EAST) | (labels == WEST), genes=genes_arr, tile_patches=tile_patches,
-        match_offsets=np.full((len(defn), 2), -1, np.int64), D=D, cut_costs=_sum4(stats[:, :, 5]),
-        E=wang_energy(D, o.omega), params=params, exemplar_info=b.exemplar_info,
-        timing={"selection_s": t_sel - b.started, "cutting_s": t_cut - t_sel}, started=b.started,
-        labels=labels, cut_stats=stats,
-    )  # fmt: skip
-    return finish_build(ts, b)  # the mask record and the input warnings
+        t_sel = time.perf_counter()
+        b.report("cuts", 0, 1)
+        labels, stats = kernels.wang_tiles(
+            b.exemplar, genes_arr, tile_patches, n, o.overlap, cut=o.cut, threads=b.threads, **o.kernel_args()
+        )
+        b.report("cuts", 1, 1)
+        t_cut = time.perf_counter()
+        source = sample_source(genes_arr, tile_patches, labels, n, (o.sample_size - n) // 2)
+        D = _sum4(stats[:, :, 4])
+        params = {
+            "set": defn.name, "tile_size": n, "samples": o.samples, "overlap": o.overlap, "sample_size": o.sample_size,
+            "corners": o.corners, "cut": o.cut, "omega": o.omega, "eps": float(o.eps), "seed": b.seed,
+            "selection": sel, "border_tries": tries,
+        }  # fmt: skip
+        ts = finish_tileset(
+            scheme="wang", definition=defn, exemplar=b.exemplar, tiles=b.exemplar[source[..., 0], source[..., 1]],
+            source=source, cut_masks=(labels == EAST) | (labels == WEST), genes=genes_arr, tile_patches=tile_patches,
+            match_offsets=np.full((len(defn), 2), -1, np.int64), D=D, cut_costs=_sum4(stats[:, :, 5]),
+            E=wang_energy(D, o.omega), params=params, exemplar_info=b.exemplar_info,
+            timing={"selection_s": t_sel - b.started, "cutting_s": t_cut - t_sel}, started=b.started,
+            labels=labels, cut_stats=stats,
+        )  # fmt: skip
+        return finish_build(ts, b)  # the mask record and the input warnings
