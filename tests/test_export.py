@@ -300,7 +300,7 @@ def test_interrupted_re_export_leaves_the_previous_export_whole(tmp_path, omega_
     export is byte for byte as it was, with no temporary file beside it; the CLI says which file and exits 2."""
     import errno
 
-    import tilesynth.engine as engine
+    import tilesynth.engine.atlas_export as engine  # where the atlas export (format='atlas') writes levels
 
     out = tmp_path / "exp"
     extra = {"h": (np.arange(96 * 96, dtype=np.uint32).reshape(96, 96) % 251).astype(np.uint8)}

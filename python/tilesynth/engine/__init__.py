@@ -36,51 +36,43 @@ is what the issue rules out. The level PNGs carry the same data.
 
 from __future__ import annotations
 
-import contextlib
-import hashlib
-import json
 import os
-import re
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..cli.argtypes import normal_y_value
-from ..errors import ParameterError, ShapeError
+from ..errors import ParameterError
 from . import atlas as _atlas
-from .periodic import default_index_size, toroidal_index_map
-from .sources import SHADER_FILES, shader_source
-
-EXPORT_FORMAT = "tilesynth-export"
-EXPORT_VERSION = 1
-HASH_NAME = "pcg3d"  # tilesynth.layouts.hashed.HASH_NAME
-HASH_CONSTANTS = {
-    "lcg_multiplier": 1664525,
-    "lcg_increment": 1013904223,
-    "role_multiplier": 0x9E3779B9,
-    "shift": 16,
-}
-"""The constants of the hash as the manifest records them (checked against :mod:`tilesynth.layouts.hashed` by the tests)."""
+from .atlas_export import _manifest, _write_atlases, _write_shaders, build_maps
+from .format import (  # noqa: F401 - EXPORT_VERSION and HASH_* stay importable from tilesynth.engine
+    EXPORT_FORMAT,
+    EXPORT_VERSION,
+    HASH_CONSTANTS,
+    HASH_NAME,
+    _check_choice,
+    _index_size,
+    _map_array,
+    _version,
+    manifest_schema,
+    validate_manifest,
+)
+from .output import (  # noqa: F401 - MAX_MANIFEST_BYTES stays importable from tilesynth.engine
+    MAX_MANIFEST_BYTES,
+    _file_digest,
+    _prepare_output,
+    _remove_stale,
+    _write_level,
+    _write_manifest,
+    _write_text,
+    export_files,
+    previous_export_files,
+)
+from .periodic import toroidal_index_map
+from .sources import shader_source
 
 __all__ = ["EXPORT_FORMAT", "export", "hash_layout", "manifest_schema", "shader_source", "validate_manifest"]
-
-
-def manifest_schema() -> dict[str, Any]:
-    """The JSON Schema (draft 2020-12) of ``manifest.json``."""
-    return json.loads(
-        resources.files(__package__).joinpath("manifest.schema.json").read_text(encoding="utf-8")
-    )
-
-
-def validate_manifest(manifest: dict[str, Any]) -> None:
-    """Validate a manifest against :func:`manifest_schema` (needs ``jsonschema``, the ``test`` extra)."""
-    try:
-        import jsonschema
-    except ImportError:
-        raise ImportError("validating a manifest needs jsonschema: pip install 'tilesynth[test]'") from None
-    jsonschema.Draft202012Validator(manifest_schema()).validate(manifest)
 
 
 def hash_layout(definition: Any) -> dict[str, int] | None:
@@ -121,94 +113,6 @@ def hash_layout(definition: Any) -> dict[str, int] | None:
                 return None
         return {"kind": "edge", "Kh": kh, "Kv": kv, "V": v}
     return None
-
-
-def _check_choice(value: Any, name: str, options: tuple[Any, ...]) -> Any:
-    if value not in options:
-        raise ParameterError(f"{name} = {value!r}: must be one of {', '.join(map(repr, options))}")
-    return value
-
-
-def _map_array(name: str, value: Any, exemplar_shape: tuple[int, int]) -> np.ndarray:
-    a = np.asarray(value)
-    if a.ndim == 2:
-        a = a[:, :, None]
-    if a.ndim != 3 or a.shape[:2] != exemplar_shape or not 1 <= a.shape[2] <= 4:
-        raise ShapeError(
-            f"maps[{name!r}] has shape {np.shape(value)}, expected {exemplar_shape} or {exemplar_shape + (1,)}..."
-            f"{exemplar_shape + (4,)}: pixel-aligned with the exemplar"
-        )
-    if a.dtype not in (np.uint8, np.uint16, np.float32):
-        raise ParameterError(f"maps[{name!r}] has dtype {a.dtype}, expected uint8, uint16 or float32")
-    return a
-
-
-def _write_level(path: Path, arr: np.ndarray) -> None:
-    from ..io.images import save_image
-
-    # float32 levels go to OpenEXR (float channels, values as they are) through tilesynth.io.images's exr-crate writer
-    save_image(path, arr, bits=16 if arr.dtype == np.uint16 else 8)
-
-
-def _file_digest(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
-def build_maps(
-    tileset: Any,
-    maps: dict[str, Any] | None,
-    padding: int,
-    bits: int,
-    map_smooth: str = "auto",
-    normal_y: str = "+y",
-) -> dict[str, dict[str, Any]]:
-    """Level-0 padded cells of every map: ``{name: {"cells": (K, S, S, C), "source": "tileset"|"map"}}``."""
-    from ..builder.materials import turn_with_tiles
-    from ..synth.synthesis import _smooth_map_atlas, is_smoothed
-
-    out: dict[str, dict[str, Any]] = {}
-    src = tileset.source
-    cells = _atlas.padded_tiles(tileset.tiles, tileset.exemplar, src, padding)
-    out["albedo"] = {"cells": _atlas.quantise(cells, bits), "kind": "tileset"}
-    out.update(_stored_maps(tileset, padding, map_smooth, normal_y))  # a material set's own maps
-    for name, value in (maps or {}).items():
-        if name in out and name != "albedo":
-            raise ParameterError(
-                f"map name {name!r}: the tile set stores a map of that name; give another name"
-            )
-        if not isinstance(name, str) or not name or not all(ch.isalnum() or ch in "-_" for ch in name):
-            raise ParameterError(f"map name {name!r}: letters, digits, '-' and '_' only")
-        if name == "albedo":
-            raise ParameterError(
-                "map name 'albedo' is the tile set's own colour; give the extra map another name"
-            )
-        a = _map_array(name, value, tileset.exemplar.shape[:2])
-        tiles = np.ascontiguousarray(a[src[..., 0], src[..., 1]])
-        smooth = {"auto": is_smoothed(tileset), "on": True, "off": False}[map_smooth]
-        if smooth:
-            if not is_smoothed(tileset):
-                raise ParameterError("map_smooth = 'on': the tile set was not Poisson-smoothed")
-            tiles = _smooth_map_atlas(tileset, a, tiles, None)
-        tiles = turn_with_tiles(tileset, name, a, tiles)  # a normal map's vectors turn with their patches
-        out[name] = {"cells": _atlas.padded_tiles(tiles, a, src, padding), "kind": "map"}
-    return out
-
-
-def _stored_maps(tileset: Any, padding: int, map_smooth: str, normal_y: str) -> dict[str, dict[str, Any]]:
-    """The padded cells of the maps a material tile set stores (:mod:`tilesynth.builder.materials`): labels never
-    smoothed, normals renormalised where smoothed and given in the export's ``normal_y`` convention."""
-    from ..builder.materials import MapSpec, convert_normal_y, map_atlas
-
-    out: dict[str, dict[str, Any]] = {}
-    smooth = {"auto": None, "on": True, "off": False}[map_smooth]
-    for d in getattr(tileset, "map_specs", None) or []:
-        spec = MapSpec.from_dict(d)
-        arr = tileset.maps[spec.name]
-        cells = _atlas.padded_tiles(map_atlas(tileset, spec, arr, smooth), arr, tileset.source, padding)
-        if spec.kind == "normal" and normal_y_value(normal_y) != spec.normal_y:
-            cells = convert_normal_y(cells, spec.encoding or "unorm")
-        out[spec.name] = {"cells": cells, "kind": "map", "map_kind": spec.kind, "encoding": spec.encoding}
-    return out
 
 
 def export(
@@ -323,89 +227,6 @@ def export(
     return manifest
 
 
-def _prepare_output(
-    out: Path, names: list[str], ins: list[tuple[str, Any]], tileset: Any, lookup: str, index_size: Any
-) -> set[str]:
-    """Before anything is written: every file the export writes (``names``) against every input ``ins`` (the one
-    rule of :mod:`tilesynth.io.paths`), the index-map size, the folders made. Returns the previous export's files
-    that a re-export may remove: those it listed, less any that is now one of the inputs."""
-    from ..io.paths import check_paths, file_identity
-
-    # in a directory not there yet, nothing can be an input (it is created below)
-    check_paths(ins, [(f"output file {n}", out / n) for n in names], writable=(out / "shaders").is_dir())
-    if lookup == "index_map":  # checked before any work
-        _index_size(tileset.definition, index_size)
-    taken = {file_identity(p) for _, p in ins if p is not None}
-    previous = {n for n in previous_export_files(out) if file_identity(out / n) not in taken}
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "shaders").mkdir(exist_ok=True)
-    return previous
-
-
-def _write_manifest(out: Path, manifest: dict[str, Any], files: list[str]) -> None:
-    """``manifest.json`` listing ``files``, checked against the schema where jsonschema is installed."""
-    manifest["files"] = sorted(files)
-    try:
-        validate_manifest(manifest)
-    except ImportError:
-        pass
-    _write_text(out / "manifest.json", json.dumps(manifest, indent=1) + "\n")
-
-
-def _remove_stale(out: Path, previous: set[str], files: list[str]) -> None:
-    """Removes the previous export's files that the new one does not list (after the new set is committed)."""
-    for name in sorted(previous - set(files)):
-        with contextlib.suppress(OSError):
-            (out / name).unlink()
-
-
-#: Names an export may write (and so may remove when a re-export no longer lists them): a manifest read back
-#: from disk is data, and a tampered one must not make a re-export delete anything else.
-_EXPORT_NAME = re.compile(
-    r"^((atlas|map)_[A-Za-z0-9_-]+(_mip[0-9]+)?\.(png|exr)|index\.png|viewer\.html|shaders/tilesynth(_v2)?\.[a-z]+"
-    r"|labels_bits\.png|labels_coverage(_mip[0-9]+)?\.png|table\.bin)$"
-)
-
-#: Largest ``manifest.json`` read back from a previous export (a real one is a few hundred kB at most).
-MAX_MANIFEST_BYTES = 64 << 20
-
-
-def export_files(built: dict[str, Any], levels: int, index_map: bool, viewer: bool) -> list[str]:
-    """Every file an export writes into its directory (the names of :func:`export`, in writing order)."""
-    names = []
-    for name, info in built.items():
-        ext = "exr" if info["cells"].dtype == np.float32 else "png"
-        names += [f"atlas_{name}.{ext}"] + [f"atlas_{name}_mip{lv}.{ext}" for lv in range(1, levels + 1)]
-    if index_map:
-        names.append("index.png")
-    names += [f"shaders/{s}" for s in SHADER_FILES]
-    if viewer:
-        names.append("viewer.html")
-    return [*names, "manifest.json"]
-
-
-def previous_export_files(out: Path) -> set[str]:
-    """The files the export in ``out`` lists in its manifest (those an export may write only; none when there
-    is no readable manifest, or one larger than :data:`MAX_MANIFEST_BYTES`)."""
-    p = out / "manifest.json"
-    try:
-        if not p.is_file() or p.stat().st_size > MAX_MANIFEST_BYTES:
-            return set()
-        data = json.loads(p.read_text(encoding="utf-8"))
-        if not isinstance(data, dict) or data.get("format") != EXPORT_FORMAT:
-            return set()
-        return {f for f in data.get("files") or [] if isinstance(f, str) and _EXPORT_NAME.match(f)}
-    except (OSError, ValueError, TypeError):
-        return set()
-
-
-def _write_text(path: Path, text: str) -> None:
-    from ..io.images import atomic_open
-
-    with atomic_open(path, "wb") as fh:
-        fh.write(text.encode("utf-8"))
-
-
 def _check_export_args(
     tileset: Any,
     maps: Any,
@@ -479,56 +300,6 @@ def _check_export_args(
     return padding, lookup, hl
 
 
-def _write_atlases(
-    built: dict[str, dict[str, Any]],
-    out: Path,
-    cols: int,
-    rows: int,
-    levels: int,
-    normal_y: str,
-    files: list[str],
-    progress: Any = None,
-) -> list[dict[str, Any]]:
-    """Pack every map's cells, write its mip chain (appending the file names to ``files``); the manifest's
-    ``maps`` entries."""
-    map_entries = []
-    for k, (name, info) in enumerate(built.items()):
-        if progress is not None:
-            progress("atlases", k, len(built))
-        cells = info["cells"]
-        srgb = (name == "albedo" or info.get("map_kind") == "colour") and cells.dtype != np.float32
-        chain = _atlas.mip_chain(_atlas.pack(cells, cols, rows), levels, srgb)
-        if info.get("map_kind") == "normal":  # filtered normals, renormalised
-            from ..builder.materials import renormalise_image
-
-            chain = [chain[0], *(renormalise_image(lv, info.get("encoding", "unorm")) for lv in chain[1:])]
-        ext = "exr" if cells.dtype == np.float32 else "png"
-        level_files = []
-        for lv, arr in enumerate(chain):
-            fname = f"atlas_{name}.{ext}" if lv == 0 else f"atlas_{name}_mip{lv}.{ext}"
-            _write_level(out / fname, arr)
-            level_files.append(
-                {"level": lv, "file": fname, "width": int(arr.shape[1]), "height": int(arr.shape[0])}
-            )
-            files.append(fname)
-        entry: dict[str, Any] = {
-            "name": name,
-            "levels": level_files,
-            "channels": int(cells.shape[3]),
-            "sample_type": {np.dtype(np.uint8): "uint8", np.dtype(np.uint16): "uint16"}.get(
-                cells.dtype, "float32"
-            ),
-            "colour_space": "srgb" if srgb else "linear",
-            "mips_reduced_in": "linear light" if srgb else "stored values",
-        }
-        if info.get("map_kind", "normal" if "normal" in name.lower() else None) == "normal":
-            entry["normal_y"] = normal_y
-        map_entries.append(entry)
-    if progress is not None:
-        progress("atlases", len(built), len(built))
-    return map_entries
-
-
 def _hash_lookup(hl: dict[str, Any] | None, seed: int, wrap: tuple[int, int] | None) -> dict[str, Any]:
     """The manifest's ``lookup`` entry of the hash mode."""
     return {
@@ -540,16 +311,6 @@ def _hash_lookup(hl: dict[str, Any] | None, seed: int, wrap: tuple[int, int] | N
         "roles": {"vertex": 0, "horizontal_edge": 1, "vertical_edge": 2, "variant": 3},
         **hl,  # type: ignore[dict-item]
     }
-
-
-def _index_size(defn: Any, index_size: tuple[int, int] | None) -> tuple[int, int]:
-    """The (cols, rows) of the index map, checked."""
-    if index_size is None:
-        index_size = default_index_size(defn)
-    icols, irows = (int(v) for v in index_size)
-    if icols < 1 or irows < 1 or icols * irows > 1 << 22:
-        raise ParameterError(f"index_size = {index_size!r}: (cols, rows) >= 1 and at most 4M cells")
-    return icols, irows
 
 
 def _write_index_map(
@@ -577,78 +338,6 @@ def _write_index_map(
         "seed": int(index_seed),
         "periodic": "toroidal tiling found by backtracking scan-line search (tilesynth.engine.periodic)",
     }
-
-
-def _write_shaders(out: Path, files: list[str]) -> None:
-    for s in SHADER_FILES:
-        _write_text(out / "shaders" / s, shader_source(s))
-        files.append(f"shaders/{s}")
-
-
-def _manifest(
-    tileset: Any,
-    padding: int,
-    cols: int,
-    rows: int,
-    levels: int,
-    exact: dict[str, Any],
-    map_entries: list[dict[str, Any]],
-    lookup_entry: dict[str, Any],
-    source_path: str | os.PathLike[str] | None,
-) -> dict[str, Any]:
-    """The manifest (``files`` still None: the caller fills it in once every file is written)."""
-    defn = tileset.definition
-    n = tileset.tile_size
-    s = n + 2 * padding
-    return {
-        "format": EXPORT_FORMAT,
-        "format_version": EXPORT_VERSION,
-        "tilesynth_version": tileset.version or _version(),
-        "scheme": tileset.scheme,
-        "tile_set": getattr(defn, "name", ""),
-        "tile_size": n,
-        "tile_count": tileset.n_tiles,
-        "padding": padding,
-        "cell_size": s,
-        "atlas": {
-            "width": cols * s,
-            "height": rows * s,
-            "columns": cols,
-            "rows": rows,
-            "max_level": levels,
-            "rule": "tile t interior at x = (t % columns) * cell_size + padding, y = (t // columns) * cell_size "
-            "+ padding (level 0 texels, y down); level L divides everything by 2^L",
-            "cells": _atlas.cell_rects(tileset.n_tiles, n, padding, cols),
-            "filter": "LINEAR_MIPMAP_LINEAR, clamp to edge, max level = max_level",
-        },
-        "gutter": {
-            "fill": "exemplar continuation of the nearest tile pixel's provenance (tilesynth.engine.atlas)",
-            "exact_fraction_by_depth": exact["by_depth"],
-            "exact_fraction": exact["overall"],
-            "neighbour_pairs": exact["pairs"],
-        },
-        "maps": map_entries,
-        "lookup": lookup_entry,
-        "coordinates": "uv in tile units, pixel (x, y) of the texture covers [x/N, (x+1)/N) x [y/N, (y+1)/N), y down",
-        "source": {
-            "content_digest": tileset.content_digest(),
-            "file": os.path.basename(source_path) if source_path else None,
-            "file_sha256": _file_digest(Path(source_path)) if source_path else None,
-        },
-        "shaders": {
-            "glsl": "shaders/tilesynth.glsl",
-            "wgsl": "shaders/tilesynth.wgsl",
-            "hlsl": "shaders/tilesynth.hlsl",
-            "godot": "shaders/tilesynth.gdshader",
-        },
-        "files": None,
-    }
-
-
-def _version() -> str:
-    from .._version import __version__
-
-    return __version__
 
 
 # ------------------------------------------------------------------------------- version 2 (provenance)
