@@ -119,37 +119,93 @@ pub const UNIT_TOLERANCE: f64 = 0.0049;
 pub fn encode_unit(v: [f64; 3], scale: f64) -> [f64; 3] {
     let f = normalise(v);
     let half = 0.5 * scale;
-    let base = f.map(|x| ((x + 1.0) * half).floor().clamp(0.0, scale));
     let step = 2.0 / scale;
-    let bound = 3.0f64.sqrt() / scale * (1.0 + 1e-9);
-    let mut best = (f64::INFINITY, [0.0; 3]);
-    for corner in 0..8u32 {
-        // the corners in numpy's itertools.product order: the last channel varies fastest
-        let cand = [
-            (base[0] + f64::from((corner >> 2) & 1)).min(scale),
-            (base[1] + f64::from((corner >> 1) & 1)).min(scale),
-            (base[2] + f64::from(corner & 1)).min(scale),
-        ];
-        let dec = cand.map(|c| c * step - 1.0);
-        let err = ((dec[0] * dec[0] + dec[1] * dec[1] + dec[2] * dec[2]).sqrt() - 1.0).abs();
-        let (d0, d1, d2) = (dec[0] - f[0], dec[1] - f[1], dec[2] - f[2]);
-        let dist = (d0 * d0 + d1 * d1 + d2 * d2).sqrt();
-        let inside = dist <= bound;
-        let unit = err <= UNIT_TOLERANCE;
-        let key = if inside && unit {
-            dist
-        } else if unit {
-            10.0 + dist
-        } else if inside {
-            20.0 + err
-        } else {
-            100.0 + dist
-        };
-        if key < best.0 || corner == 0 {
-            best = (key, cand); // the first of equal keys, as numpy's argmin
+    // per channel, its two codes (floor, ceiling): the code, its decoded value squared, its distance squared
+    let mut code = [[0.0f64; 2]; 3];
+    let mut dec2 = [[0.0f64; 2]; 3];
+    let mut dist2 = [[0.0f64; 2]; 3];
+    for i in 0..3 {
+        let base = floor_small((f[i] + 1.0) * half).clamp(0.0, scale);
+        for b in 0..2 {
+            let c = (base + b as f64).min(scale);
+            let dec = c * step - 1.0;
+            let q = dec - f[i];
+            (code[i][b], dec2[i][b], dist2[i][b]) = (c, dec * dec, q * q);
         }
     }
-    best.1
+    // the tests `sqrt(x) <= bound` and `|sqrt(x) - 1| <= UNIT_TOLERANCE` without a square root where x is
+    // clearly (a relative 1e-9, far above rounding) on one side; the square root decides near the edge
+    let bound = 3.0f64.sqrt() / scale * (1.0 + 1e-9);
+    let (b_lo, b_hi) = (bound * bound * (1.0 - 1e-9), bound * bound * (1.0 + 1e-9));
+    let (u2_lo, u2_hi) = (
+        (1.0 - UNIT_TOLERANCE).powi(2),
+        (1.0 + UNIT_TOLERANCE).powi(2),
+    );
+    let (u_lo_in, u_hi_in) = (u2_lo * (1.0 + 1e-9), u2_hi * (1.0 - 1e-9));
+    let (u_lo_out, u_hi_out) = (u2_lo * (1.0 - 1e-9), u2_hi * (1.0 + 1e-9));
+    // the corners in numpy's itertools.product order (the last channel varies fastest); numpy's key:
+    // dist (inside and unit), 10 + dist (unit), 20 + err (inside), 100 + dist (neither). The tiers never
+    // overlap, so numpy's argmin is in the lowest tier present.
+    let mut tiers = [0u8; 8];
+    let mut sums = [(0.0f64, 0.0f64); 8];
+    for (corner, (tier, sum)) in tiers.iter_mut().zip(sums.iter_mut()).enumerate() {
+        let (a, b, c) = (corner >> 2, (corner >> 1) & 1, corner & 1);
+        let len2 = dec2[0][a] + dec2[1][b] + dec2[2][c];
+        let d2 = dist2[0][a] + dist2[1][b] + dist2[2][c];
+        let mut inside = d2 <= b_lo;
+        if !inside && d2 < b_hi {
+            inside = d2.sqrt() <= bound; // near the edge: the square root decides
+        }
+        let mut unit = len2 >= u_lo_in && len2 <= u_hi_in;
+        if !unit && len2 > u_lo_out && len2 < u_hi_out {
+            unit = (len2.sqrt() - 1.0).abs() <= UNIT_TOLERANCE;
+        }
+        *tier = 2 * u8::from(!unit) + u8::from(!inside);
+        *sum = (len2, d2);
+    }
+    let top = tiers.iter().copied().min().unwrap_or(3);
+    let key = |corner: usize| {
+        let (len2, d2) = sums[corner];
+        match top {
+            0 => d2.sqrt(),
+            1 => 10.0 + d2.sqrt(),
+            2 => 20.0 + (len2.sqrt() - 1.0).abs(),
+            _ => 100.0 + d2.sqrt(),
+        }
+    };
+    let mut pick = 8;
+    if top != 2 && sums.iter().all(|s| !s.1.is_nan()) {
+        // the key grows with the squared distance: the nearest corner (the first of equal ones) has the
+        // smallest key; an earlier corner within rounding of it may have the same key, and numpy takes it
+        for corner in 0..8 {
+            if tiers[corner] == top && (pick == 8 || sums[corner].1 < sums[pick].1) {
+                pick = corner;
+            }
+        }
+        let (kmin, d2min) = (key(pick), sums[pick].1);
+        if let Some(c) = (0..pick)
+            .find(|&c| tiers[c] == top && sums[c].1 <= d2min * (1.0 + 1e-6) && key(c) == kmin)
+        {
+            pick = c;
+        }
+    } else {
+        let mut best = f64::NAN;
+        for (corner, _) in tiers.iter().enumerate().filter(|&(_, &t)| t == top) {
+            let k = key(corner);
+            if pick == 8 || k < best {
+                (pick, best) = (corner, k); // the first of equal keys, as numpy's argmin; a NaN key first
+            }
+            if k.is_nan() && pick == corner {
+                break;
+            }
+        }
+    }
+    let corner = pick.min(7);
+    [
+        code[0][corner >> 2],
+        code[1][(corner >> 1) & 1],
+        code[2][corner & 1],
+    ]
 }
 
 /// The coverage pyramid of one tile's labels (extended `reach` px from the border) at the levels a band reads
@@ -160,6 +216,8 @@ struct Pyramid {
     ext: Vec<u8>,
     first: usize,
     levels: Vec<(usize, Vec<f64>)>,
+    /// Per level, per texel: the entries with a non-zero share (bit `k`: entry `k`; none kept when `e` > 64).
+    masks: Vec<Vec<u64>>,
 }
 
 impl Pyramid {
@@ -185,6 +243,7 @@ impl Pyramid {
             out
         };
         let mut levels = Vec::new();
+        let mut masks = Vec::new();
         if top >= first {
             // pixel counts per block (exact integers, as the oracle's float sums), the first level from the
             // labels and each next one from its four children (a partial block: the children that exist)
@@ -211,6 +270,18 @@ impl Pyramid {
                     }
                     (nl, counts) = (nn, next);
                 }
+                if e <= 64 {
+                    masks.push(
+                        counts
+                            .chunks(e)
+                            .map(|c| {
+                                c.iter()
+                                    .enumerate()
+                                    .fold(0u64, |m, (k, &v)| m | (u64::from(v > 0) << k))
+                            })
+                            .collect(),
+                    );
+                }
                 let s = 1usize << l;
                 let mut shares = vec![0.0f64; nl * nl * e];
                 for i in 0..nl {
@@ -232,6 +303,7 @@ impl Pyramid {
             ext,
             first,
             levels,
+            masks,
         }
     }
 }
@@ -314,11 +386,29 @@ impl Plan {
         w
     }
 
-    /// Every entry's weight at tile pixel `(y, x)` into `w` (length `e`), given entry `own`'s, `wo`: when it
-    /// is 1 the others are 0 (every tap with a non-zero fraction is then all `own`'s), else each is found.
+    /// The entries with a non-zero share at some tap of level `l` at tile pixel `(y, x)` (bit `k`: entry
+    /// `k`; meaningless when `e` > 64).
+    #[inline]
+    fn cover(&self, pyr: &Pyramid, l: usize, y: usize, x: usize) -> u64 {
+        if pyr.e > 64 {
+            return u64::MAX;
+        }
+        if l == 0 {
+            return 1u64 << pyr.ext[y * pyr.n + x];
+        }
+        let (nl, m) = (pyr.levels[l - pyr.first].0, &pyr.masks[l - pyr.first]);
+        let (ya, yb, _) = self.taps[l][y];
+        let (xa, xb, _) = self.taps[l][x];
+        m[ya * nl + xa] | m[ya * nl + xb] | m[yb * nl + xa] | m[yb * nl + xb]
+    }
+
+    /// Every entry's weight at tile pixel `(y, x)` into `w` (zero on entry, length `e`), given entry `own`'s,
+    /// `wo`: when it is 1 the others are 0 (every tap with a non-zero fraction is then all `own`'s), else the
+    /// weight of every entry that covers some tap (the others are 0). The entries written (bit `k`: entry
+    /// `k`; every entry when `e` > 64).
     #[inline]
     #[allow(clippy::too_many_arguments)]
-    fn weights(
+    fn fill(
         &self,
         pyr: &Pyramid,
         d: usize,
@@ -327,19 +417,26 @@ impl Plan {
         own: usize,
         wo: f64,
         w: &mut [f64],
-    ) {
+    ) -> u64 {
+        let e = pyr.e;
+        let own_bit = if e > 64 { u64::MAX } else { 1u64 << own };
         if wo >= 1.0 {
-            w.iter_mut().for_each(|v| *v = 0.0);
             w[own] = wo;
-        } else {
-            for (k, wk) in w.iter_mut().enumerate() {
-                *wk = if k == own {
-                    wo
-                } else {
-                    self.weight(pyr, d, y, x, k)
-                };
-            }
+            return own_bit;
         }
+        let (l0, f) = self.lods[d];
+        let mut mask = self.cover(pyr, l0, y, x) | own_bit;
+        if f > 0.0 {
+            mask |= self.cover(pyr, l0 + 1, y, x);
+        }
+        for_entries(mask, e, |k| {
+            w[k] = if k == own {
+                wo
+            } else {
+                self.weight(pyr, d, y, x, k)
+            };
+        });
+        mask
     }
 }
 
@@ -545,6 +642,7 @@ pub fn blend_maps(
             (hi, lo)
         })
         .collect();
+    let low = low.filter(|_| any_low).map(|(p, _)| p);
     let (cy0, cx0) = (oy / n, ox / n);
     let ccols = (ox + w - 1) / n - cx0 + 1;
     let cells: Vec<usize> = (cy0..=(oy + h - 1) / n)
@@ -578,68 +676,33 @@ pub fn blend_maps(
             }
         }
     }
+    let ctx = Context {
+        n,
+        e,
+        vh,
+        vw,
+        lab,
+        tab,
+        high: &high,
+        low: low.as_ref(),
+    };
     let cvmax = data.iter().map(|d| d.cv).max().unwrap_or(0);
     rows.into_par_iter()
         .with_min_len(8)
         .enumerate()
         .for_each(|(y, mut outs)| {
-            let mut wh = vec![0.0f64; e];
-            let mut wl = vec![0.0f64; e];
-            let mut acc = vec![0.0f64; cvmax];
-            let mut lowacc = vec![0.0f64; cvmax];
+            let mut seg = Segment::new(n, e, cvmax);
             let gy = y + oy;
-            let (ty, py) = (gy / n, gy % n);
-            let dy = py.min(n - 1 - py);
             let mut x = 0;
             while x < w {
                 let gx = x + ox;
                 let px0 = gx % n;
                 let end = w.min(x + n - px0);
-                let t = map[(ty, gx / n)] as usize;
-                let (hi, lo) = &pyramids[cells[(ty - cy0) * ccols + gx / n - cx0]];
-                let tl = &lab[(t * n + py) * n..(t * n + py + 1) * n];
-                let trows = &tab[t * e * 3..(t + 1) * e * 3];
-                for (xo, px) in (x..end).zip(px0..) {
-                    let d = dy.min(px.min(n - 1 - px));
-                    let own = tl[px] as usize;
-                    let ho = high.weight(hi, d, py, px, own);
-                    let mut hfull = false;
-                    let mut lfull = false;
-                    let (mut lown, mut lo_w) = (0, 1.0);
-                    if let (Some(lo), Some((plan, _))) = (lo, &low) {
-                        lown = lo.ext[py * n + px] as usize;
-                        lo_w = plan.weight(lo, d, py, px, lown);
-                    }
-                    // the exemplar pixel entry `j` reads at this pixel (mirrored into the maps)
-                    let at = |j: usize| {
-                        let row = &trows[j * 3..j * 3 + 3];
-                        mirror(py as i64 + i64::from(row[1]), vh) * vw
-                            + mirror(px as i64 + i64::from(row[2]), vw)
-                    };
-                    for (m, o) in data.iter().zip(outs.iter_mut()) {
-                        let with_low = m.lows.is_some();
-                        let mut single = ho >= 1.0 && (!with_low || lo_w >= 1.0);
-                        if !single {
-                            if !hfull {
-                                high.weights(hi, d, py, px, own, ho, &mut wh);
-                                hfull = true;
-                            }
-                            if with_low && !lfull {
-                                if let (Some(lo), Some((plan, _))) = (lo, &low) {
-                                    plan.weights(lo, d, py, px, lown, lo_w, &mut wl);
-                                }
-                                lfull = true;
-                            }
-                            // the oracle's test: some entry of every band has weight 1
-                            single = wh.iter().any(|&v| v >= 1.0)
-                                && (!with_low || wl.iter().any(|&v| v >= 1.0));
-                        }
-                        if single {
-                            copy_sample(m, o, xo, at(own));
-                        } else {
-                            blend_pixel(m, o, xo, &at, &wh, &wl, &mut acc, &mut lowacc);
-                        }
-                    }
+                let t = map[(gy / n, gx / n)] as usize;
+                let pyr = &pyramids[cells[(gy / n - cy0) * ccols + gx / n - cx0]];
+                seg.weigh(&ctx, pyr, t, gy % n, px0..px0 + (end - x));
+                for (m, o) in data.iter().zip(outs.iter_mut()) {
+                    seg.write(m, o, x);
                 }
                 x = end;
             }
@@ -647,16 +710,288 @@ pub fn blend_maps(
     Ok(())
 }
 
-/// Writes the samples of exemplar pixel `at` of map `m` to pixel `xo` of its window row `o` (a copy).
+/// What every segment of a window reads: the tile size and entries, the maps' size, the provenance, the bands.
+struct Context<'a> {
+    n: usize,
+    e: usize,
+    vh: usize,
+    vw: usize,
+    lab: &'a [u8],
+    tab: &'a [i32],
+    high: &'a Plan,
+    low: Option<&'a Plan>,
+}
+
+/// One pixel of a segment: the exemplar pixel its own entry reads, whether one entry has every weight of the
+/// high band (`single_h`) and of both bands (`single`), and its entries with a non-zero weight
+/// (`entries[start..end]`, where one of the maps blends it).
+#[derive(Clone, Copy, Default)]
+struct Pixel {
+    own_at: usize,
+    single_h: bool,
+    single: bool,
+    start: usize,
+    end: usize,
+}
+
+/// One entry of a blended pixel: the exemplar pixel it reads, its high and low band weights.
+#[derive(Clone, Copy)]
+struct Entry {
+    at: usize,
+    wh: f64,
+    wl: f64,
+}
+
+/// The weights of a run of pixels of one tile row (shared by every map), and the scratch of the blend.
+struct Segment {
+    len: usize,
+    pixels: Vec<Pixel>,
+    entries: Vec<Entry>,
+    rbase: Vec<usize>,
+    wh: Vec<f64>,
+    wl: Vec<f64>,
+    acc: Vec<f64>,
+    lowacc: Vec<f64>,
+}
+
+/// The entries of `mask` (bit `k`: entry `k`), ascending; every entry below `e` when `e` > 64.
 #[inline]
-fn copy_sample(m: &MapData<'_>, o: &mut SamplesMut<'_>, xo: usize, at: usize) {
-    let c = m.c;
-    let (from, to) = (at * c..(at + 1) * c, xo * c..(xo + 1) * c);
-    match (m.codes, o) {
-        (Samples::U8(s), SamplesMut::U8(d)) => d[to].copy_from_slice(&s[from]),
-        (Samples::U16(s), SamplesMut::U16(d)) => d[to].copy_from_slice(&s[from]),
-        (Samples::F32(s), SamplesMut::F32(d)) => d[to].copy_from_slice(&s[from]),
-        _ => unreachable!("codes and out of one sample type (checked)"),
+fn for_entries(mask: u64, e: usize, mut f: impl FnMut(usize)) {
+    if e > 64 {
+        (0..e).for_each(f);
+    } else {
+        let mut m = mask;
+        while m != 0 {
+            f(m.trailing_zeros() as usize);
+            m &= m - 1;
+        }
+    }
+}
+
+impl Segment {
+    fn new(n: usize, e: usize, cv: usize) -> Segment {
+        Segment {
+            len: 0,
+            pixels: vec![Pixel::default(); n],
+            entries: Vec::with_capacity(4 * n),
+            rbase: vec![0; e],
+            wh: vec![0.0; e],
+            wl: vec![0.0; e],
+            acc: vec![0.0; cv],
+            lowacc: vec![0.0; cv],
+        }
+    }
+
+    /// The weights of tile `t`'s pixels `xs` of row `py` (module docstring, steps 2-3): each band's weight of
+    /// the pixel's own entry first; where it is below 1, every entry that covers a tap (the others are 0).
+    fn weigh(
+        &mut self,
+        ctx: &Context<'_>,
+        (hi, lo): &(Pyramid, Option<Pyramid>),
+        t: usize,
+        py: usize,
+        xs: std::ops::Range<usize>,
+    ) {
+        let (n, e) = (ctx.n, ctx.e);
+        let xs_len = xs.len();
+        let tl = &ctx.lab[(t * n + py) * n..(t * n + py + 1) * n];
+        let trows = &ctx.tab[t * e * 3..(t + 1) * e * 3];
+        for (j, r) in self.rbase.iter_mut().enumerate() {
+            *r = mirror(py as i64 + i64::from(trows[j * 3 + 1]), ctx.vh) * ctx.vw;
+        }
+        let col = |j: usize, px: usize| mirror(px as i64 + i64::from(trows[j * 3 + 2]), ctx.vw);
+        let dy = py.min(n - 1 - py);
+        self.entries.clear();
+        for (i, px) in xs.enumerate() {
+            let d = dy.min(px.min(n - 1 - px));
+            let own = tl[px] as usize;
+            let ho = ctx.high.weight(hi, d, py, px, own);
+            let mut single_h = ho >= 1.0;
+            let mut single = single_h;
+            let mut low_own = None;
+            if let (Some(plan), Some(lo)) = (ctx.low, lo) {
+                let lown = lo.ext[py * n + px] as usize;
+                let wo = plan.weight(lo, d, py, px, lown);
+                single &= wo >= 1.0;
+                low_own = Some((lown, wo));
+            }
+            let start = self.entries.len();
+            if !single {
+                let mh = ctx.high.fill(hi, d, py, px, own, ho, &mut self.wh);
+                single_h = for_any(mh, e, &self.wh);
+                let mut mask = mh;
+                let mut single_l = true;
+                if let (Some(plan), Some(lo), Some((lown, wo))) = (ctx.low, lo, low_own) {
+                    let ml = plan.fill(lo, d, py, px, lown, wo, &mut self.wl);
+                    single_l = for_any(ml, e, &self.wl);
+                    mask |= ml;
+                }
+                single = single_h && single_l;
+                for_entries(mask, e, |j| {
+                    let (wh, wl) = (self.wh[j], self.wl[j]);
+                    if wh != 0.0 || wl != 0.0 {
+                        self.entries.push(Entry {
+                            at: self.rbase[j] + col(j, px),
+                            wh,
+                            wl,
+                        });
+                    }
+                    self.wh[j] = 0.0;
+                    self.wl[j] = 0.0;
+                });
+            }
+            self.pixels[i] = Pixel {
+                own_at: self.rbase[own] + col(own, px),
+                single_h,
+                single,
+                start,
+                end: self.entries.len(),
+            };
+        }
+        self.len = xs_len;
+    }
+
+    /// Writes the segment's pixels of map `m` into its window row `o` from pixel `x0` on.
+    fn write(&mut self, m: &MapData<'_>, o: &mut SamplesMut<'_>, x0: usize) {
+        match (m.codes, o) {
+            (Samples::U8(c), SamplesMut::U8(d)) => self.write_as(m, c, d, x0),
+            (Samples::U16(c), SamplesMut::U16(d)) => self.write_as(m, c, d, x0),
+            (Samples::F32(c), SamplesMut::F32(d)) => self.write_as(m, c, d, x0),
+            _ => unreachable!("codes and out of one sample type (checked)"),
+        }
+    }
+
+    /// [`Segment::write`] in the map's sample type: the copies where one entry has every weight of the map's
+    /// bands, else the blend (module docstring, step 5) encoded.
+    fn write_as<T: Code>(&mut self, m: &MapData<'_>, codes: &[T], out: &mut [T], x0: usize) {
+        let (c, cv) = (m.c, m.cv);
+        let (acc, lowacc) = (&mut self.acc[..cv], &mut self.lowacc[..cv]);
+        for (i, p) in self.pixels[..self.len].iter().enumerate() {
+            let o = &mut out[(x0 + i) * c..(x0 + i + 1) * c];
+            let single = if m.lows.is_some() {
+                p.single
+            } else {
+                p.single_h
+            };
+            if single {
+                let from = &codes[p.own_at * c..(p.own_at + 1) * c];
+                for (q, &v) in o.iter_mut().zip(from) {
+                    *q = v; // a loop, not a call to memcpy, for a few samples
+                }
+                continue;
+            }
+            let ents = &self.entries[p.start..p.end];
+            acc.iter_mut().for_each(|v| *v = 0.0);
+            match m.lows {
+                None => {
+                    for en in ents {
+                        if en.wh == 0.0 {
+                            continue; // adds exactly nothing: skipped (the same bits as the oracle)
+                        }
+                        let vals = &m.vals[en.at * cv..(en.at + 1) * cv];
+                        for (a, &v) in acc.iter_mut().zip(vals) {
+                            *a += en.wh * v;
+                        }
+                    }
+                }
+                Some(lows) => {
+                    lowacc.iter_mut().for_each(|v| *v = 0.0);
+                    let mut sq = 0.0f64;
+                    for en in ents {
+                        let at = en.at * cv;
+                        for ch in 0..cv {
+                            let band = lows[at + ch];
+                            lowacc[ch] += en.wl * band;
+                            acc[ch] += en.wh * (m.vals[at + ch] - band);
+                        }
+                        sq += en.wl * en.wl;
+                    }
+                    let norm = sq.sqrt();
+                    for ch in 0..cv {
+                        // the oracle's `μ + (Σ g a − μ) / √Σ g² + Σ h (v − a)` (a sum of two terms commutes)
+                        acc[ch] += m.mu[ch] + (lowacc[ch] - m.mu[ch]) / norm;
+                    }
+                }
+            }
+            match m.kind {
+                Kind::Scalar => {
+                    for (q, &v) in o.iter_mut().zip(acc.iter()) {
+                        *q = T::scalar(v);
+                    }
+                }
+                Kind::Normal { snorm } => {
+                    o.copy_from_slice(&T::normal([acc[0], acc[1], 1.0], snorm))
+                }
+            }
+        }
+    }
+}
+
+/// Whether some entry of `mask` has weight 1 or more in `w`.
+#[inline]
+fn for_any(mask: u64, e: usize, w: &[f64]) -> bool {
+    let mut any = false;
+    for_entries(mask, e, |k| any |= w[k] >= 1.0);
+    any
+}
+
+/// `floor(v)` of `v < 2^52`, where a negative `v` may give any value at most 0 (the callers clamp it to 0): a
+/// truncation (no libm call: a generic x86-64 build has no floor instruction).
+#[inline]
+fn floor_small(v: f64) -> f64 {
+    if v.is_nan() {
+        v
+    } else {
+        v as i64 as f64
+    }
+}
+
+/// `rint(v)` (round half to even) of `0 <= v < 2^52`: adding `2^52` leaves no fraction bits, so the sum is
+/// rounded to an integer by the FPU's round-half-even (no libm call, the same value).
+#[inline]
+fn rint_small(v: f64) -> f64 {
+    const BIG: f64 = 4_503_599_627_370_496.0;
+    (v + BIG) - BIG
+}
+
+/// A sample type of the maps: how a blended value is encoded (module docstring, step 6).
+trait Code: Copy {
+    /// A scalar map's blended value.
+    fn scalar(v: f64) -> Self;
+    /// A normal map's blended vector `(σx, σy, 1)`.
+    fn normal(v: [f64; 3], snorm: bool) -> [Self; 3];
+}
+
+impl Code for u8 {
+    #[inline]
+    fn scalar(v: f64) -> u8 {
+        rint_small(v.clamp(0.0, 1.0) * 255.0) as u8
+    }
+    #[inline]
+    fn normal(v: [f64; 3], _: bool) -> [u8; 3] {
+        encode_unit(v, 255.0).map(|c| c as u8)
+    }
+}
+
+impl Code for u16 {
+    #[inline]
+    fn scalar(v: f64) -> u16 {
+        rint_small(v.clamp(0.0, 1.0) * 65535.0) as u16
+    }
+    #[inline]
+    fn normal(v: [f64; 3], _: bool) -> [u16; 3] {
+        encode_unit(v, 65535.0).map(|c| c as u16)
+    }
+}
+
+impl Code for f32 {
+    #[inline]
+    fn scalar(v: f64) -> f32 {
+        v as f32
+    }
+    #[inline]
+    fn normal(v: [f64; 3], snorm: bool) -> [f32; 3] {
+        normalise(v).map(|x| if snorm { x } else { (x + 1.0) * 0.5 } as f32)
     }
 }
 
@@ -665,93 +1000,4 @@ fn copy_sample(m: &MapData<'_>, o: &mut SamplesMut<'_>, xo: usize, at: usize) {
 fn normalise(v: [f64; 3]) -> [f64; 3] {
     let div = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-300);
     [v[0] / div, v[1] / div, v[2] / div]
-}
-
-/// Blends pixel `xo` of map `m` from the entries with a non-zero weight (`at(j)`: the exemplar pixel entry `j`
-/// reads) and writes it encoded (module docstring).
-#[inline]
-#[allow(clippy::too_many_arguments)]
-fn blend_pixel(
-    m: &MapData<'_>,
-    o: &mut SamplesMut<'_>,
-    xo: usize,
-    at: &impl Fn(usize) -> usize,
-    wh: &[f64],
-    wl: &[f64],
-    acc: &mut [f64],
-    lowacc: &mut [f64],
-) {
-    let cv = m.cv;
-    let (acc, lowacc) = (&mut acc[..cv], &mut lowacc[..cv]);
-    acc.iter_mut().for_each(|v| *v = 0.0);
-    match m.lows {
-        None => {
-            for (j, &wj) in wh.iter().enumerate() {
-                if wj == 0.0 {
-                    continue; // adds exactly nothing: skipped (the same bits as the oracle)
-                }
-                let vals = &m.vals[at(j) * cv..(at(j) + 1) * cv];
-                for (a, &v) in acc.iter_mut().zip(vals) {
-                    *a += wj * v;
-                }
-            }
-        }
-        Some(lows) => {
-            lowacc.iter_mut().for_each(|v| *v = 0.0);
-            let mut sq = 0.0f64;
-            for (j, (&hj, &gj)) in wh.iter().zip(wl).enumerate() {
-                if hj == 0.0 && gj == 0.0 {
-                    continue; // adds exactly nothing: skipped (the same bits as the oracle)
-                }
-                let p = at(j) * cv;
-                for ch in 0..cv {
-                    let band = lows[p + ch];
-                    lowacc[ch] += gj * band;
-                    acc[ch] += hj * (m.vals[p + ch] - band);
-                }
-                sq += gj * gj;
-            }
-            let norm = sq.sqrt();
-            for ch in 0..cv {
-                // the oracle's `μ + (Σ g a − μ) / √Σ g² + Σ h (v − a)` (a float sum of two terms commutes)
-                acc[ch] += m.mu[ch] + (lowacc[ch] - m.mu[ch]) / norm;
-            }
-        }
-    }
-    let to = xo * m.c..(xo + 1) * m.c;
-    match (m.kind, o) {
-        (Kind::Scalar, SamplesMut::U8(d)) => {
-            for (q, &v) in d[to].iter_mut().zip(acc.iter()) {
-                *q = (v.clamp(0.0, 1.0) * 255.0).round_ties_even() as u8;
-            }
-        }
-        (Kind::Scalar, SamplesMut::U16(d)) => {
-            for (q, &v) in d[to].iter_mut().zip(acc.iter()) {
-                *q = (v.clamp(0.0, 1.0) * 65535.0).round_ties_even() as u16;
-            }
-        }
-        (Kind::Scalar, SamplesMut::F32(d)) => {
-            for (q, &v) in d[to].iter_mut().zip(acc.iter()) {
-                *q = v as f32;
-            }
-        }
-        (Kind::Normal { .. }, SamplesMut::U8(d)) => {
-            let c = encode_unit([acc[0], acc[1], 1.0], 255.0);
-            for (q, v) in d[to].iter_mut().zip(c) {
-                *q = v as u8;
-            }
-        }
-        (Kind::Normal { .. }, SamplesMut::U16(d)) => {
-            let c = encode_unit([acc[0], acc[1], 1.0], 65535.0);
-            for (q, v) in d[to].iter_mut().zip(c) {
-                *q = v as u16;
-            }
-        }
-        (Kind::Normal { snorm }, SamplesMut::F32(d)) => {
-            let f = normalise([acc[0], acc[1], 1.0]);
-            for (q, v) in d[to].iter_mut().zip(f) {
-                *q = if snorm { v } else { (v + 1.0) * 0.5 } as f32;
-            }
-        }
-    }
 }
