@@ -357,84 +357,139 @@ impl Plan {
             taps,
         }
     }
+}
 
-    /// Entry `k`'s coverage at level `l` of `pyr`, bilinear at tile pixel `(y, x)`: rows (y) first, then columns
-    /// (x), the oracle's order; level 0 is the indicator (its taps have no fraction).
-    #[inline]
-    fn sample(&self, pyr: &Pyramid, l: usize, y: usize, x: usize, k: usize) -> f64 {
-        if l == 0 {
-            return f64::from(u8::from(pyr.ext[y * pyr.n + x] as usize == k));
+/// A band's coverage along one tile row, level by level: every texel column's blend of the row's two texel
+/// rows (the first step of the bilinear sample, `c(ya, j)·(1 − fy) + c(yb, j)·fy`, every entry) and the
+/// entries covering either, computed on its first use in a segment and shared by the pixels that read it.
+#[derive(Default)]
+struct RowCache {
+    seg: u64,
+    levels: Vec<LevelRow>,
+}
+
+/// One level of a [`RowCache`].
+#[derive(Default)]
+struct LevelRow {
+    ya: usize,
+    yb: usize,
+    fy: f64,
+    vals: Vec<f64>,
+    masks: Vec<u64>,
+    stamp: Vec<u64>,
+}
+
+/// The taps of a band at one pixel: its levels `l0` (and `l0 + 1` when `f > 0`), and per level the offsets of
+/// the two texel columns in the row cache and the column fraction; the entries covering some tap (bit `k`);
+/// the label of the pixel (level 0's indicator).
+struct Taps {
+    l0: usize,
+    f: f64,
+    cols: [(usize, usize, f64); 2],
+    mask: u64,
+    label: usize,
+}
+
+impl RowCache {
+    /// Starts a segment of tile row `y` of the pyramid `pyr` of a band planned by `plan`.
+    fn begin(&mut self, plan: &Plan, pyr: &Pyramid, y: usize) {
+        self.seg += 1;
+        if self.levels.len() <= plan.top {
+            self.levels.resize_with(plan.top + 1, LevelRow::default);
         }
-        let (nl, data) = &pyr.levels[l - pyr.first];
-        let (ya, yb, fy) = self.taps[l][y];
-        let (xa, xb, fx) = self.taps[l][x];
-        let e = pyr.e;
-        let c = |i: usize, j: usize| data[(i * nl + j) * e + k];
-        let left = c(ya, xa) * (1.0 - fy) + c(yb, xa) * fy;
-        let right = c(ya, xb) * (1.0 - fy) + c(yb, xb) * fy;
-        left * (1.0 - fx) + right * fx
+        for (l, (nl, _)) in (pyr.first..).zip(&pyr.levels) {
+            let row = &mut self.levels[l];
+            (row.ya, row.yb, row.fy) = plan.taps[l][y];
+            if row.stamp.len() < *nl {
+                row.stamp.resize(*nl, 0);
+                row.masks.resize(*nl, 0);
+                row.vals.resize(nl * pyr.e, 0.0);
+            }
+        }
     }
 
-    /// Entry `k`'s weight at tile pixel `(y, x)` at border distance `d`: `(1 − f)·C^{l0} + f·C^{l0+1}`.
+    /// The offset of texel column `j` of level `l` in its row's values (computed here on its first use).
     #[inline]
-    fn weight(&self, pyr: &Pyramid, d: usize, y: usize, x: usize, k: usize) -> f64 {
-        let (l0, f) = self.lods[d];
-        let mut w = 0.0 + self.sample(pyr, l0, y, x, k) * (1.0 - f);
-        if f > 0.0 {
-            w += self.sample(pyr, l0 + 1, y, x, k) * f;
+    fn column(&mut self, pyr: &Pyramid, l: usize, j: usize) -> usize {
+        let e = pyr.e;
+        let row = &mut self.levels[l];
+        if row.stamp[j] != self.seg {
+            let (nl, data) = &pyr.levels[l - pyr.first];
+            let (a, b) = ((row.ya * nl + j) * e, (row.yb * nl + j) * e);
+            let fy = row.fy;
+            for (k, v) in row.vals[j * e..(j + 1) * e].iter_mut().enumerate() {
+                *v = data[a + k] * (1.0 - fy) + data[b + k] * fy;
+            }
+            if e <= 64 {
+                let m = &pyr.masks[l - pyr.first];
+                row.masks[j] = m[row.ya * nl + j] | m[row.yb * nl + j];
+            }
+            row.stamp[j] = self.seg;
+        }
+        j * e
+    }
+
+    /// The taps of the band at tile pixel `(y, x)` at border distance `d` (the row begun).
+    #[inline]
+    fn taps(&mut self, plan: &Plan, pyr: &Pyramid, d: usize, y: usize, x: usize) -> Taps {
+        let (l0, f) = plan.lods[d];
+        let label = pyr.ext[y * pyr.n + x] as usize;
+        let mut taps = Taps {
+            l0,
+            f,
+            cols: [(0, 0, 0.0); 2],
+            mask: if pyr.e > 64 { u64::MAX } else { 0 },
+            label,
+        };
+        for (i, l) in (l0..=l0 + usize::from(f > 0.0)).enumerate() {
+            if l == 0 {
+                taps.mask |= if pyr.e > 64 { u64::MAX } else { 1u64 << label };
+                continue;
+            }
+            let (xa, xb, fx) = plan.taps[l][x];
+            let (oa, ob) = (self.column(pyr, l, xa), self.column(pyr, l, xb));
+            if pyr.e <= 64 {
+                let row = &self.levels[l];
+                taps.mask |= row.masks[xa] | row.masks[xb];
+            }
+            taps.cols[i] = (oa, ob, fx);
+        }
+        taps
+    }
+
+    /// Entry `k`'s weight at the taps `t`: `(1 − f)·C^{l0} + f·C^{l0+1}`, each `C` bilinear (rows first, then
+    /// columns: the oracle's order; level 0 the indicator, whose taps have no fraction).
+    #[inline]
+    fn weight(&self, t: &Taps, k: usize) -> f64 {
+        let sample = |i: usize, l: usize| {
+            if l == 0 {
+                return f64::from(u8::from(t.label == k));
+            }
+            let (oa, ob, fx) = t.cols[i];
+            let v = &self.levels[l].vals;
+            v[oa + k] * (1.0 - fx) + v[ob + k] * fx
+        };
+        let mut w = 0.0 + sample(0, t.l0) * (1.0 - t.f);
+        if t.f > 0.0 {
+            w += sample(1, t.l0 + 1) * t.f;
         }
         w
     }
 
-    /// The entries with a non-zero share at some tap of level `l` at tile pixel `(y, x)` (bit `k`: entry
-    /// `k`; meaningless when `e` > 64).
+    /// Every entry's weight at the taps `t` into `w` (zero on entry, length `e`), given entry `own`'s, `wo`:
+    /// when it is 1 the others are 0 (every tap with a non-zero fraction is then all `own`'s), else the weight
+    /// of every entry that covers some tap (the others are 0). The entries written (bit `k`: entry `k`; every
+    /// entry when `e` > 64).
     #[inline]
-    fn cover(&self, pyr: &Pyramid, l: usize, y: usize, x: usize) -> u64 {
-        if pyr.e > 64 {
-            return u64::MAX;
-        }
-        if l == 0 {
-            return 1u64 << pyr.ext[y * pyr.n + x];
-        }
-        let (nl, m) = (pyr.levels[l - pyr.first].0, &pyr.masks[l - pyr.first]);
-        let (ya, yb, _) = self.taps[l][y];
-        let (xa, xb, _) = self.taps[l][x];
-        m[ya * nl + xa] | m[ya * nl + xb] | m[yb * nl + xa] | m[yb * nl + xb]
-    }
-
-    /// Every entry's weight at tile pixel `(y, x)` into `w` (zero on entry, length `e`), given entry `own`'s,
-    /// `wo`: when it is 1 the others are 0 (every tap with a non-zero fraction is then all `own`'s), else the
-    /// weight of every entry that covers some tap (the others are 0). The entries written (bit `k`: entry
-    /// `k`; every entry when `e` > 64).
-    #[inline]
-    #[allow(clippy::too_many_arguments)]
-    fn fill(
-        &self,
-        pyr: &Pyramid,
-        d: usize,
-        y: usize,
-        x: usize,
-        own: usize,
-        wo: f64,
-        w: &mut [f64],
-    ) -> u64 {
-        let e = pyr.e;
+    fn fill(&self, t: &Taps, e: usize, own: usize, wo: f64, w: &mut [f64]) -> u64 {
         let own_bit = if e > 64 { u64::MAX } else { 1u64 << own };
         if wo >= 1.0 {
             w[own] = wo;
             return own_bit;
         }
-        let (l0, f) = self.lods[d];
-        let mut mask = self.cover(pyr, l0, y, x) | own_bit;
-        if f > 0.0 {
-            mask |= self.cover(pyr, l0 + 1, y, x);
-        }
+        let mask = t.mask | own_bit;
         for_entries(mask, e, |k| {
-            w[k] = if k == own {
-                wo
-            } else {
-                self.weight(pyr, d, y, x, k)
-            };
+            w[k] = if k == own { wo } else { self.weight(t, k) };
         });
         mask
     }
@@ -690,23 +745,25 @@ pub fn blend_maps(
     rows.into_par_iter()
         .with_min_len(8)
         .enumerate()
-        .for_each(|(y, mut outs)| {
-            let mut seg = Segment::new(n, e, cvmax);
-            let gy = y + oy;
-            let mut x = 0;
-            while x < w {
-                let gx = x + ox;
-                let px0 = gx % n;
-                let end = w.min(x + n - px0);
-                let t = map[(gy / n, gx / n)] as usize;
-                let pyr = &pyramids[cells[(gy / n - cy0) * ccols + gx / n - cx0]];
-                seg.weigh(&ctx, pyr, t, gy % n, px0..px0 + (end - x));
-                for (m, o) in data.iter().zip(outs.iter_mut()) {
-                    seg.write(m, o, x);
+        .for_each_init(
+            || Segment::new(n, e, cvmax),
+            |seg, (y, mut outs)| {
+                let gy = y + oy;
+                let mut x = 0;
+                while x < w {
+                    let gx = x + ox;
+                    let px0 = gx % n;
+                    let end = w.min(x + n - px0);
+                    let t = map[(gy / n, gx / n)] as usize;
+                    let pyr = &pyramids[cells[(gy / n - cy0) * ccols + gx / n - cx0]];
+                    seg.weigh(&ctx, pyr, t, gy % n, px0..px0 + (end - x));
+                    for (m, o) in data.iter().zip(outs.iter_mut()) {
+                        seg.write(m, o, x);
+                    }
+                    x = end;
                 }
-                x = end;
-            }
-        });
+            },
+        );
     Ok(())
 }
 
@@ -724,7 +781,7 @@ struct Context<'a> {
 
 /// One pixel of a segment: the exemplar pixel its own entry reads, whether one entry has every weight of the
 /// high band (`single_h`) and of both bands (`single`), and its entries with a non-zero weight
-/// (`entries[start..end]`, where one of the maps blends it).
+/// (`entries[start..end]`, where one of the maps blends it), with `norm = √Σ g²` of the low band's weights.
 #[derive(Clone, Copy, Default)]
 struct Pixel {
     own_at: usize,
@@ -732,6 +789,7 @@ struct Pixel {
     single: bool,
     start: usize,
     end: usize,
+    norm: f64,
 }
 
 /// One entry of a blended pixel: the exemplar pixel it reads, its high and low band weights.
@@ -752,6 +810,8 @@ struct Segment {
     wl: Vec<f64>,
     acc: Vec<f64>,
     lowacc: Vec<f64>,
+    hc: RowCache,
+    lc: RowCache,
 }
 
 /// The entries of `mask` (bit `k`: entry `k`), ascending; every entry below `e` when `e` > 64.
@@ -779,6 +839,8 @@ impl Segment {
             wl: vec![0.0; e],
             acc: vec![0.0; cv],
             lowacc: vec![0.0; cv],
+            hc: RowCache::default(),
+            lc: RowCache::default(),
         }
     }
 
@@ -802,27 +864,37 @@ impl Segment {
         let col = |j: usize, px: usize| mirror(px as i64 + i64::from(trows[j * 3 + 2]), ctx.vw);
         let dy = py.min(n - 1 - py);
         self.entries.clear();
+        self.hc.begin(ctx.high, hi, py);
+        let low = match (ctx.low, lo) {
+            (Some(plan), Some(lo)) => {
+                self.lc.begin(plan, lo, py);
+                Some((plan, lo))
+            }
+            _ => None,
+        };
         for (i, px) in xs.enumerate() {
             let d = dy.min(px.min(n - 1 - px));
             let own = tl[px] as usize;
-            let ho = ctx.high.weight(hi, d, py, px, own);
+            let ht = self.hc.taps(ctx.high, hi, d, py, px);
+            let ho = self.hc.weight(&ht, own);
             let mut single_h = ho >= 1.0;
             let mut single = single_h;
             let mut low_own = None;
-            if let (Some(plan), Some(lo)) = (ctx.low, lo) {
-                let lown = lo.ext[py * n + px] as usize;
-                let wo = plan.weight(lo, d, py, px, lown);
+            if let Some((plan, lo)) = low {
+                let lt = self.lc.taps(plan, lo, d, py, px);
+                let wo = self.lc.weight(&lt, lt.label);
                 single &= wo >= 1.0;
-                low_own = Some((lown, wo));
+                low_own = Some((lt, wo));
             }
             let start = self.entries.len();
+            let mut sq = 0.0f64;
             if !single {
-                let mh = ctx.high.fill(hi, d, py, px, own, ho, &mut self.wh);
+                let mh = self.hc.fill(&ht, e, own, ho, &mut self.wh);
                 single_h = for_any(mh, e, &self.wh);
                 let mut mask = mh;
                 let mut single_l = true;
-                if let (Some(plan), Some(lo), Some((lown, wo))) = (ctx.low, lo, low_own) {
-                    let ml = plan.fill(lo, d, py, px, lown, wo, &mut self.wl);
+                if let Some((lt, wo)) = low_own {
+                    let ml = self.lc.fill(&lt, e, lt.label, wo, &mut self.wl);
                     single_l = for_any(ml, e, &self.wl);
                     mask |= ml;
                 }
@@ -830,6 +902,7 @@ impl Segment {
                 for_entries(mask, e, |j| {
                     let (wh, wl) = (self.wh[j], self.wl[j]);
                     if wh != 0.0 || wl != 0.0 {
+                        sq += wl * wl; // the entries with no weight add exactly nothing
                         self.entries.push(Entry {
                             at: self.rbase[j] + col(j, px),
                             wh,
@@ -846,6 +919,7 @@ impl Segment {
                 single,
                 start,
                 end: self.entries.len(),
+                norm: sq.sqrt(),
             };
         }
         self.len = xs_len;
@@ -865,8 +939,51 @@ impl Segment {
     /// bands, else the blend (module docstring, step 5) encoded.
     fn write_as<T: Code>(&mut self, m: &MapData<'_>, codes: &[T], out: &mut [T], x0: usize) {
         let (c, cv) = (m.c, m.cv);
+        let pixels = &self.pixels[..self.len];
+        // the common cases with the sums in registers: one-channel scalar maps with a low band, normal maps
+        match (m.kind, m.lows, cv) {
+            (Kind::Scalar, Some(lows), 1) => {
+                let (vals, mu) = (m.vals, m.mu[0]);
+                for (i, p) in pixels.iter().enumerate() {
+                    out[x0 + i] = if p.single {
+                        codes[p.own_at]
+                    } else {
+                        let (mut lowacc, mut acc) = (0.0f64, 0.0f64);
+                        for en in &self.entries[p.start..p.end] {
+                            let band = lows[en.at];
+                            lowacc += en.wl * band;
+                            acc += en.wh * (vals[en.at] - band);
+                        }
+                        // the oracle's `μ + (Σ g a − μ) / √Σ g² + Σ h (v − a)` (a sum of two terms commutes)
+                        T::scalar(acc + (mu + (lowacc - mu) / p.norm))
+                    };
+                }
+                return;
+            }
+            (Kind::Normal { snorm }, _, 2) => {
+                for (i, p) in pixels.iter().enumerate() {
+                    let o = &mut out[(x0 + i) * 3..(x0 + i + 1) * 3];
+                    if p.single_h {
+                        let from = &codes[p.own_at * 3..(p.own_at + 1) * 3];
+                        (o[0], o[1], o[2]) = (from[0], from[1], from[2]);
+                        continue;
+                    }
+                    let (mut a0, mut a1) = (0.0f64, 0.0f64);
+                    for en in &self.entries[p.start..p.end] {
+                        if en.wh == 0.0 {
+                            continue; // adds exactly nothing: skipped (the same bits as the oracle)
+                        }
+                        a0 += en.wh * m.vals[en.at * 2];
+                        a1 += en.wh * m.vals[en.at * 2 + 1];
+                    }
+                    o.copy_from_slice(&T::normal([a0, a1, 1.0], snorm));
+                }
+                return;
+            }
+            _ => {}
+        }
         let (acc, lowacc) = (&mut self.acc[..cv], &mut self.lowacc[..cv]);
-        for (i, p) in self.pixels[..self.len].iter().enumerate() {
+        for (i, p) in pixels.iter().enumerate() {
             let o = &mut out[(x0 + i) * c..(x0 + i + 1) * c];
             let single = if m.lows.is_some() {
                 p.single
@@ -896,7 +1013,6 @@ impl Segment {
                 }
                 Some(lows) => {
                     lowacc.iter_mut().for_each(|v| *v = 0.0);
-                    let mut sq = 0.0f64;
                     for en in ents {
                         let at = en.at * cv;
                         for ch in 0..cv {
@@ -904,12 +1020,10 @@ impl Segment {
                             lowacc[ch] += en.wl * band;
                             acc[ch] += en.wh * (m.vals[at + ch] - band);
                         }
-                        sq += en.wl * en.wl;
                     }
-                    let norm = sq.sqrt();
                     for ch in 0..cv {
                         // the oracle's `μ + (Σ g a − μ) / √Σ g² + Σ h (v − a)` (a sum of two terms commutes)
-                        acc[ch] += m.mu[ch] + (lowacc[ch] - m.mu[ch]) / norm;
+                        acc[ch] += m.mu[ch] + (lowacc[ch] - m.mu[ch]) / p.norm;
                     }
                 }
             }
