@@ -143,6 +143,21 @@ pub fn encode_unit(v: [f64; 3], scale: f64) -> [f64; 3] {
     );
     let (u_lo_in, u_hi_in) = (u2_lo * (1.0 + 1e-9), u2_hi * (1.0 - 1e-9));
     let (u_lo_out, u_hi_out) = (u2_lo * (1.0 - 1e-9), u2_hi * (1.0 + 1e-9));
+    // almost always the nearest corner (the nearer code per channel, the floor on a tie: the smallest
+    // computed distance, a rounded sum growing with each term) is inside and unit, so it has the smallest key,
+    // unless an earlier corner is as near within rounding (then the full search below decides)
+    let near = [0, 1, 2].map(|i| usize::from(dist2[i][1] < dist2[i][0]));
+    let d2n = dist2[0][near[0]] + dist2[1][near[1]] + dist2[2][near[2]];
+    let len2n = dec2[0][near[0]] + dec2[1][near[1]] + dec2[2][near[2]];
+    if d2n <= b_lo && len2n >= u_lo_in && len2n <= u_hi_in {
+        let pick = near[0] * 4 + near[1] * 2 + near[2];
+        let tie = (0..pick).any(|c| {
+            dist2[0][c >> 2] + dist2[1][(c >> 1) & 1] + dist2[2][c & 1] <= d2n * (1.0 + 1e-6)
+        });
+        if !tie {
+            return [code[0][near[0]], code[1][near[1]], code[2][near[2]]];
+        }
+    }
     // the corners in numpy's itertools.product order (the last channel varies fastest); numpy's key:
     // dist (inside and unit), 10 + dist (unit), 20 + err (inside), 100 + dist (neither). The tiers never
     // overlap, so numpy's argmin is in the lowest tier present.
@@ -208,6 +223,27 @@ pub fn encode_unit(v: [f64; 3], scale: f64) -> [f64; 3] {
     ]
 }
 
+/// The levels up to which a pyramid keeps no texels: a row finds the few it reads from the labels (blocks
+/// of at most 16 pixels; these levels are read near the tile border only).
+const LAZY_LEVELS: usize = 2;
+
+/// The shares `counts / area` of a block's entries into `out`: the oracle's division (a multiplication by
+/// the inverse when `area` is a power of two, the same value).
+#[inline]
+fn share(counts: &[u32], area: usize, out: &mut [f64]) {
+    let a = area as f64;
+    if area.is_power_of_two() {
+        let inv = 1.0 / a;
+        for (o, &c) in out.iter_mut().zip(counts) {
+            *o = f64::from(c) * inv;
+        }
+    } else {
+        for (o, &c) in out.iter_mut().zip(counts) {
+            *o = f64::from(c) / a;
+        }
+    }
+}
+
 /// The coverage pyramid of one tile's labels (extended `reach` px from the border) at the levels a band reads
 /// (from `first` >= 1 up; level 0 is the labels' indicator): level `l` is `n_l x n_l x E` shares (entry last).
 struct Pyramid {
@@ -229,8 +265,18 @@ impl Pyramid {
         } else {
             let mut out = lab.to_vec();
             for y in 0..n {
-                for x in 0..n {
-                    let (dy, dx) = (y.min(n - 1 - y), x.min(n - 1 - x));
+                let dy = y.min(n - 1 - y);
+                // the pixels within `reach` of the border: the whole row near the top and bottom, else its ends
+                let (ends, rest) = if dy < reach {
+                    (0..n, 0..0)
+                } else {
+                    (
+                        0..reach.min(n),
+                        n.saturating_sub(reach).max(reach.min(n))..n,
+                    )
+                };
+                for x in ends.chain(rest) {
+                    let dx = x.min(n - 1 - x);
                     if dy.min(dx) < reach {
                         out[y * n + x] = if dy <= dx {
                             lab[(if y < n - 1 - y { 0 } else { n - 1 }) * n + x]
@@ -244,6 +290,8 @@ impl Pyramid {
         };
         let mut levels = Vec::new();
         let mut masks = Vec::new();
+        // the levels of small blocks are found from the labels where a row reads them (RowCache::column)
+        let first = first.max(LAZY_LEVELS + 1);
         if top >= first {
             // pixel counts per block (exact integers, as the oracle's float sums), the first level from the
             // labels and each next one from its four children (a partial block: the children that exist)
@@ -287,11 +335,9 @@ impl Pyramid {
                 for i in 0..nl {
                     let rows = n.min((i + 1) * s) - i * s;
                     for j in 0..nl {
-                        let area = (rows * (n.min((j + 1) * s) - j * s)) as f64;
+                        let area = rows * (n.min((j + 1) * s) - j * s);
                         let at = (i * nl + j) * e;
-                        for k in 0..e {
-                            shares[at + k] = f64::from(counts[at + k]) / area;
-                        }
+                        share(&counts[at..at + e], area, &mut shares[at..at + e]);
                     }
                 }
                 levels.push((nl, shares));
@@ -366,6 +412,8 @@ impl Plan {
 struct RowCache {
     seg: u64,
     levels: Vec<LevelRow>,
+    counts: Vec<u32>,
+    shares: Vec<f64>,
 }
 
 /// One level of a [`RowCache`].
@@ -397,15 +445,41 @@ impl RowCache {
         if self.levels.len() <= plan.top {
             self.levels.resize_with(plan.top + 1, LevelRow::default);
         }
-        for (l, (nl, _)) in (pyr.first..).zip(&pyr.levels) {
+        for l in plan.first..=plan.top {
+            let nl = pyr.n.div_ceil(1 << l);
             let row = &mut self.levels[l];
             (row.ya, row.yb, row.fy) = plan.taps[l][y];
-            if row.stamp.len() < *nl {
-                row.stamp.resize(*nl, 0);
-                row.masks.resize(*nl, 0);
+            if row.stamp.len() < nl {
+                row.stamp.resize(nl, 0);
+                row.masks.resize(nl, 0);
                 row.vals.resize(nl * pyr.e, 0.0);
             }
         }
+        if self.counts.len() < 2 * pyr.e {
+            self.counts.resize(2 * pyr.e, 0);
+            self.shares.resize(2 * pyr.e, 0.0);
+        }
+    }
+
+    /// The shares of texel `(i, j)` of level `l` from the labels (a level the pyramid does not keep) into
+    /// `shares`, its entries' counts into `counts`.
+    fn block(
+        pyr: &Pyramid,
+        l: usize,
+        (i, j): (usize, usize),
+        counts: &mut [u32],
+        shares: &mut [f64],
+    ) {
+        let (n, s) = (pyr.n, 1usize << l);
+        counts.iter_mut().for_each(|c| *c = 0);
+        let (rows, cols) = (i * s..n.min((i + 1) * s), j * s..n.min((j + 1) * s));
+        let area = rows.len() * cols.len();
+        for y in rows {
+            for &v in &pyr.ext[y * n + cols.start..y * n + cols.end] {
+                counts[v as usize] += 1;
+            }
+        }
+        share(counts, area, shares);
     }
 
     /// The offset of texel column `j` of level `l` in its row's values (computed here on its first use).
@@ -414,15 +488,33 @@ impl RowCache {
         let e = pyr.e;
         let row = &mut self.levels[l];
         if row.stamp[j] != self.seg {
-            let (nl, data) = &pyr.levels[l - pyr.first];
-            let (a, b) = ((row.ya * nl + j) * e, (row.yb * nl + j) * e);
             let fy = row.fy;
-            for (k, v) in row.vals[j * e..(j + 1) * e].iter_mut().enumerate() {
-                *v = data[a + k] * (1.0 - fy) + data[b + k] * fy;
-            }
-            if e <= 64 {
-                let m = &pyr.masks[l - pyr.first];
-                row.masks[j] = m[row.ya * nl + j] | m[row.yb * nl + j];
+            let vals = &mut row.vals[j * e..(j + 1) * e];
+            if l >= pyr.first {
+                let (nl, data) = &pyr.levels[l - pyr.first];
+                let (a, b) = ((row.ya * nl + j) * e, (row.yb * nl + j) * e);
+                for (k, v) in vals.iter_mut().enumerate() {
+                    *v = data[a + k] * (1.0 - fy) + data[b + k] * fy;
+                }
+                if e <= 64 {
+                    let m = &pyr.masks[l - pyr.first];
+                    row.masks[j] = m[row.ya * nl + j] | m[row.yb * nl + j];
+                }
+            } else {
+                let (ca, cb) = self.counts.split_at_mut(e);
+                let (sa, sb) = self.shares.split_at_mut(e);
+                RowCache::block(pyr, l, (row.ya, j), ca, sa);
+                RowCache::block(pyr, l, (row.yb, j), cb, sb);
+                for (k, v) in vals.iter_mut().enumerate() {
+                    *v = sa[k] * (1.0 - fy) + sb[k] * fy;
+                }
+                if e <= 64 {
+                    row.masks[j] = ca
+                        .iter()
+                        .zip(cb.iter())
+                        .enumerate()
+                        .fold(0u64, |m, (k, (&a, &b))| m | (u64::from(a + b > 0) << k));
+                }
             }
             row.stamp[j] = self.seg;
         }
