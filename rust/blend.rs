@@ -86,15 +86,18 @@ pub enum Kind {
     },
 }
 
-/// One map of a blend (module docstring): `values` `(H, W, Cv)` what is blended (a scalar map's samples over
-/// their maximum, `Cv = C`; a normal map's slopes, `Cv = 2`), `low` its low band at every pixel (scalar maps,
-/// when the bands have one), `mu` its mean per channel, `codes` `(H, W, C)` its samples (what the copies
-/// read), `out` `(h, w, C)` the window, in the samples' type.
+/// One map of a blend (module docstring): `codes` `(H, W, C)` its samples (what the copies read; a scalar
+/// map blends them over their maximum, `code / S`, S = 255, 65535 or 1 for floats, `Cv = C` channels),
+/// `values` a normal map's slopes `(H, W, Cv = 2)` (None for a scalar map), `low` the low band of what is
+/// blended at every pixel (scalar maps, when the bands have one), `mu` its mean per channel, `out` `(h, w, C)`
+/// the window, in the samples' type.
 pub struct MapBlend<'a> {
     /// Scalar or normal.
     pub kind: Kind,
-    /// `(H, W, Cv)` the values blended.
-    pub values: ArrayView3<'a, f64>,
+    /// `(H, W)`: the map's size (every map's the same, aligned with the exemplar).
+    pub size: (usize, usize),
+    /// `(H, W, 2)` a normal map's slopes; None for a scalar map.
+    pub values: Option<ArrayView3<'a, f64>>,
     /// `(H, W, Cv)` their low band at every pixel, or None.
     pub low: Option<ArrayView3<'a, f64>>,
     /// The values' mean per channel (the low band's centre).
@@ -647,13 +650,12 @@ pub fn blend_maps(
         }
     }
     let mut data = Vec::with_capacity(maps.len());
-    let (vh, vw) = maps
-        .first()
-        .map_or((1, 1), |m| (m.values.dim().0, m.values.dim().1));
+    let (vh, vw) = maps.first().map_or((1, 1), |m| m.size);
     let mut outs: Vec<&mut SamplesMut<'_>> = Vec::with_capacity(maps.len());
     for m in maps.iter_mut() {
         let MapBlend {
             kind,
+            size,
             values,
             low,
             mu,
@@ -662,26 +664,27 @@ pub fn blend_maps(
             out,
         } = m;
         let kind = *kind;
-        let cv = values.dim().2;
         let c = *channels;
-        let want_cv = if kind == Kind::Scalar { c } else { 2 };
+        let cv = if kind == Kind::Scalar { c } else { 2 };
         let ncodes = match &*codes {
             Samples::U8(s) => s.len(),
             Samples::U16(s) => s.len(),
             Samples::F32(s) => s.len(),
         };
-        if values.dim() != (vh, vw, cv)
-            || vh == 0
-            || vw == 0
-            || cv != want_cv
-            || c == 0
-            || (kind != Kind::Scalar && c != 3)
-        {
+        let vals_ok = match (kind, &*values) {
+            (Kind::Scalar, None) => true,
+            (Kind::Normal { .. }, Some(v)) => v.dim() == (vh, vw, 2) && c == 3,
+            _ => false,
+        };
+        if *size != (vh, vw) || vh == 0 || vw == 0 || c == 0 || !vals_ok {
             return Err(TilesynthError::shape(
                 "values",
-                "(H, W, C) with H, W >= 1 (the first map's) for a scalar map of C >= 1 channels, (H, W, 2) \
-                 slopes for a normal map of 3",
-                format!("{} for {c} channels", fmt_shape(values.shape())),
+                "None for a scalar map of C >= 1 channels, (H, W, 2) slopes for a normal map of 3 (H, W >= 1, \
+                 the first map's size)",
+                format!(
+                    "{} for {c} channels of {size:?}",
+                    values.as_ref().map_or("None".to_string(), |v| fmt_shape(v.shape()))
+                ),
             ));
         }
         if ncodes != vh * vw * c || out.len() != h * w * c {
@@ -719,7 +722,10 @@ pub fn blend_maps(
         };
         data.push(MapData {
             kind,
-            vals: contiguous("values", values)?,
+            vals: match values {
+                Some(v) => contiguous("values", v)?,
+                None => &[],
+            },
             cv,
             lows,
             mu: &*mu,
@@ -1035,7 +1041,7 @@ impl Segment {
         // the common cases with the sums in registers: one-channel scalar maps with a low band, normal maps
         match (m.kind, m.lows, cv) {
             (Kind::Scalar, Some(lows), 1) => {
-                let (vals, mu) = (m.vals, m.mu[0]);
+                let mu = m.mu[0];
                 for (i, p) in pixels.iter().enumerate() {
                     out[x0 + i] = if p.single {
                         codes[p.own_at]
@@ -1044,7 +1050,7 @@ impl Segment {
                         for en in &self.entries[p.start..p.end] {
                             let band = lows[en.at];
                             lowacc += en.wl * band;
-                            acc += en.wh * (vals[en.at] - band);
+                            acc += en.wh * (codes[en.at].value() - band);
                         }
                         // the oracle's `μ + (Σ g a − μ) / √Σ g² + Σ h (v − a)` (a sum of two terms commutes)
                         T::scalar(acc + (mu + (lowacc - mu) / p.norm))
@@ -1097,9 +1103,16 @@ impl Segment {
                         if en.wh == 0.0 {
                             continue; // adds exactly nothing: skipped (the same bits as the oracle)
                         }
-                        let vals = &m.vals[en.at * cv..(en.at + 1) * cv];
-                        for (a, &v) in acc.iter_mut().zip(vals) {
-                            *a += en.wh * v;
+                        if m.kind == Kind::Scalar {
+                            let vals = &codes[en.at * cv..(en.at + 1) * cv];
+                            for (a, &v) in acc.iter_mut().zip(vals) {
+                                *a += en.wh * v.value();
+                            }
+                        } else {
+                            let vals = &m.vals[en.at * cv..(en.at + 1) * cv];
+                            for (a, &v) in acc.iter_mut().zip(vals) {
+                                *a += en.wh * v;
+                            }
                         }
                     }
                 }
@@ -1110,7 +1123,7 @@ impl Segment {
                         for ch in 0..cv {
                             let band = lows[at + ch];
                             lowacc[ch] += en.wl * band;
-                            acc[ch] += en.wh * (m.vals[at + ch] - band);
+                            acc[ch] += en.wh * (codes[at + ch].value() - band);
                         }
                     }
                     for ch in 0..cv {
@@ -1162,6 +1175,8 @@ fn rint_small(v: f64) -> f64 {
 
 /// A sample type of the maps: how a blended value is encoded (module docstring, step 6).
 trait Code: Copy {
+    /// What a scalar map blends: the sample over its maximum (numpy's `codes.astype(float64) / S`).
+    fn value(self) -> f64;
     /// A scalar map's blended value.
     fn scalar(v: f64) -> Self;
     /// A normal map's blended vector `(σx, σy, 1)`.
@@ -1169,6 +1184,10 @@ trait Code: Copy {
 }
 
 impl Code for u8 {
+    #[inline]
+    fn value(self) -> f64 {
+        f64::from(self) / 255.0
+    }
     #[inline]
     fn scalar(v: f64) -> u8 {
         rint_small(v.clamp(0.0, 1.0) * 255.0) as u8
@@ -1181,6 +1200,10 @@ impl Code for u8 {
 
 impl Code for u16 {
     #[inline]
+    fn value(self) -> f64 {
+        f64::from(self) / 65535.0
+    }
+    #[inline]
     fn scalar(v: f64) -> u16 {
         rint_small(v.clamp(0.0, 1.0) * 65535.0) as u16
     }
@@ -1191,6 +1214,10 @@ impl Code for u16 {
 }
 
 impl Code for f32 {
+    #[inline]
+    fn value(self) -> f64 {
+        f64::from(self)
+    }
     #[inline]
     fn scalar(v: f64) -> f32 {
         v as f32

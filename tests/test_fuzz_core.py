@@ -393,14 +393,16 @@ def seam_blend(d: st.DrawFn):
         c = 3 if kind != "scalar" else d(st.integers(1, 2))
         cv = 2 if kind != "scalar" else c
         dt = d(st.sampled_from(["uint8", "uint16", "float32"]))
-        values = fuzzing.fill(
-            (eh, ew, cv), "float64", d(st.sampled_from(fuzzing.VALUE_KINDS)), d(st.integers(0, 99))
-        )
+        values = None  # a scalar map blends its codes
+        if kind != "scalar":
+            values = fuzzing.fill(
+                (eh, ew, 2), "float64", d(st.sampled_from(fuzzing.VALUE_KINDS)), d(st.integers(0, 99))
+            )
         low = None
         if kind == "scalar" and low_level is not None:
             low = fuzzing.fill((eh, ew, cv), "float64", "unit", d(st.integers(0, 99)))
         mu = [0.5] * cv
-        codes = fuzzing.fill((eh, ew, c), dt, "unit", d(st.integers(0, 99)))
+        codes = fuzzing.fill((eh, ew, c), dt, d(st.sampled_from(fuzzing.VALUE_KINDS)), d(st.integers(0, 99)))
         out = np.zeros((h, w, c), dt)
         if broken == "values":
             values = d(arrays(d(st.integers(0, 4)), "float64", None, max_side=8))

@@ -285,7 +285,7 @@ def seam_blend(
     maps: list[
         tuple[
             str,
-            npt.NDArray[np.float64],
+            npt.NDArray[np.float64] | None,
             npt.NDArray[np.float64] | None,
             list[float],
             np.ndarray,

@@ -47,7 +47,7 @@ fn borrow<'py, T: Element>(
 /// The maps of a blend as the Python tuples give them.
 type MapArgs<'py> = (
     String,
-    PyReadonlyArray3<'py, f64>,
+    Option<PyReadonlyArray3<'py, f64>>,
     Option<PyReadonlyArray3<'py, f64>>,
     Vec<f64>,
     Bound<'py, PyAny>,
@@ -57,10 +57,11 @@ type MapArgs<'py> = (
 /// Blends the maps `maps` over the window of the tiling by `index_map` at pixel `offset = (oy, ox)` into its
 /// first cell (`tilesynth.synth.seams`: the formula), writing each map's window. `maps`: a list of `(kind,
 /// values, low, mu, codes, out)`: `kind` "scalar", "normal" or "normal-snorm" (a float normal map whose
-/// samples are the vectors themselves); `values` `(H, W, Cv)` float64 what is blended (a scalar map's samples
-/// over their maximum; a normal map's slopes, `Cv = 2`); `low` `(H, W, Cv)` float64 its low band at every pixel
-/// (scalar maps when `low_level` is given, else None); `mu` its mean per channel; `codes` `(H, W, C)` the
-/// map's samples (uint8, uint16 or float32), what the copies read; `out` `(h, w, C)` the window, same dtype.
+/// samples are the vectors themselves); `codes` `(H, W, C)` the map's samples (uint8, uint16 or float32), what
+/// the copies read and, over their maximum (255, 65535, 1), what a scalar map blends; `values` a normal map's
+/// slopes `(H, W, 2)` float64 (None for a scalar map); `low` `(H, W, C)` float64 the low band of what a scalar
+/// map blends at every pixel (when `low_level` is given, else None); `mu` the mean per channel of what is
+/// blended; `out` `(h, w, C)` the window, the dtype of `codes`.
 /// Every map is aligned with the exemplar (the same H, W). `high`: the high band's level (every map's);
 /// `low_level` / `reach`: the low band's (scalar maps'), or None. Untransformed entries only. GIL released.
 #[pyfunction]
@@ -102,7 +103,9 @@ fn seam_blend<'py>(
                     )))
                 }
             });
-            contiguous("values", values)?;
+            if let Some(v) = values {
+                contiguous("values", v)?;
+            }
             if let Some(l) = low {
                 contiguous("low", l)?;
             }
@@ -123,11 +126,10 @@ fn seam_blend<'py>(
                 Borrowed::U16(c, o) => (c.dims(), o.dims()),
                 Borrowed::F32(c, o) => (c.dims(), o.dims()),
             };
-            let (vh, vw) = (values.dims()[0], values.dims()[1]);
-            if c_dims[0] != vh || c_dims[1] != vw || c_dims[2] != o_dims[2] {
+            if c_dims[2] != o_dims[2] {
                 return Err(errors::to_pyerr(crate::error::TilesynthError::shape(
                     "codes/out",
-                    format!("({vh}, {vw}, C) and (h, w, C) (the values' pixels, one C)"),
+                    "(H, W, C) and (h, w, C) (one C)",
                     format!("{:?} and {:?}", c_dims, o_dims),
                 )));
             }
@@ -144,30 +146,31 @@ fn seam_blend<'py>(
         for (((_, values, low, mu, _, _), got), &kind) in
             maps.iter().zip(held.iter_mut()).zip(&kinds)
         {
-            let (codes, channels, out) = match got {
+            let (codes, dims, out) = match got {
                 Borrowed::U8(c, o) => (
                     Samples::U8(c.as_slice()?),
-                    c.dims()[2],
+                    c.dims(),
                     SamplesMut::U8(o.as_slice_mut()?),
                 ),
                 Borrowed::U16(c, o) => (
                     Samples::U16(c.as_slice()?),
-                    c.dims()[2],
+                    c.dims(),
                     SamplesMut::U16(o.as_slice_mut()?),
                 ),
                 Borrowed::F32(c, o) => (
                     Samples::F32(c.as_slice()?),
-                    c.dims()[2],
+                    c.dims(),
                     SamplesMut::F32(o.as_slice_mut()?),
                 ),
             };
             blends.push(MapBlend {
                 kind,
-                values: values.as_array(),
+                size: (dims[0], dims[1]),
+                values: values.as_ref().map(|v| v.as_array()),
                 low: low.as_ref().map(|l| l.as_array()),
                 mu: mu.clone(),
                 codes,
-                channels,
+                channels: dims[2],
                 out,
             });
         }

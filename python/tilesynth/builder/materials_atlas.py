@@ -282,7 +282,10 @@ def blend_windows(
     for (spec, arr), (codes, values, lows, mu, _) in zip(items, srcs):
         kind = "scalar" if spec.kind == "scalar" else "normal-snorm" if spec.encoding == "snorm" else "normal"
         img = np.empty((height, width, arr.shape[2]), arr.dtype)
-        maps.append((kind, values, lows if kind == "scalar" else None, [float(m) for m in mu], codes, img))
+        scalar = kind == "scalar"  # the kernel blends a scalar map's samples over their maximum (its values)
+        maps.append(
+            (kind, None if scalar else values, lows if scalar else None, [float(m) for m in mu], codes, img)
+        )
         result[spec.name] = img
     _core.seam_blend(
         maps, prov.labels, prov.table, imap, offset, float(high.pop()),
