@@ -985,21 +985,21 @@ impl Segment {
                 low_own = Some((lt, wo));
             }
             let start = self.entries.len();
-            let mut sq = 0.0f64;
+            let mut norm = 0.0;
             if !single {
-                let mh = self.hc.fill(&ht, e, own, ho, &mut self.wh);
-                single_h = for_any(mh, e, &self.wh);
-                let mut mask = mh;
-                let mut single_l = true;
+                let mut mask = self.hc.fill(&ht, e, own, ho, &mut self.wh);
+                // the oracle's test, some entry of every band with weight 1, over the entries weighed
+                let (mut any_h, mut any_l) = (ho >= 1.0, true);
                 if let Some((lt, wo)) = low_own {
-                    let ml = self.lc.fill(&lt, e, lt.label, wo, &mut self.wl);
-                    single_l = for_any(ml, e, &self.wl);
-                    mask |= ml;
+                    mask |= self.lc.fill(&lt, e, lt.label, wo, &mut self.wl);
+                    any_l = wo >= 1.0;
                 }
-                single = single_h && single_l;
+                let mut sq = 0.0f64;
                 for_entries(mask, e, |j| {
                     let (wh, wl) = (self.wh[j], self.wl[j]);
                     if wh != 0.0 || wl != 0.0 {
+                        any_h |= wh >= 1.0;
+                        any_l |= wl >= 1.0;
                         sq += wl * wl; // the entries with no weight add exactly nothing
                         self.entries.push(Entry {
                             at: self.rbase[j] + col(j, px),
@@ -1010,6 +1010,9 @@ impl Segment {
                     self.wh[j] = 0.0;
                     self.wl[j] = 0.0;
                 });
+                single_h = any_h;
+                single = any_h && any_l;
+                norm = sq.sqrt();
             }
             self.pixels[i] = Pixel {
                 own_at: self.rbase[own] + col(own, px),
@@ -1017,7 +1020,7 @@ impl Segment {
                 single,
                 start,
                 end: self.entries.len(),
-                norm: sq.sqrt(),
+                norm,
             };
         }
         self.len = xs_len;
@@ -1144,14 +1147,6 @@ impl Segment {
             }
         }
     }
-}
-
-/// Whether some entry of `mask` has weight 1 or more in `w`.
-#[inline]
-fn for_any(mask: u64, e: usize, w: &[f64]) -> bool {
-    let mut any = false;
-    for_entries(mask, e, |k| any |= w[k] >= 1.0);
-    any
 }
 
 /// `floor(v)` of `v < 2^52`, where a negative `v` may give any value at most 0 (the callers clamp it to 0): a

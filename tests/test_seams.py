@@ -479,3 +479,27 @@ def test_kernel_blends_every_sample_type_as_the_oracle(n):
         assert np.array_equal(alone, got[k]), k
         mixed += (want != seams.blend_tiles(maps[k], prov, idx, kind=s.kind, bands={"high": 0.0})).mean()
     assert mixed > 0.5  # most maps have many blended pixels (not the copies)
+
+
+def test_kernel_unit_length_codes_are_numpys_on_every_blended_pixel():
+    """Labels drawn per pixel blend every pixel of every tile: the kernel's unit-length codes of the blended
+    normals (its own search, the nearest code first) are ``encode_unit``'s, 8- and 16-bit."""
+    r = np.random.default_rng(21)
+    n, e, k, ex = 32, 6, 4, 64
+    labels = r.integers(0, e, (k, n, n)).astype(np.uint8)
+    table = np.zeros((k, e, 3), np.int32)
+    table[..., 1:] = r.integers(0, ex - n, (k, e, 2))
+    prov = Provenance(labels=labels, table=table)
+    v = r.normal(size=(ex, ex, 3)) * [0.8, 0.8, 0.0] + [0, 0, 1]
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    idx = np.arange(k)
+    for dt, top in ((np.uint8, 255), (np.uint16, 65535)):
+        a = materials.renormalise_image(np.rint((v * 0.5 + 0.5) * top).astype(dt), "unorm")
+        spec = materials.MapSpec("n", "normal", 1.0, np.dtype(dt).name, 3, normal_y="up", encoding="unorm")
+        got = materials.blend_window(
+            _Maps(prov, {"n": a}), spec, a, idx.reshape(-1, 1).astype(np.int32), k * n, n
+        )
+        want = seams.blend_tiles(a, prov, idx, kind="normal")
+        copies = seams.blend_tiles(a, prov, idx, kind="normal", bands={"high": 0.0})
+        assert (want != copies).any(-1).mean() > 0.8  # every pixel blended but the border ring (copies)
+        assert np.array_equal(got.reshape(want.shape), want), np.dtype(dt).name
