@@ -5,14 +5,22 @@
 //! [`crate::provenance::gather_window_into`]); the weights `h_e(p)` of the high band (level `high`, the plain
 //! labels) and, with a low band, `g_e(p)` (level `low`, the labels extended `reach` px from the tile border),
 //! each a trilinear sample of the tile's coverage pyramid at `lod = min(L, log2(R + d))`; every entry with a
-//! non-zero weight read at the pixel (`D_s(p) + b`, mirrored into the map). Out:
-//! `μ + (Σ g a − μ) / √Σ g² + Σ h (v − a)` with a low band (`a`: the low band of the value read, given at every pixel), `Σ h v`
-//! without. The arithmetic (f64) is done in the oracle's order, so the two agree to the last bit in practice.
-//! `single[y, x]` is 1 where one entry has every weight (the pixel is that entry's copy).
+//! non-zero weight read at the pixel (`D_s(p) + b`, mirrored into the map). Scalar maps:
+//! `μ + (Σ g a − μ) / √Σ g² + Σ h (v − a)` with a low band (`a`: the low band of the value read, given at every
+//! pixel), `Σ h v` without, encoded as the map's samples (`rint(clip(out, 0, 1) · S)`, or float32); normal maps:
+//! the blended slopes `Σ h σ` encoded at unit length ([`encode_unit`], the codes of
+//! `tilesynth.io.normal_codes.encode_unit`). A pixel where one entry has every weight of the map's bands is that
+//! entry's copy (the map's samples read through the provenance). The arithmetic (f64) is done in the oracle's
+//! order, so the two agree to the last bit in practice.
+//!
+//! All the maps of a window are blended in one pass: the weights of a pixel are found once and shared (the high
+//! band by every map, the low band by the scalar maps), the coverage pyramids of the tiles shown are built once
+//! per call, and only for the levels the bands read; an entry's weight is found alone first, and only where it
+//! is below 1 (near a cut) are the other entries' weights found.
 
 use crate::error::{fmt_shape, Result, TilesynthError};
-use crate::provenance::{check_window, dihedral};
-use ndarray::{ArrayView2, ArrayView3, ArrayViewMut2, ArrayViewMut3, Axis};
+use crate::provenance::check_window;
+use ndarray::{ArrayView2, ArrayView3, Axis};
 use rayon::prelude::*;
 
 /// The bands of a blend: the detail's level and, optionally, the low band's `(level, reach)`.
@@ -35,37 +43,243 @@ fn mirror(i: i64, size: usize) -> usize {
     (if m >= s { 2 * s - 1 - m } else { m }) as usize
 }
 
-/// The coverage pyramid of one tile's labels (extended `reach` px from the border): level `l` is
-/// `n_l x n_l x E` shares (entry last).
+/// The samples of a map: its codes (read by the copies) or the window written.
+pub enum Samples<'a> {
+    /// 8-bit codes (`code / 255`).
+    U8(&'a [u8]),
+    /// 16-bit codes (`code / 65535`).
+    U16(&'a [u16]),
+    /// Float samples.
+    F32(&'a [f32]),
+}
+
+/// A window row of a map's output, in its sample type.
+pub enum SamplesMut<'a> {
+    /// 8-bit codes.
+    U8(&'a mut [u8]),
+    /// 16-bit codes.
+    U16(&'a mut [u16]),
+    /// Float samples.
+    F32(&'a mut [f32]),
+}
+
+impl SamplesMut<'_> {
+    fn len(&self) -> usize {
+        match self {
+            SamplesMut::U8(s) => s.len(),
+            SamplesMut::U16(s) => s.len(),
+            SamplesMut::F32(s) => s.len(),
+        }
+    }
+}
+
+/// What a map's blend is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// Linear data (height, roughness): blended per channel, with the low band when the blend has one.
+    Scalar,
+    /// A normal map (3 channels, `values` its 2 slopes): "snorm" when its float samples are the vectors
+    /// themselves, else "unorm" (`2x − 1`; codes always decode so).
+    Normal {
+        /// Float samples are the vectors themselves.
+        snorm: bool,
+    },
+}
+
+/// One map of a blend (module docstring): `codes` `(H, W, C)` its samples (what the copies read; a scalar
+/// map blends them over their maximum, `code / S`, S = 255, 65535 or 1 for floats, `Cv = C` channels),
+/// `values` a normal map's slopes `(H, W, Cv = 2)` (None for a scalar map), `low` the low band of what is
+/// blended at every pixel (scalar maps, when the bands have one), `mu` its mean per channel, `out` `(h, w, C)`
+/// the window, in the samples' type.
+pub struct MapBlend<'a> {
+    /// Scalar or normal.
+    pub kind: Kind,
+    /// `(H, W)`: the map's size (every map's the same, aligned with the exemplar).
+    pub size: (usize, usize),
+    /// `(H, W, 2)` a normal map's slopes; None for a scalar map.
+    pub values: Option<ArrayView3<'a, f64>>,
+    /// `(H, W, Cv)` their low band at every pixel, or None.
+    pub low: Option<ArrayView3<'a, f64>>,
+    /// The values' mean per channel (the low band's centre).
+    pub mu: Vec<f64>,
+    /// `(H, W, C)` the map's samples, C-contiguous.
+    pub codes: Samples<'a>,
+    /// The number of channels `C` of `codes` and `out`.
+    pub channels: usize,
+    /// `(h, w, C)` the window, C-contiguous.
+    pub out: SamplesMut<'a>,
+}
+
+/// The largest distance from unit length of a code [`encode_unit`] picks where it can
+/// (`tilesynth.io.normal_codes.UNIT_TOLERANCE`).
+pub const UNIT_TOLERANCE: f64 = 0.0049;
+
+/// The integral codes (as floats) of the vector `v` with maximum code `scale` (255 or 65535): `v` normalised,
+/// then among the 8 codes made of the floor or ceiling of each scaled component the nearest one within
+/// [`UNIT_TOLERANCE`] of unit length and no farther from `v` than rounding can be (`√3 / scale`); else the
+/// nearest within the tolerance; else the most nearly unit one within the bound; else the nearest
+/// (`tilesynth.io.normal_codes.encode_unit`, the same arithmetic in the same order, so the same codes).
+pub fn encode_unit(v: [f64; 3], scale: f64) -> [f64; 3] {
+    let f = normalise(v);
+    let half = 0.5 * scale;
+    let step = 2.0 / scale;
+    // per channel, its two codes (floor, ceiling): the code, its decoded value squared, its distance squared
+    let mut code = [[0.0f64; 2]; 3];
+    let mut dec2 = [[0.0f64; 2]; 3];
+    let mut dist2 = [[0.0f64; 2]; 3];
+    for i in 0..3 {
+        let base = floor_small((f[i] + 1.0) * half).clamp(0.0, scale);
+        for b in 0..2 {
+            let c = (base + b as f64).min(scale);
+            let dec = c * step - 1.0;
+            let q = dec - f[i];
+            (code[i][b], dec2[i][b], dist2[i][b]) = (c, dec * dec, q * q);
+        }
+    }
+    // the tests `sqrt(x) <= bound` and `|sqrt(x) - 1| <= UNIT_TOLERANCE` without a square root where x is
+    // clearly (a relative 1e-9, far above rounding) on one side; the square root decides near the edge
+    let bound = 3.0f64.sqrt() / scale * (1.0 + 1e-9);
+    let (b_lo, b_hi) = (bound * bound * (1.0 - 1e-9), bound * bound * (1.0 + 1e-9));
+    let (u2_lo, u2_hi) = (
+        (1.0 - UNIT_TOLERANCE).powi(2),
+        (1.0 + UNIT_TOLERANCE).powi(2),
+    );
+    let (u_lo_in, u_hi_in) = (u2_lo * (1.0 + 1e-9), u2_hi * (1.0 - 1e-9));
+    let (u_lo_out, u_hi_out) = (u2_lo * (1.0 - 1e-9), u2_hi * (1.0 + 1e-9));
+    // almost always the nearest corner (the nearer code per channel, the floor on a tie: the smallest
+    // computed distance, a rounded sum growing with each term) is inside and unit, so it has the smallest key,
+    // unless an earlier corner is as near within rounding (then the full search below decides)
+    let near = [0, 1, 2].map(|i| usize::from(dist2[i][1] < dist2[i][0]));
+    let d2n = dist2[0][near[0]] + dist2[1][near[1]] + dist2[2][near[2]];
+    let len2n = dec2[0][near[0]] + dec2[1][near[1]] + dec2[2][near[2]];
+    if d2n <= b_lo && len2n >= u_lo_in && len2n <= u_hi_in {
+        let pick = near[0] * 4 + near[1] * 2 + near[2];
+        let tie = (0..pick).any(|c| {
+            dist2[0][c >> 2] + dist2[1][(c >> 1) & 1] + dist2[2][c & 1] <= d2n * (1.0 + 1e-6)
+        });
+        if !tie {
+            return [code[0][near[0]], code[1][near[1]], code[2][near[2]]];
+        }
+    }
+    // the corners in numpy's itertools.product order (the last channel varies fastest); numpy's key:
+    // dist (inside and unit), 10 + dist (unit), 20 + err (inside), 100 + dist (neither). The tiers never
+    // overlap, so numpy's argmin is in the lowest tier present.
+    let mut tiers = [0u8; 8];
+    let mut sums = [(0.0f64, 0.0f64); 8];
+    for (corner, (tier, sum)) in tiers.iter_mut().zip(sums.iter_mut()).enumerate() {
+        let (a, b, c) = (corner >> 2, (corner >> 1) & 1, corner & 1);
+        let len2 = dec2[0][a] + dec2[1][b] + dec2[2][c];
+        let d2 = dist2[0][a] + dist2[1][b] + dist2[2][c];
+        let mut inside = d2 <= b_lo;
+        if !inside && d2 < b_hi {
+            inside = d2.sqrt() <= bound; // near the edge: the square root decides
+        }
+        let mut unit = len2 >= u_lo_in && len2 <= u_hi_in;
+        if !unit && len2 > u_lo_out && len2 < u_hi_out {
+            unit = (len2.sqrt() - 1.0).abs() <= UNIT_TOLERANCE;
+        }
+        *tier = 2 * u8::from(!unit) + u8::from(!inside);
+        *sum = (len2, d2);
+    }
+    let top = tiers.iter().copied().min().unwrap_or(3);
+    let key = |corner: usize| {
+        let (len2, d2) = sums[corner];
+        match top {
+            0 => d2.sqrt(),
+            1 => 10.0 + d2.sqrt(),
+            2 => 20.0 + (len2.sqrt() - 1.0).abs(),
+            _ => 100.0 + d2.sqrt(),
+        }
+    };
+    let mut pick = 8;
+    if top != 2 && sums.iter().all(|s| !s.1.is_nan()) {
+        // the key grows with the squared distance: the nearest corner (the first of equal ones) has the
+        // smallest key; an earlier corner within rounding of it may have the same key, and numpy takes it
+        for corner in 0..8 {
+            if tiers[corner] == top && (pick == 8 || sums[corner].1 < sums[pick].1) {
+                pick = corner;
+            }
+        }
+        let (kmin, d2min) = (key(pick), sums[pick].1);
+        if let Some(c) = (0..pick)
+            .find(|&c| tiers[c] == top && sums[c].1 <= d2min * (1.0 + 1e-6) && key(c) == kmin)
+        {
+            pick = c;
+        }
+    } else {
+        let mut best = f64::NAN;
+        for (corner, _) in tiers.iter().enumerate().filter(|&(_, &t)| t == top) {
+            let k = key(corner);
+            if pick == 8 || k < best {
+                (pick, best) = (corner, k); // the first of equal keys, as numpy's argmin; a NaN key first
+            }
+            if k.is_nan() && pick == corner {
+                break;
+            }
+        }
+    }
+    let corner = pick.min(7);
+    [
+        code[0][corner >> 2],
+        code[1][(corner >> 1) & 1],
+        code[2][corner & 1],
+    ]
+}
+
+/// The levels up to which a pyramid keeps no texels: a row finds the few it reads from the labels (blocks
+/// of at most 16 pixels; these levels are read near the tile border only).
+const LAZY_LEVELS: usize = 2;
+
+/// The shares `counts / area` of a block's entries into `out`: the oracle's division (a multiplication by
+/// the inverse when `area` is a power of two, the same value).
+#[inline]
+fn share(counts: &[u32], area: usize, out: &mut [f64]) {
+    let a = area as f64;
+    if area.is_power_of_two() {
+        let inv = 1.0 / a;
+        for (o, &c) in out.iter_mut().zip(counts) {
+            *o = f64::from(c) * inv;
+        }
+    } else {
+        for (o, &c) in out.iter_mut().zip(counts) {
+            *o = f64::from(c) / a;
+        }
+    }
+}
+
+/// The coverage pyramid of one tile's labels (extended `reach` px from the border) at the levels a band reads
+/// (from `first` >= 1 up; level 0 is the labels' indicator): level `l` is `n_l x n_l x E` shares (entry last).
 struct Pyramid {
     n: usize,
     e: usize,
-    reach: usize,
     ext: Vec<u8>,
+    first: usize,
     levels: Vec<(usize, Vec<f64>)>,
-}
-
-/// The bilinear taps of one pyramid level at one pixel ([`Pyramid::taps`]).
-struct Taps {
-    l: usize,
-    nl: usize,
-    ya: usize,
-    yb: usize,
-    fy: f64,
-    xa: usize,
-    xb: usize,
-    fx: f64,
+    /// Per level, per texel: the entries with a non-zero share (bit `k`: entry `k`; none kept when `e` > 64).
+    masks: Vec<Vec<u64>>,
 }
 
 impl Pyramid {
-    fn new(lab: &[u8], n: usize, e: usize, reach: usize, top: u32) -> Pyramid {
+    /// The pyramid of labels `lab` (`n x n`, every label below `e`) at levels `first..=top` (none when
+    /// `top < first`).
+    fn new(lab: &[u8], n: usize, e: usize, reach: usize, first: usize, top: usize) -> Pyramid {
         let ext: Vec<u8> = if reach <= 1 {
             lab.to_vec()
         } else {
             let mut out = lab.to_vec();
             for y in 0..n {
-                for x in 0..n {
-                    let (dy, dx) = (y.min(n - 1 - y), x.min(n - 1 - x));
+                let dy = y.min(n - 1 - y);
+                // the pixels within `reach` of the border: the whole row near the top and bottom, else its ends
+                let (ends, rest) = if dy < reach {
+                    (0..n, 0..0)
+                } else {
+                    (
+                        0..reach.min(n),
+                        n.saturating_sub(reach).max(reach.min(n))..n,
+                    )
+                };
+                for x in ends.chain(rest) {
+                    let dx = x.min(n - 1 - x);
                     if dy.min(dx) < reach {
                         out[y * n + x] = if dy <= dx {
                             lab[(if y < n - 1 - y { 0 } else { n - 1 }) * n + x]
@@ -77,191 +291,345 @@ impl Pyramid {
             }
             out
         };
-        let mut levels = Vec::with_capacity(top as usize + 1);
-        for l in 0..=top {
-            let s = 1usize << l;
-            let nl = n.div_ceil(s);
-            let mut sums = vec![0.0f64; nl * nl * e];
+        let mut levels = Vec::new();
+        let mut masks = Vec::new();
+        // the levels of small blocks are found from the labels where a row reads them (RowCache::column)
+        let first = first.max(LAZY_LEVELS + 1);
+        if top >= first {
+            // pixel counts per block (exact integers, as the oracle's float sums), the first level from the
+            // labels and each next one from its four children (a partial block: the children that exist)
+            let mut nl = n.div_ceil(1 << first);
+            let mut counts = vec![0u32; nl * nl * e];
             for y in 0..n {
-                for x in 0..n {
-                    let v = ext[y * n + x] as usize;
-                    if v < e {
-                        sums[((y / s) * nl + x / s) * e + v] += 1.0;
-                    }
+                let row = &ext[y * n..(y + 1) * n];
+                let at = (y >> first) * nl;
+                for (x, &v) in row.iter().enumerate() {
+                    counts[(at + (x >> first)) * e + v as usize] += 1;
                 }
             }
-            for i in 0..nl {
-                for j in 0..nl {
-                    let count =
-                        ((n.min((i + 1) * s) - i * s) * (n.min((j + 1) * s) - j * s)) as f64;
-                    for v in &mut sums[(i * nl + j) * e..(i * nl + j + 1) * e] {
-                        *v /= count;
+            for l in first..=top {
+                if l > first {
+                    let nn = nl.div_ceil(2);
+                    let mut next = vec![0u32; nn * nn * e];
+                    for i in 0..nl {
+                        for j in 0..nl {
+                            let (src, dst) = ((i * nl + j) * e, ((i / 2) * nn + j / 2) * e);
+                            for k in 0..e {
+                                next[dst + k] += counts[src + k];
+                            }
+                        }
+                    }
+                    (nl, counts) = (nn, next);
+                }
+                if e <= 64 {
+                    masks.push(
+                        counts
+                            .chunks(e)
+                            .map(|c| {
+                                c.iter()
+                                    .enumerate()
+                                    .fold(0u64, |m, (k, &v)| m | (u64::from(v > 0) << k))
+                            })
+                            .collect(),
+                    );
+                }
+                let s = 1usize << l;
+                let mut shares = vec![0.0f64; nl * nl * e];
+                for i in 0..nl {
+                    let rows = n.min((i + 1) * s) - i * s;
+                    for j in 0..nl {
+                        let area = rows * (n.min((j + 1) * s) - j * s);
+                        let at = (i * nl + j) * e;
+                        share(&counts[at..at + e], area, &mut shares[at..at + e]);
                     }
                 }
+                levels.push((nl, shares));
             }
-            levels.push((nl, sums));
         }
         Pyramid {
             n,
             e,
-            reach,
             ext,
+            first,
             levels,
-        }
-    }
-
-    /// The label the pyramid was built from at tile pixel `(y, x)` (extended from the border ring).
-    #[inline]
-    fn label_at(&self, y: usize, x: usize) -> usize {
-        self.ext[y * self.n + x] as usize
-    }
-
-    /// The bilinear taps of level `l` at tile pixel `(y, x)`: the level's side, its two rows and columns and
-    /// the fractions (texel centres at `(i + 0.5) / 2^l - 0.5`, indices clamped to the level).
-    #[inline]
-    fn taps(&self, l: usize, y: usize, x: usize) -> Taps {
-        let nl = self.levels[l].0;
-        let s = (1u64 << l) as f64;
-        let axis = |i: usize| {
-            let u = (i as f64 + 0.5) / s - 0.5;
-            let i0 = u.floor();
-            let f = u - i0;
-            let a = (i0 as i64).clamp(0, nl as i64 - 1) as usize;
-            let b = (i0 as i64 + 1).clamp(0, nl as i64 - 1) as usize;
-            (a, b, f)
-        };
-        let (ya, yb, fy) = axis(y);
-        let (xa, xb, fx) = axis(x);
-        Taps {
-            l,
-            nl,
-            ya,
-            yb,
-            fy,
-            xa,
-            xb,
-            fx,
-        }
-    }
-
-    /// Entry `k`'s coverage at the taps `t`, bilinear: rows (y) first, then columns (x), the oracle's order.
-    #[inline]
-    fn sample(&self, t: &Taps, k: usize) -> f64 {
-        let data = &self.levels[t.l].1;
-        let (nl, e) = (t.nl, self.e);
-        let c = |i: usize, j: usize| data[(i * nl + j) * e + k];
-        let left = c(t.ya, t.xa) * (1.0 - t.fy) + c(t.yb, t.xa) * t.fy;
-        let right = c(t.ya, t.xb) * (1.0 - t.fy) + c(t.yb, t.xb) * t.fy;
-        left * (1.0 - t.fx) + right * t.fx
-    }
-
-    /// Adds `scale` times the bilinear sample of level `l` at pixel `(y, x)` to `w` (every entry).
-    #[inline]
-    fn add_sample(&self, l: usize, y: usize, x: usize, scale: f64, w: &mut [f64]) {
-        let t = self.taps(l, y, x);
-        for (k, wk) in w.iter_mut().enumerate().take(self.e) {
-            *wk += self.sample(&t, k) * scale;
-        }
-    }
-
-    /// The level and trilinear share of tile pixel `(y, x)` for a band of `level`.
-    #[inline]
-    fn lod(&self, level: f64, y: usize, x: usize) -> (usize, f64) {
-        let n = self.n;
-        let d = y.min(x).min(n - 1 - y).min(n - 1 - x);
-        let lod = level.min(((self.reach + d) as f64).log2());
-        let l0 = lod.floor();
-        (l0 as usize, lod - l0)
-    }
-
-    /// The weight of entry `k` alone at tile pixel `(y, x)` (the same arithmetic as [`Pyramid::weights`]).
-    #[inline]
-    fn weight_of(&self, level: f64, y: usize, x: usize, k: usize) -> f64 {
-        let (l0, f) = self.lod(level, y, x);
-        let mut w = 0.0;
-        w += self.sample(&self.taps(l0, y, x), k) * (1.0 - f);
-        if f > 0.0 {
-            w += self.sample(&self.taps(l0 + 1, y, x), k) * f;
-        }
-        w
-    }
-
-    /// The weights at `(y, x)` into `w`: the own entry's alone first, and when it is 1 the others are 0 (their
-    /// coverage is 0 wherever the own entry's is 1), so only mixed pixels pay for every entry.
-    #[inline]
-    fn weights_fast(&self, level: f64, y: usize, x: usize, own: usize, w: &mut [f64]) {
-        let wo = if own < self.e {
-            self.weight_of(level, y, x, own)
-        } else {
-            0.0
-        };
-        if wo >= 1.0 {
-            w.iter_mut().for_each(|v| *v = 0.0);
-            w[own] = wo;
-        } else {
-            self.weights(level, y, x, w);
-        }
-    }
-
-    /// The weights of every entry at tile pixel `(y, x)` for a band of `level` (into `w`, length `e`).
-    fn weights(&self, level: f64, y: usize, x: usize, w: &mut [f64]) {
-        let n = self.n;
-        let d = y.min(x).min(n - 1 - y).min(n - 1 - x);
-        let lod = level.min(((self.reach + d) as f64).log2());
-        let l0 = lod.floor();
-        let f = lod - l0;
-        w.iter_mut().for_each(|v| *v = 0.0);
-        self.add_sample(l0 as usize, y, x, 1.0 - f, w);
-        if f > 0.0 {
-            self.add_sample(l0 as usize + 1, y, x, f, w);
+            masks,
         }
     }
 }
 
-/// Checks and runs the blend of a window (module docstring). `values` `(H, W, C)` the map (floats: codes over
-/// their maximum, or a normal map's slopes), `low` `(H, W, C)` its low band at every pixel (the box mip at the
-/// `split` level sampled bilinearly at the pixel's centre; unused without a low band), `mu` its mean per
-/// channel; `labels` / `table` / `map` / `offset` as
-/// [`crate::provenance::gather_window_into`] (every entry must be symmetry 0: rotated entries are turned by
-/// the caller); `out` `(h, w, C)`, `single` `(h, w)`.
-#[allow(clippy::too_many_arguments)]
-pub fn blend_window(
-    values: ArrayView3<f64>,
-    low: ArrayView3<f64>,
-    mu: &[f64],
+/// The bilinear taps of one level along one axis at every tile pixel: `(a, b, f)`, texel centres at
+/// `(i + 0.5) / 2^l − 0.5`, indices clamped to the level's `n_l` texels.
+fn axis_taps(n: usize, l: usize) -> Vec<(usize, usize, f64)> {
+    let nl = n.div_ceil(1 << l) as i64;
+    let s = (1u64 << l) as f64;
+    (0..n)
+        .map(|i| {
+            let u = (i as f64 + 0.5) / s - 0.5;
+            let i0 = u.floor();
+            let f = u - i0;
+            let a = (i0 as i64).clamp(0, nl - 1) as usize;
+            let b = (i0 as i64 + 1).clamp(0, nl - 1) as usize;
+            (a, b, f)
+        })
+        .collect()
+}
+
+/// A band's plan for tiles of `n` px: `(l0, f)` of `lod = min(L, log2(R + d))` for every border distance `d`,
+/// the levels read (`first..=top`, level 0 aside) and every level's taps.
+struct Plan {
+    lods: Vec<(usize, f64)>,
+    first: usize,
+    top: usize,
+    taps: Vec<Vec<(usize, usize, f64)>>,
+}
+
+impl Plan {
+    fn new(level: f64, reach: usize, n: usize) -> Plan {
+        let lods: Vec<(usize, f64)> = (0..n.div_ceil(2))
+            .map(|d| {
+                let lod = level.min(((reach + d) as f64).log2());
+                let l0 = lod.floor();
+                (l0 as usize, lod - l0)
+            })
+            .collect();
+        let first = lods.iter().map(|&(l, _)| l).min().unwrap_or(0).max(1);
+        let top = lods
+            .iter()
+            .map(|&(l, f)| l + usize::from(f > 0.0))
+            .max()
+            .unwrap_or(0);
+        let taps = (0..=top).map(|l| axis_taps(n, l)).collect();
+        Plan {
+            lods,
+            first,
+            top,
+            taps,
+        }
+    }
+}
+
+/// A band's coverage along one tile row, level by level: every texel column's blend of the row's two texel
+/// rows (the first step of the bilinear sample, `c(ya, j)·(1 − fy) + c(yb, j)·fy`, every entry) and the
+/// entries covering either, computed on its first use in a segment and shared by the pixels that read it.
+#[derive(Default)]
+struct RowCache {
+    seg: u64,
+    levels: Vec<LevelRow>,
+    counts: Vec<u32>,
+    shares: Vec<f64>,
+}
+
+/// One level of a [`RowCache`].
+#[derive(Default)]
+struct LevelRow {
+    ya: usize,
+    yb: usize,
+    fy: f64,
+    vals: Vec<f64>,
+    masks: Vec<u64>,
+    stamp: Vec<u64>,
+}
+
+/// The taps of a band at one pixel: its levels `l0` (and `l0 + 1` when `f > 0`), and per level the offsets of
+/// the two texel columns in the row cache and the column fraction; the entries covering some tap (bit `k`);
+/// the label of the pixel (level 0's indicator).
+struct Taps {
+    l0: usize,
+    f: f64,
+    cols: [(usize, usize, f64); 2],
+    mask: u64,
+    label: usize,
+}
+
+impl RowCache {
+    /// Starts a segment of tile row `y` of the pyramid `pyr` of a band planned by `plan`.
+    fn begin(&mut self, plan: &Plan, pyr: &Pyramid, y: usize) {
+        self.seg += 1;
+        if self.levels.len() <= plan.top {
+            self.levels.resize_with(plan.top + 1, LevelRow::default);
+        }
+        for l in plan.first..=plan.top {
+            let nl = pyr.n.div_ceil(1 << l);
+            let row = &mut self.levels[l];
+            (row.ya, row.yb, row.fy) = plan.taps[l][y];
+            if row.stamp.len() < nl {
+                row.stamp.resize(nl, 0);
+                row.masks.resize(nl, 0);
+                row.vals.resize(nl * pyr.e, 0.0);
+            }
+        }
+        if self.counts.len() < 2 * pyr.e {
+            self.counts.resize(2 * pyr.e, 0);
+            self.shares.resize(2 * pyr.e, 0.0);
+        }
+    }
+
+    /// The shares of texel `(i, j)` of level `l` from the labels (a level the pyramid does not keep) into
+    /// `shares`, its entries' counts into `counts`.
+    fn block(
+        pyr: &Pyramid,
+        l: usize,
+        (i, j): (usize, usize),
+        counts: &mut [u32],
+        shares: &mut [f64],
+    ) {
+        let (n, s) = (pyr.n, 1usize << l);
+        counts.iter_mut().for_each(|c| *c = 0);
+        let (rows, cols) = (i * s..n.min((i + 1) * s), j * s..n.min((j + 1) * s));
+        let area = rows.len() * cols.len();
+        for y in rows {
+            for &v in &pyr.ext[y * n + cols.start..y * n + cols.end] {
+                counts[v as usize] += 1;
+            }
+        }
+        share(counts, area, shares);
+    }
+
+    /// The offset of texel column `j` of level `l` in its row's values (computed here on its first use).
+    #[inline]
+    fn column(&mut self, pyr: &Pyramid, l: usize, j: usize) -> usize {
+        let e = pyr.e;
+        let row = &mut self.levels[l];
+        if row.stamp[j] != self.seg {
+            let fy = row.fy;
+            let vals = &mut row.vals[j * e..(j + 1) * e];
+            if l >= pyr.first {
+                let (nl, data) = &pyr.levels[l - pyr.first];
+                let (a, b) = ((row.ya * nl + j) * e, (row.yb * nl + j) * e);
+                for (k, v) in vals.iter_mut().enumerate() {
+                    *v = data[a + k] * (1.0 - fy) + data[b + k] * fy;
+                }
+                if e <= 64 {
+                    let m = &pyr.masks[l - pyr.first];
+                    row.masks[j] = m[row.ya * nl + j] | m[row.yb * nl + j];
+                }
+            } else {
+                let (ca, cb) = self.counts.split_at_mut(e);
+                let (sa, sb) = self.shares.split_at_mut(e);
+                RowCache::block(pyr, l, (row.ya, j), ca, sa);
+                RowCache::block(pyr, l, (row.yb, j), cb, sb);
+                for (k, v) in vals.iter_mut().enumerate() {
+                    *v = sa[k] * (1.0 - fy) + sb[k] * fy;
+                }
+                if e <= 64 {
+                    row.masks[j] = ca
+                        .iter()
+                        .zip(cb.iter())
+                        .enumerate()
+                        .fold(0u64, |m, (k, (&a, &b))| m | (u64::from(a + b > 0) << k));
+                }
+            }
+            row.stamp[j] = self.seg;
+        }
+        j * e
+    }
+
+    /// The taps of the band at tile pixel `(y, x)` at border distance `d` (the row begun).
+    #[inline]
+    fn taps(&mut self, plan: &Plan, pyr: &Pyramid, d: usize, y: usize, x: usize) -> Taps {
+        let (l0, f) = plan.lods[d];
+        let label = pyr.ext[y * pyr.n + x] as usize;
+        let mut taps = Taps {
+            l0,
+            f,
+            cols: [(0, 0, 0.0); 2],
+            mask: if pyr.e > 64 { u64::MAX } else { 0 },
+            label,
+        };
+        for (i, l) in (l0..=l0 + usize::from(f > 0.0)).enumerate() {
+            if l == 0 {
+                taps.mask |= if pyr.e > 64 { u64::MAX } else { 1u64 << label };
+                continue;
+            }
+            let (xa, xb, fx) = plan.taps[l][x];
+            let (oa, ob) = (self.column(pyr, l, xa), self.column(pyr, l, xb));
+            if pyr.e <= 64 {
+                let row = &self.levels[l];
+                taps.mask |= row.masks[xa] | row.masks[xb];
+            }
+            taps.cols[i] = (oa, ob, fx);
+        }
+        taps
+    }
+
+    /// Entry `k`'s weight at the taps `t`: `(1 − f)·C^{l0} + f·C^{l0+1}`, each `C` bilinear (rows first, then
+    /// columns: the oracle's order; level 0 the indicator, whose taps have no fraction).
+    #[inline]
+    fn weight(&self, t: &Taps, k: usize) -> f64 {
+        let sample = |i: usize, l: usize| {
+            if l == 0 {
+                return f64::from(u8::from(t.label == k));
+            }
+            let (oa, ob, fx) = t.cols[i];
+            let v = &self.levels[l].vals;
+            v[oa + k] * (1.0 - fx) + v[ob + k] * fx
+        };
+        let mut w = 0.0 + sample(0, t.l0) * (1.0 - t.f);
+        if t.f > 0.0 {
+            w += sample(1, t.l0 + 1) * t.f;
+        }
+        w
+    }
+
+    /// Every entry's weight at the taps `t` into `w` (zero on entry, length `e`), given entry `own`'s, `wo`:
+    /// when it is 1 the others are 0 (every tap with a non-zero fraction is then all `own`'s), else the weight
+    /// of every entry that covers some tap (the others are 0). The entries written (bit `k`: entry `k`; every
+    /// entry when `e` > 64).
+    #[inline]
+    fn fill(&self, t: &Taps, e: usize, own: usize, wo: f64, w: &mut [f64]) -> u64 {
+        let own_bit = if e > 64 { u64::MAX } else { 1u64 << own };
+        if wo >= 1.0 {
+            w[own] = wo;
+            return own_bit;
+        }
+        let mask = t.mask | own_bit;
+        for_entries(mask, e, |k| {
+            w[k] = if k == own { wo } else { self.weight(t, k) };
+        });
+        mask
+    }
+}
+
+/// A map's slices, checked.
+struct MapData<'a> {
+    kind: Kind,
+    vals: &'a [f64],
+    cv: usize,
+    lows: Option<&'a [f64]>,
+    mu: &'a [f64],
+    codes: &'a Samples<'a>,
+    c: usize,
+}
+
+fn contiguous<'a, T>(name: &'static str, a: &ArrayView3<'a, T>) -> Result<&'a [T]> {
+    a.to_slice()
+        .ok_or_else(|| TilesynthError::param(name, "a strided view", "must be C-contiguous"))
+}
+
+/// Blends the maps `maps` over a window of the tiling by `map` at pixel `offset = (oy, ox)` into its first cell
+/// (module docstring), writing each map's `out`. `labels` `(K, N, N)` / `table` `(K, L, 3)` the provenance (every
+/// entry of symmetry 0, or -1 for none: rotated entries are turned by the caller; every label of a tile shown
+/// an entry of the table), `bands` the blend's bands: the high band is every map's, the low band the scalar
+/// maps' (each then gives its `low`).
+pub fn blend_maps(
+    maps: &mut [MapBlend<'_>],
     labels: ArrayView3<u8>,
     table: ArrayView3<i32>,
     map: ArrayView2<i32>,
     offset: (usize, usize),
     bands: Bands,
-    mut out: ArrayViewMut3<f64>,
-    mut single: ArrayViewMut2<u8>,
+    (h, w): (usize, usize),
 ) -> Result<()> {
-    let (vh, vw, c) = values.dim();
     let (k, n, n2) = labels.dim();
     let (tk, e, three) = table.dim();
-    if n != n2 || n == 0 || k == 0 || tk != k || three != 3 || e == 0 || vh == 0 || vw == 0 {
+    if n != n2 || n == 0 || k == 0 || tk != k || three != 3 || e == 0 {
         return Err(TilesynthError::shape(
-            "values/labels/table",
-            "(H, W, C), (K, N, N) and (K, L, 3) with H, W, K, N, L >= 1",
+            "labels/table",
+            "(K, N, N) and (K, L, 3) with K, N, L >= 1",
             format!(
-                "{}, {} and {}",
-                fmt_shape(values.shape()),
+                "{} and {}",
                 fmt_shape(labels.shape()),
                 fmt_shape(table.shape())
-            ),
-        ));
-    }
-    let (h, w, oc) = out.dim();
-    if oc != c || single.dim() != (h, w) || mu.len() != c {
-        return Err(TilesynthError::shape(
-            "out/single/mu",
-            format!("(H, W, {c}), (H, W) and {c} means (the channels of values)"),
-            format!(
-                "{}, {} and {} means",
-                fmt_shape(out.shape()),
-                fmt_shape(single.shape()),
-                mu.len()
             ),
         ));
     }
@@ -273,13 +641,6 @@ pub fn blend_window(
         }
     }
     if let Some((_, reach)) = bands.low {
-        if low.dim() != (vh, vw, c) {
-            return Err(TilesynthError::shape(
-                "low",
-                format!("({vh}, {vw}, {c}) (the values' low band at every pixel)"),
-                fmt_shape(low.shape()),
-            ));
-        }
         if !(1..=128).contains(&reach) || !reach.is_power_of_two() {
             return Err(TilesynthError::param(
                 "reach",
@@ -288,8 +649,92 @@ pub fn blend_window(
             ));
         }
     }
+    let mut data = Vec::with_capacity(maps.len());
+    let (vh, vw) = maps.first().map_or((1, 1), |m| m.size);
+    let mut outs: Vec<&mut SamplesMut<'_>> = Vec::with_capacity(maps.len());
+    for m in maps.iter_mut() {
+        let MapBlend {
+            kind,
+            size,
+            values,
+            low,
+            mu,
+            codes,
+            channels,
+            out,
+        } = m;
+        let kind = *kind;
+        let c = *channels;
+        let cv = if kind == Kind::Scalar { c } else { 2 };
+        let ncodes = match &*codes {
+            Samples::U8(s) => s.len(),
+            Samples::U16(s) => s.len(),
+            Samples::F32(s) => s.len(),
+        };
+        let vals_ok = match (kind, &*values) {
+            (Kind::Scalar, None) => true,
+            (Kind::Normal { .. }, Some(v)) => v.dim() == (vh, vw, 2) && c == 3,
+            _ => false,
+        };
+        if *size != (vh, vw) || vh == 0 || vw == 0 || c == 0 || !vals_ok {
+            return Err(TilesynthError::shape(
+                "values",
+                "None for a scalar map of C >= 1 channels, (H, W, 2) slopes for a normal map of 3 (H, W >= 1, \
+                 the first map's size)",
+                format!(
+                    "{} for {c} channels of {size:?}",
+                    values.as_ref().map_or("None".to_string(), |v| fmt_shape(v.shape()))
+                ),
+            ));
+        }
+        if ncodes != vh * vw * c || out.len() != h * w * c {
+            return Err(TilesynthError::shape(
+                "codes/out",
+                format!(
+                    "({vh}, {vw}, {c}) and ({h}, {w}, {c}) (the values' and the window's pixels)"
+                ),
+                format!("{ncodes} and {} samples", out.len()),
+            ));
+        }
+        if mu.len() != cv {
+            return Err(TilesynthError::shape(
+                "mu",
+                format!("{cv} means (the channels of values)"),
+                format!("{} means", mu.len()),
+            ));
+        }
+        let scalar_low = kind == Kind::Scalar && bands.low.is_some();
+        let lows = match (&*low, scalar_low) {
+            (Some(l), true) if l.dim() == (vh, vw, cv) => Some(contiguous("low", l)?),
+            (None, false) => None,
+            (got, _) => {
+                return Err(TilesynthError::shape(
+                    "low",
+                    if scalar_low {
+                        format!("({vh}, {vw}, {cv}) (the values' low band at every pixel)")
+                    } else {
+                        "None (a normal map, or a blend without a low band)".to_string()
+                    },
+                    got.as_ref()
+                        .map_or("None".to_string(), |l| fmt_shape(l.shape())),
+                ));
+            }
+        };
+        data.push(MapData {
+            kind,
+            vals: match values {
+                Some(v) => contiguous("values", v)?,
+                None => &[],
+            },
+            cv,
+            lows,
+            mu: &*mu,
+            codes: &*codes,
+            c,
+        });
+        outs.push(out);
+    }
     check_window(&map, k, n, (h, w), offset)?;
-    let (oy, ox) = offset;
     if let Some(&bad) = table
         .index_axis(Axis(2), 0)
         .iter()
@@ -301,18 +746,16 @@ pub fn blend_window(
             "only untransformed entries (symmetry 0, or -1 for none) are blended here",
         ));
     }
-    if h == 0 || w == 0 || c == 0 {
+    if h == 0 || w == 0 || data.is_empty() {
         return Ok(());
     }
-    let values = values.as_standard_layout();
-    let vals = values.as_slice().expect("standard layout");
-    let low = low.as_standard_layout();
-    let lows = low.as_slice().expect("standard layout");
-    let lab = labels.as_standard_layout();
-    let lab = lab.as_slice().expect("standard layout");
+    let lab = labels
+        .to_slice()
+        .ok_or_else(|| TilesynthError::param("labels", "a strided view", "must be C-contiguous"))?;
     let tab = table.as_standard_layout();
     let tab = tab.as_slice().expect("standard layout");
-    // the pyramids of the tiles the window shows, once each
+    let (oy, ox) = offset;
+    // the tiles the window shows, their labels checked: every pixel's entry one of the table's
     let mut shown: Vec<usize> = Vec::new();
     for ty in oy / n..=(oy + h - 1) / n {
         for tx in ox / n..=(ox + w - 1) / n {
@@ -321,19 +764,38 @@ pub fn blend_window(
     }
     shown.sort_unstable();
     shown.dedup();
-    let top = |level: f64| level.ceil() as u32;
+    for &t in &shown {
+        let rows = &tab[t * e * 3..(t + 1) * e * 3];
+        if let Some(&bad) = lab[t * n * n..(t + 1) * n * n]
+            .iter()
+            .find(|&&v| v as usize >= e || rows[v as usize * 3] < 0)
+        {
+            return Err(TilesynthError::param(
+                "labels",
+                bad,
+                format!("tile {t} has a pixel of an entry that its table row does not have"),
+            ));
+        }
+    }
+    let high = Plan::new(bands.high, 1, n);
+    let low = bands
+        .low
+        .map(|(level, reach)| (Plan::new(level, reach, n), reach));
+    let any_low = low.is_some() && data.iter().any(|m| m.lows.is_some());
+    // the pyramids of the tiles shown, once each, for every map
     let pyramids: Vec<(Pyramid, Option<Pyramid>)> = shown
         .par_iter()
         .map(|&t| {
             let l = &lab[t * n * n..(t + 1) * n * n];
-            let hi = Pyramid::new(l, n, e, 1, top(bands.high));
-            let lo = bands
-                .low
-                .map(|(level, reach)| Pyramid::new(l, n, e, reach, top(level)));
+            let hi = Pyramid::new(l, n, e, 1, high.first, high.top);
+            let lo = low
+                .as_ref()
+                .filter(|_| any_low)
+                .map(|(p, reach)| Pyramid::new(l, n, e, *reach, p.first, p.top));
             (hi, lo)
         })
         .collect();
-    // the pyramid of every cell of the window
+    let low = low.filter(|_| any_low).map(|(p, _)| p);
     let (cy0, cx0) = (oy / n, ox / n);
     let ccols = (ox + w - 1) / n - cx0 + 1;
     let cells: Vec<usize> = (cy0..=(oy + h - 1) / n)
@@ -344,93 +806,426 @@ pub fn blend_window(
                 .expect("a shown tile")
         })
         .collect();
-    let out_s = out
-        .as_slice_mut()
-        .ok_or_else(|| TilesynthError::param("out", "a strided view", "must be C-contiguous"))?;
-    let single_s = single
-        .as_slice_mut()
-        .ok_or_else(|| TilesynthError::param("single", "a strided view", "must be C-contiguous"))?;
-    out_s
-        .par_chunks_mut(w * c)
-        .zip(single_s.par_chunks_mut(w))
+    // every map's window split in rows, a row of every map per task
+    let mut rows: Vec<Vec<SamplesMut<'_>>> =
+        (0..h).map(|_| Vec::with_capacity(data.len())).collect();
+    for (out, d) in outs.into_iter().zip(&data) {
+        let step = w * d.c;
+        match out {
+            SamplesMut::U8(s) => {
+                for (r, chunk) in rows.iter_mut().zip(s.chunks_mut(step)) {
+                    r.push(SamplesMut::U8(chunk));
+                }
+            }
+            SamplesMut::U16(s) => {
+                for (r, chunk) in rows.iter_mut().zip(s.chunks_mut(step)) {
+                    r.push(SamplesMut::U16(chunk));
+                }
+            }
+            SamplesMut::F32(s) => {
+                for (r, chunk) in rows.iter_mut().zip(s.chunks_mut(step)) {
+                    r.push(SamplesMut::F32(chunk));
+                }
+            }
+        }
+    }
+    let ctx = Context {
+        n,
+        e,
+        vh,
+        vw,
+        lab,
+        tab,
+        high: &high,
+        low: low.as_ref(),
+    };
+    let cvmax = data.iter().map(|d| d.cv).max().unwrap_or(0);
+    rows.into_par_iter()
+        .with_min_len(8)
         .enumerate()
-        .for_each(|(y, (orow, srow))| {
-            let mut wh = vec![0.0f64; e];
-            let mut wl = vec![0.0f64; e];
-            let mut acc = vec![0.0f64; c];
-            let mut lowacc = vec![0.0f64; c];
-            let gy = y + oy;
-            for x in 0..w {
-                let gx = x + ox;
-                let t = map[(gy / n, gx / n)] as usize;
-                let (py_, px_) = (gy % n, gx % n);
-                let (hi, lo) = &pyramids[cells[(gy / n - cy0) * ccols + gx / n - cx0]];
-                let own = lab[(t * n + py_) * n + px_] as usize;
-                hi.weights_fast(bands.high, py_, px_, own, &mut wh);
-                let mut one = wh.iter().any(|&v| v >= 1.0);
-                if let (Some(lo), Some((level, reach))) = (lo, bands.low) {
-                    // the low band's labels near the border are the border ring's, not the pixel's own
-                    let lown = if reach > 1 {
-                        lo.label_at(py_, px_)
-                    } else {
-                        own
-                    };
-                    lo.weights_fast(level, py_, px_, lown, &mut wl);
-                    one &= wl.iter().any(|&v| v >= 1.0);
-                }
-                let src = |j: usize| {
-                    let row = &tab[(t * e + j) * 3..(t * e + j) * 3 + 3];
-                    let (dy, dx) = dihedral(0, n, py_, px_);
-                    (
-                        mirror(dy as i64 + row[1] as i64, vh),
-                        mirror(dx as i64 + row[2] as i64, vw),
-                    )
-                };
-                let o = &mut orow[x * c..(x + 1) * c];
-                srow[x] = one as u8;
-                if one {
-                    let (r, cc) = src(own);
-                    o.copy_from_slice(&vals[(r * vw + cc) * c..(r * vw + cc + 1) * c]);
-                    continue;
-                }
-                match bands.low {
-                    None => {
-                        acc.iter_mut().for_each(|v| *v = 0.0);
-                        for (j, &wj) in wh.iter().enumerate() {
-                            if wj == 0.0 {
-                                continue; // adds exactly nothing: skipped (the same bits as the oracle)
-                            }
-                            let (r, cc) = src(j);
-                            for ch in 0..c {
-                                acc[ch] += wj * vals[(r * vw + cc) * c + ch];
-                            }
-                        }
-                        o.copy_from_slice(&acc);
+        .for_each_init(
+            || Segment::new(n, e, cvmax),
+            |seg, (y, mut outs)| {
+                let gy = y + oy;
+                let mut x = 0;
+                while x < w {
+                    let gx = x + ox;
+                    let px0 = gx % n;
+                    let end = w.min(x + n - px0);
+                    let t = map[(gy / n, gx / n)] as usize;
+                    let pyr = &pyramids[cells[(gy / n - cy0) * ccols + gx / n - cx0]];
+                    seg.weigh(&ctx, pyr, t, gy % n, px0..px0 + (end - x));
+                    for (m, o) in data.iter().zip(outs.iter_mut()) {
+                        seg.write(m, o, x);
                     }
-                    Some(_) => {
-                        acc.iter_mut().for_each(|v| *v = 0.0);
-                        lowacc.iter_mut().for_each(|v| *v = 0.0);
-                        let mut sq = 0.0f64;
-                        for j in 0..e {
-                            if wh[j] == 0.0 && wl[j] == 0.0 {
-                                continue; // adds exactly nothing: skipped (the same bits as the oracle)
-                            }
-                            let (r, cc) = src(j);
-                            let at = (r * vw + cc) * c;
-                            for ch in 0..c {
-                                let band = lows[at + ch];
-                                lowacc[ch] += wl[j] * band;
-                                acc[ch] += wh[j] * (vals[at + ch] - band);
-                            }
-                            sq += wl[j] * wl[j];
+                    x = end;
+                }
+            },
+        );
+    Ok(())
+}
+
+/// What every segment of a window reads: the tile size and entries, the maps' size, the provenance, the bands.
+struct Context<'a> {
+    n: usize,
+    e: usize,
+    vh: usize,
+    vw: usize,
+    lab: &'a [u8],
+    tab: &'a [i32],
+    high: &'a Plan,
+    low: Option<&'a Plan>,
+}
+
+/// One pixel of a segment: the exemplar pixel its own entry reads, whether one entry has every weight of the
+/// high band (`single_h`) and of both bands (`single`), and its entries with a non-zero weight
+/// (`entries[start..end]`, where one of the maps blends it), with `norm = √Σ g²` of the low band's weights.
+#[derive(Clone, Copy, Default)]
+struct Pixel {
+    own_at: usize,
+    single_h: bool,
+    single: bool,
+    start: usize,
+    end: usize,
+    norm: f64,
+}
+
+/// One entry of a blended pixel: the exemplar pixel it reads, its high and low band weights.
+#[derive(Clone, Copy)]
+struct Entry {
+    at: usize,
+    wh: f64,
+    wl: f64,
+}
+
+/// The weights of a run of pixels of one tile row (shared by every map), and the scratch of the blend.
+struct Segment {
+    len: usize,
+    pixels: Vec<Pixel>,
+    entries: Vec<Entry>,
+    rbase: Vec<usize>,
+    wh: Vec<f64>,
+    wl: Vec<f64>,
+    acc: Vec<f64>,
+    lowacc: Vec<f64>,
+    hc: RowCache,
+    lc: RowCache,
+}
+
+/// The entries of `mask` (bit `k`: entry `k`), ascending; every entry below `e` when `e` > 64.
+#[inline]
+fn for_entries(mask: u64, e: usize, mut f: impl FnMut(usize)) {
+    if e > 64 {
+        (0..e).for_each(f);
+    } else {
+        let mut m = mask;
+        while m != 0 {
+            f(m.trailing_zeros() as usize);
+            m &= m - 1;
+        }
+    }
+}
+
+impl Segment {
+    fn new(n: usize, e: usize, cv: usize) -> Segment {
+        Segment {
+            len: 0,
+            pixels: vec![Pixel::default(); n],
+            entries: Vec::with_capacity(4 * n),
+            rbase: vec![0; e],
+            wh: vec![0.0; e],
+            wl: vec![0.0; e],
+            acc: vec![0.0; cv],
+            lowacc: vec![0.0; cv],
+            hc: RowCache::default(),
+            lc: RowCache::default(),
+        }
+    }
+
+    /// The weights of tile `t`'s pixels `xs` of row `py` (module docstring, steps 2-3): each band's weight of
+    /// the pixel's own entry first; where it is below 1, every entry that covers a tap (the others are 0).
+    fn weigh(
+        &mut self,
+        ctx: &Context<'_>,
+        (hi, lo): &(Pyramid, Option<Pyramid>),
+        t: usize,
+        py: usize,
+        xs: std::ops::Range<usize>,
+    ) {
+        let (n, e) = (ctx.n, ctx.e);
+        let xs_len = xs.len();
+        let tl = &ctx.lab[(t * n + py) * n..(t * n + py + 1) * n];
+        let trows = &ctx.tab[t * e * 3..(t + 1) * e * 3];
+        for (j, r) in self.rbase.iter_mut().enumerate() {
+            *r = mirror(py as i64 + i64::from(trows[j * 3 + 1]), ctx.vh) * ctx.vw;
+        }
+        let col = |j: usize, px: usize| mirror(px as i64 + i64::from(trows[j * 3 + 2]), ctx.vw);
+        let dy = py.min(n - 1 - py);
+        self.entries.clear();
+        self.hc.begin(ctx.high, hi, py);
+        let low = match (ctx.low, lo) {
+            (Some(plan), Some(lo)) => {
+                self.lc.begin(plan, lo, py);
+                Some((plan, lo))
+            }
+            _ => None,
+        };
+        for (i, px) in xs.enumerate() {
+            let d = dy.min(px.min(n - 1 - px));
+            let own = tl[px] as usize;
+            let ht = self.hc.taps(ctx.high, hi, d, py, px);
+            let ho = self.hc.weight(&ht, own);
+            let mut single_h = ho >= 1.0;
+            let mut single = single_h;
+            let mut low_own = None;
+            if let Some((plan, lo)) = low {
+                let lt = self.lc.taps(plan, lo, d, py, px);
+                let wo = self.lc.weight(&lt, lt.label);
+                single &= wo >= 1.0;
+                low_own = Some((lt, wo));
+            }
+            let start = self.entries.len();
+            let mut norm = 0.0;
+            if !single {
+                let mut mask = self.hc.fill(&ht, e, own, ho, &mut self.wh);
+                // the oracle's test, some entry of every band with weight 1, over the entries weighed
+                let (mut any_h, mut any_l) = (ho >= 1.0, true);
+                if let Some((lt, wo)) = low_own {
+                    mask |= self.lc.fill(&lt, e, lt.label, wo, &mut self.wl);
+                    any_l = wo >= 1.0;
+                }
+                let mut sq = 0.0f64;
+                for_entries(mask, e, |j| {
+                    let (wh, wl) = (self.wh[j], self.wl[j]);
+                    if wh != 0.0 || wl != 0.0 {
+                        any_h |= wh >= 1.0;
+                        any_l |= wl >= 1.0;
+                        sq += wl * wl; // the entries with no weight add exactly nothing
+                        self.entries.push(Entry {
+                            at: self.rbase[j] + col(j, px),
+                            wh,
+                            wl,
+                        });
+                    }
+                    self.wh[j] = 0.0;
+                    self.wl[j] = 0.0;
+                });
+                single_h = any_h;
+                single = any_h && any_l;
+                norm = sq.sqrt();
+            }
+            self.pixels[i] = Pixel {
+                own_at: self.rbase[own] + col(own, px),
+                single_h,
+                single,
+                start,
+                end: self.entries.len(),
+                norm,
+            };
+        }
+        self.len = xs_len;
+    }
+
+    /// Writes the segment's pixels of map `m` into its window row `o` from pixel `x0` on.
+    fn write(&mut self, m: &MapData<'_>, o: &mut SamplesMut<'_>, x0: usize) {
+        match (m.codes, o) {
+            (Samples::U8(c), SamplesMut::U8(d)) => self.write_as(m, c, d, x0),
+            (Samples::U16(c), SamplesMut::U16(d)) => self.write_as(m, c, d, x0),
+            (Samples::F32(c), SamplesMut::F32(d)) => self.write_as(m, c, d, x0),
+            _ => unreachable!("codes and out of one sample type (checked)"),
+        }
+    }
+
+    /// [`Segment::write`] in the map's sample type: the copies where one entry has every weight of the map's
+    /// bands, else the blend (module docstring, step 5) encoded.
+    fn write_as<T: Code>(&mut self, m: &MapData<'_>, codes: &[T], out: &mut [T], x0: usize) {
+        let (c, cv) = (m.c, m.cv);
+        let pixels = &self.pixels[..self.len];
+        // the common cases with the sums in registers: one-channel scalar maps with a low band, normal maps
+        match (m.kind, m.lows, cv) {
+            (Kind::Scalar, Some(lows), 1) => {
+                let mu = m.mu[0];
+                for (i, p) in pixels.iter().enumerate() {
+                    out[x0 + i] = if p.single {
+                        codes[p.own_at]
+                    } else {
+                        let (mut lowacc, mut acc) = (0.0f64, 0.0f64);
+                        for en in &self.entries[p.start..p.end] {
+                            let band = lows[en.at];
+                            lowacc += en.wl * band;
+                            acc += en.wh * (codes[en.at].value() - band);
                         }
-                        let norm = sq.sqrt();
-                        for ch in 0..c {
-                            o[ch] = mu[ch] + (lowacc[ch] - mu[ch]) / norm + acc[ch];
+                        // the oracle's `μ + (Σ g a − μ) / √Σ g² + Σ h (v − a)` (a sum of two terms commutes)
+                        T::scalar(acc + (mu + (lowacc - mu) / p.norm))
+                    };
+                }
+                return;
+            }
+            (Kind::Normal { snorm }, _, 2) => {
+                for (i, p) in pixels.iter().enumerate() {
+                    let o = &mut out[(x0 + i) * 3..(x0 + i + 1) * 3];
+                    if p.single_h {
+                        let from = &codes[p.own_at * 3..(p.own_at + 1) * 3];
+                        (o[0], o[1], o[2]) = (from[0], from[1], from[2]);
+                        continue;
+                    }
+                    let (mut a0, mut a1) = (0.0f64, 0.0f64);
+                    for en in &self.entries[p.start..p.end] {
+                        if en.wh == 0.0 {
+                            continue; // adds exactly nothing: skipped (the same bits as the oracle)
                         }
+                        a0 += en.wh * m.vals[en.at * 2];
+                        a1 += en.wh * m.vals[en.at * 2 + 1];
+                    }
+                    o.copy_from_slice(&T::normal([a0, a1, 1.0], snorm));
+                }
+                return;
+            }
+            _ => {}
+        }
+        let (acc, lowacc) = (&mut self.acc[..cv], &mut self.lowacc[..cv]);
+        for (i, p) in pixels.iter().enumerate() {
+            let o = &mut out[(x0 + i) * c..(x0 + i + 1) * c];
+            let single = if m.lows.is_some() {
+                p.single
+            } else {
+                p.single_h
+            };
+            if single {
+                let from = &codes[p.own_at * c..(p.own_at + 1) * c];
+                for (q, &v) in o.iter_mut().zip(from) {
+                    *q = v; // a loop, not a call to memcpy, for a few samples
+                }
+                continue;
+            }
+            let ents = &self.entries[p.start..p.end];
+            acc.iter_mut().for_each(|v| *v = 0.0);
+            match m.lows {
+                None => {
+                    for en in ents {
+                        if en.wh == 0.0 {
+                            continue; // adds exactly nothing: skipped (the same bits as the oracle)
+                        }
+                        if m.kind == Kind::Scalar {
+                            let vals = &codes[en.at * cv..(en.at + 1) * cv];
+                            for (a, &v) in acc.iter_mut().zip(vals) {
+                                *a += en.wh * v.value();
+                            }
+                        } else {
+                            let vals = &m.vals[en.at * cv..(en.at + 1) * cv];
+                            for (a, &v) in acc.iter_mut().zip(vals) {
+                                *a += en.wh * v;
+                            }
+                        }
+                    }
+                }
+                Some(lows) => {
+                    lowacc.iter_mut().for_each(|v| *v = 0.0);
+                    for en in ents {
+                        let at = en.at * cv;
+                        for ch in 0..cv {
+                            let band = lows[at + ch];
+                            lowacc[ch] += en.wl * band;
+                            acc[ch] += en.wh * (codes[at + ch].value() - band);
+                        }
+                    }
+                    for ch in 0..cv {
+                        // the oracle's `μ + (Σ g a − μ) / √Σ g² + Σ h (v − a)` (a sum of two terms commutes)
+                        acc[ch] += m.mu[ch] + (lowacc[ch] - m.mu[ch]) / p.norm;
                     }
                 }
             }
-        });
-    Ok(())
+            match m.kind {
+                Kind::Scalar => {
+                    for (q, &v) in o.iter_mut().zip(acc.iter()) {
+                        *q = T::scalar(v);
+                    }
+                }
+                Kind::Normal { snorm } => {
+                    o.copy_from_slice(&T::normal([acc[0], acc[1], 1.0], snorm))
+                }
+            }
+        }
+    }
+}
+
+/// `floor(v)` of `v < 2^52`, where a negative `v` may give any value at most 0 (the callers clamp it to 0): a
+/// truncation (no libm call: a generic x86-64 build has no floor instruction).
+#[inline]
+fn floor_small(v: f64) -> f64 {
+    if v.is_nan() {
+        v
+    } else {
+        v as i64 as f64
+    }
+}
+
+/// `rint(v)` (round half to even) of `0 <= v < 2^52`: adding `2^52` leaves no fraction bits, so the sum is
+/// rounded to an integer by the FPU's round-half-even (no libm call, the same value).
+#[inline]
+fn rint_small(v: f64) -> f64 {
+    const BIG: f64 = 4_503_599_627_370_496.0;
+    (v + BIG) - BIG
+}
+
+/// A sample type of the maps: how a blended value is encoded (module docstring, step 6).
+trait Code: Copy {
+    /// What a scalar map blends: the sample over its maximum (numpy's `codes.astype(float64) / S`).
+    fn value(self) -> f64;
+    /// A scalar map's blended value.
+    fn scalar(v: f64) -> Self;
+    /// A normal map's blended vector `(σx, σy, 1)`.
+    fn normal(v: [f64; 3], snorm: bool) -> [Self; 3];
+}
+
+impl Code for u8 {
+    #[inline]
+    fn value(self) -> f64 {
+        f64::from(self) / 255.0
+    }
+    #[inline]
+    fn scalar(v: f64) -> u8 {
+        rint_small(v.clamp(0.0, 1.0) * 255.0) as u8
+    }
+    #[inline]
+    fn normal(v: [f64; 3], _: bool) -> [u8; 3] {
+        encode_unit(v, 255.0).map(|c| c as u8)
+    }
+}
+
+impl Code for u16 {
+    #[inline]
+    fn value(self) -> f64 {
+        f64::from(self) / 65535.0
+    }
+    #[inline]
+    fn scalar(v: f64) -> u16 {
+        rint_small(v.clamp(0.0, 1.0) * 65535.0) as u16
+    }
+    #[inline]
+    fn normal(v: [f64; 3], _: bool) -> [u16; 3] {
+        encode_unit(v, 65535.0).map(|c| c as u16)
+    }
+}
+
+impl Code for f32 {
+    #[inline]
+    fn value(self) -> f64 {
+        f64::from(self)
+    }
+    #[inline]
+    fn scalar(v: f64) -> f32 {
+        v as f32
+    }
+    #[inline]
+    fn normal(v: [f64; 3], snorm: bool) -> [f32; 3] {
+        normalise(v).map(|x| if snorm { x } else { (x + 1.0) * 0.5 } as f32)
+    }
+}
+
+/// The vector `v` over its length (at least 1e-300), as `encode_unit` normalises.
+#[inline]
+fn normalise(v: [f64; 3]) -> [f64; 3] {
+    let div = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-300);
+    [v[0] / div, v[1] / div, v[2] / div]
 }

@@ -130,7 +130,7 @@ pub fn factorise(source: ArrayView4<i32>) -> Result<Option<(Array3<u8>, Array3<i
 
 /// Checks a window of `h x w` pixels starting `offset = (oy, ox)` pixels into the first cell of `map`, a tile
 /// index map over `k` tiles of `n x n`: the offset inside a cell, the map covering the window, every index a
-/// tile. The window checks of [`gather_window_into`] and of the seam blend (`blend::blend_window`).
+/// tile. The window checks of [`gather_window_into`] and of the seam blend (`blend::blend_maps`).
 pub(crate) fn check_window(
     map: &ArrayView2<i32>,
     k: usize,

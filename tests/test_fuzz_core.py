@@ -355,15 +355,32 @@ def provenance_gather(d: st.DrawFn):
     return _core.provenance_gather, (exemplar, labels, table, imap, offset, out), kw, (5,)
 
 
+def _seam_blend_call(maps, outs, *rest, **kw):
+    """``_core.seam_blend`` with each map's ``out`` drawn apart (the only arrays it may write)."""
+    return _core.seam_blend([tuple(m) + (o,) for m, o in zip(maps, outs)], *rest, **kw)
+
+
 @st.composite
 def seam_blend(d: st.DrawFn):
     broken = d(
         st.sampled_from(
-            ["none", "none", "none", "values", "low", "mu", "table", "index_map", "out", "levels"]
+            [
+                "none",
+                "none",
+                "none",
+                "values",
+                "low",
+                "mu",
+                "table",
+                "index_map",
+                "out",
+                "levels",
+                "kind",
+                "codes",
+            ]
         )
     )
-    eh, ew, c = d(st.integers(1, 8)), d(st.integers(1, 8)), d(st.integers(1, 2))
-    values = fuzzing.fill((eh, ew, c), "float64", "unit", d(st.integers(0, 99)))
+    eh, ew = d(st.integers(1, 8)), d(st.integers(1, 8))
     src = _provenance_source(d, eh, ew)
     try:
         with (
@@ -377,33 +394,54 @@ def seam_blend(d: st.DrawFn):
     labels, table = got if got is not None else (np.zeros((1, 1, 1), np.uint8), np.zeros((1, 1, 3), np.int32))
     k, n = labels.shape[:2]
     low_level = d(st.sampled_from([None, 1.0, 2.5]))
-    low = fuzzing.fill((eh, ew, c), "float64", "unit", d(st.integers(0, 99)))
-    mu = [0.5] * c
     high, reach = d(st.sampled_from([0.0, 1.0, 3.0])), d(st.sampled_from([1, 2, 4]))
-    if broken == "values":
-        values = d(arrays(d(st.integers(0, 4)), "float64", None, max_side=8))
-    elif broken == "low":
-        low = d(arrays(d(st.integers(0, 4)), "float64", None, max_side=5))
-        low_level = 2.0
-    elif broken == "mu":
-        mu = d(st.sampled_from([[], [0.1] * (c + 1), "x"]))
-    elif broken == "table":
-        table = d(arrays(d(st.integers(2, 4)), I32, None, lo=-9, hi=12, max_side=5))
-    elif broken == "levels":
+    if broken == "levels":
         high = d(st.sampled_from([-1.0, 9.0, float("nan")]))
         reach = d(st.sampled_from([0, 3, 256, -1]))
         low_level = 2.0
     h, w = d(st.integers(0, 9)), d(st.integers(0, 9))
+    maps, outs = [], []
+    for _ in range(d(st.integers(0, 3))):
+        kind = d(st.sampled_from(["scalar", "normal", "normal-snorm"]))
+        c = 3 if kind != "scalar" else d(st.integers(1, 2))
+        cv = 2 if kind != "scalar" else c
+        dt = d(st.sampled_from(["uint8", "uint16", "float32"]))
+        values = None  # a scalar map blends its codes
+        if kind != "scalar":
+            values = fuzzing.fill(
+                (eh, ew, 2), "float64", d(st.sampled_from(fuzzing.VALUE_KINDS)), d(st.integers(0, 99))
+            )
+        low = None
+        if kind == "scalar" and low_level is not None:
+            low = fuzzing.fill((eh, ew, cv), "float64", "unit", d(st.integers(0, 99)))
+        mu = [0.5] * cv
+        codes = fuzzing.fill((eh, ew, c), dt, d(st.sampled_from(fuzzing.VALUE_KINDS)), d(st.integers(0, 99)))
+        out = np.zeros((h, w, c), dt)
+        if broken == "values":
+            values = d(arrays(d(st.integers(0, 4)), "float64", None, max_side=8))
+        elif broken == "low":
+            low = d(arrays(d(st.integers(0, 4)), "float64", None, max_side=5))
+        elif broken == "mu":
+            mu = d(st.sampled_from([[], [0.1] * (cv + 1), "x"]))
+        elif broken == "kind":
+            kind = d(st.sampled_from(["", "Scalar", "normal-unorm", 3]))
+        elif broken == "codes":
+            codes = d(arrays(d(st.integers(2, 4)), d(st.sampled_from(fuzzing.ALL_DTYPES)), None, max_side=8))
+        elif broken == "out":
+            out = d(arrays(3, d(st.sampled_from([dt, "float64", ">u2"])), (None, None, None), max_side=9))
+        maps.append((kind, values, low, mu, codes))
+        outs.append(out)
+    if broken == "table":
+        table = d(arrays(d(st.integers(2, 4)), I32, None, lo=-9, hi=12, max_side=5))
     rows, cols = -(-h // n) + 1, -(-w // n) + 1
     if broken == "index_map":
         imap = d(arrays(2, I32, (None, None), lo=-1, hi=k + 1))
     else:
         imap = np.random.default_rng(d(st.integers(0, 99))).integers(0, k, (rows, cols)).astype(np.int32)
-    offset = (d(st.integers(0, n)), d(st.integers(0, n)))
-    out = d(arrays(3, "float64", (None, None, c), max_side=9)) if broken == "out" else np.zeros((h, w, c))
-    single = np.zeros(out.shape[:2], np.uint8)
-    args = (values, low, mu, labels, table, imap, offset, high, low_level, reach, out, single)
-    return _core.seam_blend, args, {"threads": d(threads())}, (10, 11)
+    most = n - 1 if broken == "none" else n  # an offset of a whole tile is refused
+    offset = (d(st.integers(0, most)), d(st.integers(0, most)))
+    args = (maps, outs, labels, table, imap, offset, high, low_level, reach)
+    return _seam_blend_call, args, {"threads": d(threads())}, (1,)
 
 
 @st.composite

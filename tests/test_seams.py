@@ -422,3 +422,84 @@ def test_the_rust_window_kernel_matches_the_numpy_oracle(rock_set):
         local = np.searchsorted(shown, imap).astype(np.int32)
         _core.tile_copy_window(np.ascontiguousarray(fast[shown]), local, (9 % n, 5 % n), laid, None)
         assert np.array_equal(got, laid), spec.name
+
+
+class _Maps:
+    """The parts of a material tile set the seam blend reads: its provenance, tile size and maps."""
+
+    def __init__(self, prov: Provenance, maps: dict[str, np.ndarray]):
+        self.provenance, self.tile_size, self.maps = prov, prov.tile_size, maps
+
+
+@pytest.mark.parametrize("n", [64, 24])
+def test_kernel_blends_every_sample_type_as_the_oracle(n):
+    """The Rust kernel blends several maps of every sample type in one call, the copies and the encoding
+    (the normals' unit-length codes, float normals renormalised) done in the kernel: the bytes of the numpy
+    oracle ``blend_tiles`` for each map alone (64 px: two bands; 24 px: the one linear band)."""
+    r = np.random.default_rng(8)
+    ex = 40
+    prov = _random_prov(4, n, 5, seed=12, ex=ex, turns=False)
+    v = r.normal(size=(ex, ex, 3)) * [0.5, 0.5, 0.0] + [0, 0, 1]
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    maps = {
+        "h16": r.integers(0, 65536, (ex, ex, 1), dtype=np.uint16),
+        "rg8": r.integers(0, 256, (ex, ex, 2), dtype=np.uint8),
+        "f32": r.normal(size=(ex, ex, 1)).astype(np.float32),
+        "n8": materials.renormalise_image(np.rint((v * 0.5 + 0.5) * 255).astype(np.uint8), "unorm"),
+        "n16": materials.renormalise_image(np.rint((v * 0.5 + 0.5) * 65535).astype(np.uint16), "unorm"),
+        "nf": materials.renormalise_image((v * 0.5 + 0.5).astype(np.float32), "unorm"),
+        "ns": materials.renormalise_image(v.astype(np.float32), "snorm"),
+    }
+    specs = {
+        k: materials.MapSpec(
+            k,
+            "scalar" if k[0] != "n" else "normal",
+            1.0,
+            str(a.dtype),
+            a.shape[2],
+            normal_y="up" if k[0] == "n" else None,
+            encoding=("snorm" if k == "ns" else "unorm") if k[0] == "n" else None,
+        )  # fmt: skip
+        for k, a in maps.items()
+    }
+    t = _Maps(prov, maps)
+    idx = np.array([2, 0, 3, 1, 2])
+    imap = idx.reshape(-1, 1).astype(np.int32)
+    got = materials.blend_windows(t, [(s, maps[k]) for k, s in specs.items()], imap, idx.size * n, n)
+    mixed = 0
+    for k, s in specs.items():
+        want = seams.blend_tiles(maps[k], prov, idx, kind=s.kind, encoding=s.encoding or "unorm")
+        assert got[k].dtype == maps[k].dtype
+        if maps[k].dtype == np.float32:  # the weights' sums in another order: the last bit of a float
+            assert np.abs(got[k] - want.reshape(got[k].shape)).max() <= 2e-7, k
+        else:
+            assert np.array_equal(got[k], want.reshape(got[k].shape)), k
+        # the window of one map alone is the same
+        alone = materials.blend_window(t, s, maps[k], imap, idx.size * n, n)
+        assert np.array_equal(alone, got[k]), k
+        mixed += (want != seams.blend_tiles(maps[k], prov, idx, kind=s.kind, bands={"high": 0.0})).mean()
+    assert mixed > 0.5  # most maps have many blended pixels (not the copies)
+
+
+def test_kernel_unit_length_codes_are_numpys_on_every_blended_pixel():
+    """Labels drawn per pixel blend every pixel of every tile: the kernel's unit-length codes of the blended
+    normals (its own search, the nearest code first) are ``encode_unit``'s, 8- and 16-bit."""
+    r = np.random.default_rng(21)
+    n, e, k, ex = 32, 6, 4, 64
+    labels = r.integers(0, e, (k, n, n)).astype(np.uint8)
+    table = np.zeros((k, e, 3), np.int32)
+    table[..., 1:] = r.integers(0, ex - n, (k, e, 2))
+    prov = Provenance(labels=labels, table=table)
+    v = r.normal(size=(ex, ex, 3)) * [0.8, 0.8, 0.0] + [0, 0, 1]
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    idx = np.arange(k)
+    for dt, top in ((np.uint8, 255), (np.uint16, 65535)):
+        a = materials.renormalise_image(np.rint((v * 0.5 + 0.5) * top).astype(dt), "unorm")
+        spec = materials.MapSpec("n", "normal", 1.0, np.dtype(dt).name, 3, normal_y="up", encoding="unorm")
+        got = materials.blend_window(
+            _Maps(prov, {"n": a}), spec, a, idx.reshape(-1, 1).astype(np.int32), k * n, n
+        )
+        want = seams.blend_tiles(a, prov, idx, kind="normal")
+        copies = seams.blend_tiles(a, prov, idx, kind="normal", bands={"high": 0.0})
+        assert (want != copies).any(-1).mean() > 0.8  # every pixel blended but the border ring (copies)
+        assert np.array_equal(got.reshape(want.shape), want), np.dtype(dt).name

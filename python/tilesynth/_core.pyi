@@ -291,9 +291,16 @@ def provenance_gather(
 
 # the seam blend of smooth material maps (rust/py/blend.rs)
 def seam_blend(
-    values: npt.NDArray[np.float64],
-    low: npt.NDArray[np.float64],
-    mu: list[float],
+    maps: list[
+        tuple[
+            str,
+            npt.NDArray[np.float64] | None,
+            npt.NDArray[np.float64] | None,
+            list[float],
+            np.ndarray,
+            np.ndarray,
+        ]
+    ],
     labels: npt.NDArray[np.uint8],
     table: npt.NDArray[np.int32],
     index_map: npt.NDArray[np.int32],
@@ -301,8 +308,6 @@ def seam_blend(
     high: float,
     low_level: float | None,
     reach: int,
-    out: npt.NDArray[np.float64],
-    single: npt.NDArray[np.uint8],
     threads: int | None = None,
 ) -> None: ...
 

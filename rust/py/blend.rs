@@ -1,28 +1,75 @@
-//! Bindings of [`crate::blend`]: the seam blend of a smooth material map over a window of a tiling.
+//! Bindings of [`crate::blend`]: the seam blend of smooth material maps over a window of a tiling.
 
 use super::convert::{aligned, contiguous};
 use super::errors::{self, guard};
 use super::run;
-use crate::blend::{self, Bands};
+use crate::blend::{self, Bands, Kind, MapBlend, Samples, SamplesMut};
 use crate::error::try_to_owned;
 use numpy::{
-    PyReadonlyArray2, PyReadonlyArray3, PyReadwriteArray2, PyReadwriteArray3, PyUntypedArrayMethods,
+    Element, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyReadwriteArray3,
+    PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
 
-/// Fills `out` `(h, w, C)` float64 with the seam blend of the map `values` `(H, W, C)` float64 over the
-/// window of the tiling by `index_map` at pixel `offset = (oy, ox)` into its first cell, and `single` `(h, w)`
-/// uint8 with 1 where one entry has every weight (`tilesynth.synth.seams`: the formula). `low` `(H, W, C)`:
-/// the map's low band at every pixel, `mu`: its mean per channel (both unused when `low_level` is None);
-/// `reach`: the low band's border labels. Untransformed entries only. GIL released.
+/// A map's samples and window, borrowed in one of the sample types.
+enum Borrowed<'py> {
+    U8(PyReadonlyArray3<'py, u8>, PyReadwriteArray3<'py, u8>),
+    U16(PyReadonlyArray3<'py, u16>, PyReadwriteArray3<'py, u16>),
+    F32(PyReadonlyArray3<'py, f32>, PyReadwriteArray3<'py, f32>),
+}
+
+/// `codes` and `out` as arrays of `T`, borrowed (None when either is not one), checked C-contiguous and
+/// aligned.
+fn borrow<'py, T: Element>(
+    codes: &Bound<'py, PyAny>,
+    out: &Bound<'py, PyAny>,
+) -> PyResult<Option<(PyReadonlyArray3<'py, T>, PyReadwriteArray3<'py, T>)>> {
+    let (Ok(c), Ok(o)) = (codes.cast::<PyArray3<T>>(), out.cast::<PyArray3<T>>()) else {
+        return Ok(None);
+    };
+    let c = c
+        .try_readonly()
+        .map_err(|_| errors::layout_error("codes", "array is being written elsewhere"))?;
+    let o = o.try_readwrite().map_err(|_| {
+        errors::layout_error(
+            "out",
+            "array is borrowed elsewhere (another map's codes or out, or not writeable)",
+        )
+    })?;
+    contiguous("codes", &c)?;
+    if !o.is_c_contiguous() {
+        return Err(errors::layout_error("out", "array must be C-contiguous"));
+    }
+    aligned("out", &o)?;
+    Ok(Some((c, o)))
+}
+
+/// The maps of a blend as the Python tuples give them.
+type MapArgs<'py> = (
+    String,
+    Option<PyReadonlyArray3<'py, f64>>,
+    Option<PyReadonlyArray3<'py, f64>>,
+    Vec<f64>,
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+);
+
+/// Blends the maps `maps` over the window of the tiling by `index_map` at pixel `offset = (oy, ox)` into its
+/// first cell (`tilesynth.synth.seams`: the formula), writing each map's window. `maps`: a list of `(kind,
+/// values, low, mu, codes, out)`: `kind` "scalar", "normal" or "normal-snorm" (a float normal map whose
+/// samples are the vectors themselves); `codes` `(H, W, C)` the map's samples (uint8, uint16 or float32), what
+/// the copies read and, over their maximum (255, 65535, 1), what a scalar map blends; `values` a normal map's
+/// slopes `(H, W, 2)` float64 (None for a scalar map); `low` `(H, W, C)` float64 the low band of what a scalar
+/// map blends at every pixel (when `low_level` is given, else None); `mu` the mean per channel of what is
+/// blended; `out` `(h, w, C)` the window, the dtype of `codes`.
+/// Every map is aligned with the exemplar (the same H, W). `high`: the high band's level (every map's);
+/// `low_level` / `reach`: the low band's (scalar maps'), or None. Untransformed entries only. GIL released.
 #[pyfunction]
-#[pyo3(signature = (values, low, mu, labels, table, index_map, offset, high, low_level, reach, out, single, threads=None))]
+#[pyo3(signature = (maps, labels, table, index_map, offset, high, low_level, reach, threads=None))]
 #[allow(clippy::too_many_arguments)]
 fn seam_blend<'py>(
     py: Python<'py>,
-    values: PyReadonlyArray3<'py, f64>,
-    low: PyReadonlyArray3<'py, f64>,
-    mu: Vec<f64>,
+    maps: Vec<MapArgs<'py>>,
     labels: PyReadonlyArray3<'py, u8>,
     table: PyReadonlyArray3<'py, i32>,
     index_map: PyReadonlyArray2<'py, i32>,
@@ -30,33 +77,119 @@ fn seam_blend<'py>(
     high: f64,
     low_level: Option<f64>,
     reach: usize,
-    mut out: PyReadwriteArray3<'py, f64>,
-    mut single: PyReadwriteArray2<'py, u8>,
     threads: Option<usize>,
 ) -> PyResult<()> {
     guard("seam_blend", || {
-        contiguous("values", &values)?;
-        contiguous("low", &low)?;
         contiguous("labels", &labels)?;
         contiguous("table", &table)?;
         contiguous("index_map", &index_map)?;
-        if !out.is_c_contiguous() || !single.is_c_contiguous() {
-            return Err(errors::layout_error(
-                "out/single",
-                "array must be C-contiguous",
-            ));
-        }
-        aligned("out", &out)?;
+        // owned copies of the small inputs: the values checked are the values used, whatever other Python
+        // threads write while the GIL is released
         let map = try_to_owned("index_map", index_map.as_array()).map_err(errors::to_pyerr)?;
         let tab = try_to_owned("table", table.as_array()).map_err(errors::to_pyerr)?;
-        let (v, l, lab) = (values.as_array(), low.as_array(), labels.as_array());
+        let mut kinds = Vec::with_capacity(maps.len());
+        let mut held = Vec::with_capacity(maps.len());
+        let mut window: Option<(usize, usize)> = None;
+        for (kind, values, low, _, codes, out) in &maps {
+            kinds.push(match kind.as_str() {
+                "scalar" => Kind::Scalar,
+                "normal" => Kind::Normal { snorm: false },
+                "normal-snorm" => Kind::Normal { snorm: true },
+                _ => {
+                    return Err(errors::to_pyerr(crate::error::TilesynthError::param(
+                        "kind",
+                        format!("{kind:?}"),
+                        "must be \"scalar\", \"normal\" or \"normal-snorm\"",
+                    )))
+                }
+            });
+            if let Some(v) = values {
+                contiguous("values", v)?;
+            }
+            if let Some(l) = low {
+                contiguous("low", l)?;
+            }
+            let got = if let Some((c, o)) = borrow::<u8>(codes, out)? {
+                Borrowed::U8(c, o)
+            } else if let Some((c, o)) = borrow::<u16>(codes, out)? {
+                Borrowed::U16(c, o)
+            } else if let Some((c, o)) = borrow::<f32>(codes, out)? {
+                Borrowed::F32(c, o)
+            } else {
+                return Err(errors::layout_error(
+                    "codes/out",
+                    "expected 3-d arrays of the same native-endian dtype, uint8, uint16 or float32",
+                ));
+            };
+            let (c_dims, o_dims) = match &got {
+                Borrowed::U8(c, o) => (c.dims(), o.dims()),
+                Borrowed::U16(c, o) => (c.dims(), o.dims()),
+                Borrowed::F32(c, o) => (c.dims(), o.dims()),
+            };
+            if c_dims[2] != o_dims[2] {
+                return Err(errors::to_pyerr(crate::error::TilesynthError::shape(
+                    "codes/out",
+                    "(H, W, C) and (h, w, C) (one C)",
+                    format!("{:?} and {:?}", c_dims, o_dims),
+                )));
+            }
+            if *window.get_or_insert((o_dims[0], o_dims[1])) != (o_dims[0], o_dims[1]) {
+                return Err(errors::to_pyerr(crate::error::TilesynthError::shape(
+                    "out",
+                    format!("{:?} (the first map's window)", window.unwrap_or_default()),
+                    format!("{:?}", o_dims),
+                )));
+            }
+            held.push(got);
+        }
+        let mut blends = Vec::with_capacity(maps.len());
+        for (((_, values, low, mu, _, _), got), &kind) in
+            maps.iter().zip(held.iter_mut()).zip(&kinds)
+        {
+            let (codes, dims, out) = match got {
+                Borrowed::U8(c, o) => (
+                    Samples::U8(c.as_slice()?),
+                    c.dims(),
+                    SamplesMut::U8(o.as_slice_mut()?),
+                ),
+                Borrowed::U16(c, o) => (
+                    Samples::U16(c.as_slice()?),
+                    c.dims(),
+                    SamplesMut::U16(o.as_slice_mut()?),
+                ),
+                Borrowed::F32(c, o) => (
+                    Samples::F32(c.as_slice()?),
+                    c.dims(),
+                    SamplesMut::F32(o.as_slice_mut()?),
+                ),
+            };
+            blends.push(MapBlend {
+                kind,
+                size: (dims[0], dims[1]),
+                values: values.as_ref().map(|v| v.as_array()),
+                low: low.as_ref().map(|l| l.as_array()),
+                mu: mu.clone(),
+                codes,
+                channels: dims[2],
+                out,
+            });
+        }
+        let lab = labels.as_array();
         let bands = Bands {
             high,
             low: low_level.map(|lv| (lv, reach)),
         };
-        let (o, s) = (out.as_array_mut(), single.as_array_mut());
+        let size = window.unwrap_or((0, 0));
         run(py, threads, || {
-            blend::blend_window(v, l, &mu, lab, tab.view(), map.view(), offset, bands, o, s)
+            blend::blend_maps(
+                &mut blends,
+                lab,
+                tab.view(),
+                map.view(),
+                offset,
+                bands,
+                size,
+            )
         })
     })
 }

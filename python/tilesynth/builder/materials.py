@@ -335,15 +335,13 @@ def synthesize_maps(
     local = np.ascontiguousarray(np.searchsorted(shown, imap), dtype=np.int32)
     prov = tileset.provenance
     out = {}
-    # blended maps straight into the window: the scalar ones in one call, each normal map alone
+    # blended maps straight into the window, all in one call (the weights of a pixel found once for every map)
     blend = [MapSpec.from_dict(d) for d in specs]
     blend = [s for s in blend if s.kind in SMOOTH_KINDS and smooths(tileset, s, smooth) and seams == "blend"]
-    groups = [[s for s in blend if s.kind == "scalar"]] + [[s] for s in blend if s.kind == "normal"]
     windows: dict[str, np.ndarray] = {}
-    for group in groups:
-        if group:
-            items = [(s, tileset.maps[s.name]) for s in group]
-            windows.update(blend_windows(tileset, items, imap, h, w, (oy, ox), threads) or {})
+    if blend:
+        items = [(s, tileset.maps[s.name]) for s in blend]
+        windows = blend_windows(tileset, items, imap, h, w, (oy, ox), threads) or {}
     for d in specs:
         spec = MapSpec.from_dict(d)
         arr = tileset.maps[spec.name]

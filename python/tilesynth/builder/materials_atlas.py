@@ -259,62 +259,38 @@ def blend_windows(
     offset: tuple[int, int] = (0, 0),
     threads: int | None = None,
 ) -> dict[str, np.ndarray] | None:
-    """The windows ``{name: (height, width, C)}`` of maps ``items`` (``[(spec, array)]``, all scalar or one
-    normal map: the same bands) laid out by ``index_map`` at ``offset`` with their seams blended
-    (:mod:`tilesynth.synth.seams`; the Rust kernel ``seam_blend``, whose oracle is
-    :func:`tilesynth.synth.seams.blend_tiles`), each in its sample type. Scalar maps are blended in one call
-    (their channels side by side: the weights are found once per pixel; each channel's result is the one it
-    has alone). None when the set's provenance has rotated or mirrored entries (then :func:`blended_tiles`
-    blends per tile in numpy)."""
+    """The windows ``{name: (height, width, C)}`` of maps ``items`` (``[(spec, array)]``, scalar and normal maps
+    whose bands share the high band, and the scalar ones the low band) laid out by ``index_map`` at ``offset``
+    with their seams blended (:mod:`tilesynth.synth.seams`; the Rust kernel ``seam_blend``, whose oracle is
+    :func:`tilesynth.synth.seams.blend_tiles`), each in its sample type. All the maps are blended in one call:
+    the weights of a pixel are found once for every map, the copies and the encoding (the normals' unit-length
+    codes too) written by the kernel straight into the windows. None when the set's provenance has rotated or
+    mirrored entries (then :func:`blended_tiles` blends per tile in numpy)."""
     from .. import _core
-    from ..io.normal_codes import encode_unit
-    from ..tileset.provenance import gather
 
     prov = map_provenance(tileset)
     if prov is None or (prov.table[..., 0] > 0).any() or not items:
         return None
     srcs = [_blend_sources(tileset, spec, arr) for spec, arr in items]
-    bands = srcs[0][4]
-    if any(x[4] != bands for x in srcs):
+    high = {x[4]["high"] for x in srcs}
+    low = {(x[4].get("low"), x[4].get("reach")) for (spec, _), x in zip(items, srcs) if spec.kind == "scalar"}
+    if len(high) > 1 or len(low) > 1:
         raise ValueError("blend_windows: the maps' bands differ; blend them apart")
-    if len(srcs) == 1:
-        values, low, mu = srcs[0][1:4]
-    else:  # side by side, once per set
-        cache = _cache(tileset)
-        key = ("blend-stack", tuple(spec.name for spec, _ in items))
-        ids = tuple(id(x[1]) for x in srcs)
-        if key not in cache or cache[key][0] != ids:
-            low = (
-                None if srcs[0][2] is None else np.ascontiguousarray(np.concatenate([x[2] for x in srcs], 2))
-            )
-            cache[key] = (ids, np.ascontiguousarray(np.concatenate([x[1] for x in srcs], axis=2)), low,
-                          np.concatenate([x[3] for x in srcs]))  # fmt: skip
-        values, low, mu = cache[key][1:]
+    low_level, reach = low.pop() if low else (None, None)
     imap = np.ascontiguousarray(index_map, dtype=np.int32)
-    out = np.empty((height, width, values.shape[2]), np.float64)
-    single = np.empty((height, width), np.uint8)
-    lows = low if low is not None else np.zeros((1, 1, values.shape[2]))
-    _core.seam_blend(
-        values, lows, [float(m) for m in mu], prov.labels, prov.table, imap, offset, float(bands["high"]),
-        float(bands["low"]) if low is not None else None, int(bands.get("reach", 1)), out, single, threads,
-    )  # fmt: skip
-    mixed = single == 0
-    result = {}
-    ch = 0
-    for (spec, arr), (codes, vals, *_rest) in zip(items, srcs):
-        part = out[..., ch : ch + vals.shape[2]]
-        ch += vals.shape[2]
+    result, maps = {}, []
+    for (spec, arr), (codes, values, lows, mu, _) in zip(items, srcs):
+        kind = "scalar" if spec.kind == "scalar" else "normal-snorm" if spec.encoding == "snorm" else "normal"
         img = np.empty((height, width, arr.shape[2]), arr.dtype)
-        gather(codes, prov, imap, img, offset, threads=threads)  # the copies, kept where one entry weighs 1
-        if spec.kind == "normal":
-            sl = part[mixed]
-            img[mixed] = encode_unit(np.concatenate([sl, np.ones((sl.shape[0], 1))], axis=1), arr.dtype,
-                                     spec.encoding or "unorm")  # fmt: skip
-        elif _scale(arr):
-            img[mixed] = np.rint(np.clip(part[mixed], 0.0, 1.0) * _scale(arr)).astype(arr.dtype)
-        else:
-            img[mixed] = part[mixed].astype(np.float32)
+        scalar = kind == "scalar"  # the kernel blends a scalar map's samples over their maximum (its values)
+        maps.append(
+            (kind, None if scalar else values, lows if scalar else None, [float(m) for m in mu], codes, img)
+        )
         result[spec.name] = img
+    _core.seam_blend(
+        maps, prov.labels, prov.table, imap, offset, float(high.pop()),
+        None if low_level is None else float(low_level), int(reach or 1), threads,
+    )  # fmt: skip
     return result
 
 
