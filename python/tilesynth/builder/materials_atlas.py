@@ -226,9 +226,9 @@ def map_provenance(tileset: Any) -> Any:
 
 def _blend_sources(tileset: Any, spec: MapSpec, arr: np.ndarray) -> tuple:
     """What the seam blend of a map reads, once per set: ``(codes, values, low, mu, bands)``: the map's samples
-    as the copies read them (normal maps renormalised), the values blended (float64: samples over their
-    maximum, a normal map's slopes), the low band's mip (or None), the map's mean, the bands for the set's tile
-    size (:func:`tilesynth.synth.seams.tile_bands`)."""
+    as the copies read them (normal maps renormalised), a normal map's slopes (float64; None for a scalar map,
+    whose samples over their maximum the kernel blends from the codes), the low band's mip (or None), the map's
+    mean, the bands for the set's tile size (:func:`tilesynth.synth.seams.tile_bands`)."""
     from ..synth import seams
 
     cache = _cache(tileset)
@@ -246,6 +246,8 @@ def _blend_sources(tileset: Any, spec: MapSpec, arr: np.ndarray) -> tuple:
             grid = np.mgrid[0 : values.shape[0], 0 : values.shape[1]].transpose(1, 2, 0)
             low = np.ascontiguousarray(seams.sample_mip(seams.box_mip(values, split), split, grid))
         mu = values.reshape(-1, values.shape[2]).mean(axis=0)
+        if spec.kind != "normal":  # the kernel reads a scalar map's codes, its low band and mean, not the values
+            values = None  # (float64: 8 bytes a sample kept per set for nothing, 100 MB for a 2K RGB map)
         cache[key] = (arr, (codes, values, low, mu, bands))
     return cache[key][1]
 
