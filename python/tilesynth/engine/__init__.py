@@ -285,7 +285,7 @@ def export(
         if form is not None:
             return _export_v2(
                 tileset, out, form, maps, bits, lookup, hl, seed, wrap, index_size, index_seed, normal_y,
-                blend_levels, viewer, source_path, inputs, progress,
+                blend_levels, viewer, source_path, inputs, progress, map_smooth,
             )  # fmt: skip
     if blend_levels:
         raise ParameterError("blend_levels: only for the provenance export (format='provenance')")
@@ -690,6 +690,7 @@ def _export_v2(
     source_path: str | os.PathLike[str] | None,
     inputs: list[tuple[str, Any]] | None,
     progress: Any,
+    map_smooth: str = "auto",
 ) -> dict[str, Any]:
     """:func:`export` of version 2 (the arguments already checked, but the maps and blend levels)."""
     from . import provenance_export as pe
@@ -697,8 +698,11 @@ def _export_v2(
 
     entries = pe.exemplar_maps(tileset, maps, bits, normal_y, _map_array)
     blend = pe.check_blend_levels(blend_levels, [e["name"] for e in entries])
+    plans = pe.seam_plans(entries, tileset.tile_size, blend_levels, map_smooth)
+    lows = [b for b in plans.values() if b is not None and "low" in b]
+    reach_levels = pe.reach_span(lows[0]) if lows else None
     n_cov = pe.coverage_count(tileset.tile_size)
-    names = pe.export_files_v2(entries, n_cov)
+    names = pe.export_files_v2(entries, n_cov, reach=bool(lows))
     if lookup == "index_map":
         names.append("index.png")
     names += [f"shaders/{s}" for s in SHADER_FILES_V2]
@@ -712,7 +716,7 @@ def _export_v2(
 
     with file_set():
         files: list[str] = []
-        written = pe.write_textures(form, entries, blend, normal_y, out, files, _write_level, progress)
+        written = pe.write_textures(form, entries, blend, normal_y, out, files, _write_level, progress, plans)
         if lookup == "hash":
             lookup_entry = _hash_lookup(hl, seed, wrap)
         else:
@@ -721,7 +725,7 @@ def _export_v2(
             _write_text(out / "shaders" / s, shader_source(s))
             files.append(f"shaders/{s}")
         shapes = [(*e["array"].shape, e["array"].dtype.itemsize) for e in entries]
-        mem = pe.gpu_bytes(shapes, tileset.n_tiles, tileset.tile_size)
+        mem = pe.gpu_bytes(shapes, tileset.n_tiles, tileset.tile_size, reach_levels)
         manifest = {
             "format": EXPORT_FORMAT,
             "format_version": 2,
@@ -736,8 +740,9 @@ def _export_v2(
             "lookup": lookup_entry,
             "coordinates": "uv in tile units, pixel (x, y) of the texture covers [x/N, (x+1)/N) x [y/N, (y+1)/N), "
             "y down",
-            "filter": "maps and coverage LINEAR_MIPMAP_LINEAR, CLAMP_TO_EDGE, every level; bits, table and index "
-            "NEAREST (texelFetch)",
+            "filter": "maps LINEAR_MIPMAP_LINEAR, MIRRORED_REPEAT (the seam blend reads an entry past its piece, "
+            "mirrored at the exemplar's edge), every level; coverage LINEAR_MIPMAP_LINEAR, CLAMP_TO_EDGE; bits, "
+            "reach, table and index NEAREST (texelFetch)",
             "gpu_bytes": {**mem, "ratio_to_maps": mem["total"] / mem["maps"]},
             "source": {
                 "content_digest": tileset.content_digest(),

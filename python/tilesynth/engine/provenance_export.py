@@ -46,6 +46,7 @@ __all__ = [
     "RADIUS_MAX",
     "TABLE_WIDTH",
     "QuadrantForm",
+    "blend_plan",
     "coverage_levels",
     "full_mip_chain",
     "gpu_bytes",
@@ -54,6 +55,7 @@ __all__ = [
     "quadrant_form",
     "quadrant_of",
     "quadrant_radii",
+    "reach_coverage",
 ]
 
 TABLE_WIDTH = 256
@@ -263,9 +265,11 @@ def gpu_bytes(
     map_shapes: list[tuple[int, int, int, int]],
     n_tiles: int,
     tile_size: int,
+    reach_levels: tuple[int, int] | None = None,
 ) -> dict[str, int]:
     """Uncompressed GPU bytes of a version-2 export: ``map_shapes`` = ``(H, W, channels, bytes per sample)``;
-    3-channel maps count as RGBA (no RGB8 render format on most GPUs); every map with its full chain."""
+    3-channel maps count as RGBA (no RGB8 render format on most GPUs); every map with its full chain;
+    ``reach_levels`` ``(first, last)``: the levels of the seam blend's reach coverage (R16UI), None without it."""
     maps = 0
     for h, w, c, b in map_shapes:
         c = 4 if c == 3 else c
@@ -284,7 +288,69 @@ def gpu_bytes(
             break
         side //= 2
     table = -(-4 * n_tiles // TABLE_WIDTH) * TABLE_WIDTH * 16
-    return {"maps": maps, "bits": bits, "coverage": cov, "table": table, "total": maps + bits + cov + table}
+    reach = 0
+    if reach_levels is not None:
+        cols, rows = _atlas.grid_for(n_tiles)
+        w, h = reach_cell(n, *reach_levels)
+        reach = cols * w * rows * h * 2
+    total = maps + bits + cov + table + reach
+    return {"maps": maps, "bits": bits, "coverage": cov, "table": table, "reach": reach, "total": total}
+
+
+# ------------------------------------------------------------------------------------------ the seam blend
+def blend_plan(tile_size: int, kind: str) -> dict[str, float] | None:
+    """The bands of the seam blend of a ``kind`` map on tiles of ``tile_size`` (those of ``synthesize_maps``:
+    :func:`tilesynth.synth.seams.tile_bands` of the defaults), or None when the GPU cannot blend it: not a
+    scalar or normal map, or tiles whose quadrants are not whole blocks of every level the bands read
+    (``N`` a multiple of ``2^(L + 1)``, ``L`` the band's highest level: 16 for the detail band, 64 with the
+    low band), or a detail band above level 3 (its coverage counts must be exact in 8 bits)."""
+    from ..synth import seams
+
+    if kind not in ("scalar", "normal"):
+        return None
+    bands = seams.tile_bands(seams.check_bands(None, kind), tile_size)
+    top = max(bands["high"], bands.get("low", 0.0))
+    if bands["high"] > 3.0 or tile_size % (1 << (int(np.ceil(top)) + 1)):
+        return None
+    return bands
+
+
+def reach_span(bands: dict[str, float]) -> tuple[int, int]:
+    """``(first, last)``: the levels of the reach-extended labels the low band reads (``log2 R`` to
+    ``ceil(low)``)."""
+    first = int(np.log2(bands["reach"]))
+    return first, max(first, int(np.ceil(bands["low"])))
+
+
+def reach_cell(tile_size: int, first: int, last: int) -> tuple[int, int]:
+    """``(width, height)`` of a tile's cell in the reach coverage: its levels side by side, the first at the
+    left, each ``N >> l`` texels square, the cell as high as the first."""
+    return sum(tile_size >> lv for lv in range(first, last + 1)), tile_size >> first
+
+
+def reach_coverage(form: QuadrantForm, reach: int, first: int, last: int) -> tuple[np.ndarray, int]:
+    """uint16 ``(rows·h, cols·w)`` texture (R16UI) and its cell columns: for every tile, the number of pixels of
+    entry B in each ``2^l`` block of its labels extended ``reach`` px from the tile border
+    (:func:`tilesynth.synth.seams.border_labels`: every pixel nearer than ``reach`` to the border takes the bit
+    of its nearest border pixel, which lies in its own quadrant), levels ``first..last`` side by side
+    (:func:`reach_cell`); cells laid out as the coverage's (:func:`tilesynth.engine.atlas.grid_for`)."""
+    from ..synth.seams import border_labels
+
+    k, n = form.n_tiles, form.tile_size
+    ext = border_labels(form.bits.astype(np.uint8), int(reach)).astype(np.int64)
+    cols, rows = _atlas.grid_for(k)
+    cw, ch = reach_cell(n, first, last)
+    out = np.zeros((rows * ch, cols * cw), np.uint16)
+    x = 0
+    for lv in range(first, last + 1):
+        s = 1 << lv
+        side = n >> lv
+        counts = ext.reshape(k, side, s, side, s).sum(axis=(2, 4))
+        for t in range(k):
+            r, c = divmod(t, cols)
+            out[r * ch : r * ch + side, c * cw + x : c * cw + x + side] = counts[t]
+        x += side
+    return out, cols
 
 
 # ------------------------------------------------------------------------------------------------ the maps
@@ -296,7 +362,13 @@ def exemplar_maps(
     ``normal_y`` is the export's convention (``+y`` / ``-y``): normal maps are converted to it. ``check_map(name,
     value, exemplar_shape)`` checks an extra map and returns it as ``(H, W, C)`` (the exporter's, shared with the
     atlas)."""
-    from ..builder.materials import MapSpec, _with_normal_encoding, convert_normal_y, infer_kind
+    from ..builder.materials import (
+        MapSpec,
+        _with_normal_encoding,
+        convert_normal_y,
+        infer_kind,
+        renormalise_image,
+    )
     from ..cli.argtypes import normal_y_value
 
     want = normal_y_value(normal_y)
@@ -319,6 +391,8 @@ def exemplar_maps(
         if spec.kind == "normal":
             if normal_y_value(spec.normal_y) != want:
                 entry["array"] = convert_normal_y(arr, spec.encoding or "unorm")
+            # what synthesize_maps copies and blends: every vector renormalised once
+            entry["array"] = renormalise_image(entry["array"], spec.encoding or "unorm")
         out.append(entry)
     for name, value in (maps or {}).items():
         if any(e["name"] == name for e in out):
@@ -332,6 +406,8 @@ def exemplar_maps(
         enc = _with_normal_encoding(name, a)
         kind = "normal" if enc is not None else infer_kind(name)
         kind = "scalar" if kind == "normal" and enc is None else kind
+        if kind == "normal":
+            a = renormalise_image(a, enc)
         out.append(
             {
                 "name": name,
@@ -373,8 +449,9 @@ def check_blend_levels(blend_levels: Any, names: list[str]) -> dict[str, float]:
     return {n: out.get(n, 0.0) for n in names}
 
 
-def export_files_v2(entries: list[dict[str, Any]], n_coverage: int) -> list[str]:
-    """The level files of the maps and labels of a version-2 export (no shaders, viewer or manifest)."""
+def export_files_v2(entries: list[dict[str, Any]], n_coverage: int, reach: bool = False) -> list[str]:
+    """The level files of the maps and labels of a version-2 export (no shaders, viewer or manifest);
+    ``reach``: with the seam blend's reach coverage."""
     names = []
     for e in entries:
         ext = "exr" if e["array"].dtype == np.float32 else "png"
@@ -387,6 +464,8 @@ def export_files_v2(entries: list[dict[str, Any]], n_coverage: int) -> list[str]
             h, w, lv = max(1, h // 2), max(1, w // 2), lv + 1
     names += ["labels_bits.png", "labels_coverage.png"]
     names += [f"labels_coverage_mip{j}.png" for j in range(1, n_coverage)]
+    if reach:
+        names.append("labels_reach.png")
     names.append("table.bin")
     return names
 
@@ -400,6 +479,26 @@ def coverage_count(tile_size: int) -> int:
     return n
 
 
+def seam_plans(
+    entries: list[dict[str, Any]], tile_size: int, given: dict[str, Any] | None, map_smooth: str
+) -> dict[str, dict[str, float] | None]:
+    """``{name: bands or None}``: the maps the shaders blend with the seam blend of ``synthesize_maps``
+    (:func:`blend_plan`): every scalar and normal map unless ``map_smooth`` is "off" (copies, as ``synth
+    --map-smooth off``) or ``given`` (the ``blend_levels``) names it (the coverage weighting at that level)."""
+    given = given or {}
+    return {
+        e["name"]: None if map_smooth == "off" or e["name"] in given else blend_plan(tile_size, e["kind"])
+        for e in entries
+    }
+
+
+def map_mean(arr: np.ndarray) -> list[float]:
+    """The mean of every channel of a map over the exemplar, in the values the shaders read (codes over their
+    maximum; float maps as they are): the ``μ`` of the low band's variance-preserving blend."""
+    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(arr.dtype, 1.0)
+    return [float(v) for v in (arr.reshape(-1, arr.shape[2]).astype(np.float64) / scale).mean(axis=0)]
+
+
 def write_textures(
     form: QuadrantForm,
     entries: list[dict[str, Any]],
@@ -409,10 +508,15 @@ def write_textures(
     files: list[str],
     write_level: Any,
     progress: Any = None,
+    plans: dict[str, dict[str, float] | None] | None = None,
 ) -> dict[str, Any]:
     """Write the maps (full chains, each level by ``write_level(path, array)``: the exporter's, PNG or OpenEXR),
-    the bits, the coverage levels and the table into ``out``; the manifest's ``maps`` and ``labels`` entries."""
+    the bits, the coverage levels, the reach coverage (when a map's seam blend has a low band) and the table
+    into ``out``; the manifest's ``maps`` and ``labels`` entries. ``plans``: :func:`seam_plans` (None: no map
+    blended)."""
     from ..builder.materials import infer_kind
+
+    plans = plans or {}
 
     map_entries = []
     for k, e in enumerate(entries):
@@ -441,6 +545,14 @@ def write_textures(
             "blend_level": blend[e["name"]],
             "normal": normal_code(e, normal_y),
         }
+        bands = plans.get(e["name"])
+        if bands is not None:
+            me["seam"] = "blend"
+            me["bands"] = {k: float(v) for k, v in bands.items()}
+            if e["kind"] == "scalar":
+                me["mean"] = map_mean(arr)
+        else:
+            me["seam"] = "coverage" if blend[e["name"]] > 0 else "cut"
         if e["kind"] == "normal" or infer_kind(e["name"]) == "normal":  # as version 1: by name too
             me["normal_y"] = normal_y
         map_entries.append(me)
@@ -458,6 +570,33 @@ def write_textures(
         save_image(out / fname, a[:, :, None], bits=8)
         files.append(fname)
         cov_levels.append({"level": j, "file": fname, "width": int(a.shape[1]), "height": int(a.shape[0])})
+    lows = [b for b in plans.values() if b is not None and "low" in b]
+    reach_entry = None
+    if lows:
+        if any(reach_span(b) != reach_span(lows[0]) or b["reach"] != lows[0]["reach"] for b in lows):
+            raise ParameterError(
+                "the maps' low bands differ in reach or levels: one reach coverage serves all"
+            )
+        first, last = reach_span(lows[0])
+        rc, rcols = reach_coverage(form, int(lows[0]["reach"]), first, last)
+        save_image(out / "labels_reach.png", rc[:, :, None], bits=16)
+        files.append("labels_reach.png")
+        cw, ch = reach_cell(form.tile_size, first, last)
+        reach_entry = {
+            "file": "labels_reach.png",
+            "format": "R16UI",
+            "width": int(rc.shape[1]),
+            "height": int(rc.shape[0]),
+            "columns": rcols,
+            "cell": [cw, ch],
+            "reach": int(lows[0]["reach"]),
+            "levels": [first, last],
+            "rule": "tile t's cell at x = (t % columns) * cell[0], y = (t // columns) * cell[1]; in it label "
+            "level l (levels[0] .. levels[1]) at x offset sum of N >> k for k < l, (N >> l) texels square: the "
+            "number of pixels of entry B in each 2^l block of the tile's labels with every pixel nearer than "
+            "reach to the tile border given the bit of its nearest border pixel (the row's end where the row "
+            "and the column are as near)",
+        }
     table = pack_table(form)
     with atomic_open(out / "table.bin", "wb") as fh:
         fh.write(table.astype("<i4").tobytes())
@@ -499,4 +638,6 @@ def write_textures(
             "bias": BIAS,
         },
     }
+    if reach_entry is not None:
+        labels["reach"] = reach_entry
     return {"maps": map_entries, "labels": labels}

@@ -167,6 +167,7 @@ def config_for(
                 "normal": m["normal"],
                 "blend_level": m["blend_level"],
                 "levels": embed_levels(levels),
+                **{k: m[k] for k in ("seam", "bands", "mean") if k in m},
             }
         )
     cov = [load(lv["file"])[:, :, 0] for lv in lab["coverage"]["levels"]]
@@ -186,11 +187,23 @@ def config_for(
             "height": lab["table"]["height"],
             "data": base64.b64encode(table.astype("<i4").tobytes()).decode(),
         },
+        "reach": None,
         "autorun": False,
         "index": index_entry(imap),
         "selftest": selftest,
         "init": [0.0, 0.0, 1.0],
     }
+    if "reach" in lab:
+        r = lab["reach"]
+        data = load(r["file"])[:, :, 0].astype("<u2")
+        cfg["reach"] = {
+            "width": r["width"],
+            "height": r["height"],
+            "columns": r["columns"],
+            "levels": r["levels"],
+            "reach": r["reach"],
+            "data": base64.b64encode(data.tobytes()).decode(),
+        }
     return cfg
 
 
