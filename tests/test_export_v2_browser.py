@@ -217,8 +217,8 @@ DATA = Path(__file__).parent / "data"
 
 @pytest.mark.parametrize("target", ["glsl-es300", "glsl-400", "hlsl", "godot-as-glsl"])
 def test_v2_shaders_compile_with_glslang(tmp_path, target):
-    """The version-2 GLSL (ES 3.00 and desktop 4.00, with and without the fetch counter) and HLSL (to SPIR-V)
-    compile with Khronos' glslang; the Godot shader too, once its Godot-only syntax (shader_type, uniform hints
+    """The version-2 GLSL (ES 3.00 and desktop 4.00, with and without the fetch counter) and HLSL (to SPIR-V),
+    the seam blend included, compile with Khronos' glslang; the Godot shader too, once its Godot-only syntax (shader_type, uniform hints
     and defaults, the fragment() built-ins) is rewritten as GLSL ES 3.00 (no Godot compiler here)."""
     import re
     import shutil
@@ -233,14 +233,17 @@ def test_v2_shaders_compile_with_glslang(tmp_path, target):
     use = (
         "void main() { TsSite s = ts_site(uv, dFdx(uv), dFdy(uv));"
         " o = ts_map(m0, s, ts_weight(s, 0.0), 1) + ts_fetch_map(m0, ivec2(uv), 2)"
-        " + ts_sample_map(m0, uv, 3.0, 0); }\n"
+        " + ts_sample_map(m0, uv, 3.0, 0); vec4 bd = vec4(3.0, 5.0, 4.0, 16.0); TsBlend b = ts_blend(s, bd);"
+        " o += ts_smooth_map(m0, s, b, bd, vec4(0.5), 0, 0.0) + ts_smooth_map(m0, s, b, vec4(3.0, -1.0, 0.0, 1.0),"
+        " vec4(0.0), 1, 0.0); }\n"
     )
     if target == "hlsl":
         src = shader_source("tilesynth_v2.hlsl") + (
             "Texture2D<float4> m0 : register(t4);\n"
             "float4 main(float2 uv : TEXCOORD0) : SV_Target { TsSite s = ts_site(uv, ddx(uv), ddy(uv));"
             " return ts_map(m0, s, ts_weight(s, 0.0), 1) + ts_fetch_map(m0, int2(uv), 3)"
-            " + ts_sample_map(m0, uv, 2.0, 0); }\n"
+            " + ts_sample_map(m0, uv, 2.0, 0) + ts_smooth_map(m0, s, ts_blend(s, float4(3, 5, 4, 16)),"
+            " float4(3, 5, 4, 16), float4(0.5, 0.5, 0.5, 1), 0, 0.0); }\n"
         )
         f = tmp_path / "t.hlsl"
         cmd = [exe, "-D", "-V", "-e", "main", "-S", "frag", "-o", str(tmp_path / "t.spv"), str(f)]
@@ -287,7 +290,9 @@ def test_v2_wgsl_validates_with_naga(tmp_path):
         "@fragment fn main(@location(0) uv: vec2<f32>) -> @location(0) vec4<f32> {\n"
         "  let s = ts_site(uv, dpdx(uv), dpdy(uv));\n"
         "  return ts_map(m0, s, ts_weight(s, 0.0), 1) + ts_fetch_map(m0, vec2<i32>(uv), 1)"
-        " + ts_sample_map(m0, uv, 2.0, 0);\n}\n"
+        " + ts_sample_map(m0, uv, 2.0, 0)\n"
+        "    + ts_smooth_map(m0, s, ts_blend(s, vec4<f32>(3.0, 5.0, 4.0, 16.0)), vec4<f32>(3.0, 5.0, 4.0, 16.0),"
+        " vec4<f32>(0.5), 0, 0.0);\n}\n"
     )
     out = subprocess.run([exe, str(f)], capture_output=True, text=True)
     assert out.returncode == 0, out.stdout + out.stderr
