@@ -341,19 +341,13 @@ def test_viewer_selftest_passes_and_the_file_is_a_few_times_the_maps(browser, tm
     assert size <= 3 * map_bytes
 
 
-def test_v2_wgsl_level0_is_bit_equal_in_webgpu(browser, tmp_path, aug_set):
-    """The version-2 WGSL map lookup (textureLoad and textureSampleGrad at texel centres, a compute pass in
-    Chromium's WebGPU) equals the CPU for the albedo and the normals of a set with every symmetry."""
-
-    from webgl import run_webgpu_page, wgsl_v2_page
-
-    from tilesynth.engine import shader_source
+def _wgsl_data(tileset, m: dict, out: Path, imap, names: tuple[str, ...]) -> dict:
+    """The textures and parameters of a version-2 export for the WebGPU harness (``webgl.wgsl_v2_page``): the
+    maps ``names`` as their 8-bit previews, the labels, the table, the index, the reach coverage."""
     from tilesynth.engine.reference import to_rgba8
+    from tilesynth.io.images import load_raster
 
-    maps = _derived_maps(aug_set.exemplar)
-    out = tmp_path / "x"
-    m, imap, r = _exported(aug_set, out, maps=maps, index_size=(8, 8))
-    cfg = v2.config_for(aug_set, m, out, imap, [])
+    cfg = v2.config_for(tileset, m, out, imap, [])
     lab = m["labels"]
 
     def enc(a: np.ndarray) -> str:
@@ -362,14 +356,12 @@ def test_v2_wgsl_level0_is_bit_equal_in_webgpu(browser, tmp_path, aug_set):
     def level(a: np.ndarray) -> dict:
         return {"w": int(a.shape[1]), "h": int(a.shape[0]), "data": enc(a)}
 
-    from tilesynth.io.images import load_raster
-
     def load(f: str) -> np.ndarray:
         a = np.asarray(load_raster(out / f))
         return a[:, :, None] if a.ndim == 2 else a
 
     data_maps = []
-    for name in ("albedo", "normal"):
+    for name in names:
         mp = next(x for x in m["maps"] if x["name"] == name)
         levels = [level(to_rgba8(v2.to_preview8(load(lv["file"])))) for lv in mp["levels"]]
         data_maps.append({"normal": mp["normal"], "levels": levels})
@@ -384,22 +376,45 @@ def test_v2_wgsl_level0_is_bit_equal_in_webgpu(browser, tmp_path, aug_set):
         "table": level(
             np.fromfile(out / lab["table"]["file"], "<i4").reshape(lab["table"]["height"], 256, 4)
         ),
-        "index": level(imap.astype("<u2")),
+        "index": level(imap.astype("<u2") if imap is not None else np.zeros((1, 1), "<u2")),
         "params": enc(params),
         "maps": data_maps,
         "cases": [],
     }
+    if "reach" in lab:
+        r = lab["reach"]
+        data["reach"] = level(load(r["file"])[:, :, 0].astype("<u2"))
+        data["reach_layout"] = [r["columns"], r["levels"][0], r["levels"][1], r["reach"]]
+    return data
+
+
+def _enc(a: np.ndarray) -> str:
+    return base64.b64encode(np.ascontiguousarray(a).tobytes()).decode()
+
+
+def test_v2_wgsl_level0_is_bit_equal_in_webgpu(browser, tmp_path, aug_set):
+    """The version-2 WGSL map lookup (textureLoad and textureSampleGrad at texel centres, a compute pass in
+    Chromium's WebGPU) equals the CPU for the albedo and the normals of a set with every symmetry."""
+
+    from webgl import run_webgpu_page, wgsl_v2_page
+
+    from tilesynth.engine import shader_source
+
+    maps = _derived_maps(aug_set.exemplar)
+    out = tmp_path / "x"
+    m, imap, r = _exported(aug_set, out, maps=maps, index_size=(8, 8), blend_levels=CUT)
+    data = _wgsl_data(aug_set, m, out, imap, ("albedo", "normal"))
     n = aug_set.tile_size
     for i, name in enumerate(("albedo", "normal")):
         for x0, y0 in ((-n - 5, -n - 11), (2 * n - 13, 3 * n - 20), (-100003, -77777)):
             data["cases"].append(
                 {"name": f"{name} fetch {x0},{y0}", "kind": "fetch", "map": i, "origin": [x0, y0], "w": 40,
-                 "h": 36, "scale": 1.0, "tol": 0, "ref": enc(r.texels(name, x0, y0, 40, 36))}
+                 "h": 36, "scale": 1.0, "tol": 0, "ref": _enc(r.texels(name, x0, y0, 40, 36))}
             )  # fmt: skip
             exact = np.rint(r.sampled(name, x0, y0, 40, 36, 1.0)).astype(np.uint8)
             data["cases"].append(
                 {"name": f"{name} centres {x0},{y0}", "kind": "grad", "map": i, "origin": [x0, y0], "w": 40,
-                 "h": 36, "scale": 1.0, "tol": 0, "ref": enc(exact)}
+                 "h": 36, "scale": 1.0, "tol": 0, "ref": _enc(exact)}
             )  # fmt: skip
     page = tmp_path / "wgsl2.html"
     page.write_text(wgsl_v2_page(data, shader_source("tilesynth_v2.wgsl")), encoding="utf-8")
@@ -535,3 +550,49 @@ def test_smooth_map_fetch_counts(browser, tmp_path, material):
     assert (
         near.min() > mm + 1 and near.max() < 255
     )  # near cuts the labels are read; the counter did not saturate
+
+
+def test_v2_wgsl_blends_smooth_maps_as_synthesize_maps_in_webgpu(browser, tmp_path, material):
+    """The WGSL seam blend (``ts_blend``, ``ts_smooth_map``; a compute pass in Chromium's WebGPU) of the height,
+    roughness and normal maps at 1:1 against :func:`tilesynth.synthesize_maps`: within :data:`BLEND_MAX` codes, at
+    most :data:`BLEND_OFF_BY_2` of the pixels more than 1 off."""
+    from webgl import run_webgpu_page, wgsl_v2_page
+
+    from tilesynth.engine import reference as ref
+    from tilesynth.engine import shader_source
+
+    tileset = material
+    n = tileset.tile_size
+    out = tmp_path / "x"
+    m, imap, _ = _exported(tileset, out, seed=11)
+    names = ("height", "roughness", "normal")
+    data = _wgsl_data(tileset, m, out, imap, names)
+    index_of = ref.index_function(m["lookup"], imap)
+    refs = {}
+    for i, name in enumerate(names):
+        mp = next(x for x in m["maps"] if x["name"] == name)
+        bd = mp["bands"]
+        mu = mp.get("mean", [0.0])
+        bands = [bd["high"], bd.get("low", -1.0), bd.get("split", 0.0), bd.get("reach", 1.0)]
+        mean = [mu[0], mu[0], mu[0], 1.0] if mp["channels"] == 1 else [*mu[:3], 1.0]
+        x0, y0, w, h = -n - 5, -n - 11, 2 * n + 10, 2 * n + 6
+        exact = ref.to_rgba8(v2.to_preview8(_synth_window(tileset, index_of, name, x0, y0, w, h)))
+        c = {"name": name, "kind": "blend", "map": i, "origin": [x0, y0], "w": w, "h": h, "scale": 1.0,
+             "tol": BLEND_MAX, "ref": _enc(exact), "bands": bands, "mean": mean, "dump": True}  # fmt: skip
+        data["cases"].append(c)
+        refs[name] = exact
+    page = tmp_path / "wgsl3.html"
+    page.write_text(wgsl_v2_page(data, shader_source("tilesynth_v2.wgsl")), encoding="utf-8")
+    rep = run_webgpu_page(browser, page)
+    if "adapter" in str(rep.get("error", "")).lower() or "navigator.gpu" in str(rep.get("error", "")):
+        pytest.skip(f"no WebGPU adapter in this browser: {rep['error']}")
+    assert rep.get("error") is None, rep
+    rows = []
+    for c in rep["cases"]:
+        exact = refs[c["name"]]
+        img = np.frombuffer(base64.b64decode(c["image"]), np.uint8).reshape(exact.shape)
+        d = np.abs(img.astype(int) - exact.astype(int))[..., :3].max(axis=2)
+        rows.append((c["name"], int(d.max()), round(float((d > 1).mean()), 4)))
+    print(f"WGSL, tiles of {n}: (map, max |GPU - synthesize_maps|, share > 1)", rows)
+    assert all(mx <= BLEND_MAX and over <= BLEND_OFF_BY_2 for _, mx, over in rows), rows
+    assert rep["status"] == "PASS", rep["cases"]
