@@ -343,7 +343,7 @@ def test_viewer_selftest_passes_and_the_file_is_a_few_times_the_maps(browser, tm
 
 def _wgsl_data(tileset, m: dict, out: Path, imap, names: tuple[str, ...]) -> dict:
     """The textures and parameters of a version-2 export for the WebGPU harness (``webgl.wgsl_v2_page``): the
-    maps ``names`` as their 8-bit previews, the labels, the table, the index, the reach coverage."""
+    maps ``names`` as their 8-bit previews, the labels, the table, the index, the blend coverage."""
     from tilesynth.engine.reference import to_rgba8
     from tilesynth.io.images import load_raster
 
@@ -381,10 +381,14 @@ def _wgsl_data(tileset, m: dict, out: Path, imap, names: tuple[str, ...]) -> dic
         "maps": data_maps,
         "cases": [],
     }
-    if "reach" in lab:
-        r = lab["reach"]
-        data["reach"] = level(load(r["file"])[:, :, 0].astype("<u2"))
-        data["reach_layout"] = [r["columns"], r["levels"][0], r["levels"][1], r["reach"]]
+    if "blend" in lab:
+        from tilesynth.engine.provenance_export import blend_shares
+
+        r = lab["blend"]
+        span = tuple(r["reach_levels"]) if r["reach_levels"] else None
+        shares = blend_shares(load(r["file"])[:, :, 0], m["tile_size"], r["high_level"], span)
+        data["blend"] = level(shares.astype("<f2"))
+        data["blend_layout"] = [r["columns"], r["high_level"], *(span or (-1, -1))]
     return data
 
 
@@ -478,7 +482,7 @@ def test_smooth_maps_blend_their_seams_as_synthesize_maps(browser, tmp_path, mat
     assert seam["albedo"] == ("cut", None)
     assert seam["normal"] == ("blend", {"high": BANDS["normal"]["high"]})
     assert seam["height"][0] == "blend" and ("low" in seam["height"][1]) == (n >= 64)
-    assert ("reach" in m["labels"]) == (n >= 64)
+    assert (m["labels"]["blend"]["reach_levels"] is not None) == (n >= 64)
     index_of = ref.index_function(m["lookup"], imap)
     names = [mp["name"] for mp in m["maps"]]
     cases, refs, copies = [], {}, {}

@@ -375,16 +375,16 @@ function b64(s) { const b = atob(s); const a = new Uint8Array(b.length); for (le
   const bits = texture("r8uint", [D.bits], 1), cov = texture("r8unorm", D.coverage, 1);
   const table = texture("rgba32sint", [D.table], 16), index = texture("r16uint", [D.index], 2);
   const sampler = dev.createSampler({magFilter: "linear", minFilter: "linear", mipmapFilter: "linear", addressModeU: "mirror-repeat", addressModeV: "mirror-repeat"});
-  const reach = texture("r16uint", [D.reach || {w: 1, h: 1, data: "AAA="}], 2);
+  const blendc = texture("r16float", [D.blend || {w: 1, h: 1, data: "AAA="}], 2);
   const rl = dev.createBuffer({size: 16, usage: U.UNIFORM | U.COPY_DST});
-  dev.queue.writeBuffer(rl, 0, new Int32Array(D.reach_layout || [1, 0, 0, 1]));
+  dev.queue.writeBuffer(rl, 0, new Int32Array(D.blend_layout || [1, 3, -1, -1]));
   const params = dev.createBuffer({size: 48, usage: U.UNIFORM | U.COPY_DST});
   dev.queue.writeBuffer(params, 0, new Int32Array(b64(D.params).buffer));
   const g0 = dev.createBindGroup({layout: pipe.getBindGroupLayout(0), entries: [
     {binding: 0, resource: bits.createView()}, {binding: 1, resource: cov.createView()},
     {binding: 2, resource: index.createView()}, {binding: 3, resource: {buffer: params}},
     {binding: 4, resource: table.createView()}, {binding: 5, resource: sampler},
-    {binding: 6, resource: reach.createView()}, {binding: 7, resource: {buffer: rl}}]});
+    {binding: 6, resource: blendc.createView()}, {binding: 7, resource: {buffer: rl}}]});
   const maps = D.maps.map(m => texture("rgba8unorm", m.levels, 4));
   const cases = [];
   let bad = 0;
@@ -429,6 +429,7 @@ function b64(s) { const b = atob(s); const a = new Uint8Array(b.length); for (le
 
 def wgsl_v2_page(data: dict, wgsl: str) -> str:
     """A WebGPU page running the version-2 WGSL map lookup in a compute pass over the windows of ``data``
-    (textures as base64 levels, the parameters, the reach coverage and its layout, cases with reference bytes;
+    (textures as base64 levels, the parameters, the blend coverage as half floats and its layout, cases with
+    reference bytes;
     a case of kind "blend" draws a smooth map by ``ts_smooth_map`` with its ``bands`` and ``mean``)."""
     return WGSL_V2_PAGE.replace("__LIB__", wgsl).replace("__DATA__", json.dumps(data))

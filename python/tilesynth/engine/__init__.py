@@ -699,10 +699,9 @@ def _export_v2(
     entries = pe.exemplar_maps(tileset, maps, bits, normal_y, _map_array)
     blend = pe.check_blend_levels(blend_levels, [e["name"] for e in entries])
     plans = pe.seam_plans(entries, tileset.tile_size, blend_levels, map_smooth)
-    lows = [b for b in plans.values() if b is not None and "low" in b]
-    reach_levels = pe.reach_span(lows[0]) if lows else None
+    layout = pe.blend_layout(plans, tileset.tile_size)
     n_cov = pe.coverage_count(tileset.tile_size)
-    names = pe.export_files_v2(entries, n_cov, reach=bool(lows))
+    names = pe.export_files_v2(entries, n_cov, blend=layout is not None)
     if lookup == "index_map":
         names.append("index.png")
     names += [f"shaders/{s}" for s in SHADER_FILES_V2]
@@ -725,7 +724,7 @@ def _export_v2(
             _write_text(out / "shaders" / s, shader_source(s))
             files.append(f"shaders/{s}")
         shapes = [(*e["array"].shape, e["array"].dtype.itemsize) for e in entries]
-        mem = pe.gpu_bytes(shapes, tileset.n_tiles, tileset.tile_size, reach_levels)
+        mem = pe.gpu_bytes(shapes, tileset.n_tiles, tileset.tile_size, None if layout is None else layout[:2])
         manifest = {
             "format": EXPORT_FORMAT,
             "format_version": 2,
@@ -742,7 +741,7 @@ def _export_v2(
             "y down",
             "filter": "maps LINEAR_MIPMAP_LINEAR, MIRRORED_REPEAT (the seam blend reads an entry past its piece, "
             "mirrored at the exemplar's edge), every level; coverage LINEAR_MIPMAP_LINEAR, CLAMP_TO_EDGE; bits, "
-            "reach, table and index NEAREST (texelFetch)",
+            "table and index NEAREST (texelFetch); blend coverage LINEAR, CLAMP_TO_EDGE, one level",
             "gpu_bytes": {**mem, "ratio_to_maps": mem["total"] / mem["maps"]},
             "source": {
                 "content_digest": tileset.content_digest(),

@@ -55,7 +55,7 @@ __all__ = [
     "quadrant_form",
     "quadrant_of",
     "quadrant_radii",
-    "reach_coverage",
+    "blend_coverage",
 ]
 
 TABLE_WIDTH = 256
@@ -265,11 +265,12 @@ def gpu_bytes(
     map_shapes: list[tuple[int, int, int, int]],
     n_tiles: int,
     tile_size: int,
-    reach_levels: tuple[int, int] | None = None,
+    blend: tuple[int, tuple[int, int] | None] | None = None,
 ) -> dict[str, int]:
     """Uncompressed GPU bytes of a version-2 export: ``map_shapes`` = ``(H, W, channels, bytes per sample)``;
     3-channel maps count as RGBA (no RGB8 render format on most GPUs); every map with its full chain;
-    ``reach_levels`` ``(first, last)``: the levels of the seam blend's reach coverage (R16UI), None without it."""
+    ``blend`` ``(high level, reach levels or None)``: the seam blend's coverage (R16F, :func:`blend_coverage`),
+    None without it."""
     maps = 0
     for h, w, c, b in map_shapes:
         c = 4 if c == 3 else c
@@ -288,13 +289,13 @@ def gpu_bytes(
             break
         side //= 2
     table = -(-4 * n_tiles // TABLE_WIDTH) * TABLE_WIDTH * 16
-    reach = 0
-    if reach_levels is not None:
+    blend_b = 0
+    if blend is not None:
         cols, rows = _atlas.grid_for(n_tiles)
-        w, h = reach_cell(n, *reach_levels)
-        reach = cols * w * rows * h * 2
-    total = maps + bits + cov + table + reach
-    return {"maps": maps, "bits": bits, "coverage": cov, "table": table, "reach": reach, "total": total}
+        w, h = blend_cell(n, *blend)
+        blend_b = cols * w * rows * h * 2
+    total = maps + bits + cov + table + blend_b
+    return {"maps": maps, "bits": bits, "coverage": cov, "table": table, "blend": blend_b, "total": total}
 
 
 # ------------------------------------------------------------------------------------------ the seam blend
@@ -315,6 +316,38 @@ def blend_plan(tile_size: int, kind: str) -> dict[str, float] | None:
     return bands
 
 
+def blend_shares(counts: np.ndarray, tile_size: int, high: int, span: tuple[int, int] | None) -> np.ndarray:
+    """float32 shares ``count / 4^l`` of a blend coverage texture of counts (:func:`blend_coverage`): what a
+    renderer uploads as R16F (exact in half floats)."""
+    n = tile_size
+    cw, ch = blend_cell(n, high, span)
+    div = np.ones((ch, cw))
+    div[: n >> high, : n >> high] = 4.0**high
+    if span is not None:
+        y = 0
+        for lv in range(span[0], span[1] + 1):
+            div[y : y + (n >> lv), n >> high : (n >> high) + (n >> lv)] = 4.0**lv
+            y += n >> lv
+    rows, cols = counts.shape[0] // ch, counts.shape[1] // cw
+    return (counts / np.tile(div, (rows, cols))).astype(np.float32)
+
+
+def blend_layout(
+    plans: dict[str, dict[str, float] | None], tile_size: int
+) -> tuple[int, tuple[int, int] | None, int] | None:
+    """``(high level, reach levels or None, reach)`` of the blend coverage the maps ``plans`` (:func:`seam_plans`)
+    read, or None when no map is blended; one coverage serves every map, so their bands must agree."""
+    got = [b for b in plans.values() if b is not None]
+    if not got:
+        return None
+    highs = {int(np.ceil(b["high"])) for b in got}
+    lows = {(reach_span(b), int(b["reach"])) for b in got if "low" in b}
+    if len(highs) > 1 or len(lows) > 1:
+        raise ParameterError("the blended maps' bands differ: one blend coverage serves them all")
+    span, reach = lows.pop() if lows else (None, 1)
+    return highs.pop(), span, reach
+
+
 def reach_span(bands: dict[str, float]) -> tuple[int, int]:
     """``(first, last)``: the levels of the reach-extended labels the low band reads (``log2 R`` to
     ``ceil(low)``)."""
@@ -322,34 +355,52 @@ def reach_span(bands: dict[str, float]) -> tuple[int, int]:
     return first, max(first, int(np.ceil(bands["low"])))
 
 
-def reach_cell(tile_size: int, first: int, last: int) -> tuple[int, int]:
-    """``(width, height)`` of a tile's cell in the reach coverage: its levels side by side, the first at the
-    left, each ``N >> l`` texels square, the cell as high as the first."""
-    return sum(tile_size >> lv for lv in range(first, last + 1)), tile_size >> first
+def blend_cell(tile_size: int, high: int, span: tuple[int, int] | None) -> tuple[int, int]:
+    """``(width, height)`` of a tile's cell in the blend coverage: the labels' level ``high`` (``N >> high``
+    square) at the left; with ``span`` ``(first, last)``, the reach-extended levels stacked at its right (the
+    first at the top)."""
+    n = tile_size
+    if span is None:
+        return n >> high, n >> high
+    ext = [n >> lv for lv in range(span[0], span[1] + 1)]
+    return (n >> high) + ext[0], max(n >> high, sum(ext))
 
 
-def reach_coverage(form: QuadrantForm, reach: int, first: int, last: int) -> tuple[np.ndarray, int]:
-    """uint16 ``(rows·h, cols·w)`` texture (R16UI) and its cell columns: for every tile, the number of pixels of
-    entry B in each ``2^l`` block of its labels extended ``reach`` px from the tile border
+def blend_coverage(
+    form: QuadrantForm, high: int, reach: int, span: tuple[int, int] | None
+) -> tuple[np.ndarray, int]:
+    """uint16 ``(rows·h, cols·w)`` texture of counts and its cell columns: for every tile, the number of pixels of
+    entry B in each ``2^high`` block of its labels, and with ``span`` ``(first, last)`` in each ``2^l`` block
+    (``l`` in first..last) of its labels extended ``reach`` px from the tile border
     (:func:`tilesynth.synth.seams.border_labels`: every pixel nearer than ``reach`` to the border takes the bit
-    of its nearest border pixel, which lies in its own quadrant), levels ``first..last`` side by side
-    (:func:`reach_cell`); cells laid out as the coverage's (:func:`tilesynth.engine.atlas.grid_for`)."""
+    of its nearest border pixel, which lies in its own quadrant); laid out by :func:`blend_cell`, cells as the
+    coverage's (:func:`tilesynth.engine.atlas.grid_for`). A renderer uploads it as R16F, ``count / 4^l``: exact
+    shares, bilinear-filtered by the sampler."""
     from ..synth.seams import border_labels
 
     k, n = form.n_tiles, form.tile_size
-    ext = border_labels(form.bits.astype(np.uint8), int(reach)).astype(np.int64)
     cols, rows = _atlas.grid_for(k)
-    cw, ch = reach_cell(n, first, last)
+    cw, ch = blend_cell(n, high, span)
     out = np.zeros((rows * ch, cols * cw), np.uint16)
-    x = 0
-    for lv in range(first, last + 1):
-        s = 1 << lv
-        side = n >> lv
-        counts = ext.reshape(k, side, s, side, s).sum(axis=(2, 4))
+
+    def put(counts: np.ndarray, x: int, y: int) -> None:
+        side = counts.shape[1]
         for t in range(k):
             r, c = divmod(t, cols)
-            out[r * ch : r * ch + side, c * cw + x : c * cw + x + side] = counts[t]
-        x += side
+            out[r * ch + y : r * ch + y + side, c * cw + x : c * cw + x + side] = counts[t]
+
+    def block_counts(lab: np.ndarray, lv: int) -> np.ndarray:
+        s, side = 1 << lv, n >> lv
+        return lab.reshape(k, side, s, side, s).sum(axis=(2, 4))
+
+    bits = form.bits.astype(np.int64)
+    put(block_counts(bits, high), 0, 0)
+    if span is not None:
+        ext = border_labels(form.bits.astype(np.uint8), int(reach)).astype(np.int64)
+        y = 0
+        for lv in range(span[0], span[1] + 1):
+            put(block_counts(ext, lv), n >> high, y)
+            y += n >> lv
     return out, cols
 
 
@@ -449,9 +500,9 @@ def check_blend_levels(blend_levels: Any, names: list[str]) -> dict[str, float]:
     return {n: out.get(n, 0.0) for n in names}
 
 
-def export_files_v2(entries: list[dict[str, Any]], n_coverage: int, reach: bool = False) -> list[str]:
+def export_files_v2(entries: list[dict[str, Any]], n_coverage: int, blend: bool = False) -> list[str]:
     """The level files of the maps and labels of a version-2 export (no shaders, viewer or manifest);
-    ``reach``: with the seam blend's reach coverage."""
+    ``blend``: with the seam blend's coverage."""
     names = []
     for e in entries:
         ext = "exr" if e["array"].dtype == np.float32 else "png"
@@ -464,8 +515,8 @@ def export_files_v2(entries: list[dict[str, Any]], n_coverage: int, reach: bool 
             h, w, lv = max(1, h // 2), max(1, w // 2), lv + 1
     names += ["labels_bits.png", "labels_coverage.png"]
     names += [f"labels_coverage_mip{j}.png" for j in range(1, n_coverage)]
-    if reach:
-        names.append("labels_reach.png")
+    if blend:
+        names.append("labels_blend.png")
     names.append("table.bin")
     return names
 
@@ -511,7 +562,7 @@ def write_textures(
     plans: dict[str, dict[str, float] | None] | None = None,
 ) -> dict[str, Any]:
     """Write the maps (full chains, each level by ``write_level(path, array)``: the exporter's, PNG or OpenEXR),
-    the bits, the coverage levels, the reach coverage (when a map's seam blend has a low band) and the table
+    the bits, the coverage levels, the blend coverage (when a map is blended) and the table
     into ``out``; the manifest's ``maps`` and ``labels`` entries. ``plans``: :func:`seam_plans` (None: no map
     blended)."""
     from ..builder.materials import infer_kind
@@ -570,32 +621,31 @@ def write_textures(
         save_image(out / fname, a[:, :, None], bits=8)
         files.append(fname)
         cov_levels.append({"level": j, "file": fname, "width": int(a.shape[1]), "height": int(a.shape[0])})
-    lows = [b for b in plans.values() if b is not None and "low" in b]
-    reach_entry = None
-    if lows:
-        if any(reach_span(b) != reach_span(lows[0]) or b["reach"] != lows[0]["reach"] for b in lows):
-            raise ParameterError(
-                "the maps' low bands differ in reach or levels: one reach coverage serves all"
-            )
-        first, last = reach_span(lows[0])
-        rc, rcols = reach_coverage(form, int(lows[0]["reach"]), first, last)
-        save_image(out / "labels_reach.png", rc[:, :, None], bits=16)
-        files.append("labels_reach.png")
-        cw, ch = reach_cell(form.tile_size, first, last)
-        reach_entry = {
-            "file": "labels_reach.png",
-            "format": "R16UI",
-            "width": int(rc.shape[1]),
-            "height": int(rc.shape[0]),
-            "columns": rcols,
+    blend_entry = None
+    layout = blend_layout(plans, form.tile_size)
+    if layout is not None:
+        high, span, reach = layout
+        bc, blend_cols = blend_coverage(form, high, reach, span)
+        save_image(out / "labels_blend.png", bc[:, :, None], bits=16)
+        files.append("labels_blend.png")
+        cw, ch = blend_cell(form.tile_size, high, span)
+        blend_entry = {
+            "file": "labels_blend.png",
+            "format": "R16F",
+            "stored_as": "16-bit grey PNG of counts: upload texel = count / 4^l (l its level), exact in R16F",
+            "width": int(bc.shape[1]),
+            "height": int(bc.shape[0]),
+            "columns": blend_cols,
             "cell": [cw, ch],
-            "reach": int(lows[0]["reach"]),
-            "levels": [first, last],
-            "rule": "tile t's cell at x = (t % columns) * cell[0], y = (t // columns) * cell[1]; in it label "
-            "level l (levels[0] .. levels[1]) at x offset sum of N >> k for k < l, (N >> l) texels square: the "
-            "number of pixels of entry B in each 2^l block of the tile's labels with every pixel nearer than "
-            "reach to the tile border given the bit of its nearest border pixel (the row's end where the row "
-            "and the column are as near)",
+            "high_level": high,
+            "reach": reach,
+            "reach_levels": list(span) if span is not None else None,
+            "rule": "tile t's cell at x = (t % columns) * cell[0], y = (t // columns) * cell[1]; in it, at (0, 0), "
+            "the number of pixels of entry B in each 2^high_level block of the tile's labels ((N >> high_level) "
+            "texels square); with reach_levels, at x = N >> high_level, level l of reach_levels[0] .. [1] stacked "
+            "from y = 0 (each at y = sum of N >> k for k < l): the same of the labels with every pixel nearer than "
+            "reach to the tile border given the bit of its nearest border pixel (the row's end where the row and "
+            "the column are as near)",
         }
     table = pack_table(form)
     with atomic_open(out / "table.bin", "wb") as fh:
@@ -638,6 +688,6 @@ def write_textures(
             "bias": BIAS,
         },
     }
-    if reach_entry is not None:
-        labels["reach"] = reach_entry
+    if blend_entry is not None:
+        labels["blend"] = blend_entry
     return {"maps": map_entries, "labels": labels}

@@ -187,22 +187,23 @@ def config_for(
             "height": lab["table"]["height"],
             "data": base64.b64encode(table.astype("<i4").tobytes()).decode(),
         },
-        "reach": None,
+        "blend": None,
         "autorun": False,
         "index": index_entry(imap),
         "selftest": selftest,
         "init": [0.0, 0.0, 1.0],
     }
-    if "reach" in lab:
-        r = lab["reach"]
-        data = load(r["file"])[:, :, 0].astype("<u2")
-        cfg["reach"] = {
+    if "blend" in lab:
+        from .provenance_export import blend_shares
+
+        r = lab["blend"]
+        span = tuple(r["reach_levels"]) if r["reach_levels"] else None
+        shares = blend_shares(load(r["file"])[:, :, 0], manifest["tile_size"], r["high_level"], span)
+        cfg["blend"] = {
             "width": r["width"],
             "height": r["height"],
-            "columns": r["columns"],
-            "levels": r["levels"],
-            "reach": r["reach"],
-            "data": base64.b64encode(data.tobytes()).decode(),
+            "layout": [r["columns"], r["high_level"], span[0] if span else -1, span[1] if span else -1],
+            "data": base64.b64encode(shares.astype("<f2").tobytes()).decode(),
         }
     return cfg
 

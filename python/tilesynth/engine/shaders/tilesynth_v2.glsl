@@ -26,11 +26,13 @@
 // bands = (high, low, split, reach) ("low" < 0 for a normal map or a map without a low band), mean = the map's
 // "mean" per channel (1 for the alpha of maps with fewer channels), w0 = ts_weight(s, 0.0) (the footprint path).
 // The entries of a tile on the GPU are the quadrant form: A_0..A_3 and B. The weights are exact: the detail
-// band's label coverage at levels 0-1 from the bits, 2-3 from the coverage texture (its 8-bit values hold the
-// exact counts at those levels), the low band's from ts_reach (the labels extended "reach" px from the tile
-// border, exact counts); each tap of the bilinear samples is read on its own (texelFetch: coverage per tile is
-// clamped at the tile's edge, as the CPU's indices) and skipped without a fetch where the quadrant's radii say
-// the block is all A or all B. The values: each entry of non-zero weight at the pixel, at level 0 (textureGrad
+// band's label coverage at its top level (3) and the low band's (the labels extended "reach" px from the tile
+// border) from ts_blend_cov (exact shares, one bilinear fetch per quadrant the sample's taps fall in: the
+// blocks of every level lie in one quadrant; the position clamped to the tile's texel centres, as the CPU
+// clamps its indices), the detail band's levels 0-1 from the bits and 2 from the coverage texture (its 8-bit
+// values hold the exact counts there; a texelFetch per tap: these are the 6-px border ring only); a read is
+// skipped where the quadrant's radii say its blocks are all A or all B. The values: each entry of non-zero
+// weight at the pixel, at level 0 (textureGrad
 // with the footprint's derivatives, so bilinear under magnification), and for a low band the map's own mip at
 // level "split" (textureLod, MIRRORED_REPEAT: the box mip when the map's sides are multiples of 2^split).
 // Approximations: float32 arithmetic (the CPU: float64), the map's mips stored in its sample type (8-bit maps:
@@ -52,8 +54,9 @@
 //   ts_index     index_map mode: index.png as R16UI; hash mode: any unsigned-integer texture on its own unit
 //   ts_layout    (tile_size N, bits columns, coverage columns, coverage max level)
 //   ts_lookup, ts_seed, ts_wrap: as version 1 (mode 0 index map, 1 corner hash, 2 edge hash)
-//   ts_reach     labels_reach.png as R16UI (NEAREST, texelFetch only; any 1x1 unsigned texture without it)
-//   ts_reach_layout  (columns, levels[0], levels[1], reach) of the manifest's labels.reach ((1, 0, 0, 1) without)
+//   ts_blend_cov labels_blend.png as R16F, texel = count / 4^l (LINEAR, CLAMP_TO_EDGE, one level; any 1x1
+//                float texture without it)
+//   ts_blend_layout  (columns, high_level, reach_levels[0] or -1, reach_levels[1]) of the manifest's labels.blend
 //   every map: its full mip chain, LINEAR_MIPMAP_LINEAR, MIRRORED_REPEAT.
 // Define TS_COUNT_FETCHES before this file to count texture fetches in the global ts_fetches (tests).
 #ifdef TS_COUNT_FETCHES
@@ -67,8 +70,8 @@ uniform highp usampler2D ts_bits;
 uniform highp sampler2D ts_coverage;
 uniform highp isampler2D ts_table;
 uniform highp usampler2D ts_index;
-uniform highp usampler2D ts_reach;
-uniform ivec4 ts_reach_layout;
+uniform highp sampler2D ts_blend_cov;
+uniform ivec4 ts_blend_layout;
 uniform ivec4 ts_layout;
 uniform ivec4 ts_lookup;
 uniform uint ts_seed;
@@ -304,31 +307,30 @@ void ts_quad(inout TsBlend b, int tile, int q) {
     b.loaded |= 1 << q;
 }
 
-// Share of B in block ib of label level l (band 0: the labels; band 1: the labels extended ts_reach_layout's
-// reach from the tile border); q the block's quadrant (the blocks of every level lie in one quadrant).
-float ts_block_b(inout TsBlend b, TsSite s, int band, int l, ivec2 ib, int q) {
-    ts_quad(b, s.tile, q);
-    int n = ts_layout.x, sz = 1 << l;
-    ivec2 p0 = ib * sz, p1 = p0 + sz - 1;
+// The radii's verdict on the pixels [p0, p1] of quadrant q (band 1: of the labels extended reach px): 0 all A,
+// 1 all B, -1 unknown.
+float ts_rect_known(TsBlend b, int band, ivec2 p0, ivec2 p1, int q, int reach) {
+    int n = ts_layout.x;
     vec2 lo = vec2(p0) + 0.5 - 0.5 * float(n), hi = vec2(p1) + 0.5 - 0.5 * float(n);
     float dnear = length(max(max(lo, -hi), vec2(0.0)));
     float dfar = length(max(abs(lo), abs(hi)));
     float rin = float(b.ca[q] >> 19) * 0.5, rout = float(b.cb[q] >> 19) * 0.5;
     int dmin = min(min(p0.x, p0.y), min(n - 1 - p1.x, n - 1 - p1.y));
-    bool zone = band == 1 && dmin < ts_reach_layout.w;
+    bool zone = band == 1 && dmin < reach;
     // all A: no pixel of the block within r_out (and, in the extended zone, no border pixel of B at all)
     if (dnear > rout && (!zone || rout < 0.5 * float(n) - 0.5)) return 0.0;
     if (dfar < rin && !zone) return 1.0;
+    return -1.0;
+}
+
+// Share of B in block ib of level l of the labels (levels below the detail band's top: bits and coverage).
+float ts_block_b(inout TsBlend b, TsSite s, int l, ivec2 ib, int q) {
+    ts_quad(b, s.tile, q);
+    int n = ts_layout.x, sz = 1 << l;
+    ivec2 p0 = ib * sz, p1 = p0 + sz - 1;
+    float known = ts_rect_known(b, 0, p0, p1, q, 1);
+    if (known >= 0.0) return known;
     int t = s.tile;
-    if (band == 1) {
-        int c = ts_reach_layout.x, first = ts_reach_layout.y, off = 0;
-        for (int k = first; k < l; k++) off += n >> k;
-        int cw = 0;
-        for (int k = first; k <= ts_reach_layout.z; k++) cw += n >> k;
-        TS_COUNT(1);
-        uint cnt = texelFetch(ts_reach, ivec2((t % c) * cw + off + ib.x, (t / c) * (n >> first) + ib.y), 0).r;
-        return float(cnt) / float(sz * sz);
-    }
     if (l >= 2) {
         int c = ts_layout.z, side = (n / 4) >> (l - 2);
         TS_COUNT(1);
@@ -347,8 +349,9 @@ float ts_block_b(inout TsBlend b, TsSite s, int band, int l, ivec2 ib, int q) {
     return sum / float(sz * sz);
 }
 
-// Adds the bilinear sample of level l (weight lw) of a band's coverage at the pixel (indices clamped to the tile).
-void ts_level(inout TsBlend b, TsSite s, int band, int l, float lw) {
+// Adds the bilinear sample of level l (weight lw) of the labels' coverage at the pixel (indices clamped to the
+// tile), tap by tap.
+void ts_level(inout TsBlend b, TsSite s, int l, float lw) {
     int n = ts_layout.x, nl = n >> l;
     vec2 u = s.p / exp2(float(l)) - 0.5;
     vec2 i0 = floor(u), f = u - i0;
@@ -358,7 +361,54 @@ void ts_level(inout TsBlend b, TsSite s, int band, int l, float lw) {
         if (w <= 0.0) continue;
         ivec2 ib = ivec2((k & 1) == 0 ? a.x : c.x, k < 2 ? a.y : c.y);
         int q = ((ib.y << l) >= n / 2 ? 2 : 0) + ((ib.x << l) >= n / 2 ? 1 : 0);
-        float cb = ts_block_b(b, s, band, l, ib, q);
+        float cb = ts_block_b(b, s, l, ib, q);
+        b.ha[q] += w * (1.0 - cb); b.hb += w * cb;
+    }
+}
+
+// The cell of a tile in ts_blend_cov and the origin of a band's level l in it (texels).
+ivec2 ts_blend_cell() {
+    int n = ts_layout.x, h = ts_blend_layout.y;
+    if (ts_blend_layout.z < 0) return ivec2(n >> h);
+    int sum = 0;
+    for (int k = ts_blend_layout.z; k <= ts_blend_layout.w; k++) sum += n >> k;
+    return ivec2((n >> h) + (n >> ts_blend_layout.z), max(n >> h, sum));
+}
+ivec2 ts_blend_origin(int band, int l) {
+    int n = ts_layout.x;
+    if (band == 0) return ivec2(0);
+    int y = 0;
+    for (int k = ts_blend_layout.z; k < l; k++) y += n >> k;
+    return ivec2(n >> ts_blend_layout.y, y);
+}
+
+// Adds the bilinear sample of level l (weight lw) of a band's coverage in ts_blend_cov: one filtered fetch per
+// quadrant the taps fall in (split at the quadrant line: each side read at its own texel centre), none where the
+// radii know the taps' blocks.
+void ts_level_f(inout TsBlend b, TsSite s, int band, int l, float lw, int reach) {
+    int n = ts_layout.x, nl = n >> l, hq = nl / 2, sz = 1 << l;
+    vec2 u = s.p / exp2(float(l)) - 0.5;
+    vec2 i0 = floor(u), f = u - i0;
+    ivec2 a = clamp(ivec2(i0), ivec2(0), ivec2(nl - 1)), c = clamp(ivec2(i0) + 1, ivec2(0), ivec2(nl - 1));
+    bvec2 cut = bvec2((a.x < hq) != (c.x < hq), (a.y < hq) != (c.y < hq));
+    int t = s.tile, cols = ts_blend_layout.x;
+    vec2 base = vec2(ivec2(t % cols, t / cols) * ts_blend_cell() + ts_blend_origin(band, l));
+    for (int g = 0; g < 4; g++) {
+        int gx = g & 1, gy = g >> 1;
+        if ((gx == 1 && !cut.x) || (gy == 1 && !cut.y)) continue;
+        ivec2 lo = a, hi = c;
+        vec2 pos = vec2(a) + 0.5 + vec2(notEqual(a, c)) * f;
+        float w = lw;
+        if (cut.x) { lo.x = hi.x = gx == 0 ? a.x : c.x; pos.x = float(lo.x) + 0.5; w *= gx == 0 ? 1.0 - f.x : f.x; }
+        if (cut.y) { lo.y = hi.y = gy == 0 ? a.y : c.y; pos.y = float(lo.y) + 0.5; w *= gy == 0 ? 1.0 - f.y : f.y; }
+        if (w <= 0.0) continue;
+        int q = (lo.y >= hq ? 2 : 0) + (lo.x >= hq ? 1 : 0);
+        ts_quad(b, t, q);
+        float cb = ts_rect_known(b, band, lo * sz, hi * sz + sz - 1, q, reach);
+        if (cb < 0.0) {
+            TS_COUNT(1);
+            cb = textureLod(ts_blend_cov, (base + pos) / vec2(textureSize(ts_blend_cov, 0)), 0.0).r;
+        }
         if (band == 0) { b.ha[q] += w * (1.0 - cb); b.hb += w * cb; }
         else { b.ga[q] += w * (1.0 - cb); b.gb += w * cb; }
     }
@@ -372,8 +422,13 @@ void ts_band(inout TsBlend b, TsSite s, int band, float level, float reach) {
     float lod = min(level, log2(reach + d));
     if (abs(lod - floor(lod + 0.5)) < 1e-5) lod = floor(lod + 0.5);  // log2 of a power of two, exactly
     float l0 = floor(lod), f = lod - l0;
-    ts_level(b, s, band, int(l0), 1.0 - f);
-    if (f > 0.0) ts_level(b, s, band, int(l0) + 1, f);
+    int l = int(l0);
+    if (band == 1 || l >= ts_blend_layout.y) ts_level_f(b, s, band, l, 1.0 - f, int(reach));
+    else ts_level(b, s, l, 1.0 - f);
+    if (f > 0.0) {
+        if (band == 1 || l + 1 >= ts_blend_layout.y) ts_level_f(b, s, band, l + 1, f, int(reach));
+        else ts_level(b, s, l + 1, f);
+    }
 }
 
 // The weights of the seam blend with bands (high, low, split, reach) at the site (low < 0: the detail band

@@ -7,8 +7,9 @@
 //   ts_index     index_map mode: index.png as R16_UINT (hash mode: any 1x1 uint texture, never read)
 //   ts_sampler   MIN_MAG_MIP_LINEAR, MIRROR: for the coverage (its reads stay inside a tile's cell) and every
 //                map (the seam blend reads an entry past its piece, mirrored at the exemplar's edge)
-//   ts_reach     labels_reach.png as R16_UINT (Load only; any 1x1 uint texture without it)
-//   ts_reach_layout  (columns, levels[0], levels[1], reach) of the manifest's labels.reach ((1, 0, 0, 1) without)
+//   ts_blend_cov labels_blend.png as R16_FLOAT, texel = count / 4^l, sampled with ts_sampler at level 0 (any
+//                1x1 float texture without it)
+//   ts_blend_layout  (columns, high_level, reach_levels[0] or -1, reach_levels[1]) of the manifest's labels.blend
 // Every map: a Texture2D<float4> with its full mip chain, passed to ts_map (or, for a smooth map whose manifest
 // "seam" is "blend", to ts_smooth_map: the seam blend, as in tilesynth_v2.glsl, whose header has the formula,
 // the approximations, minification and fetches).
@@ -17,14 +18,14 @@ Texture2D<float> ts_coverage : register(t1);
 Texture2D<uint> ts_index : register(t2);
 Texture2D<int4> ts_table : register(t3);
 SamplerState ts_sampler : register(s0);
-Texture2D<uint> ts_reach : register(t5);
+Texture2D<float> ts_blend_cov : register(t5);
 cbuffer TsParams : register(b0) {
     int4 ts_layout;      // tile size N, bits columns, coverage columns, coverage max level
     int4 ts_lookup;      // mode (0 index map, 1 hash corner, 2 hash edge), K (or Kh), Kv, V
     int2 ts_wrap;        // hash period in tiles (0, 0: none)
     uint ts_seed;
     uint ts_pad;
-    int4 ts_reach_layout;  // (columns, first level, last level, reach) of labels.reach
+    int4 ts_blend_layout;  // (columns, high_level, reach_levels[0] or -1, reach_levels[1]) of labels.blend
 };
 
 uint3 ts_pcg3d(uint3 v) {
@@ -238,26 +239,29 @@ void ts_quad(inout TsBlend b, int tile, int q) {
     b.loaded |= 1 << q;
 }
 
-float ts_block_b(inout TsBlend b, TsSite s, int band, int l, int2 ib, int q) {
-    ts_quad(b, s.tile, q);
-    int n = ts_layout.x, sz = 1 << l;
-    int2 p0 = ib * sz, p1 = p0 + sz - 1;
+// The radii's verdict on the pixels [p0, p1] of quadrant q (band 1: of the labels extended reach px): 0 all A,
+// 1 all B, -1 unknown.
+float ts_rect_known(TsBlend b, int band, int2 p0, int2 p1, int q, int reach) {
+    int n = ts_layout.x;
     float2 lo = float2(p0) + 0.5 - 0.5 * float(n), hi = float2(p1) + 0.5 - 0.5 * float(n);
     float dnear = length(max(max(lo, -hi), float2(0.0, 0.0)));
     float dfar = length(max(abs(lo), abs(hi)));
     float rin = float(b.ca[q] >> 19) * 0.5, rout = float(b.cb[q] >> 19) * 0.5;
     int dmin = min(min(p0.x, p0.y), min(n - 1 - p1.x, n - 1 - p1.y));
-    bool zone = band == 1 && dmin < ts_reach_layout.w;
+    bool zone = band == 1 && dmin < reach;
     if (dnear > rout && (!zone || rout < 0.5 * float(n) - 0.5)) return 0.0;
     if (dfar < rin && !zone) return 1.0;
+    return -1.0;
+}
+
+// Share of B in block ib of level l of the labels (levels below the detail band's top: bits and coverage).
+float ts_block_b(inout TsBlend b, TsSite s, int l, int2 ib, int q) {
+    ts_quad(b, s.tile, q);
+    int n = ts_layout.x, sz = 1 << l;
+    int2 p0 = ib * sz;
+    float known = ts_rect_known(b, 0, p0, p0 + sz - 1, q, 1);
+    if (known >= 0.0) return known;
     int t = s.tile;
-    if (band == 1) {
-        int c = ts_reach_layout.x, first = ts_reach_layout.y, off = 0, cw = 0;
-        for (int k = first; k < l; k++) off += n >> k;
-        for (int k2 = first; k2 <= ts_reach_layout.z; k2++) cw += n >> k2;
-        uint cnt = ts_reach.Load(int3((t % c) * cw + off + ib.x, (t / c) * (n >> first) + ib.y, 0));
-        return float(cnt) / float(sz * sz);
-    }
     if (l >= 2) {
         int c = ts_layout.z, side = (n / 4) >> (l - 2);
         float v = ts_coverage.Load(int3((t % c) * side + ib.x, (t / c) * side + ib.y, l - 2));
@@ -274,7 +278,7 @@ float ts_block_b(inout TsBlend b, TsSite s, int band, int l, int2 ib, int q) {
     return sum / float(sz * sz);
 }
 
-void ts_level(inout TsBlend b, TsSite s, int band, int l, float lw) {
+void ts_level(inout TsBlend b, TsSite s, int l, float lw) {
     int n = ts_layout.x, nl = n >> l;
     float2 u = s.p / exp2(float(l)) - 0.5;
     float2 i0 = floor(u), f = u - i0;
@@ -285,7 +289,53 @@ void ts_level(inout TsBlend b, TsSite s, int band, int l, float lw) {
         if (w <= 0.0) continue;
         int2 ib = int2((k & 1) == 0 ? a.x : c.x, k < 2 ? a.y : c.y);
         int q = ((ib.y << l) >= n / 2 ? 2 : 0) + ((ib.x << l) >= n / 2 ? 1 : 0);
-        float cb = ts_block_b(b, s, band, l, ib, q);
+        float cb = ts_block_b(b, s, l, ib, q);
+        b.ha[q] += w * (1.0 - cb); b.hb += w * cb;
+    }
+}
+
+int2 ts_blend_cell() {
+    int n = ts_layout.x, h = ts_blend_layout.y;
+    if (ts_blend_layout.z < 0) return int2(n >> h, n >> h);
+    int sum = 0;
+    for (int k = ts_blend_layout.z; k <= ts_blend_layout.w; k++) sum += n >> k;
+    return int2((n >> h) + (n >> ts_blend_layout.z), max(n >> h, sum));
+}
+
+int2 ts_blend_origin(int band, int l) {
+    int n = ts_layout.x;
+    if (band == 0) return int2(0, 0);
+    int y = 0;
+    for (int k = ts_blend_layout.z; k < l; k++) y += n >> k;
+    return int2(n >> ts_blend_layout.y, y);
+}
+
+// The bilinear sample of level l of a band's coverage in ts_blend_cov: one filtered read per quadrant the taps
+// fall in, none where the radii know the blocks (tilesynth_v2.glsl).
+void ts_level_f(inout TsBlend b, TsSite s, int band, int l, float lw, int reach) {
+    int n = ts_layout.x, nl = n >> l, hq = nl / 2, sz = 1 << l;
+    float2 u = s.p / exp2(float(l)) - 0.5;
+    float2 i0 = floor(u), f = u - i0;
+    int2 a = clamp(int2(i0), int2(0, 0), int2(nl - 1, nl - 1));
+    int2 c = clamp(int2(i0) + 1, int2(0, 0), int2(nl - 1, nl - 1));
+    bool cutx = (a.x < hq) != (c.x < hq), cuty = (a.y < hq) != (c.y < hq);
+    int t = s.tile, cols = ts_blend_layout.x;
+    float2 base = float2(int2(t % cols, t / cols) * ts_blend_cell() + ts_blend_origin(band, l));
+    uint tw, th;
+    ts_blend_cov.GetDimensions(tw, th);
+    for (int g = 0; g < 4; g++) {
+        int gx = g & 1, gy = g >> 1;
+        if ((gx == 1 && !cutx) || (gy == 1 && !cuty)) continue;
+        int2 lo = a, hi = c;
+        float2 pos = float2(a) + 0.5 + float2(a != c) * f;
+        float w = lw;
+        if (cutx) { lo.x = gx == 0 ? a.x : c.x; hi.x = lo.x; pos.x = float(lo.x) + 0.5; w *= gx == 0 ? 1.0 - f.x : f.x; }
+        if (cuty) { lo.y = gy == 0 ? a.y : c.y; hi.y = lo.y; pos.y = float(lo.y) + 0.5; w *= gy == 0 ? 1.0 - f.y : f.y; }
+        if (w <= 0.0) continue;
+        int q = (lo.y >= hq ? 2 : 0) + (lo.x >= hq ? 1 : 0);
+        ts_quad(b, t, q);
+        float cb = ts_rect_known(b, band, lo * sz, hi * sz + sz - 1, q, reach);
+        if (cb < 0.0) cb = ts_blend_cov.SampleLevel(ts_sampler, (base + pos) / float2(tw, th), 0.0);
         if (band == 0) { b.ha[q] += w * (1.0 - cb); b.hb += w * cb; }
         else { b.ga[q] += w * (1.0 - cb); b.gb += w * cb; }
     }
@@ -298,8 +348,13 @@ void ts_band(inout TsBlend b, TsSite s, int band, float level, float reach) {
     float lod = min(level, log2(reach + d));
     if (abs(lod - floor(lod + 0.5)) < 1e-5) lod = floor(lod + 0.5);
     float l0 = floor(lod), f = lod - l0;
-    ts_level(b, s, band, int(l0), 1.0 - f);
-    if (f > 0.0) ts_level(b, s, band, int(l0) + 1, f);
+    int l = int(l0);
+    if (band == 1 || l >= ts_blend_layout.y) ts_level_f(b, s, band, l, 1.0 - f, int(reach));
+    else ts_level(b, s, l, 1.0 - f);
+    if (f > 0.0) {
+        if (band == 1 || l + 1 >= ts_blend_layout.y) ts_level_f(b, s, band, l + 1, f, int(reach));
+        else ts_level(b, s, l + 1, f);
+    }
 }
 
 TsBlend ts_blend(TsSite s, float4 bands) {

@@ -7,8 +7,9 @@
 //   ts_index     index_map mode: index.png as r16uint (hash mode: any 1x1 u32 texture, never read)
 //   ts_sampler   linear min/mag/mipmap, mirror-repeat: for the coverage (its reads stay inside a tile's cell)
 //                and every map (the seam blend reads an entry past its piece, mirrored at the exemplar's edge)
-//   ts_reach     labels_reach.png as r16uint (textureLoad only; any 1x1 u32 texture without it)
-//   ts_reach_layout  (columns, levels[0], levels[1], reach) of the manifest's labels.reach ((1, 0, 0, 1) without)
+//   ts_blend_cov labels_blend.png as r16float, texel = count / 4^l, sampled with ts_sampler at level 0 (any 1x1
+//                float texture without it)
+//   ts_blend_layout  (columns, high_level, reach_levels[0] or -1, reach_levels[1]) of the manifest's labels.blend
 // The seam blend of smooth maps (manifest "seam": "blend"): TsBlend, ts_blend, ts_blend_map, ts_smooth_map, as
 // in tilesynth_v2.glsl (its header: the formula, the approximations, minification and fetches).
 //   ts           the parameters: grid = N, bits columns, coverage columns, coverage max level; lookup = mode
@@ -28,8 +29,8 @@ struct TsParams {
 @group(0) @binding(3) var<uniform> ts: TsParams;
 @group(0) @binding(4) var ts_table: texture_2d<i32>;
 @group(0) @binding(5) var ts_sampler: sampler;
-@group(0) @binding(6) var ts_reach: texture_2d<u32>;
-@group(0) @binding(7) var<uniform> ts_reach_layout: vec4<i32>;
+@group(0) @binding(6) var ts_blend_cov: texture_2d<f32>;
+@group(0) @binding(7) var<uniform> ts_blend_layout: vec4<i32>;
 
 fn ts_pcg3d(v0: vec3<u32>) -> vec3<u32> {
     var v = v0 * 1664525u + 1013904223u;
@@ -259,34 +260,32 @@ fn ts_quad(b: ptr<function, TsBlend>, tile: i32, q: i32) {
     (*b).loaded |= 1 << u32(q);
 }
 
-// Share of B in block ib of label level l (band 0: the labels; band 1: the labels extended by the reach).
-fn ts_block_b(b: ptr<function, TsBlend>, s: TsSite, band: i32, l: i32, ib: vec2<i32>, q: i32) -> f32 {
-    ts_quad(b, s.tile, q);
+// The radii's verdict on the pixels [p0, p1] of quadrant q (band 1: of the labels extended reach px): 0 all A,
+// 1 all B, -1 unknown.
+fn ts_rect_known(b: TsBlend, band: i32, p0: vec2<i32>, p1: vec2<i32>, q: i32, reach: i32) -> f32 {
     let n = ts.grid.x;
-    let sz = 1 << u32(l);
-    let p0 = ib * sz;
-    let p1 = p0 + vec2<i32>(sz - 1);
     let lo = vec2<f32>(p0) + 0.5 - 0.5 * f32(n);
     let hi = vec2<f32>(p1) + 0.5 - 0.5 * f32(n);
     let dnear = length(max(max(lo, -hi), vec2<f32>(0.0)));
     let dfar = length(max(abs(lo), abs(hi)));
-    let rin = f32((*b).ca[q] >> 19u) * 0.5;
-    let rout = f32((*b).cb[q] >> 19u) * 0.5;
+    let rin = f32(b.ca[q] >> 19u) * 0.5;
+    let rout = f32(b.cb[q] >> 19u) * 0.5;
     let dmin = min(min(p0.x, p0.y), min(n - 1 - p1.x, n - 1 - p1.y));
-    let zone = band == 1 && dmin < ts_reach_layout.w;
+    let zone = band == 1 && dmin < reach;
     if (dnear > rout && (!zone || rout < 0.5 * f32(n) - 0.5)) { return 0.0; }
     if (dfar < rin && !zone) { return 1.0; }
+    return -1.0;
+}
+
+// Share of B in block ib of level l of the labels (levels below the detail band's top: bits and coverage).
+fn ts_block_b(b: ptr<function, TsBlend>, s: TsSite, l: i32, ib: vec2<i32>, q: i32) -> f32 {
+    ts_quad(b, s.tile, q);
+    let n = ts.grid.x;
+    let sz = 1 << u32(l);
+    let p0 = ib * sz;
+    let known = ts_rect_known(*b, 0, p0, p0 + vec2<i32>(sz - 1), q, 1);
+    if (known >= 0.0) { return known; }
     let t = s.tile;
-    if (band == 1) {
-        let c = ts_reach_layout.x;
-        let first = ts_reach_layout.y;
-        var off = 0;
-        for (var k = first; k < l; k++) { off += n >> u32(k); }
-        var cw = 0;
-        for (var k = first; k <= ts_reach_layout.z; k++) { cw += n >> u32(k); }
-        let cnt = textureLoad(ts_reach, vec2<i32>((t % c) * cw + off + ib.x, (t / c) * (n >> u32(first)) + ib.y), 0).r;
-        return f32(cnt) / f32(sz * sz);
-    }
     if (l >= 2) {
         let c = ts.grid.z;
         let side = (n / 4) >> u32(l - 2);
@@ -304,7 +303,7 @@ fn ts_block_b(b: ptr<function, TsBlend>, s: TsSite, band: i32, l: i32, ib: vec2<
     return sum / f32(sz * sz);
 }
 
-fn ts_level(b: ptr<function, TsBlend>, s: TsSite, band: i32, l: i32, lw: f32) {
+fn ts_level(b: ptr<function, TsBlend>, s: TsSite, l: i32, lw: f32) {
     let n = ts.grid.x;
     let nl = n >> u32(l);
     let u = s.p / exp2(f32(l)) - 0.5;
@@ -317,7 +316,62 @@ fn ts_level(b: ptr<function, TsBlend>, s: TsSite, band: i32, l: i32, lw: f32) {
         if (w <= 0.0) { continue; }
         let ib = vec2<i32>(select(c.x, a.x, (k & 1) == 0), select(c.y, a.y, k < 2));
         let q = select(0, 2, (ib.y << u32(l)) >= n / 2) + select(0, 1, (ib.x << u32(l)) >= n / 2);
-        let cb = ts_block_b(b, s, band, l, ib, q);
+        let cb = ts_block_b(b, s, l, ib, q);
+        (*b).ha[q] += w * (1.0 - cb);
+        (*b).hb += w * cb;
+    }
+}
+
+fn ts_blend_cell() -> vec2<i32> {
+    let n = ts.grid.x;
+    let h = ts_blend_layout.y;
+    if (ts_blend_layout.z < 0) { return vec2<i32>(n >> u32(h)); }
+    var sum = 0;
+    for (var k = ts_blend_layout.z; k <= ts_blend_layout.w; k++) { sum += n >> u32(k); }
+    return vec2<i32>((n >> u32(h)) + (n >> u32(ts_blend_layout.z)), max(n >> u32(h), sum));
+}
+
+fn ts_blend_origin(band: i32, l: i32) -> vec2<i32> {
+    let n = ts.grid.x;
+    if (band == 0) { return vec2<i32>(0); }
+    var y = 0;
+    for (var k = ts_blend_layout.z; k < l; k++) { y += n >> u32(k); }
+    return vec2<i32>(n >> u32(ts_blend_layout.y), y);
+}
+
+// The bilinear sample of level l of a band's coverage in ts_blend_cov: one filtered read per quadrant the taps
+// fall in, none where the radii know the blocks (tilesynth_v2.glsl).
+fn ts_level_f(b: ptr<function, TsBlend>, s: TsSite, band: i32, l: i32, lw: f32, reach: i32) {
+    let n = ts.grid.x;
+    let nl = n >> u32(l);
+    let hq = nl / 2;
+    let sz = 1 << u32(l);
+    let u = s.p / exp2(f32(l)) - 0.5;
+    let i0 = floor(u);
+    let f = u - i0;
+    let a = clamp(vec2<i32>(i0), vec2<i32>(0), vec2<i32>(nl - 1));
+    let c = clamp(vec2<i32>(i0) + 1, vec2<i32>(0), vec2<i32>(nl - 1));
+    let cutx = (a.x < hq) != (c.x < hq);
+    let cuty = (a.y < hq) != (c.y < hq);
+    let t = s.tile;
+    let cols = ts_blend_layout.x;
+    let base = vec2<f32>(vec2<i32>(t % cols, t / cols) * ts_blend_cell() + ts_blend_origin(band, l));
+    let tsize = vec2<f32>(textureDimensions(ts_blend_cov, 0));
+    for (var g = 0; g < 4; g++) {
+        let gx = g & 1;
+        let gy = g >> 1u;
+        if ((gx == 1 && !cutx) || (gy == 1 && !cuty)) { continue; }
+        var lo = a;
+        var hi = c;
+        var pos = vec2<f32>(a) + 0.5 + select(vec2<f32>(0.0), f, a != c);
+        var w = lw;
+        if (cutx) { lo.x = select(c.x, a.x, gx == 0); hi.x = lo.x; pos.x = f32(lo.x) + 0.5; w *= select(f.x, 1.0 - f.x, gx == 0); }
+        if (cuty) { lo.y = select(c.y, a.y, gy == 0); hi.y = lo.y; pos.y = f32(lo.y) + 0.5; w *= select(f.y, 1.0 - f.y, gy == 0); }
+        if (w <= 0.0) { continue; }
+        let q = select(0, 2, lo.y >= hq) + select(0, 1, lo.x >= hq);
+        ts_quad(b, t, q);
+        var cb = ts_rect_known(*b, band, lo * sz, hi * sz + vec2<i32>(sz - 1), q, reach);
+        if (cb < 0.0) { cb = textureSampleLevel(ts_blend_cov, ts_sampler, (base + pos) / tsize, 0.0).r; }
         if (band == 0) { (*b).ha[q] += w * (1.0 - cb); (*b).hb += w * cb; }
         else { (*b).ga[q] += w * (1.0 - cb); (*b).gb += w * cb; }
     }
@@ -331,8 +385,13 @@ fn ts_band(b: ptr<function, TsBlend>, s: TsSite, band: i32, level: f32, reach: f
     if (abs(lod - floor(lod + 0.5)) < 1e-5) { lod = floor(lod + 0.5); }
     let l0 = floor(lod);
     let f = lod - l0;
-    ts_level(b, s, band, i32(l0), 1.0 - f);
-    if (f > 0.0) { ts_level(b, s, band, i32(l0) + 1, f); }
+    let l = i32(l0);
+    if (band == 1 || l >= ts_blend_layout.y) { ts_level_f(b, s, band, l, 1.0 - f, i32(reach)); }
+    else { ts_level(b, s, l, 1.0 - f); }
+    if (f > 0.0) {
+        if (band == 1 || l + 1 >= ts_blend_layout.y) { ts_level_f(b, s, band, l + 1, f, i32(reach)); }
+        else { ts_level(b, s, l + 1, f); }
+    }
 }
 
 fn ts_blend(s: TsSite, bands: vec4<f32>) -> TsBlend {
