@@ -36,8 +36,9 @@
 // with the footprint's derivatives, so bilinear under magnification), and for a low band the map's own mip at
 // level "split" (textureLod, MIRRORED_REPEAT: the box mip when the map's sides are multiples of 2^split).
 // Approximations: float32 arithmetic (the CPU: float64), the map's mips stored in its sample type (8-bit maps:
-// the low band within about half a code), odd map sides (the chain drops the odd row; the CPU's box mip
-// averages a partial block). Measured against synthesize_maps: tests/test_export_v2_browser.py.
+// the low band within about half a code), map sides not multiples of 2^split (the chain drops the odd row; the
+// CPU's box mip averages a partial block: 124 px, split 3, up to 3 codes). Measured against synthesize_maps at
+// 1:1 (tests/test_export_v2_browser.py): at most 1 code of 255 where the sides are multiples of 2^split.
 // Minification: the blend reads every entry with the footprint's filter (textureGrad; the low band at level
 // max(split, footprint)); above the band's top level (low for scalar maps, high for normals) it fades into
 // the footprint path (ts_map with w0) over one level, and from one level above it is that path alone.
