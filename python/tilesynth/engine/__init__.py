@@ -2,8 +2,9 @@
 (GLSL ES 3.00 / 4.x, WGSL, HLSL, Godot) and an offline WebGL2 viewer, with the tiles in one of two forms:
 
 * **version 2** (the default for pure-copy ω sets, ``format="provenance"``): each exemplar map once with its full
-  mip chain, one-bit labels with their coverage and a per-tile source table; shaders for M maps
-  (:mod:`.provenance_export`, :mod:`.viewer_v2`, ``shaders/tilesynth_v2.*``, ``docs/engine.md``);
+  mip chain, one-bit labels with their coverage and a per-tile source table; shaders for M maps, smooth maps
+  drawn with the seam blend of :func:`tilesynth.synthesize_maps` (:mod:`.provenance_export`, :mod:`.viewer_v2`,
+  ``shaders/tilesynth_v2.*``, ``docs/engine.md``);
 * **version 1** (``format="atlas"``; Poisson-smoothed and version-1 pixel sets, Wang tiles, ``map_smooth="on"``):
   padded atlases with per-tile mips, described below.
 
@@ -262,9 +263,12 @@ def export(
     format : ``"auto"`` (default): version 2 (:mod:`.provenance_export`: the exemplar maps with full mips, one-bit
         labels and a source table) for a pure-copy set whose labels fit the one-bit quadrant form, else the
         atlas (version 1); ``"provenance"``: version 2 or a ParameterError saying why not; ``"atlas"``: version 1.
-    blend_levels : version 2: ``{map name: L}``, the level from which each map's two sources are weighted by the
-        label coverage across a cut (default 0 for every map: a hard cut at level 0, coverage-weighted
-        minification only). Ignored by the atlas.
+    blend_levels : version 2: ``{map name: L}``, the level from which each named map's two sources are weighted
+        by the label coverage across a cut (0: a hard cut at level 0, coverage-weighted minification only).
+        Unnamed maps: colour maps are cut (L = 0); smooth maps (scalar and normal kinds) get the seam blend of
+        :func:`tilesynth.synthesize_maps` in the shaders (manifest ``seam`` "blend",
+        :func:`.provenance_export.seam_plans`) unless ``map_smooth`` is "off" or the tile size is not whole
+        blocks of the blend's levels. Ignored by the atlas.
 
     The files are written as a unit (:func:`tilesynth.io.images.file_set`): an error, Ctrl-C or SIGTERM leaves
     the previous export in ``out_dir`` as it was; a re-export removes the previous export's files that the new

@@ -25,11 +25,21 @@ of 1 bits) is what weights the two sources where a filter footprint straddles a 
 ``labels_coverage.png``    R8 UNORM: coverage of ``B`` at label level 2 (4 x 4 pixel blocks), tile ``t`` in
 + ``_mip<j>``              an ``N/4`` cell at column ``t % coverage_columns``; level j = label level j + 2,
                            reduced per tile (a cell never bleeds into its neighbour) down to one texel a tile
+``labels_blend.png``       when a map is blended: a 16-bit grey PNG of counts, uploaded as R16F ``count / 4^l``
+                           (:func:`blend_coverage`): B's pixels in each 2^3 block of every tile's labels and,
+                           with a low band, in each 2^l block of the labels extended ``reach`` px from the border
 ``table.bin``              int32 little-endian ``(ceil(4K / 256), 256, 4)``: an RGBA32I texture of width
                            256, texel ``i = 4t + q`` (q = quadrant: 2·(y >= N/2) + (x >= N/2)) holds
                            ``(code_A, bx_A, code_B, bx_B)``, ``code = (r << 19) | ((by + 32768) << 3) | s``
                            with ``r`` = ``r_in`` in ``code_A``, ``r_out`` in ``code_B`` (:func:`quadrant_radii`)
 =========================  ==============================================================================
+
+**The seam blend.** Maps of kind "scalar" and "normal" get the seam blend of :func:`tilesynth.synthesize_maps`
+(:mod:`tilesynth.synth.seams`) in the shaders (:func:`seam_plans`, :func:`blend_plan`): the manifest's map entry
+says ``seam`` ("blend"; "coverage" or "cut" for the coverage weighting of ``blend_level``), and a blended map has
+``bands`` (``high``; scalar maps also ``low``, ``split``, ``reach``) and, if scalar, ``mean`` (per channel, in the
+values the shaders read); ``labels.blend`` describes ``labels_blend.png`` (``high_level``, ``reach``,
+``reach_levels``, its cell layout).
 """
 
 from __future__ import annotations
