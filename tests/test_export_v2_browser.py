@@ -600,3 +600,17 @@ def test_v2_wgsl_blends_smooth_maps_as_synthesize_maps_in_webgpu(browser, tmp_pa
     print(f"WGSL, tiles of {n}: (map, max |GPU - synthesize_maps|, share > 1)", rows)
     assert all(mx <= BLEND_MAX and over <= BLEND_OFF_BY_2 for _, mx, over in rows), rows
     assert rep["status"] == "PASS", rep["cases"]
+
+
+def test_viewer_selftest_checks_the_seam_blend(browser, tmp_path, material):
+    """The exported viewer of a material set checks its blended maps too: each stored smooth map at 1:1 within
+    ``viewer_v2.BLEND_TOLERANCE`` of :func:`tilesynth.synthesize_maps`, and passes."""
+    out = tmp_path / "x"
+    export(material, out, viewer=True)
+    rep = run_page(browser, out / "viewer.html", "?selftest")
+    assert rep.get("error") is None and rep["status"] == "PASS" and rep["dom_status"] == "PASS 0", rep
+    blended = {c["name"]: c for c in rep["cases"] if "seam blend" in c["name"]}
+    assert set(blended) == {f"{k}: the seam blend at 1:1" for k in ("height", "normal", "roughness")}, rep[
+        "cases"
+    ]
+    assert all(c["max_diff"] <= v2.BLEND_TOLERANCE for c in blended.values()), blended
