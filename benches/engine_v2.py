@@ -98,8 +98,8 @@ def memory(size: int, with_v1: bool) -> None:
         g = m2["gpu_bytes"]
         print(
             f"v2 GPU: maps {g['maps'] / 2**20:.2f} MiB, bits {g['bits'] / 2**20:.2f}, coverage "
-            f"{g['coverage'] / 2**20:.2f}, table {g['table'] / 2**20:.3f}, total {g['total'] / 2**20:.2f} MiB = "
-            f"{g['ratio_to_maps']:.3f}x the maps"
+            f"{g['coverage'] / 2**20:.2f}, table {g['table'] / 2**20:.3f}, reach {g['reach'] / 2**20:.3f}, total "
+            f"{g['total'] / 2**20:.2f} MiB = {g['ratio_to_maps']:.3f}x the maps"
         )
         fb = dir_bytes(Path(d) / "v2")
         print(
@@ -181,32 +181,57 @@ def browser(size: int) -> None:
 
 
 def counts(tiles, exe, run_page) -> None:
-    """Texture fetches per pixel counted in the shader (TS_COUNT_FETCHES), 4 maps, every blend level 0, hash."""
+    """Texture fetches per pixel counted in the shader (TS_COUNT_FETCHES), 4 maps, hash: the smooth maps cut
+    (every blend level 0) and with the seam blend (the default; its weights shared by the three smooth maps),
+    128 x 128 pixels from 1/2x to 64x zoom-out; at 1x also apart for the pixels whose CPU blend weights are all
+    one entry's (the formula's "single" pixels, :func:`tilesynth.synth.seams.blend_weights`) and the others."""
+    from tilesynth.synth.seams import blend_weights, check_bands, tile_bands
+
     n = tiles.tile_size
     maps = derived_maps(tiles.exemplar)
-    dummy = np.zeros((64, 64, 4), np.uint8)
-    scales = (1.0, 2.0, 8.0, 64.0)
-    cases = [
-        xv.case(f"{s}", "count", (-n - 0.3, -2 * n + 0.7), 64, 64, s, 255, dummy, dump=True) for s in scales
-    ]
-    with tempfile.TemporaryDirectory() as d:
-        d = Path(d)
-        m = export(tiles, d / "v2", maps=maps, seed=7)
-        cfg = v2.config_for(tiles, m, d / "v2", None, cases)
-        cfg["autorun"] = True
-        (d / "p.html").write_text(v2.page(cfg))
-        rep = run_page(exe, d / "p.html", timeout=900)
-    mm = len(m["maps"])
-    print(
-        f"fetches per pixel, M = {mm}: zoom-out | mean | share at M + 1 | share at M + 2 | max | share straddling"
-    )
-    for c in rep["cases"]:
-        img = np.frombuffer(base64.b64decode(c["image"]), np.uint8).reshape(64, 64, 4)
-        k = img[..., 0].astype(int)
-        print(
-            f"{c['name']}x | {k.mean():.2f} | {(k <= mm + 1).mean():.3f} | {(k == mm + 2).mean():.3f} | {k.max()} | "
-            f"{(img[..., 1] > 127).mean():.3f}"
-        )
+    w = 128
+    dummy = np.zeros((w, w, 4), np.uint8)
+    scales = (0.5, 1.0, 2.0, 8.0, 64.0)
+    x0, y0 = -n - 0.3, -2 * n + 0.7
+    cases = [xv.case(f"{s}", "count", (x0, y0), w, w, s, 255, dummy, dump=True) for s in scales]
+    prov = tiles._provenance()
+    bands = tile_bands(check_bands(None, "scalar"), n)
+    e = prov.table.shape[1]
+    single_t = np.zeros(prov.labels.shape, bool)
+    for lo in range(0, tiles.n_tiles, 16):  # bounded memory: 16 tiles at a time
+        lab = prov.labels[lo : lo + 16]
+        s1 = blend_weights(lab, e, bands["high"]).max(axis=1) >= 1.0
+        if "low" in bands:
+            s1 &= blend_weights(lab, e, bands["low"], int(bands["reach"])).max(axis=1) >= 1.0
+        single_t[lo : lo + 16] = s1
+    cut = {"height": 0, "normal": 0, "roughness": 0}
+    print("fetches per pixel: smooth maps | zoom-out | mean | share at <= M + 1 | median | max")
+    for tag, blend in (("cut", cut), ("blend", None)):
+        with tempfile.TemporaryDirectory() as d:
+            d = Path(d)
+            m = export(tiles, d / "v2", maps=maps, seed=7, blend_levels=blend)
+            cfg = v2.config_for(tiles, m, d / "v2", None, cases)
+            cfg["autorun"] = True
+            (d / "p.html").write_text(v2.page(cfg))
+            rep = run_page(exe, d / "p.html", timeout=900)
+        mm = len(m["maps"])
+        index_of = ref.index_function(m["lookup"], None)
+        for c in rep["cases"]:
+            img = np.frombuffer(base64.b64decode(c["image"]), np.uint8).reshape(w, w, 4)
+            k = img[..., 0].astype(int)
+            print(
+                f"{tag} | {c['name']}x | {k.mean():.2f} | {(k <= mm + 1).mean():.3f} | {np.median(k):.0f} | {k.max()}"
+            )
+            if c["name"] == "1.0":
+                yy, xx = np.mgrid[0:w, 0:w]
+                py, px = np.floor(y0 + yy + 0.5).astype(int), np.floor(x0 + xx + 0.5).astype(int)
+                t = index_of(np.floor_divide(px, n), np.floor_divide(py, n))
+                single = single_t[t, py % n, px % n]
+                print(
+                    f"  1x, {tag}: single-entry pixels {single.mean():.3f}: mean {k[single].mean():.2f}, at <= M + 1 "
+                    f"{(k[single] <= mm + 1).mean():.3f}, max {k[single].max()}; the others: mean "
+                    f"{k[~single].mean():.2f}, median {np.median(k[~single]):.0f}, max {k[~single].max()}"
+                )
 
 
 def main() -> None:

@@ -462,19 +462,32 @@ def test_quadrant_form_reproduces_the_provenance_and_its_radii_hold(omega_set, w
     )
 
 
-def test_cli_export_says_which_maps_the_gpu_cuts_hard(tmp_path, small_exemplar, capsys):
-    """A material's smooth maps are blended by ``synth`` but cut hard by the provenance shaders at blend level 0:
-    the export says so (and what to do); with a blend level for each, it does not."""
+def test_cli_export_blends_smooth_maps_and_says_where_it_cannot(tmp_path, small_exemplar, capsys):
+    """A material's smooth maps get the seam blend of ``synth`` in the provenance shaders (manifest ``seam``
+    "blend", with its bands and the map's mean); where the tile size is not whole blocks of the blend's levels
+    (24 px) they are cut hard and the export says so (and what to do); with a blend level given, it does not."""
     from tilesynth.cli.main import main
 
     ex = np.ascontiguousarray(small_exemplar[:64, :64])
-    t = ts.build(ex, tileset="c2", tile_size=16, seed=1, maps={"height": ex[..., 0].copy()})
-    t.save(tmp_path / "m.tiles")
-    assert main(["export", str(tmp_path / "m.tiles"), "-o", str(tmp_path / "a")]) == 0
-    err = capsys.readouterr().err
-    assert "note: map(s) height: the shaders cut their seams hard" in err
+    for n in (16, 24):
+        t = ts.build(ex, tileset="c2", tile_size=n, seed=1, maps={"height": ex[..., 0].copy()})
+        t.save(tmp_path / f"m{n}.tiles")
+        assert main(["export", str(tmp_path / f"m{n}.tiles"), "-o", str(tmp_path / f"a{n}")]) == 0
+        err = capsys.readouterr().err
+        height = next(
+            e
+            for e in json.loads((tmp_path / f"a{n}" / "manifest.json").read_text())["maps"]
+            if e["name"] == "height"
+        )
+        if n == 16:
+            assert "note:" not in err
+            assert height["seam"] == "blend" and height["bands"] == {"high": 3.0}
+            assert height["mean"] == pytest.approx([float(ex[..., 0].astype(np.float64).mean())], abs=1e-6)
+        else:
+            assert "note: map(s) height: tiles of 24 px are not whole blocks" in err
+            assert height["seam"] == "cut" and "bands" not in height
     assert (
-        main(["export", str(tmp_path / "m.tiles"), "-o", str(tmp_path / "b"), "--blend-level", "height=2"])
+        main(["export", str(tmp_path / "m24.tiles"), "-o", str(tmp_path / "b"), "--blend-level", "height=2"])
         == 0
     )
     assert "note:" not in capsys.readouterr().err

@@ -328,7 +328,8 @@ const D = __DATA__;
 const st = document.getElementById("selftest-status"), res = document.getElementById("selftest-result");
 let DONE; window.tsDone = new Promise(r => { DONE = r; });
 const ENTRY = `
-struct Job { mode: u32, w: u32, h: u32, normal: i32, origin: vec2<f32>, scale: f32, _p: f32 };
+struct Job { mode: u32, w: u32, h: u32, normal: i32, origin: vec2<f32>, scale: f32, _p: f32, bands: vec4<f32>,
+  mean: vec4<f32> };
 @group(1) @binding(0) var m0: texture_2d<f32>;
 @group(1) @binding(1) var<storage, read_write> jout: array<vec4<u32>>;
 @group(1) @binding(2) var<uniform> job: Job;
@@ -344,7 +345,11 @@ struct Job { mode: u32, w: u32, h: u32, normal: i32, origin: vec2<f32>, scale: f
     let uv = (job.origin + (f + 0.5) * job.scale) / n;
     let gr = job.scale / n;
     let s = ts_site(uv, vec2<f32>(gr, 0.0), vec2<f32>(0.0, gr));
-    v = ts_map(m0, s, ts_weight(s, 0.0), job.normal);
+    if (job.mode == 3u) {
+      v = ts_smooth_map(m0, s, ts_blend(s, job.bands), job.bands, job.mean, job.normal, ts_weight(s, 0.0));
+    } else {
+      v = ts_map(m0, s, ts_weight(s, 0.0), job.normal);
+    }
   }
   jout[i] = vec4<u32>(round(clamp(v, vec4<f32>(0.0), vec4<f32>(1.0)) * 255.0));
 }`;
@@ -369,13 +374,17 @@ function b64(s) { const b = atob(s); const a = new Uint8Array(b.length); for (le
   }
   const bits = texture("r8uint", [D.bits], 1), cov = texture("r8unorm", D.coverage, 1);
   const table = texture("rgba32sint", [D.table], 16), index = texture("r16uint", [D.index], 2);
-  const sampler = dev.createSampler({magFilter: "linear", minFilter: "linear", mipmapFilter: "linear", addressModeU: "clamp-to-edge", addressModeV: "clamp-to-edge"});
+  const sampler = dev.createSampler({magFilter: "linear", minFilter: "linear", mipmapFilter: "linear", addressModeU: "mirror-repeat", addressModeV: "mirror-repeat"});
+  const blendc = texture("r16float", [D.blend || {w: 1, h: 1, data: "AAA="}], 2);
+  const rl = dev.createBuffer({size: 16, usage: U.UNIFORM | U.COPY_DST});
+  dev.queue.writeBuffer(rl, 0, new Int32Array(D.blend_layout || [1, 3, -1, -1]));
   const params = dev.createBuffer({size: 48, usage: U.UNIFORM | U.COPY_DST});
   dev.queue.writeBuffer(params, 0, new Int32Array(b64(D.params).buffer));
   const g0 = dev.createBindGroup({layout: pipe.getBindGroupLayout(0), entries: [
     {binding: 0, resource: bits.createView()}, {binding: 1, resource: cov.createView()},
     {binding: 2, resource: index.createView()}, {binding: 3, resource: {buffer: params}},
-    {binding: 4, resource: table.createView()}, {binding: 5, resource: sampler}]});
+    {binding: 4, resource: table.createView()}, {binding: 5, resource: sampler},
+    {binding: 6, resource: blendc.createView()}, {binding: 7, resource: {buffer: rl}}]});
   const maps = D.maps.map(m => texture("rgba8unorm", m.levels, 4));
   const cases = [];
   let bad = 0;
@@ -383,10 +392,11 @@ function b64(s) { const b = atob(s); const a = new Uint8Array(b.length); for (le
     const n = c.w * c.h;
     const outb = dev.createBuffer({size: n * 16, usage: U.STORAGE | U.COPY_SRC});
     const rd = dev.createBuffer({size: n * 16, usage: U.MAP_READ | U.COPY_DST});
-    const jb = dev.createBuffer({size: 32, usage: U.UNIFORM | U.COPY_DST});
-    const job = new ArrayBuffer(32), u32 = new Uint32Array(job), i32 = new Int32Array(job), f32 = new Float32Array(job);
-    u32[0] = c.kind === "fetch" ? 1 : 2; u32[1] = c.w; u32[2] = c.h; i32[3] = D.maps[c.map].normal;
+    const jb = dev.createBuffer({size: 64, usage: U.UNIFORM | U.COPY_DST});
+    const job = new ArrayBuffer(64), u32 = new Uint32Array(job), i32 = new Int32Array(job), f32 = new Float32Array(job);
+    u32[0] = {fetch: 1, grad: 2, blend: 3}[c.kind]; u32[1] = c.w; u32[2] = c.h; i32[3] = D.maps[c.map].normal;
     f32[4] = c.origin[0]; f32[5] = c.origin[1]; f32[6] = c.scale;
+    if (c.bands) { f32.set(c.bands, 8); f32.set(c.mean, 12); }
     dev.queue.writeBuffer(jb, 0, job);
     const g1 = dev.createBindGroup({layout: pipe.getBindGroupLayout(1), entries: [
       {binding: 0, resource: maps[c.map].createView()}, {binding: 1, resource: {buffer: outb}}, {binding: 2, resource: {buffer: jb}}]});
@@ -403,7 +413,9 @@ function b64(s) { const b = atob(s); const a = new Uint8Array(b.length); for (le
       maxd = Math.max(maxd, pd);
     }
     if (diff) bad++;
-    cases.push({name: c.name, pixels: n, differing: diff, max_diff: maxd});
+    const r = {name: c.name, pixels: n, differing: diff, max_diff: maxd};
+    if (c.dump) { const img = new Uint8Array(n * 4); for (let i = 0; i < n * 4; i++) img[i] = out[i]; let s = ""; for (let i = 0; i < img.length; i += 8192) s += String.fromCharCode.apply(null, img.subarray(i, i + 8192)); r.image = btoa(s); }
+    cases.push(r);
   }
   const err = await dev.popErrorScope();
   if (err) throw new Error("WebGPU: " + err.message);
@@ -417,5 +429,7 @@ function b64(s) { const b = atob(s); const a = new Uint8Array(b.length); for (le
 
 def wgsl_v2_page(data: dict, wgsl: str) -> str:
     """A WebGPU page running the version-2 WGSL map lookup in a compute pass over the windows of ``data``
-    (textures as base64 levels, the parameters, cases with reference bytes)."""
+    (textures as base64 levels, the parameters, the blend coverage as half floats and its layout, cases with
+    reference bytes;
+    a case of kind "blend" draws a smooth map by ``ts_smooth_map`` with its ``bands`` and ``mean``)."""
     return WGSL_V2_PAGE.replace("__LIB__", wgsl).replace("__DATA__", json.dumps(data))

@@ -111,8 +111,9 @@ def add_parsers(sub: Any) -> None:
         action="append",
         default=[],
         metavar="MAP=L",
-        help="provenance export: the level L (>= 0) from which map MAP's two sources are weighted by the label "
-        "coverage across a cut (default 0 for every map: a hard cut at level 0); repeatable",
+        help="provenance export: weight map MAP's two sources across a cut by the label coverage from level L "
+        "(>= 0; 0: a hard cut, the copies) instead of its default: smooth maps (height, roughness, normals) get "
+        "the seam blend of synth (the same relief on the GPU), colour maps a hard cut (L = 0); repeatable",
     )
     e.add_argument("--viewer", action="store_true", help="also write viewer.html (offline WebGL2 viewer)")
     v = sub.add_parser("view", help="write one self-contained offline HTML viewer (WebGL2) of a tile set")
@@ -192,13 +193,19 @@ def run(args: argparse.Namespace) -> None:
             hard = [
                 e["name"]
                 for e in m["maps"]
-                if e.get("kind") in ("scalar", "normal") and not e.get("blend_level")
+                if e.get("kind") in ("scalar", "normal")
+                and e.get("seam") == "cut"
+                and e["name"] not in blend
+                and args.map_smooth != "off"
             ]
-            if hard:  # what the GPU shows differs from `synth` there: say so, and what to do about it
+            if (
+                hard
+            ):  # the shaders cannot blend these (the tile size): what the GPU shows differs from `synth`
                 print(
-                    f"note: map(s) {', '.join(hard)}: the shaders cut their seams hard (tilesynth synth blends them, "
-                    "keeping the relief); --blend-level MAP=2 softens them on the GPU, --format atlas bakes synth's "
-                    "blend into an atlas (many times the memory)",
+                    f"note: map(s) {', '.join(hard)}: tiles of {m['tile_size']} px are not whole blocks of the seam "
+                    "blend's levels (a multiple of 16, of 64 with a low band), so the shaders cut their seams hard "
+                    "where tilesynth synth blends them; --format atlas bakes synth's blend into an atlas (many "
+                    "times the memory)",
                     file=sys.stderr,
                 )
         return

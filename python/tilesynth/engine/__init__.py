@@ -2,8 +2,9 @@
 (GLSL ES 3.00 / 4.x, WGSL, HLSL, Godot) and an offline WebGL2 viewer, with the tiles in one of two forms:
 
 * **version 2** (the default for pure-copy ω sets, ``format="provenance"``): each exemplar map once with its full
-  mip chain, one-bit labels with their coverage and a per-tile source table; shaders for M maps
-  (:mod:`.provenance_export`, :mod:`.viewer_v2`, ``shaders/tilesynth_v2.*``, ``docs/engine.md``);
+  mip chain, one-bit labels with their coverage and a per-tile source table; shaders for M maps, smooth maps
+  drawn with the seam blend of :func:`tilesynth.synthesize_maps` (:mod:`.provenance_export`, :mod:`.viewer_v2`,
+  ``shaders/tilesynth_v2.*``, ``docs/engine.md``);
 * **version 1** (``format="atlas"``; Poisson-smoothed and version-1 pixel sets, Wang tiles, ``map_smooth="on"``):
   padded atlases with per-tile mips, described below.
 
@@ -166,9 +167,12 @@ def export(
     format : ``"auto"`` (default): version 2 (:mod:`.provenance_export`: the exemplar maps with full mips, one-bit
         labels and a source table) for a pure-copy set whose labels fit the one-bit quadrant form, else the
         atlas (version 1); ``"provenance"``: version 2 or a ParameterError saying why not; ``"atlas"``: version 1.
-    blend_levels : version 2: ``{map name: L}``, the level from which each map's two sources are weighted by the
-        label coverage across a cut (default 0 for every map: a hard cut at level 0, coverage-weighted
-        minification only). Ignored by the atlas.
+    blend_levels : version 2: ``{map name: L}``, the level from which each named map's two sources are weighted
+        by the label coverage across a cut (0: a hard cut at level 0, coverage-weighted minification only).
+        Unnamed maps: colour maps are cut (L = 0); smooth maps (scalar and normal kinds) get the seam blend of
+        :func:`tilesynth.synthesize_maps` in the shaders (manifest ``seam`` "blend",
+        :func:`.provenance_export.seam_plans`) unless ``map_smooth`` is "off" or the tile size is not whole
+        blocks of the blend's levels. Ignored by the atlas.
 
     The files are written as a unit (:func:`tilesynth.io.images.file_set`): an error, Ctrl-C or SIGTERM leaves
     the previous export in ``out_dir`` as it was; a re-export removes the previous export's files that the new
@@ -189,7 +193,7 @@ def export(
         if form is not None:
             return _export_v2(
                 tileset, out, form, maps, bits, lookup, hl, seed, wrap, index_size, index_seed, normal_y,
-                blend_levels, viewer, source_path, inputs, progress,
+                blend_levels, viewer, source_path, inputs, progress, map_smooth,
             )  # fmt: skip
     if blend_levels:
         raise ParameterError("blend_levels: only for the provenance export (format='provenance')")
@@ -379,6 +383,7 @@ def _export_v2(
     source_path: str | os.PathLike[str] | None,
     inputs: list[tuple[str, Any]] | None,
     progress: Any,
+    map_smooth: str = "auto",
 ) -> dict[str, Any]:
     """:func:`export` of version 2 (the arguments already checked, but the maps and blend levels)."""
     from . import provenance_export as pe
@@ -386,8 +391,10 @@ def _export_v2(
 
     entries = pe.exemplar_maps(tileset, maps, bits, normal_y, _map_array)
     blend = pe.check_blend_levels(blend_levels, [e["name"] for e in entries])
+    plans = pe.seam_plans(entries, tileset.tile_size, blend_levels, map_smooth)
+    layout = pe.blend_layout(plans, tileset.tile_size)
     n_cov = pe.coverage_count(tileset.tile_size)
-    names = pe.export_files_v2(entries, n_cov)
+    names = pe.export_files_v2(entries, n_cov, blend=layout is not None)
     if lookup == "index_map":
         names.append("index.png")
     names += [f"shaders/{s}" for s in SHADER_FILES_V2]
@@ -401,7 +408,7 @@ def _export_v2(
 
     with file_set():
         files: list[str] = []
-        written = pe.write_textures(form, entries, blend, normal_y, out, files, _write_level, progress)
+        written = pe.write_textures(form, entries, blend, normal_y, out, files, _write_level, progress, plans)
         if lookup == "hash":
             lookup_entry = _hash_lookup(hl, seed, wrap)
         else:
@@ -410,7 +417,7 @@ def _export_v2(
             _write_text(out / "shaders" / s, shader_source(s))
             files.append(f"shaders/{s}")
         shapes = [(*e["array"].shape, e["array"].dtype.itemsize) for e in entries]
-        mem = pe.gpu_bytes(shapes, tileset.n_tiles, tileset.tile_size)
+        mem = pe.gpu_bytes(shapes, tileset.n_tiles, tileset.tile_size, None if layout is None else layout[:2])
         manifest = {
             "format": EXPORT_FORMAT,
             "format_version": 2,
@@ -425,8 +432,9 @@ def _export_v2(
             "lookup": lookup_entry,
             "coordinates": "uv in tile units, pixel (x, y) of the texture covers [x/N, (x+1)/N) x [y/N, (y+1)/N), "
             "y down",
-            "filter": "maps and coverage LINEAR_MIPMAP_LINEAR, CLAMP_TO_EDGE, every level; bits, table and index "
-            "NEAREST (texelFetch)",
+            "filter": "maps LINEAR_MIPMAP_LINEAR, MIRRORED_REPEAT (the seam blend reads an entry past its piece, "
+            "mirrored at the exemplar's edge), every level; coverage LINEAR_MIPMAP_LINEAR, CLAMP_TO_EDGE; bits, "
+            "table and index NEAREST (texelFetch); blend coverage LINEAR, CLAMP_TO_EDGE, one level",
             "gpu_bytes": {**mem, "ratio_to_maps": mem["total"] / mem["maps"]},
             "source": {
                 "content_digest": tileset.content_digest(),

@@ -25,11 +25,21 @@ of 1 bits) is what weights the two sources where a filter footprint straddles a 
 ``labels_coverage.png``    R8 UNORM: coverage of ``B`` at label level 2 (4 x 4 pixel blocks), tile ``t`` in
 + ``_mip<j>``              an ``N/4`` cell at column ``t % coverage_columns``; level j = label level j + 2,
                            reduced per tile (a cell never bleeds into its neighbour) down to one texel a tile
+``labels_blend.png``       when a map is blended: a 16-bit grey PNG of counts, uploaded as R16F ``count / 4^l``
+                           (:func:`blend_coverage`): B's pixels in each 2^3 block of every tile's labels and,
+                           with a low band, in each 2^l block of the labels extended ``reach`` px from the border
 ``table.bin``              int32 little-endian ``(ceil(4K / 256), 256, 4)``: an RGBA32I texture of width
                            256, texel ``i = 4t + q`` (q = quadrant: 2·(y >= N/2) + (x >= N/2)) holds
                            ``(code_A, bx_A, code_B, bx_B)``, ``code = (r << 19) | ((by + 32768) << 3) | s``
                            with ``r`` = ``r_in`` in ``code_A``, ``r_out`` in ``code_B`` (:func:`quadrant_radii`)
 =========================  ==============================================================================
+
+**The seam blend.** Maps of kind "scalar" and "normal" get the seam blend of :func:`tilesynth.synthesize_maps`
+(:mod:`tilesynth.synth.seams`) in the shaders (:func:`seam_plans`, :func:`blend_plan`): the manifest's map entry
+says ``seam`` ("blend"; "coverage" or "cut" for the coverage weighting of ``blend_level``), and a blended map has
+``bands`` (``high``; scalar maps also ``low``, ``split``, ``reach``) and, if scalar, ``mean`` (per channel, in the
+values the shaders read); ``labels.blend`` describes ``labels_blend.png`` (``high_level``, ``reach``,
+``reach_levels``, its cell layout).
 """
 
 from __future__ import annotations
@@ -46,6 +56,7 @@ __all__ = [
     "RADIUS_MAX",
     "TABLE_WIDTH",
     "QuadrantForm",
+    "blend_plan",
     "coverage_levels",
     "full_mip_chain",
     "gpu_bytes",
@@ -54,6 +65,7 @@ __all__ = [
     "quadrant_form",
     "quadrant_of",
     "quadrant_radii",
+    "blend_coverage",
 ]
 
 TABLE_WIDTH = 256
@@ -263,9 +275,12 @@ def gpu_bytes(
     map_shapes: list[tuple[int, int, int, int]],
     n_tiles: int,
     tile_size: int,
+    blend: tuple[int, tuple[int, int] | None] | None = None,
 ) -> dict[str, int]:
     """Uncompressed GPU bytes of a version-2 export: ``map_shapes`` = ``(H, W, channels, bytes per sample)``;
-    3-channel maps count as RGBA (no RGB8 render format on most GPUs); every map with its full chain."""
+    3-channel maps count as RGBA (no RGB8 render format on most GPUs); every map with its full chain;
+    ``blend`` ``(high level, reach levels or None)``: the seam blend's coverage (R16F, :func:`blend_coverage`),
+    None without it."""
     maps = 0
     for h, w, c, b in map_shapes:
         c = 4 if c == 3 else c
@@ -284,7 +299,119 @@ def gpu_bytes(
             break
         side //= 2
     table = -(-4 * n_tiles // TABLE_WIDTH) * TABLE_WIDTH * 16
-    return {"maps": maps, "bits": bits, "coverage": cov, "table": table, "total": maps + bits + cov + table}
+    blend_b = 0
+    if blend is not None:
+        cols, rows = _atlas.grid_for(n_tiles)
+        w, h = blend_cell(n, *blend)
+        blend_b = cols * w * rows * h * 2
+    total = maps + bits + cov + table + blend_b
+    return {"maps": maps, "bits": bits, "coverage": cov, "table": table, "blend": blend_b, "total": total}
+
+
+# ------------------------------------------------------------------------------------------ the seam blend
+def blend_plan(tile_size: int, kind: str) -> dict[str, float] | None:
+    """The bands of the seam blend of a ``kind`` map on tiles of ``tile_size`` (those of ``synthesize_maps``:
+    :func:`tilesynth.synth.seams.tile_bands` of the defaults), or None when the GPU cannot blend it: not a
+    scalar or normal map, or tiles whose quadrants are not whole blocks of every level the bands read
+    (``N`` a multiple of ``2^(L + 1)``, ``L`` the band's highest level: 16 for the detail band, 64 with the
+    low band), or a detail band above level 3 (its coverage counts must be exact in 8 bits)."""
+    from ..synth import seams
+
+    if kind not in ("scalar", "normal"):
+        return None
+    bands = seams.tile_bands(seams.check_bands(None, kind), tile_size)
+    top = max(bands["high"], bands.get("low", 0.0))
+    if bands["high"] > 3.0 or tile_size % (1 << (int(np.ceil(top)) + 1)):
+        return None
+    return bands
+
+
+def blend_shares(counts: np.ndarray, tile_size: int, high: int, span: tuple[int, int] | None) -> np.ndarray:
+    """float32 shares ``count / 4^l`` of a blend coverage texture of counts (:func:`blend_coverage`): what a
+    renderer uploads as R16F (exact in half floats)."""
+    n = tile_size
+    cw, ch = blend_cell(n, high, span)
+    div = np.ones((ch, cw))
+    div[: n >> high, : n >> high] = 4.0**high
+    if span is not None:
+        y = 0
+        for lv in range(span[0], span[1] + 1):
+            div[y : y + (n >> lv), n >> high : (n >> high) + (n >> lv)] = 4.0**lv
+            y += n >> lv
+    rows, cols = counts.shape[0] // ch, counts.shape[1] // cw
+    return (counts / np.tile(div, (rows, cols))).astype(np.float32)
+
+
+def blend_layout(
+    plans: dict[str, dict[str, float] | None], tile_size: int
+) -> tuple[int, tuple[int, int] | None, int] | None:
+    """``(high level, reach levels or None, reach)`` of the blend coverage the maps ``plans`` (:func:`seam_plans`)
+    read, or None when no map is blended; one coverage serves every map, so their bands must agree."""
+    got = [b for b in plans.values() if b is not None]
+    if not got:
+        return None
+    highs = {int(np.ceil(b["high"])) for b in got}
+    lows = {(reach_span(b), int(b["reach"])) for b in got if "low" in b}
+    if len(highs) > 1 or len(lows) > 1:
+        raise ParameterError("the blended maps' bands differ: one blend coverage serves them all")
+    span, reach = lows.pop() if lows else (None, 1)
+    return highs.pop(), span, reach
+
+
+def reach_span(bands: dict[str, float]) -> tuple[int, int]:
+    """``(first, last)``: the levels of the reach-extended labels the low band reads (``log2 R`` to
+    ``ceil(low)``)."""
+    first = int(np.log2(bands["reach"]))
+    return first, max(first, int(np.ceil(bands["low"])))
+
+
+def blend_cell(tile_size: int, high: int, span: tuple[int, int] | None) -> tuple[int, int]:
+    """``(width, height)`` of a tile's cell in the blend coverage: the labels' level ``high`` (``N >> high``
+    square) at the left; with ``span`` ``(first, last)``, the reach-extended levels stacked at its right (the
+    first at the top)."""
+    n = tile_size
+    if span is None:
+        return n >> high, n >> high
+    ext = [n >> lv for lv in range(span[0], span[1] + 1)]
+    return (n >> high) + ext[0], max(n >> high, sum(ext))
+
+
+def blend_coverage(
+    form: QuadrantForm, high: int, reach: int, span: tuple[int, int] | None
+) -> tuple[np.ndarray, int]:
+    """uint16 ``(rows·h, cols·w)`` texture of counts and its cell columns: for every tile, the number of pixels of
+    entry B in each ``2^high`` block of its labels, and with ``span`` ``(first, last)`` in each ``2^l`` block
+    (``l`` in first..last) of its labels extended ``reach`` px from the tile border
+    (:func:`tilesynth.synth.seams.border_labels`: every pixel nearer than ``reach`` to the border takes the bit
+    of its nearest border pixel, which lies in its own quadrant); laid out by :func:`blend_cell`, cells as the
+    coverage's (:func:`tilesynth.engine.atlas.grid_for`). A renderer uploads it as R16F, ``count / 4^l``: exact
+    shares, bilinear-filtered by the sampler."""
+    from ..synth.seams import border_labels
+
+    k, n = form.n_tiles, form.tile_size
+    cols, rows = _atlas.grid_for(k)
+    cw, ch = blend_cell(n, high, span)
+    out = np.zeros((rows * ch, cols * cw), np.uint16)
+
+    def put(counts: np.ndarray, x: int, y: int) -> None:
+        side = counts.shape[1]
+        for t in range(k):
+            r, c = divmod(t, cols)
+            out[r * ch + y : r * ch + y + side, c * cw + x : c * cw + x + side] = counts[t]
+
+    def block_counts(lab: np.ndarray, lv: int) -> np.ndarray:
+        s, side = 1 << lv, n >> lv
+        return lab.reshape(k, side, s, side, s).sum(axis=(2, 4))
+
+    bits = form.bits.astype(np.int64)
+    put(block_counts(bits, high), 0, 0)
+    if span is not None:
+        ext = border_labels(form.bits.astype(np.uint8), int(reach)).astype(np.int64)
+        y = 0
+        for lv in range(span[0], span[1] + 1):
+            put(block_counts(ext, lv), n >> high, y)
+            y += n >> lv
+    return out, cols
 
 
 # ------------------------------------------------------------------------------------------------ the maps
@@ -296,7 +423,13 @@ def exemplar_maps(
     ``normal_y`` is the export's convention (``+y`` / ``-y``): normal maps are converted to it. ``check_map(name,
     value, exemplar_shape)`` checks an extra map and returns it as ``(H, W, C)`` (the exporter's, shared with the
     atlas)."""
-    from ..builder.materials import MapSpec, _with_normal_encoding, convert_normal_y, infer_kind
+    from ..builder.materials import (
+        MapSpec,
+        _with_normal_encoding,
+        convert_normal_y,
+        infer_kind,
+        renormalise_image,
+    )
     from ..cli.argtypes import normal_y_value
 
     want = normal_y_value(normal_y)
@@ -319,6 +452,8 @@ def exemplar_maps(
         if spec.kind == "normal":
             if normal_y_value(spec.normal_y) != want:
                 entry["array"] = convert_normal_y(arr, spec.encoding or "unorm")
+            # what synthesize_maps copies and blends: every vector renormalised once
+            entry["array"] = renormalise_image(entry["array"], spec.encoding or "unorm")
         out.append(entry)
     for name, value in (maps or {}).items():
         if any(e["name"] == name for e in out):
@@ -332,6 +467,8 @@ def exemplar_maps(
         enc = _with_normal_encoding(name, a)
         kind = "normal" if enc is not None else infer_kind(name)
         kind = "scalar" if kind == "normal" and enc is None else kind
+        if kind == "normal":
+            a = renormalise_image(a, enc)
         out.append(
             {
                 "name": name,
@@ -373,8 +510,9 @@ def check_blend_levels(blend_levels: Any, names: list[str]) -> dict[str, float]:
     return {n: out.get(n, 0.0) for n in names}
 
 
-def export_files_v2(entries: list[dict[str, Any]], n_coverage: int) -> list[str]:
-    """The level files of the maps and labels of a version-2 export (no shaders, viewer or manifest)."""
+def export_files_v2(entries: list[dict[str, Any]], n_coverage: int, blend: bool = False) -> list[str]:
+    """The level files of the maps and labels of a version-2 export (no shaders, viewer or manifest);
+    ``blend``: with the seam blend's coverage."""
     names = []
     for e in entries:
         ext = "exr" if e["array"].dtype == np.float32 else "png"
@@ -387,6 +525,8 @@ def export_files_v2(entries: list[dict[str, Any]], n_coverage: int) -> list[str]
             h, w, lv = max(1, h // 2), max(1, w // 2), lv + 1
     names += ["labels_bits.png", "labels_coverage.png"]
     names += [f"labels_coverage_mip{j}.png" for j in range(1, n_coverage)]
+    if blend:
+        names.append("labels_blend.png")
     names.append("table.bin")
     return names
 
@@ -400,6 +540,26 @@ def coverage_count(tile_size: int) -> int:
     return n
 
 
+def seam_plans(
+    entries: list[dict[str, Any]], tile_size: int, given: dict[str, Any] | None, map_smooth: str
+) -> dict[str, dict[str, float] | None]:
+    """``{name: bands or None}``: the maps the shaders blend with the seam blend of ``synthesize_maps``
+    (:func:`blend_plan`): every scalar and normal map unless ``map_smooth`` is "off" (copies, as ``synth
+    --map-smooth off``) or ``given`` (the ``blend_levels``) names it (the coverage weighting at that level)."""
+    given = given or {}
+    return {
+        e["name"]: None if map_smooth == "off" or e["name"] in given else blend_plan(tile_size, e["kind"])
+        for e in entries
+    }
+
+
+def map_mean(arr: np.ndarray) -> list[float]:
+    """The mean of every channel of a map over the exemplar, in the values the shaders read (codes over their
+    maximum; float maps as they are): the ``μ`` of the low band's variance-preserving blend."""
+    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(arr.dtype, 1.0)
+    return [float(v) for v in (arr.reshape(-1, arr.shape[2]).astype(np.float64) / scale).mean(axis=0)]
+
+
 def write_textures(
     form: QuadrantForm,
     entries: list[dict[str, Any]],
@@ -409,10 +569,15 @@ def write_textures(
     files: list[str],
     write_level: Any,
     progress: Any = None,
+    plans: dict[str, dict[str, float] | None] | None = None,
 ) -> dict[str, Any]:
     """Write the maps (full chains, each level by ``write_level(path, array)``: the exporter's, PNG or OpenEXR),
-    the bits, the coverage levels and the table into ``out``; the manifest's ``maps`` and ``labels`` entries."""
+    the bits, the coverage levels, the blend coverage (when a map is blended) and the table
+    into ``out``; the manifest's ``maps`` and ``labels`` entries. ``plans``: :func:`seam_plans` (None: no map
+    blended)."""
     from ..builder.materials import infer_kind
+
+    plans = plans or {}
 
     map_entries = []
     for k, e in enumerate(entries):
@@ -441,6 +606,14 @@ def write_textures(
             "blend_level": blend[e["name"]],
             "normal": normal_code(e, normal_y),
         }
+        bands = plans.get(e["name"])
+        if bands is not None:
+            me["seam"] = "blend"
+            me["bands"] = {k: float(v) for k, v in bands.items()}
+            if e["kind"] == "scalar":
+                me["mean"] = map_mean(arr)
+        else:
+            me["seam"] = "coverage" if blend[e["name"]] > 0 else "cut"
         if e["kind"] == "normal" or infer_kind(e["name"]) == "normal":  # as version 1: by name too
             me["normal_y"] = normal_y
         map_entries.append(me)
@@ -458,6 +631,32 @@ def write_textures(
         save_image(out / fname, a[:, :, None], bits=8)
         files.append(fname)
         cov_levels.append({"level": j, "file": fname, "width": int(a.shape[1]), "height": int(a.shape[0])})
+    blend_entry = None
+    layout = blend_layout(plans, form.tile_size)
+    if layout is not None:
+        high, span, reach = layout
+        bc, blend_cols = blend_coverage(form, high, reach, span)
+        save_image(out / "labels_blend.png", bc[:, :, None], bits=16)
+        files.append("labels_blend.png")
+        cw, ch = blend_cell(form.tile_size, high, span)
+        blend_entry = {
+            "file": "labels_blend.png",
+            "format": "R16F",
+            "stored_as": "16-bit grey PNG of counts: upload texel = count / 4^l (l its level), exact in R16F",
+            "width": int(bc.shape[1]),
+            "height": int(bc.shape[0]),
+            "columns": blend_cols,
+            "cell": [cw, ch],
+            "high_level": high,
+            "reach": reach,
+            "reach_levels": list(span) if span is not None else None,
+            "rule": "tile t's cell at x = (t % columns) * cell[0], y = (t // columns) * cell[1]; in it, at (0, 0), "
+            "the number of pixels of entry B in each 2^high_level block of the tile's labels ((N >> high_level) "
+            "texels square); with reach_levels, at x = N >> high_level, level l of reach_levels[0] .. [1] stacked "
+            "from y = 0 (each at y = sum of N >> k for k < l): the same of the labels with every pixel nearer than "
+            "reach to the tile border given the bit of its nearest border pixel (the row's end where the row and "
+            "the column are as near)",
+        }
     table = pack_table(form)
     with atomic_open(out / "table.bin", "wb") as fh:
         fh.write(table.astype("<i4").tobytes())
@@ -499,4 +698,6 @@ def write_textures(
             "bias": BIAS,
         },
     }
+    if blend_entry is not None:
+        labels["blend"] = blend_entry
     return {"maps": map_entries, "labels": labels}

@@ -23,6 +23,7 @@ from . import reference as ref
 from .viewer import case, embed_levels, fill_template, index_entry, lookup_uniforms, read_index
 
 __all__ = [
+    "BLEND_TOLERANCE",
     "MIP_RMS",
     "MIP_TOLERANCE",
     "PHASE_FACTOR",
@@ -78,6 +79,18 @@ class ReferenceV2:
         img = ref.map_window(self.tileset, self.arrays[name], self.index_of, x0, y0, w, h, m["normal"])
         return ref.to_rgba8(to_preview8(img))
 
+    def synthesized(self, name: str, x0: int, y0: int, w: int, h: int) -> np.ndarray:
+        """``(h, w, C)`` of the tile set's map ``name`` by :func:`tilesynth.synthesize_maps` (smooth maps with
+        their seams blended) at texture pixel (x0, y0), in its sample type."""
+        from ..builder.materials import synthesize_maps
+
+        n = self.n
+        cx0, cy0 = x0 // n, y0 // n
+        cy, cx = np.mgrid[cy0 : (y0 + h - 1) // n + 1, cx0 : (x0 + w - 1) // n + 1]
+        sub = np.ascontiguousarray(self.index_of(cx, cy), dtype=np.int32)
+        got = synthesize_maps(self.tileset, sub, w, h, offset=(y0 - cy0 * n, x0 - cx0 * n))[name]
+        return got if got.ndim == 3 else got[:, :, None]
+
     def sampled(
         self, name: str, x0: float, y0: float, w: int, h: int, scale: float, level: int = 0
     ) -> np.ndarray:
@@ -104,6 +117,13 @@ class ReferenceV2:
         return out
 
 
+BLEND_TOLERANCE = 2
+"""Largest difference (of 255) the self-test allows for a blended smooth map at 1:1 against
+:func:`tilesynth.synthesize_maps`: float32 against float64, 8-bit previews of 16-bit maps, the low band from the
+map's own mips (measured: at most 1 where the exemplar's sides are multiples of 2^split,
+``tests/test_export_v2_browser.py``)."""
+
+
 def to_preview8(img: np.ndarray) -> np.ndarray:
     """8-bit preview of a map level (uint16 rounded to 8 bits, float clipped to [0, 1]), as the viewer embeds it."""
     if img.dtype == np.uint8:
@@ -115,7 +135,8 @@ def to_preview8(img: np.ndarray) -> np.ndarray:
 
 def default_cases(r: ReferenceV2) -> list[dict[str, Any]]:
     """Level 0 exact (texelFetch and texel centres) and levels 1..6 (64x; fewer for an exemplar under 128 px) of
-    the albedo within the tolerance (:data:`MIP_RMS`)."""
+    the albedo within the tolerance (:data:`MIP_RMS`); every blended map the tile set stores at 1:1 within
+    :data:`BLEND_TOLERANCE` of :func:`tilesynth.synthesize_maps`."""
     n = r.n
     cases = []
     w = h = min(48, 2 * n)
@@ -127,6 +148,16 @@ def default_cases(r: ReferenceV2) -> list[dict[str, Any]]:
     x0, y0 = -n // 2 - 3, -n - 9
     exact = np.rint(r.sampled("albedo", x0, y0, w, h, 1.0)).astype(np.uint8)
     cases.append(case("textureGrad at texel centres", "grad", (x0, y0), w, h, 1.0, 0, exact))
+    # every map the shaders blend and the tile set stores: 1:1 against synthesize_maps (the seam blend)
+    stored = set(getattr(r.tileset, "maps", None) or {})
+    for i, m in enumerate(r.manifest["maps"]):
+        if m.get("seam") == "blend" and m["name"] in stored:
+            exact = ref.to_rgba8(to_preview8(r.synthesized(m["name"], x0, y0, w, h)))
+            c = case(
+                f"{m['name']}: the seam blend at 1:1", "grad", (x0, y0), w, h, 1.0, BLEND_TOLERANCE, exact
+            )
+            c["map"] = i
+            cases.append(c)
     ex = r.tileset.exemplar.shape
     top = min(6, max(1, int(np.log2(min(ex[0], ex[1]))) - 1))  # to 64x, while the exemplar has 2 x 2 texels
     for lv in range(1, top + 1):
@@ -167,6 +198,7 @@ def config_for(
                 "normal": m["normal"],
                 "blend_level": m["blend_level"],
                 "levels": embed_levels(levels),
+                **{k: m[k] for k in ("seam", "bands", "mean") if k in m},
             }
         )
     cov = [load(lv["file"])[:, :, 0] for lv in lab["coverage"]["levels"]]
@@ -186,11 +218,24 @@ def config_for(
             "height": lab["table"]["height"],
             "data": base64.b64encode(table.astype("<i4").tobytes()).decode(),
         },
+        "blend": None,
         "autorun": False,
         "index": index_entry(imap),
         "selftest": selftest,
         "init": [0.0, 0.0, 1.0],
     }
+    if "blend" in lab:
+        from .provenance_export import blend_shares
+
+        r = lab["blend"]
+        span = tuple(r["reach_levels"]) if r["reach_levels"] else None
+        shares = blend_shares(load(r["file"])[:, :, 0], manifest["tile_size"], r["high_level"], span)
+        cfg["blend"] = {
+            "width": r["width"],
+            "height": r["height"],
+            "layout": [r["columns"], r["high_level"], span[0] if span else -1, span[1] if span else -1],
+            "data": base64.b64encode(shares.astype("<f2").tobytes()).decode(),
+        }
     return cfg
 
 

@@ -18,6 +18,35 @@
 // ts_r_out); in it one more per distinct blend level (two for a blend level above the footprint near the cut),
 // and 2 per map where 0 < weight < 1.
 //
+// Smooth maps (manifest "seam": "blend": height, roughness, normals) use the seam blend of the CPU synthesis
+// (tilesynth.synth.seams, steps 1-6; its "bands" and "mean" per map in the manifest) instead of the cut:
+//   TsBlend b = ts_blend(s, bands);                     // weights; shared by the maps with the same bands
+//   vec4 height = ts_smooth_map(height_tex, s, b, bands, mean, 0, w0);
+//   vec4 normal = ts_smooth_map(normal_tex, s, b, nbands, vec4(0.0), 1, w0);
+// bands = (high, low, split, reach) ("low" < 0 for a normal map or a map without a low band), mean = the map's
+// "mean" per channel (1 for the alpha of maps with fewer channels), w0 = ts_weight(s, 0.0) (the footprint path).
+// The entries of a tile on the GPU are the quadrant form: A_0..A_3 and B. The weights are exact: the detail
+// band's label coverage at its top level (3) and the low band's (the labels extended "reach" px from the tile
+// border) from ts_blend_cov (exact shares, one bilinear fetch per quadrant the sample's taps fall in: the
+// blocks of every level lie in one quadrant; the position clamped to the tile's texel centres, as the CPU
+// clamps its indices), the detail band's levels 0-1 from the bits and 2 from the coverage texture (its 8-bit
+// values hold the exact counts there; a texelFetch per tap: these are the 6-px border ring only); a read is
+// skipped where the quadrant's radii say its blocks are all A or all B. The values: each entry of non-zero
+// weight at the pixel, at level 0 (textureGrad
+// with the footprint's derivatives, so bilinear under magnification), and for a low band the map's own mip at
+// level "split" (textureLod, MIRRORED_REPEAT: the box mip when the map's sides are multiples of 2^split).
+// Approximations: float32 arithmetic (the CPU: float64), the map's mips stored in its sample type (8-bit maps:
+// the low band within about half a code), map sides not multiples of 2^split (the chain drops the odd row; the
+// CPU's box mip averages a partial block: 124 px, split 3, up to 3 codes). Measured against synthesize_maps at
+// 1:1 (tests/test_export_v2_browser.py): at most 1 code of 255 where the sides are multiples of 2^split.
+// Minification: the blend reads every entry with the footprint's filter (textureGrad; the low band at level
+// max(split, footprint)); above the band's top level (low for scalar maps, high for normals) it fades into
+// the footprint path (ts_map with w0) over one level, and from one level above it is that path alone.
+// Fetches for a smooth map: 1 per map where every weight is one entry's (away from cuts, quadrant lines and the
+// label band); near them the weights' label reads (shared by the maps of the same bands; counted in
+// tests/test_export_v2_browser.py) and per map 1 (normal) or 2 (scalar with low band) per entry of non-zero
+// weight.
+//
 // Uniforms (from manifest.json "textures" and "lookup"):
 //   ts_bits      labels_bits.png as R8UI (NEAREST, texelFetch only)
 //   ts_coverage  labels_coverage.png + its levels as R8 (LINEAR_MIPMAP_LINEAR, CLAMP_TO_EDGE, max level = the
@@ -26,7 +55,10 @@
 //   ts_index     index_map mode: index.png as R16UI; hash mode: any unsigned-integer texture on its own unit
 //   ts_layout    (tile_size N, bits columns, coverage columns, coverage max level)
 //   ts_lookup, ts_seed, ts_wrap: as version 1 (mode 0 index map, 1 corner hash, 2 edge hash)
-//   every map: its full mip chain, LINEAR_MIPMAP_LINEAR, CLAMP_TO_EDGE.
+//   ts_blend_cov labels_blend.png as R16F, texel = count / 4^l (LINEAR, CLAMP_TO_EDGE, one level; any 1x1
+//                float texture without it)
+//   ts_blend_layout  (columns, high_level, reach_levels[0] or -1, reach_levels[1]) of the manifest's labels.blend
+//   every map: its full mip chain, LINEAR_MIPMAP_LINEAR, MIRRORED_REPEAT.
 // Define TS_COUNT_FETCHES before this file to count texture fetches in the global ts_fetches (tests).
 #ifdef TS_COUNT_FETCHES
 int ts_fetches = 0;
@@ -39,6 +71,8 @@ uniform highp usampler2D ts_bits;
 uniform highp sampler2D ts_coverage;
 uniform highp isampler2D ts_table;
 uniform highp usampler2D ts_index;
+uniform highp sampler2D ts_blend_cov;
+uniform ivec4 ts_blend_layout;
 uniform ivec4 ts_layout;
 uniform ivec4 ts_lookup;
 uniform uint ts_seed;
@@ -253,4 +287,239 @@ vec4 ts_fetch_map(sampler2D map, ivec2 p, int normal) {
     ivec2 rc = k == 0 ? ivec2(y, x) : k == 1 ? ivec2(x, m - y) : k == 2 ? ivec2(m - y, m - x) : ivec2(m - x, y);
     vec4 v = texelFetch(map, ivec2(rc.y + bx, rc.x + ((code >> 3) & 0xFFFF) - 32768), 0);
     return ts_turn_normal(v, code, normal);
+}
+
+// ------------------------------------------------------------------------------------------ the seam blend
+// The weights of the entries of a tile near a pixel: A_0..A_3 (each quadrant's own) and B (the matching patch).
+struct TsBlend {
+    ivec4 ca, xa, cb;   // per quadrant: code_A (with r_in), bx_A, code_B (with r_out), from the table
+    ivec2 bb;           // (code, bx) of B (the same in every quadrant)
+    int loaded;         // bit q: quadrant q's table texel read
+    vec4 ha; float hb;  // detail-band weights of A_0..A_3 and B
+    vec4 ga; float gb;  // low-band weights
+};
+
+void ts_quad(inout TsBlend b, int tile, int q) {
+    if (((b.loaded >> q) & 1) != 0) return;
+    int i = 4 * tile + q;
+    TS_COUNT(1);
+    ivec4 e = texelFetch(ts_table, ivec2(i % 256, i / 256), 0);
+    b.ca[q] = e.x; b.xa[q] = e.y; b.cb[q] = e.z; b.bb = ivec2(e.z & 0x7FFFF, e.w);
+    b.loaded |= 1 << q;
+}
+
+// The radii's verdict on the pixels [p0, p1] of quadrant q (band 1: of the labels extended reach px): 0 all A,
+// 1 all B, -1 unknown.
+float ts_rect_known(TsBlend b, int band, ivec2 p0, ivec2 p1, int q, int reach) {
+    int n = ts_layout.x;
+    vec2 lo = vec2(p0) + 0.5 - 0.5 * float(n), hi = vec2(p1) + 0.5 - 0.5 * float(n);
+    float dnear = length(max(max(lo, -hi), vec2(0.0)));
+    float dfar = length(max(abs(lo), abs(hi)));
+    float rin = float(b.ca[q] >> 19) * 0.5, rout = float(b.cb[q] >> 19) * 0.5;
+    int dmin = min(min(p0.x, p0.y), min(n - 1 - p1.x, n - 1 - p1.y));
+    bool zone = band == 1 && dmin < reach;
+    // all A: no pixel of the block within r_out (and, in the extended zone, no border pixel of B at all)
+    if (dnear > rout && (!zone || rout < 0.5 * float(n) - 0.5)) return 0.0;
+    if (dfar < rin && !zone) return 1.0;
+    return -1.0;
+}
+
+// Share of B in block ib of level l of the labels (levels below the detail band's top: bits and coverage).
+float ts_block_b(inout TsBlend b, TsSite s, int l, ivec2 ib, int q) {
+    ts_quad(b, s.tile, q);
+    int n = ts_layout.x, sz = 1 << l;
+    ivec2 p0 = ib * sz, p1 = p0 + sz - 1;
+    float known = ts_rect_known(b, 0, p0, p1, q, 1);
+    if (known >= 0.0) return known;
+    int t = s.tile;
+    if (l >= 2) {
+        int c = ts_layout.z, side = (n / 4) >> (l - 2);
+        TS_COUNT(1);
+        float v = texelFetch(ts_coverage, ivec2((t % c) * side + ib.x, (t / c) * side + ib.y), l - 2).r;
+        float cells = float(sz * sz);
+        return floor(v * cells + 0.5) / cells;  // 8-bit rint(count * 255 / 4^l): the count, exactly, to l = 3
+    }
+    int c = ts_layout.y;
+    ivec2 cell = ivec2((t % c) * (n / 8), (t / c) * n);
+    float sum = 0.0;
+    for (int r = 0; r < sz; r++) {
+        TS_COUNT(1);
+        uint byte = texelFetch(ts_bits, cell + ivec2(p0.x / 8, p0.y + r), 0).r;
+        for (int k = 0; k < sz; k++) sum += float((byte >> uint((p0.x + k) % 8)) & 1u);
+    }
+    return sum / float(sz * sz);
+}
+
+// Adds the bilinear sample of level l (weight lw) of the labels' coverage at the pixel (indices clamped to the
+// tile), tap by tap.
+void ts_level(inout TsBlend b, TsSite s, int l, float lw) {
+    int n = ts_layout.x, nl = n >> l;
+    vec2 u = s.p / exp2(float(l)) - 0.5;
+    vec2 i0 = floor(u), f = u - i0;
+    ivec2 a = clamp(ivec2(i0), ivec2(0), ivec2(nl - 1)), c = clamp(ivec2(i0) + 1, ivec2(0), ivec2(nl - 1));
+    for (int k = 0; k < 4; k++) {
+        float w = lw * ((k & 1) == 0 ? 1.0 - f.x : f.x) * (k < 2 ? 1.0 - f.y : f.y);
+        if (w <= 0.0) continue;
+        ivec2 ib = ivec2((k & 1) == 0 ? a.x : c.x, k < 2 ? a.y : c.y);
+        int q = ((ib.y << l) >= n / 2 ? 2 : 0) + ((ib.x << l) >= n / 2 ? 1 : 0);
+        float cb = ts_block_b(b, s, l, ib, q);
+        b.ha[q] += w * (1.0 - cb); b.hb += w * cb;
+    }
+}
+
+// The cell of a tile in ts_blend_cov and the origin of a band's level l in it (texels).
+ivec2 ts_blend_cell() {
+    int n = ts_layout.x, h = ts_blend_layout.y;
+    if (ts_blend_layout.z < 0) return ivec2(n >> h);
+    int sum = 0;
+    for (int k = ts_blend_layout.z; k <= ts_blend_layout.w; k++) sum += n >> k;
+    return ivec2((n >> h) + (n >> ts_blend_layout.z), max(n >> h, sum));
+}
+ivec2 ts_blend_origin(int band, int l) {
+    int n = ts_layout.x;
+    if (band == 0) return ivec2(0);
+    int y = 0;
+    for (int k = ts_blend_layout.z; k < l; k++) y += n >> k;
+    return ivec2(n >> ts_blend_layout.y, y);
+}
+
+// Adds the bilinear sample of level l (weight lw) of a band's coverage in ts_blend_cov: one filtered fetch per
+// quadrant the taps fall in (split at the quadrant line: each side read at its own texel centre), none where the
+// radii know the taps' blocks.
+void ts_level_f(inout TsBlend b, TsSite s, int band, int l, float lw, int reach) {
+    int n = ts_layout.x, nl = n >> l, hq = nl / 2, sz = 1 << l;
+    vec2 u = s.p / exp2(float(l)) - 0.5;
+    vec2 i0 = floor(u), f = u - i0;
+    ivec2 a = clamp(ivec2(i0), ivec2(0), ivec2(nl - 1)), c = clamp(ivec2(i0) + 1, ivec2(0), ivec2(nl - 1));
+    bvec2 cut = bvec2((a.x < hq) != (c.x < hq), (a.y < hq) != (c.y < hq));
+    int t = s.tile, cols = ts_blend_layout.x;
+    vec2 base = vec2(ivec2(t % cols, t / cols) * ts_blend_cell() + ts_blend_origin(band, l));
+    for (int g = 0; g < 4; g++) {
+        int gx = g & 1, gy = g >> 1;
+        if ((gx == 1 && !cut.x) || (gy == 1 && !cut.y)) continue;
+        ivec2 lo = a, hi = c;
+        vec2 pos = vec2(a) + 0.5 + vec2(notEqual(a, c)) * f;
+        float w = lw;
+        if (cut.x) { lo.x = hi.x = gx == 0 ? a.x : c.x; pos.x = float(lo.x) + 0.5; w *= gx == 0 ? 1.0 - f.x : f.x; }
+        if (cut.y) { lo.y = hi.y = gy == 0 ? a.y : c.y; pos.y = float(lo.y) + 0.5; w *= gy == 0 ? 1.0 - f.y : f.y; }
+        if (w <= 0.0) continue;
+        int q = (lo.y >= hq ? 2 : 0) + (lo.x >= hq ? 1 : 0);
+        ts_quad(b, t, q);
+        float cb = ts_rect_known(b, band, lo * sz, hi * sz + sz - 1, q, reach);
+        if (cb < 0.0) {
+            TS_COUNT(1);
+            cb = textureLod(ts_blend_cov, (base + pos) / vec2(textureSize(ts_blend_cov, 0)), 0.0).r;
+        }
+        if (band == 0) { b.ha[q] += w * (1.0 - cb); b.hb += w * cb; }
+        else { b.ga[q] += w * (1.0 - cb); b.gb += w * cb; }
+    }
+}
+
+// One band: lod = min(level, log2(reach + d)), d the pixel's distance to the tile border; trilinear.
+void ts_band(inout TsBlend b, TsSite s, int band, float level, float reach) {
+    int n = ts_layout.x;
+    vec2 pc = s.p - 0.5;
+    float d = max(min(min(pc.x, pc.y), min(float(n - 1) - pc.x, float(n - 1) - pc.y)), 0.0);
+    float lod = min(level, log2(reach + d));
+    if (abs(lod - floor(lod + 0.5)) < 1e-5) lod = floor(lod + 0.5);  // log2 of a power of two, exactly
+    float l0 = floor(lod), f = lod - l0;
+    int l = int(l0);
+    if (band == 1 || l >= ts_blend_layout.y) ts_level_f(b, s, band, l, 1.0 - f, int(reach));
+    else ts_level(b, s, l, 1.0 - f);
+    if (f > 0.0) {
+        if (band == 1 || l + 1 >= ts_blend_layout.y) ts_level_f(b, s, band, l + 1, f, int(reach));
+        else ts_level(b, s, l + 1, f);
+    }
+}
+
+// The weights of the seam blend with bands (high, low, split, reach) at the site (low < 0: the detail band
+// alone). Nothing is read where the footprint is past the blend (lod >= the band's top level + 1).
+TsBlend ts_blend(TsSite s, vec4 bands) {
+    TsBlend b;
+    b.ca = ivec4(0); b.xa = ivec4(0); b.cb = ivec4(0);
+    b.ha = vec4(0.0); b.hb = 0.0; b.ga = vec4(0.0); b.gb = 0.0;
+    int h = ts_layout.x / 2;
+    int q = (s.p.y >= float(h) ? 2 : 0) + (s.p.x >= float(h) ? 1 : 0);
+    b.ca[q] = s.ent.x; b.xa[q] = s.ent.y; b.cb[q] = s.ent.z; b.bb = ivec2(s.ent.z & 0x7FFFF, s.ent.w);
+    b.loaded = 1 << q;
+    float top = bands.y >= 0.0 ? bands.y : bands.x;
+    if (s.lod >= top + 1.0) return b;
+    ts_band(b, s, 0, bands.x, 1.0);
+    if (bands.y >= 0.0) ts_band(b, s, 1, bands.y, bands.w);
+    return b;
+}
+
+// Entry i (0-3: A_i, 4: B) of a blend: (code, bx).
+ivec2 ts_slot(TsBlend b, int i) { return i < 4 ? ivec2(b.ca[i] & 0x7FFFF, b.xa[i]) : b.bb; }
+float ts_h(TsBlend b, int i) { return i < 4 ? b.ha[i] : b.hb; }
+float ts_g(TsBlend b, int i) { return i < 4 ? b.ga[i] : b.gb; }
+
+// The low band of an entry: the map's mip at level max(split, footprint) at the entry's source (bilinear,
+// MIRRORED_REPEAT).
+vec4 ts_entry_low(sampler2D map, TsSite s, ivec2 e, float split, int normal) {
+    vec2 size = vec2(textureSize(map, 0));
+    TS_COUNT(1);
+    return textureLod(map, ts_src(e.x, e.y, s.p) / size, max(split, s.lod));
+}
+
+// A normal sample as a slope (n_x, n_y) / max(n_z, 1/16) (decoded: normal 1/2 unsigned codes, 3/4 signed).
+vec2 ts_slope(vec4 c, int normal) {
+    vec3 v = normal <= 2 ? c.xyz * 2.0 - 1.0 : c.xyz;
+    return v.xy / max(v.z, 1.0 / 16.0);
+}
+
+// The seam blend of one map at the site (tilesynth.synth.seams step 5): normal != 0 a normal map (slopes
+// blended with the detail weights), else a scalar map (the low band variance-preserving about mean, the detail
+// linear); a pixel whose weights are all one entry's is that entry's sample.
+vec4 ts_blend_map(sampler2D map, TsSite s, TsBlend b, vec4 bands, vec4 mean, int normal) {
+    bool low = bands.y >= 0.0 && normal == 0;
+    for (int i = 0; i < 5; i++) {
+        if (ts_h(b, i) >= 1.0 - 1e-5 && (!low || ts_g(b, i) >= 1.0 - 1e-5)) {
+            ivec2 e = ts_slot(b, i);
+            return ts_entry(map, s, e.x, e.y, normal);
+        }
+    }
+    if (normal != 0) {
+        vec2 sl = vec2(0.0);
+        for (int i = 0; i < 5; i++) {
+            float h = ts_h(b, i);
+            if (h <= 0.0) continue;
+            ivec2 e = ts_slot(b, i);
+            sl += h * ts_slope(ts_entry(map, s, e.x, e.y, normal), normal);
+        }
+        vec3 v = normalize(vec3(sl, 1.0));
+        return vec4(normal <= 2 ? v * 0.5 + 0.5 : v, 1.0);
+    }
+    vec4 base = vec4(0.0), det = vec4(0.0);
+    float g2 = 0.0;
+    for (int i = 0; i < 5; i++) {
+        float h = ts_h(b, i), g = low ? ts_g(b, i) : 0.0;
+        if (h <= 0.0 && g <= 0.0) continue;
+        ivec2 e = ts_slot(b, i);
+        vec4 a = low ? ts_entry_low(map, s, e, bands.z, normal) : vec4(0.0);
+        if (h > 0.0) det += h * (ts_entry(map, s, e.x, e.y, normal) - a);
+        if (g > 0.0) {
+            base += g * a;
+            // an entry shown by two slots (the same source) weighs once in the variance normaliser
+            bool seen = false;
+            float gs = g;
+            for (int j = 0; j < 5; j++) {
+                if (j == i || ts_g(b, j) <= 0.0 || ts_slot(b, j) != e) continue;
+                if (j < i) seen = true;
+                gs += ts_g(b, j);
+            }
+            if (!seen) g2 += gs * gs;
+        }
+    }
+    return low ? mean + (base - mean) / sqrt(g2) + det : det;
+}
+
+// A smooth map at the site: the seam blend at magnification and 1:1, fading into the footprint path (ts_map
+// with the footprint's weight w0 = ts_weight(s, 0.0)) from the band's top level to one level above it.
+vec4 ts_smooth_map(sampler2D map, TsSite s, TsBlend b, vec4 bands, vec4 mean, int normal, float w0) {
+    float top = bands.y >= 0.0 && normal == 0 ? bands.y : bands.x;
+    float t = clamp(s.lod - top, 0.0, 1.0);
+    if (t >= 1.0) return ts_map(map, s, w0, normal);
+    vec4 v = ts_blend_map(map, s, b, bands, mean, normal);
+    return t <= 0.0 ? v : mix(v, ts_map(map, s, w0, normal), t);
 }

@@ -5,19 +5,27 @@
 //   ts_coverage  labels_coverage.png + levels as R8_UNORM, sampled with ts_sampler
 //   ts_table     table.bin as R32G32B32A32_SINT, width 256 (Load only)
 //   ts_index     index_map mode: index.png as R16_UINT (hash mode: any 1x1 uint texture, never read)
-//   ts_sampler   MIN_MAG_MIP_LINEAR, CLAMP: for the coverage and every map
-// Every map: a Texture2D<float4> with its full mip chain, passed to ts_map.
+//   ts_sampler   MIN_MAG_MIP_LINEAR, MIRROR: for the coverage (its reads stay inside a tile's cell) and every
+//                map (the seam blend reads an entry past its piece, mirrored at the exemplar's edge)
+//   ts_blend_cov labels_blend.png as R16_FLOAT, texel = count / 4^l, sampled with ts_sampler at level 0 (any
+//                1x1 float texture without it)
+//   ts_blend_layout  (columns, high_level, reach_levels[0] or -1, reach_levels[1]) of the manifest's labels.blend
+// Every map: a Texture2D<float4> with its full mip chain, passed to ts_map (or, for a smooth map whose manifest
+// "seam" is "blend", to ts_smooth_map: the seam blend, as in tilesynth_v2.glsl, whose header has the formula,
+// the approximations, minification and fetches).
 Texture2D<uint> ts_bits : register(t0);
 Texture2D<float> ts_coverage : register(t1);
 Texture2D<uint> ts_index : register(t2);
 Texture2D<int4> ts_table : register(t3);
 SamplerState ts_sampler : register(s0);
+Texture2D<float> ts_blend_cov : register(t5);
 cbuffer TsParams : register(b0) {
     int4 ts_layout;      // tile size N, bits columns, coverage columns, coverage max level
     int4 ts_lookup;      // mode (0 index map, 1 hash corner, 2 hash edge), K (or Kh), Kv, V
     int2 ts_wrap;        // hash period in tiles (0, 0: none)
     uint ts_seed;
     uint ts_pad;
+    int4 ts_blend_layout;  // (columns, high_level, reach_levels[0] or -1, reach_levels[1]) of labels.blend
 };
 
 uint3 ts_pcg3d(uint3 v) {
@@ -211,4 +219,220 @@ float4 ts_fetch_map(Texture2D<float4> map, int2 p, int normal) {
 float4 ts_sample_map(Texture2D<float4> map, float2 uv, float blend_level, int normal) {
     TsSite s = ts_site(uv, ddx(uv), ddy(uv));
     return ts_map(map, s, ts_weight(s, blend_level), normal);
+}
+
+// ------------------------------------------------------------------------------------------ the seam blend
+// The weights of the entries of a tile near a pixel: A_0..A_3 (each quadrant's own) and B (the matching patch).
+struct TsBlend {
+    int4 ca, xa, cb;    // per quadrant: code_A (with r_in), bx_A, code_B (with r_out), from the table
+    int2 bb;            // (code, bx) of B
+    int loaded;         // bit q: quadrant q's table texel read
+    float4 ha; float hb;  // detail-band weights of A_0..A_3 and B
+    float4 ga; float gb;  // low-band weights
+};
+
+void ts_quad(inout TsBlend b, int tile, int q) {
+    if (((b.loaded >> q) & 1) != 0) return;
+    int i = 4 * tile + q;
+    int4 e = ts_table.Load(int3(i % 256, i / 256, 0));
+    b.ca[q] = e.x; b.xa[q] = e.y; b.cb[q] = e.z; b.bb = int2(e.z & 0x7FFFF, e.w);
+    b.loaded |= 1 << q;
+}
+
+// The radii's verdict on the pixels [p0, p1] of quadrant q (band 1: of the labels extended reach px): 0 all A,
+// 1 all B, -1 unknown.
+float ts_rect_known(TsBlend b, int band, int2 p0, int2 p1, int q, int reach) {
+    int n = ts_layout.x;
+    float2 lo = float2(p0) + 0.5 - 0.5 * float(n), hi = float2(p1) + 0.5 - 0.5 * float(n);
+    float dnear = length(max(max(lo, -hi), float2(0.0, 0.0)));
+    float dfar = length(max(abs(lo), abs(hi)));
+    float rin = float(b.ca[q] >> 19) * 0.5, rout = float(b.cb[q] >> 19) * 0.5;
+    int dmin = min(min(p0.x, p0.y), min(n - 1 - p1.x, n - 1 - p1.y));
+    bool zone = band == 1 && dmin < reach;
+    if (dnear > rout && (!zone || rout < 0.5 * float(n) - 0.5)) return 0.0;
+    if (dfar < rin && !zone) return 1.0;
+    return -1.0;
+}
+
+// Share of B in block ib of level l of the labels (levels below the detail band's top: bits and coverage).
+float ts_block_b(inout TsBlend b, TsSite s, int l, int2 ib, int q) {
+    ts_quad(b, s.tile, q);
+    int n = ts_layout.x, sz = 1 << l;
+    int2 p0 = ib * sz;
+    float known = ts_rect_known(b, 0, p0, p0 + sz - 1, q, 1);
+    if (known >= 0.0) return known;
+    int t = s.tile;
+    if (l >= 2) {
+        int c = ts_layout.z, side = (n / 4) >> (l - 2);
+        float v = ts_coverage.Load(int3((t % c) * side + ib.x, (t / c) * side + ib.y, l - 2));
+        float cells = float(sz * sz);
+        return floor(v * cells + 0.5) / cells;  // 8-bit rint(count * 255 / 4^l): the count, exactly, to l = 3
+    }
+    int c = ts_layout.y;
+    int2 cell = int2((t % c) * (n / 8), (t / c) * n);
+    float sum = 0.0;
+    for (int r = 0; r < sz; r++) {
+        uint bits8 = ts_bits.Load(int3(cell + int2(p0.x / 8, p0.y + r), 0));
+        for (int k = 0; k < sz; k++) sum += float((bits8 >> uint((p0.x + k) % 8)) & 1u);
+    }
+    return sum / float(sz * sz);
+}
+
+void ts_level(inout TsBlend b, TsSite s, int l, float lw) {
+    int n = ts_layout.x, nl = n >> l;
+    float2 u = s.p / exp2(float(l)) - 0.5;
+    float2 i0 = floor(u), f = u - i0;
+    int2 a = clamp(int2(i0), int2(0, 0), int2(nl - 1, nl - 1));
+    int2 c = clamp(int2(i0) + 1, int2(0, 0), int2(nl - 1, nl - 1));
+    for (int k = 0; k < 4; k++) {
+        float w = lw * ((k & 1) == 0 ? 1.0 - f.x : f.x) * (k < 2 ? 1.0 - f.y : f.y);
+        if (w <= 0.0) continue;
+        int2 ib = int2((k & 1) == 0 ? a.x : c.x, k < 2 ? a.y : c.y);
+        int q = ((ib.y << l) >= n / 2 ? 2 : 0) + ((ib.x << l) >= n / 2 ? 1 : 0);
+        float cb = ts_block_b(b, s, l, ib, q);
+        b.ha[q] += w * (1.0 - cb); b.hb += w * cb;
+    }
+}
+
+int2 ts_blend_cell() {
+    int n = ts_layout.x, h = ts_blend_layout.y;
+    if (ts_blend_layout.z < 0) return int2(n >> h, n >> h);
+    int sum = 0;
+    for (int k = ts_blend_layout.z; k <= ts_blend_layout.w; k++) sum += n >> k;
+    return int2((n >> h) + (n >> ts_blend_layout.z), max(n >> h, sum));
+}
+
+int2 ts_blend_origin(int band, int l) {
+    int n = ts_layout.x;
+    if (band == 0) return int2(0, 0);
+    int y = 0;
+    for (int k = ts_blend_layout.z; k < l; k++) y += n >> k;
+    return int2(n >> ts_blend_layout.y, y);
+}
+
+// The bilinear sample of level l of a band's coverage in ts_blend_cov: one filtered read per quadrant the taps
+// fall in, none where the radii know the blocks (tilesynth_v2.glsl).
+void ts_level_f(inout TsBlend b, TsSite s, int band, int l, float lw, int reach) {
+    int n = ts_layout.x, nl = n >> l, hq = nl / 2, sz = 1 << l;
+    float2 u = s.p / exp2(float(l)) - 0.5;
+    float2 i0 = floor(u), f = u - i0;
+    int2 a = clamp(int2(i0), int2(0, 0), int2(nl - 1, nl - 1));
+    int2 c = clamp(int2(i0) + 1, int2(0, 0), int2(nl - 1, nl - 1));
+    bool cutx = (a.x < hq) != (c.x < hq), cuty = (a.y < hq) != (c.y < hq);
+    int t = s.tile, cols = ts_blend_layout.x;
+    float2 base = float2(int2(t % cols, t / cols) * ts_blend_cell() + ts_blend_origin(band, l));
+    uint tw, th;
+    ts_blend_cov.GetDimensions(tw, th);
+    for (int g = 0; g < 4; g++) {
+        int gx = g & 1, gy = g >> 1;
+        if ((gx == 1 && !cutx) || (gy == 1 && !cuty)) continue;
+        int2 lo = a, hi = c;
+        float2 pos = float2(a) + 0.5 + float2(a != c) * f;
+        float w = lw;
+        if (cutx) { lo.x = gx == 0 ? a.x : c.x; hi.x = lo.x; pos.x = float(lo.x) + 0.5; w *= gx == 0 ? 1.0 - f.x : f.x; }
+        if (cuty) { lo.y = gy == 0 ? a.y : c.y; hi.y = lo.y; pos.y = float(lo.y) + 0.5; w *= gy == 0 ? 1.0 - f.y : f.y; }
+        if (w <= 0.0) continue;
+        int q = (lo.y >= hq ? 2 : 0) + (lo.x >= hq ? 1 : 0);
+        ts_quad(b, t, q);
+        float cb = ts_rect_known(b, band, lo * sz, hi * sz + sz - 1, q, reach);
+        if (cb < 0.0) cb = ts_blend_cov.SampleLevel(ts_sampler, (base + pos) / float2(tw, th), 0.0);
+        if (band == 0) { b.ha[q] += w * (1.0 - cb); b.hb += w * cb; }
+        else { b.ga[q] += w * (1.0 - cb); b.gb += w * cb; }
+    }
+}
+
+void ts_band(inout TsBlend b, TsSite s, int band, float level, float reach) {
+    int n = ts_layout.x;
+    float2 pc = s.p - 0.5;
+    float d = max(min(min(pc.x, pc.y), min(float(n - 1) - pc.x, float(n - 1) - pc.y)), 0.0);
+    float lod = min(level, log2(reach + d));
+    if (abs(lod - floor(lod + 0.5)) < 1e-5) lod = floor(lod + 0.5);
+    float l0 = floor(lod), f = lod - l0;
+    int l = int(l0);
+    if (band == 1 || l >= ts_blend_layout.y) ts_level_f(b, s, band, l, 1.0 - f, int(reach));
+    else ts_level(b, s, l, 1.0 - f);
+    if (f > 0.0) {
+        if (band == 1 || l + 1 >= ts_blend_layout.y) ts_level_f(b, s, band, l + 1, f, int(reach));
+        else ts_level(b, s, l + 1, f);
+    }
+}
+
+TsBlend ts_blend(TsSite s, float4 bands) {
+    TsBlend b;
+    b.ca = int4(0, 0, 0, 0); b.xa = int4(0, 0, 0, 0); b.cb = int4(0, 0, 0, 0);
+    b.ha = float4(0.0, 0.0, 0.0, 0.0); b.hb = 0.0; b.ga = float4(0.0, 0.0, 0.0, 0.0); b.gb = 0.0;
+    int h = ts_layout.x / 2;
+    int q = (s.p.y >= float(h) ? 2 : 0) + (s.p.x >= float(h) ? 1 : 0);
+    b.ca[q] = s.ent.x; b.xa[q] = s.ent.y; b.cb[q] = s.ent.z; b.bb = int2(s.ent.z & 0x7FFFF, s.ent.w);
+    b.loaded = 1 << q;
+    float top = bands.y >= 0.0 ? bands.y : bands.x;
+    if (s.lod >= top + 1.0) return b;
+    ts_band(b, s, 0, bands.x, 1.0);
+    if (bands.y >= 0.0) ts_band(b, s, 1, bands.y, bands.w);
+    return b;
+}
+
+int2 ts_slot(TsBlend b, int i) { return i < 4 ? int2(b.ca[i] & 0x7FFFF, b.xa[i]) : b.bb; }
+float ts_h(TsBlend b, int i) { return i < 4 ? b.ha[i] : b.hb; }
+float ts_g(TsBlend b, int i) { return i < 4 ? b.ga[i] : b.gb; }
+
+float4 ts_entry_low(Texture2D<float4> map, TsSite s, int2 e, float split) {
+    uint w, h, levels;
+    map.GetDimensions(0, w, h, levels);
+    return map.SampleLevel(ts_sampler, ts_src(e.x, e.y, s.p) / float2(w, h), max(split, s.lod));
+}
+
+float2 ts_slope(float4 c, int normal) {
+    float3 v = normal <= 2 ? c.xyz * 2.0 - 1.0 : c.xyz;
+    return v.xy / max(v.z, 1.0 / 16.0);
+}
+
+float4 ts_blend_map(Texture2D<float4> map, TsSite s, TsBlend b, float4 bands, float4 mean, int normal) {
+    bool low = bands.y >= 0.0 && normal == 0;
+    for (int i0 = 0; i0 < 5; i0++) {
+        if (ts_h(b, i0) >= 1.0 - 1e-5 && (!low || ts_g(b, i0) >= 1.0 - 1e-5)) {
+            int2 e = ts_slot(b, i0);
+            return ts_entry(map, s, e.x, e.y, normal);
+        }
+    }
+    if (normal != 0) {
+        float2 sl = float2(0.0, 0.0);
+        for (int i1 = 0; i1 < 5; i1++) {
+            float h = ts_h(b, i1);
+            if (h <= 0.0) continue;
+            int2 e = ts_slot(b, i1);
+            sl += h * ts_slope(ts_entry(map, s, e.x, e.y, normal), normal);
+        }
+        float3 v = normalize(float3(sl, 1.0));
+        return float4(normal <= 2 ? v * 0.5 + 0.5 : v, 1.0);
+    }
+    float4 base = float4(0.0, 0.0, 0.0, 0.0), det = float4(0.0, 0.0, 0.0, 0.0);
+    float g2 = 0.0;
+    for (int i = 0; i < 5; i++) {
+        float h = ts_h(b, i), g = low ? ts_g(b, i) : 0.0;
+        if (h <= 0.0 && g <= 0.0) continue;
+        int2 e = ts_slot(b, i);
+        float4 a = low ? ts_entry_low(map, s, e, bands.z) : float4(0.0, 0.0, 0.0, 0.0);
+        if (h > 0.0) det += h * (ts_entry(map, s, e.x, e.y, normal) - a);
+        if (g > 0.0) {
+            base += g * a;
+            bool seen = false;
+            float gs = g;
+            for (int j = 0; j < 5; j++) {
+                if (j == i || ts_g(b, j) <= 0.0 || any(ts_slot(b, j) != e)) continue;
+                if (j < i) seen = true;
+                gs += ts_g(b, j);
+            }
+            if (!seen) g2 += gs * gs;
+        }
+    }
+    return low ? mean + (base - mean) / sqrt(g2) + det : det;
+}
+
+float4 ts_smooth_map(Texture2D<float4> map, TsSite s, TsBlend b, float4 bands, float4 mean, int normal, float w0) {
+    float top = bands.y >= 0.0 && normal == 0 ? bands.y : bands.x;
+    float t = clamp(s.lod - top, 0.0, 1.0);
+    if (t >= 1.0) return ts_map(map, s, w0, normal);
+    float4 v = ts_blend_map(map, s, b, bands, mean, normal);
+    return t <= 0.0 ? v : lerp(v, ts_map(map, s, w0, normal), t);
 }
