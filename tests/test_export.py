@@ -491,3 +491,8 @@ def test_cli_export_blends_smooth_maps_and_says_where_it_cannot(tmp_path, small_
         == 0
     )
     assert "note:" not in capsys.readouterr().err
+    # every file of a blended export is one a re-export may remove: the atlas export in its place leaves none
+    m16 = json.loads((tmp_path / "a16" / "manifest.json").read_text())
+    assert "labels_blend.png" in m16["files"]
+    atlas = export(ts.load(tmp_path / "m16.tiles"), tmp_path / "a16", format="atlas", padding=4)
+    assert _all_files(tmp_path / "a16") == {*atlas["files"], "manifest.json"}

@@ -246,7 +246,9 @@ def _blend_sources(tileset: Any, spec: MapSpec, arr: np.ndarray) -> tuple:
             grid = np.mgrid[0 : values.shape[0], 0 : values.shape[1]].transpose(1, 2, 0)
             low = np.ascontiguousarray(seams.sample_mip(seams.box_mip(values, split), split, grid))
         mu = values.reshape(-1, values.shape[2]).mean(axis=0)
-        if spec.kind != "normal":  # the kernel reads a scalar map's codes, its low band and mean, not the values
+        if (
+            spec.kind != "normal"
+        ):  # the kernel reads a scalar map's codes, its low band and mean, not the values
             values = None  # (float64: 8 bytes a sample kept per set for nothing, 100 MB for a 2K RGB map)
         cache[key] = (arr, (codes, values, low, mu, bands))
     return cache[key][1]

@@ -67,7 +67,7 @@ def _remove_stale(out: Path, previous: set[str], files: list[str]) -> None:
 #: from disk is data, and a tampered one must not make a re-export delete anything else.
 _EXPORT_NAME = re.compile(
     r"^((atlas|map)_[A-Za-z0-9_-]+(_mip[0-9]+)?\.(png|exr)|index\.png|viewer\.html|shaders/tilesynth(_v2)?\.[a-z]+"
-    r"|labels_bits\.png|labels_coverage(_mip[0-9]+)?\.png|table\.bin)$"
+    r"|labels_bits\.png|labels_coverage(_mip[0-9]+)?\.png|labels_blend\.png|table\.bin)$"
 )
 
 
