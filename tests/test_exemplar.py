@@ -17,6 +17,20 @@ def crop(small_exemplar):
     return np.ascontiguousarray(small_exemplar[:96, :96])
 
 
+def _count_scans(monkeypatch, hw: tuple[int, ...]) -> list[str]:
+    """The names of the image checks (``as_image``) of arrays ``hw`` pixels in size made from now on."""
+    scans: list[str] = []
+    check = validate._check_image
+
+    def counting(image, name):
+        if np.shape(image)[:2] == tuple(hw):
+            scans.append(name)
+        return check(image, name)
+
+    monkeypatch.setattr(validate, "_check_image", counting)
+    return scans
+
+
 def test_a_default_build_validates_its_exemplar_once_and_derives_its_luminance_once(crop, monkeypatch):
     """The default build (a complete set: periodic rule, the stats draw and its vertex saliency, the diverse
     matching search) checks the exemplar once (was 7 times, and 3 luminances: issue's count of 8 scans of
@@ -48,15 +62,7 @@ def test_a_default_build_validates_its_exemplar_once_and_derives_its_luminance_o
 def test_every_scheme_checks_its_exemplar_once(crop, scheme, monkeypatch):
     """The papers' schemes run their stages inside the exemplar's validated block too (Wang's cut kernel and
     the strict Wang tiles' supplementary search checked it a second time)."""
-    scans: list[str] = []
-    check = validate._check_image
-
-    def counting(image, name):
-        if np.shape(image)[:2] == crop.shape[:2]:
-            scans.append(name)
-        return check(image, name)
-
-    monkeypatch.setattr(validate, "_check_image", counting)
+    scans = _count_scans(monkeypatch, crop.shape[:2])
     tilesynth.build(crop, scheme=scheme, seed=1, tile_size=32)
     assert scans == ["exemplar"]
 
@@ -118,14 +124,7 @@ def test_a_material_build_checks_the_albedo_and_the_maps_once(crop, monkeypatch)
     checked once, before the build (it used to check the albedo, then the feature image in the builder)."""
     from tilesynth.builder import exemplar as exemplar_mod
 
-    scans: list[str] = []
-    check = validate._check_image
-
-    def counting(image, name):
-        if np.shape(image)[:2] == crop.shape[:2]:
-            scans.append(name)
-        return check(image, name)
-
+    scans = _count_scans(monkeypatch, crop.shape[:2])
     calls: list[int] = []
     check_maps = exemplar_mod.check_maps
 
@@ -133,7 +132,6 @@ def test_a_material_build_checks_the_albedo_and_the_maps_once(crop, monkeypatch)
         calls.append(1)
         return check_maps(*a, **k)
 
-    monkeypatch.setattr(validate, "_check_image", counting)
     monkeypatch.setattr(exemplar_mod, "check_maps", counting_maps)
     ts = tilesynth.build(crop, maps=_material(crop), tileset="c3", tile_size=24, seed=1)
     assert ts.params["material"]["joint"] is True
