@@ -19,7 +19,7 @@
 //! is below 1 (near a cut) are the other entries' weights found.
 
 use crate::error::{fmt_shape, Result, TilesynthError};
-use crate::provenance::check_window;
+use crate::provenance::{check_tables, check_window};
 use ndarray::{ArrayView2, ArrayView3, Axis};
 use rayon::prelude::*;
 
@@ -620,19 +620,7 @@ pub fn blend_maps(
     bands: Bands,
     (h, w): (usize, usize),
 ) -> Result<()> {
-    let (k, n, n2) = labels.dim();
-    let (tk, e, three) = table.dim();
-    if n != n2 || n == 0 || k == 0 || tk != k || three != 3 || e == 0 {
-        return Err(TilesynthError::shape(
-            "labels/table",
-            "(K, N, N) and (K, L, 3) with K, N, L >= 1",
-            format!(
-                "{} and {}",
-                fmt_shape(labels.shape()),
-                fmt_shape(table.shape())
-            ),
-        ));
-    }
+    let (k, n, e) = check_tables(&labels, &table)?;
     for (name, level) in [("high", Some(bands.high)), ("low", bands.low.map(|b| b.0))] {
         if let Some(l) = level {
             if !(0.0..=8.0).contains(&l) {

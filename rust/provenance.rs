@@ -128,6 +128,28 @@ pub fn factorise(source: ArrayView4<i32>) -> Result<Option<(Array3<u8>, Array3<i
     Ok(Some((labels, table)))
 }
 
+/// The shapes of a provenance's label planes `(K, N, N)` and source table `(K, L, 3)`, checked once for the
+/// gather and the seam blend: `(K, N, L)`.
+pub(crate) fn check_tables(
+    labels: &ArrayView3<u8>,
+    table: &ArrayView3<i32>,
+) -> Result<(usize, usize, usize)> {
+    let (k, n, n2) = labels.dim();
+    let (tk, width, three) = table.dim();
+    if n != n2 || n == 0 || k == 0 || tk != k || three != 3 || width == 0 {
+        return Err(TilesynthError::shape(
+            "labels/table",
+            "(K, N, N) and (K, L, 3) with K, N, L >= 1",
+            format!(
+                "{} and {}",
+                fmt_shape(labels.shape()),
+                fmt_shape(table.shape())
+            ),
+        ));
+    }
+    Ok((k, n, width))
+}
+
 /// Checks a window of `h x w` pixels starting `offset = (oy, ox)` pixels into the first cell of `map`, a tile
 /// index map over `k` tiles of `n x n`: the offset inside a cell, the map covering the window, every index a
 /// tile. The window checks of [`gather_window_into`] and of the seam blend (`blend::blend_maps`).
@@ -183,19 +205,7 @@ pub fn gather_window_into<T: Copy + Send + Sync>(
     mut out: ArrayViewMut3<T>,
 ) -> Result<()> {
     let (eh, ew, c) = exemplar.dim();
-    let (k, n, n2) = labels.dim();
-    let (tk, width, three) = table.dim();
-    if n != n2 || n == 0 || k == 0 || tk != k || three != 3 || width == 0 {
-        return Err(TilesynthError::shape(
-            "labels/table",
-            "(K, N, N) and (K, L, 3) with K, N, L >= 1",
-            format!(
-                "{} and {}",
-                fmt_shape(labels.shape()),
-                fmt_shape(table.shape())
-            ),
-        ));
-    }
+    let (k, n, width) = check_tables(&labels, &table)?;
     let (out_h, out_w, out_c) = out.dim();
     if out_c != c {
         return Err(TilesynthError::shape(
