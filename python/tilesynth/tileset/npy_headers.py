@@ -77,33 +77,10 @@ def check_member_headers(
             )
     if "tiles" in headers:  # the other members follow from the tiles (K, N, N, C), as TileSet._check says
         k, n, _, _ = headers["tiles"][0]
-        expect = {
-            "source": (k, n, n, 2),
-            "cut_masks": (k, n, n),
-            "tile_patches": (k, 4),
-            "match_offsets": (k, 2),
-            "D": (k,),
-            "cut_costs": (k,),
-            "labels": (k, n, n),
-            "cut_stats": (k, 4, 6),
-        }
-        for name, shape in expect.items():
-            if name in headers and headers[name][0] != shape:
-                raise TileSetFormatError(f"array {name} has shape {headers[name][0]}, expected {shape}")
+        _check_shapes(headers, {"source": (k, n, n, 2), "cut_masks": (k, n, n), **_per_tile_shapes(k, n)})
     if "prov_labels" in headers:  # format version 2: the members follow from the labels (K, N, N)
         k, n, _ = headers["prov_labels"][0]
-        expect = {
-            "cut_masks_packed": (k, n, -(-n // 8)),
-            "tile_patches": (k, 4),
-            "match_offsets": (k, 2),
-            "D": (k,),
-            "cut_costs": (k,),
-            "labels": (k, n, n),
-            "cut_stats": (k, 4, 6),
-        }
-        for name, shape in expect.items():
-            if name in headers and headers[name][0] != shape:
-                raise TileSetFormatError(f"array {name} has shape {headers[name][0]}, expected {shape}")
+        _check_shapes(headers, {"cut_masks_packed": (k, n, -(-n // 8)), **_per_tile_shapes(k, n)})
         table = headers.get("prov_table")
         if table is not None and (table[0][0] != k or table[0][2] != 3):
             raise TileSetFormatError(f"array prov_table has shape {table[0]}, expected ({k}, L, 3)")
@@ -137,3 +114,21 @@ def check_member_headers(
             f"member tiles.npy: {headers['tiles'][0][0]} tiles, but manifest.json field layout.tiles lists "
             f"{n_layout}"
         )
+
+
+def _per_tile_shapes(k: int, n: int) -> dict[str, tuple[int, ...]]:
+    """The shapes of the members every format version stores per tile, for ``k`` tiles of ``n`` px."""
+    return {
+        "tile_patches": (k, 4),
+        "match_offsets": (k, 2),
+        "D": (k,),
+        "cut_costs": (k,),
+        "labels": (k, n, n),
+        "cut_stats": (k, 4, 6),
+    }
+
+
+def _check_shapes(headers: dict[str, Any], expect: dict[str, tuple[int, ...]]) -> None:
+    for name, shape in expect.items():
+        if name in headers and headers[name][0] != shape:
+            raise TileSetFormatError(f"array {name} has shape {headers[name][0]}, expected {shape}")
