@@ -69,6 +69,8 @@ from .output import (  # noqa: F401 - MAX_MANIFEST_BYTES stays importable from t
     _write_text,
     export_files,
     previous_export_files,
+    shader_entry,
+    source_entry,
 )
 from .periodic import toroidal_index_map
 from .sources import shader_source
@@ -436,17 +438,8 @@ def _export_v2(
             "mirrored at the exemplar's edge), every level; coverage LINEAR_MIPMAP_LINEAR, CLAMP_TO_EDGE; bits, "
             "table and index NEAREST (texelFetch); blend coverage LINEAR, CLAMP_TO_EDGE, one level",
             "gpu_bytes": {**mem, "ratio_to_maps": mem["total"] / mem["maps"]},
-            "source": {
-                "content_digest": tileset.content_digest(),
-                "file": os.path.basename(source_path) if source_path else None,
-                "file_sha256": _file_digest(Path(source_path)) if source_path else None,
-            },
-            "shaders": {
-                "glsl": "shaders/tilesynth_v2.glsl",
-                "wgsl": "shaders/tilesynth_v2.wgsl",
-                "hlsl": "shaders/tilesynth_v2.hlsl",
-                "godot": "shaders/tilesynth_v2.gdshader",
-            },
+            "source": source_entry(tileset, source_path),
+            "shaders": shader_entry("tilesynth_v2"),
             "files": None,
         }
         if viewer:

@@ -13,7 +13,7 @@ from ..cli.argtypes import normal_y_value
 from ..errors import ParameterError
 from . import atlas as _atlas
 from .format import EXPORT_FORMAT, EXPORT_VERSION, _map_array, _version
-from .output import _file_digest, _write_level, _write_text
+from .output import _write_level, _write_text, shader_entry, source_entry
 from .sources import SHADER_FILES, shader_source
 
 
@@ -175,16 +175,7 @@ def _manifest(
         "maps": map_entries,
         "lookup": lookup_entry,
         "coordinates": "uv in tile units, pixel (x, y) of the texture covers [x/N, (x+1)/N) x [y/N, (y+1)/N), y down",
-        "source": {
-            "content_digest": tileset.content_digest(),
-            "file": os.path.basename(source_path) if source_path else None,
-            "file_sha256": _file_digest(Path(source_path)) if source_path else None,
-        },
-        "shaders": {
-            "glsl": "shaders/tilesynth.glsl",
-            "wgsl": "shaders/tilesynth.wgsl",
-            "hlsl": "shaders/tilesynth.hlsl",
-            "godot": "shaders/tilesynth.gdshader",
-        },
+        "source": source_entry(tileset, source_path),
+        "shaders": shader_entry("tilesynth"),
         "files": None,
     }

@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import os
 import re
 from pathlib import Path
 from typing import Any
@@ -109,3 +110,19 @@ def _write_text(path: Path, text: str) -> None:
 
     with atomic_open(path, "wb") as fh:
         fh.write(text.encode("utf-8"))
+
+
+def source_entry(tileset: Any, source_path: Any) -> dict[str, Any]:
+    """The manifest's ``source``: the set's content digest, and the ``.tiles`` file's name and SHA-256 when
+    given (both export versions)."""
+    return {
+        "content_digest": tileset.content_digest(),
+        "file": os.path.basename(source_path) if source_path else None,
+        "file_sha256": _file_digest(Path(source_path)) if source_path else None,
+    }
+
+
+def shader_entry(stem: str) -> dict[str, str]:
+    """The manifest's ``shaders``: the file of each language (``stem`` "tilesynth" or "tilesynth_v2")."""
+    ext = {"glsl": "glsl", "wgsl": "wgsl", "hlsl": "hlsl", "godot": "gdshader"}
+    return {lang: f"shaders/{stem}.{e}" for lang, e in ext.items()}
