@@ -243,7 +243,7 @@ def build_with_maps(
     else:  # only weight-0 maps (labels): the colour-only build, plus the maps
         record = {"feature_channels": int(albedo.shape[2]), "variance_kept": 1.0,
                   "feature_scale": 1.0, "albedo_weight": ex.albedo_weight}  # fmt: skip
-        ts = build(Exemplar(albedo, ex.mask, ex.info), **kwargs)
+        ts = build(ex, **kwargs)  # the builder reads the image, mask and info; the maps are added below
     if joint:
         src = ts.source
         tiles = albedo[src[..., 0], src[..., 1]]
