@@ -31,7 +31,15 @@ import itertools
 
 import numpy as np
 
-__all__ = ["UNIT_TOLERANCE", "encode_unit", "decode", "code_scale"]
+__all__ = [
+    "UNIT_TOLERANCE",
+    "encode_unit",
+    "decode",
+    "code_scale",
+    "transform_normal_codes",
+    "transform_vectors",
+    "vector_turns",
+]
 
 #: Largest distance from unit length that :func:`encode_unit` aims for with integer codes (the target is 0.005;
 #: 1e-4 is left for decoders that compute in float32).
@@ -89,3 +97,65 @@ def encode_unit(v: np.ndarray, dtype: np.dtype, encoding: str) -> np.ndarray:
     for i in range(0, flat.shape[0], _CHUNK):
         codes[i : i + _CHUNK] = _encode_codes(flat[i : i + _CHUNK], scale)
     return codes.reshape(shape)
+
+
+def _vector_turns() -> np.ndarray:
+    """``M[t]`` ``(8, 2, 2)``: how ``T_t`` turns a tangent-space vector's (x, y), x right and y up on screen. R
+    (:func:`numpy.rot90`, an anticlockwise quarter turn on screen) takes (x, y) to (−y, x); the left-right mirror
+    F negates x; ``T_t = F^f R^k``."""
+    r = np.array([[0, -1], [1, 0]])
+    out = np.zeros((8, 2, 2), np.int64)
+    for t in range(8):
+        m = np.linalg.matrix_power(r, t % 4)
+        out[t] = np.diag([-1, 1]) @ m if t >= 4 else m
+    return out
+
+
+_VECTOR_TURNS = _vector_turns()
+
+
+def vector_turns(y_down: bool = False) -> np.ndarray:
+    """``M[t]`` ``(8, 2, 2)`` int: (x, y) of a tangent-space vector in a patch transformed by ``T_t``; y up
+    (OpenGL), or down (``y_down``, DirectX: the same turn seen with y negated)."""
+    if not y_down:
+        return _VECTOR_TURNS
+    d = np.diag([1, -1])
+    return np.einsum("ij,tjk,kl->til", d, _VECTOR_TURNS, d)
+
+
+def transform_vectors(v: np.ndarray, transforms: np.ndarray, y_down: bool = False) -> np.ndarray:
+    """Tangent-space vectors (or steps of them) ``v`` ``(..., C >= 2)`` (float; x, y first) turned as their pixels
+    were by ``T_t`` (``transforms`` broadcast over ``v.shape[:-1]``, :func:`vector_turns`); other channels (z)
+    unchanged. A float64 copy."""
+    v = np.array(v, dtype=np.float64, copy=True)
+    m = vector_turns(y_down)[np.broadcast_to(np.asarray(transforms, np.int64), v.shape[:-1])]
+    xy = v[..., :2].copy()
+    v[..., 0] = m[..., 0, 0] * xy[..., 0] + m[..., 0, 1] * xy[..., 1]
+    v[..., 1] = m[..., 1, 0] * xy[..., 0] + m[..., 1, 1] * xy[..., 1]
+    return v
+
+
+def transform_normal_codes(
+    a: np.ndarray, transforms: np.ndarray, encoding: str, y_down: bool = False
+) -> np.ndarray:
+    """Normal-map samples ``a`` ``(..., 3)`` (uint8, uint16 or float32; ``encoding`` "unorm" ``2·c − 1`` or
+    "snorm") with their vectors turned by ``T_t`` (``transforms`` broadcast over ``a.shape[:-1]``), exactly in
+    the samples' own type: a turn only swaps x and y and negates them (``max − c`` for unsigned codes, ``1 − c``
+    for unorm floats, ``−c`` for snorm), so no precision is lost."""
+    a = np.asarray(a)
+    t = np.broadcast_to(np.asarray(transforms, np.int64), a.shape[:-1])
+    out = np.array(a, copy=True)
+    top = {np.dtype(np.uint8): 255, np.dtype(np.uint16): 65535}.get(a.dtype)
+    x, y = a[..., 0], a[..., 1]
+    neg = {"x": (top - x) if top else (1.0 - x if encoding == "unorm" else -x)}
+    neg["y"] = (top - y) if top else (1.0 - y if encoding == "unorm" else -y)
+    m = vector_turns(y_down)
+    for ti in np.unique(t):
+        if ti == 0:
+            continue
+        where = t == ti
+        for row in (0, 1):
+            col = int(np.flatnonzero(m[ti, row])[0])
+            src = (x, y)[col] if m[ti, row, col] > 0 else neg["xy"[col]]
+            out[..., row][where] = src[where]
+    return out
