@@ -19,7 +19,7 @@
 //! is below 1 (near a cut) are the other entries' weights found.
 
 use crate::error::{fmt_shape, Result, TilesynthError};
-use crate::provenance::{check_tables, check_window};
+use crate::provenance::{check_tables, check_window, dihedral};
 use ndarray::{ArrayView2, ArrayView3, Axis};
 use rayon::prelude::*;
 
@@ -108,6 +108,19 @@ pub struct MapBlend<'a> {
     pub channels: usize,
     /// `(h, w, C)` the window, C-contiguous.
     pub out: SamplesMut<'a>,
+    /// A normal map's vector turns (`sel[s][row] = (channel, negated)`, [`crate::provenance::VectorTurn`]):
+    /// the slopes and copied codes of an entry of symmetry `s` are turned with it. None: every entry used
+    /// must be untransformed (symmetry 0).
+    pub turn: Option<Turns>,
+}
+
+/// The vector turn of every symmetry: `[s][row] = (channel, negated)`.
+pub type Turns = [[(usize, bool); 2]; 8];
+
+/// The pair `(v0, v1)` turned by `sel` (one symmetry's row of [`Turns`]): exact (a swap and negations).
+#[inline]
+fn turn_pair(sel: &[(usize, bool); 2], v: [f64; 2]) -> [f64; 2] {
+    sel.map(|(ch, neg)| if neg { -v[ch] } else { v[ch] })
 }
 
 /// The largest distance from unit length of a code [`encode_unit`] picks where it can
@@ -593,6 +606,7 @@ impl RowCache {
 /// A map's slices, checked.
 struct MapData<'a> {
     kind: Kind,
+    turn: Option<Turns>,
     vals: &'a [f64],
     cv: usize,
     lows: Option<&'a [f64]>,
@@ -650,6 +664,7 @@ pub fn blend_maps(
             codes,
             channels,
             out,
+            turn,
         } = m;
         let kind = *kind;
         let c = *channels;
@@ -691,6 +706,13 @@ pub fn blend_maps(
                 format!("{} means", mu.len()),
             ));
         }
+        if kind == Kind::Scalar && turn.is_some() {
+            return Err(TilesynthError::param(
+                "turns",
+                "given for a scalar map",
+                "only normal maps turn their vectors",
+            ));
+        }
         let scalar_low = kind == Kind::Scalar && bands.low.is_some();
         let lows = match (&*low, scalar_low) {
             (Some(l), true) if l.dim() == (vh, vw, cv) => Some(contiguous("low", l)?),
@@ -710,6 +732,7 @@ pub fn blend_maps(
         };
         data.push(MapData {
             kind,
+            turn: *turn,
             vals: match values {
                 Some(v) => contiguous("values", v)?,
                 None => &[],
@@ -723,15 +746,23 @@ pub fn blend_maps(
         outs.push(out);
     }
     check_window(&map, k, n, (h, w), offset)?;
+    // a turned normal map without its turns would light the relief from the wrong side: refused
+    let unturned = data
+        .iter()
+        .any(|d| matches!(d.kind, Kind::Normal { .. }) && d.turn.is_none());
     if let Some(&bad) = table
         .index_axis(Axis(2), 0)
         .iter()
-        .find(|&&s| s != 0 && s != -1)
+        .find(|&&s| !(-1..8).contains(&s) || (unturned && s > 0))
     {
         return Err(TilesynthError::param(
             "table",
             bad,
-            "only untransformed entries (symmetry 0, or -1 for none) are blended here",
+            if (-1..8).contains(&bad) {
+                "a rotated or mirrored entry needs the normal maps' vector turns"
+            } else {
+                "symmetries must be in 0..8 (or -1 for no entry)"
+            },
         ));
     }
     if h == 0 || w == 0 || data.is_empty() {
@@ -871,6 +902,7 @@ struct Context<'a> {
 #[derive(Clone, Copy, Default)]
 struct Pixel {
     own_at: usize,
+    own_sym: u8,
     single_h: bool,
     single: bool,
     start: usize,
@@ -882,6 +914,7 @@ struct Pixel {
 #[derive(Clone, Copy)]
 struct Entry {
     at: usize,
+    sym: u8,
     wh: f64,
     wl: f64,
 }
@@ -947,7 +980,18 @@ impl Segment {
         for (j, r) in self.rbase.iter_mut().enumerate() {
             *r = mirror(py as i64 + i64::from(trows[j * 3 + 1]), ctx.vh) * ctx.vw;
         }
-        let col = |j: usize, px: usize| mirror(px as i64 + i64::from(trows[j * 3 + 2]), ctx.vw);
+        // the exemplar pixel entry j reads at tile pixel (py, px): D_s(p) + b, mirrored into the map
+        let at = |rbase: &[usize], j: usize, px: usize| {
+            let s = trows[j * 3].max(0) as u8;
+            if s == 0 {
+                rbase[j] + mirror(px as i64 + i64::from(trows[j * 3 + 2]), ctx.vw)
+            } else {
+                let (dy, dx) = dihedral(s, n, py, px);
+                mirror(dy as i64 + i64::from(trows[j * 3 + 1]), ctx.vh) * ctx.vw
+                    + mirror(dx as i64 + i64::from(trows[j * 3 + 2]), ctx.vw)
+            }
+        };
+        let sym = |j: usize| trows[j * 3].max(0) as u8;
         let dy = py.min(n - 1 - py);
         self.entries.clear();
         self.hc.begin(ctx.high, hi, py);
@@ -990,7 +1034,8 @@ impl Segment {
                         any_l |= wl >= 1.0;
                         sq += wl * wl; // the entries with no weight add exactly nothing
                         self.entries.push(Entry {
-                            at: self.rbase[j] + col(j, px),
+                            at: at(&self.rbase, j, px),
+                            sym: sym(j),
                             wh,
                             wl,
                         });
@@ -1003,7 +1048,8 @@ impl Segment {
                 norm = sq.sqrt();
             }
             self.pixels[i] = Pixel {
-                own_at: self.rbase[own] + col(own, px),
+                own_at: at(&self.rbase, own, px),
+                own_sym: sym(own),
                 single_h,
                 single,
                 start,
@@ -1055,6 +1101,7 @@ impl Segment {
                     if p.single_h {
                         let from = &codes[p.own_at * 3..(p.own_at + 1) * 3];
                         (o[0], o[1], o[2]) = (from[0], from[1], from[2]);
+                        turn_codes(m.turn.as_ref(), p.own_sym, snorm, o);
                         continue;
                     }
                     let (mut a0, mut a1) = (0.0f64, 0.0f64);
@@ -1062,8 +1109,13 @@ impl Segment {
                         if en.wh == 0.0 {
                             continue; // adds exactly nothing: skipped (the same bits as the oracle)
                         }
-                        a0 += en.wh * m.vals[en.at * 2];
-                        a1 += en.wh * m.vals[en.at * 2 + 1];
+                        let v = [m.vals[en.at * 2], m.vals[en.at * 2 + 1]];
+                        let [v0, v1] = match m.turn {
+                            Some(t) if en.sym != 0 => turn_pair(&t[en.sym as usize], v),
+                            _ => v,
+                        };
+                        a0 += en.wh * v0;
+                        a1 += en.wh * v1;
                     }
                     o.copy_from_slice(&T::normal([a0, a1, 1.0], snorm));
                 }
@@ -1084,6 +1136,9 @@ impl Segment {
                 for (q, &v) in o.iter_mut().zip(from) {
                     *q = v; // a loop, not a call to memcpy, for a few samples
                 }
+                if let Kind::Normal { snorm } = m.kind {
+                    turn_codes(m.turn.as_ref(), p.own_sym, snorm, o);
+                }
                 continue;
             }
             let ents = &self.entries[p.start..p.end];
@@ -1100,8 +1155,12 @@ impl Segment {
                                 *a += en.wh * v.value();
                             }
                         } else {
-                            let vals = &m.vals[en.at * cv..(en.at + 1) * cv];
-                            for (a, &v) in acc.iter_mut().zip(vals) {
+                            let v = [m.vals[en.at * 2], m.vals[en.at * 2 + 1]];
+                            let v = match m.turn {
+                                Some(t) if en.sym != 0 => turn_pair(&t[en.sym as usize], v),
+                                _ => v,
+                            };
+                            for (a, &v) in acc.iter_mut().zip(&v) {
                                 *a += en.wh * v;
                             }
                         }
@@ -1157,7 +1216,22 @@ fn rint_small(v: f64) -> f64 {
 }
 
 /// A sample type of the maps: how a blended value is encoded (module docstring, step 6).
+/// The first two samples (x, y) of a copied normal code `o` turned by symmetry `s` (none for 0 or without
+/// turns): exact in the sample type ([`Code::negate`]).
+#[inline]
+fn turn_codes<T: Code>(turn: Option<&Turns>, s: u8, snorm: bool, o: &mut [T]) {
+    if let Some(t) = turn.filter(|_| s != 0) {
+        let old = [o[0], o[1]];
+        for (r, &(ch, neg)) in t[s as usize].iter().enumerate() {
+            o[r] = if neg { old[ch].negate(snorm) } else { old[ch] };
+        }
+    }
+}
+
 trait Code: Copy {
+    /// The sample of the negated vector component: `max − c` for codes, `1 − c` (unorm) or `−c` (snorm) for
+    /// floats (`tilesynth.builder.matching.augment.transform_normal_codes`).
+    fn negate(self, snorm: bool) -> Self;
     /// What a scalar map blends: the sample over its maximum (numpy's `codes.astype(float64) / S`).
     fn value(self) -> f64;
     /// A scalar map's blended value.
@@ -1167,6 +1241,10 @@ trait Code: Copy {
 }
 
 impl Code for u8 {
+    #[inline]
+    fn negate(self, _: bool) -> u8 {
+        u8::MAX - self
+    }
     #[inline]
     fn value(self) -> f64 {
         f64::from(self) / 255.0
@@ -1183,6 +1261,10 @@ impl Code for u8 {
 
 impl Code for u16 {
     #[inline]
+    fn negate(self, _: bool) -> u16 {
+        u16::MAX - self
+    }
+    #[inline]
     fn value(self) -> f64 {
         f64::from(self) / 65535.0
     }
@@ -1197,6 +1279,14 @@ impl Code for u16 {
 }
 
 impl Code for f32 {
+    #[inline]
+    fn negate(self, snorm: bool) -> f32 {
+        if snorm {
+            -self
+        } else {
+            1.0 - self
+        }
+    }
     #[inline]
     fn value(self) -> f64 {
         f64::from(self)

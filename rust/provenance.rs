@@ -16,6 +16,56 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// The most entries one tile's source table may have (labels are `u8`).
 pub const MAX_ENTRIES: usize = 255;
 
+/// How the tangent-space vectors of a normal map turn with an entry's symmetry: a rotated or mirrored copy of
+/// a normal map must have its vectors' x and y turned with its pixels, or the relief is lit from the wrong side.
+/// A turn only swaps and negates x and y (channels 0 and 1), so it is exact in the samples' own type.
+#[derive(Clone, Copy, Debug)]
+pub struct VectorTurn<T> {
+    /// `sel[s][row] = (channel, negated)`: the new channel `row` (0 = x, 1 = y) of a pixel of symmetry `s` is
+    /// the old `channel`, negated or not.
+    pub sel: [[(usize, bool); 2]; 8],
+    /// The negation of one sample: `max − c` for unsigned codes, `1 − c` for unorm floats, `−c` for snorm.
+    pub negate: fn(T) -> T,
+}
+
+impl<T: Copy> VectorTurn<T> {
+    /// The turn of the matrices `m` `[s][row][col]` (each row exactly one ±1: `tilesynth.builder.matching.
+    /// augment.vector_turns`), or an error naming `turns`.
+    pub fn new(m: &[[[i8; 2]; 2]; 8], negate: fn(T) -> T) -> Result<VectorTurn<T>> {
+        let mut sel = [[(0usize, false); 2]; 8];
+        for (s, rows) in m.iter().enumerate() {
+            for (r, row) in rows.iter().enumerate() {
+                sel[s][r] = match *row {
+                    [1, 0] => (0, false),
+                    [-1, 0] => (0, true),
+                    [0, 1] => (1, false),
+                    [0, -1] => (1, true),
+                    other => {
+                        return Err(TilesynthError::param(
+                            "turns",
+                            format!("{other:?} (symmetry {s}, row {r})"),
+                            "every row of a vector turn must be one of (1, 0), (-1, 0), (0, 1), (0, -1)",
+                        ))
+                    }
+                };
+            }
+        }
+        Ok(VectorTurn { sel, negate })
+    }
+
+    /// Turns the first two channels of the pixel `px` in place by symmetry `s`.
+    #[inline]
+    pub fn apply(&self, s: u8, px: &mut [T]) {
+        if s == 0 {
+            return;
+        }
+        let old = [px[0], px[1]];
+        for (r, &(ch, neg)) in self.sel[s as usize].iter().enumerate() {
+            px[r] = if neg { (self.negate)(old[ch]) } else { old[ch] };
+        }
+    }
+}
+
 /// Symmetry `s` (0..8) of the `n x n` grid applied to `(y, x)`: with `k = s % 4`, `f = s >= 4`, the pixel of
 /// `F^f(R^k(P))` at `(y, x)` is `P`'s pixel at the returned position, `R` = `numpy.rot90` (anticlockwise in the
 /// (row, col) plane) and `F` the left-right mirror: the numbering of the matching patches' transforms
@@ -42,7 +92,15 @@ type TileFactors = (Vec<u8>, Vec<[i32; 3]>);
 /// Greedy per tile, in raster order: the first pixel without an entry starts a new one, with the symmetry (and
 /// its offset through that pixel) that covers the most pixels still without an entry (ties: the lowest `s`, so
 /// untransformed pieces are plain translations). Every pixel then satisfies `source = D_s(p) + b` exactly.
-pub fn factorise(source: ArrayView4<i32>) -> Result<Option<(Array3<u8>, Array3<i32>)>> {
+///
+/// `orient` `(K, N, N)` (optional): the symmetry every pixel must be given, where it matters beyond geometry:
+/// a normal map's vectors turn with the entry's symmetry, and a piece that is one pixel or one line fits
+/// several symmetries equally (a single pixel of a rotated patch would otherwise be a translation and keep
+/// its vectors unturned). With it, an entry's symmetry is its pixels' `orient`.
+pub fn factorise(
+    source: ArrayView4<i32>,
+    orient: Option<ArrayView3<u8>>,
+) -> Result<Option<(Array3<u8>, Array3<i32>)>> {
     let (k, n, n2, two) = source.dim();
     if n != n2 || two != 2 || n == 0 {
         return Err(TilesynthError::shape(
@@ -51,6 +109,26 @@ pub fn factorise(source: ArrayView4<i32>) -> Result<Option<(Array3<u8>, Array3<i
             fmt_shape(source.shape()),
         ));
     }
+    if let Some(o) = &orient {
+        if o.dim() != (k, n, n) {
+            return Err(TilesynthError::shape(
+                "orient",
+                format!("({k}, {n}, {n}) (one symmetry per tile pixel)"),
+                fmt_shape(o.shape()),
+            ));
+        }
+        if let Some(&bad) = o.iter().find(|&&v| v >= 8) {
+            return Err(TilesynthError::param(
+                "orient",
+                bad,
+                "symmetries must be in 0..8",
+            ));
+        }
+    }
+    let orient = orient.map(|o| o.as_standard_layout().into_owned());
+    let orient = orient
+        .as_ref()
+        .map(|o| o.as_slice().expect("standard layout"));
     let src = source.as_standard_layout();
     let src = src.as_slice().expect("standard layout");
     let per = n * n;
@@ -58,6 +136,9 @@ pub fn factorise(source: ArrayView4<i32>) -> Result<Option<(Array3<u8>, Array3<i
         .into_par_iter()
         .map(|t| {
             let s = &src[t * per * 2..(t + 1) * per * 2];
+            let want = orient.map(|o| &o[t * per..(t + 1) * per]);
+            // whether pixel p may take symmetry sym
+            let allowed = |p: usize, sym: u8| want.map_or(true, |w| w[p] == sym);
             let mut label = vec![u8::MAX; per];
             let mut entries: Vec<[i32; 3]> = Vec::new();
             let mut next = 0usize;
@@ -72,12 +153,12 @@ pub fn factorise(source: ArrayView4<i32>) -> Result<Option<(Array3<u8>, Array3<i
                 let (y0, x0) = (next / n, next % n);
                 let (ry, rx) = (s[2 * next], s[2 * next + 1]);
                 let mut best = (0usize, 0u8, 0i32, 0i32);
-                for sym in 0..8u8 {
+                for sym in (0..8u8).filter(|&sym| allowed(next, sym)) {
                     let (dy, dx) = dihedral(sym, n, y0, x0);
                     let (by, bx) = (ry - dy as i32, rx - dx as i32);
                     let mut count = 0usize;
                     for p in next..per {
-                        if label[p] == u8::MAX {
+                        if label[p] == u8::MAX && allowed(p, sym) {
                             let (dy, dx) = dihedral(sym, n, p / n, p % n);
                             if s[2 * p] == dy as i32 + by && s[2 * p + 1] == dx as i32 + bx {
                                 count += 1;
@@ -91,7 +172,7 @@ pub fn factorise(source: ArrayView4<i32>) -> Result<Option<(Array3<u8>, Array3<i
                 let (_, sym, by, bx) = best;
                 let l = entries.len() as u8;
                 for p in next..per {
-                    if label[p] == u8::MAX {
+                    if label[p] == u8::MAX && allowed(p, sym) {
                         let (dy, dx) = dihedral(sym, n, p / n, p % n);
                         if s[2 * p] == dy as i32 + by && s[2 * p + 1] == dx as i32 + bx {
                             label[p] = l;
@@ -194,8 +275,9 @@ pub(crate) fn check_window(
 /// `labels` `(K, N, N)` / `table` `(K, L, 3)`:
 /// `out[y, x] = exemplar[D_s(p) + b]` with `t = map[(y+oy)/N, (x+ox)/N]`, `p = ((y+oy)%N, (x+ox)%N)` and
 /// `(s, by, bx) = table[t, labels[t, p]]`. Runs of pixels of one untransformed entry along a tile row are copied
-/// as slices. An entry that is not a symmetry or a source outside the exemplar is an error (nothing is
-/// promised about `out` then).
+/// as slices. With `turn` (a normal map) the vectors of every pixel of a rotated or mirrored entry are turned
+/// with it ([`VectorTurn`]). An entry that is not a symmetry or a source outside the exemplar is an error
+/// (nothing is promised about `out` then).
 pub fn gather_window_into<T: Copy + Send + Sync>(
     exemplar: ArrayView3<T>,
     labels: ArrayView3<u8>,
@@ -203,9 +285,17 @@ pub fn gather_window_into<T: Copy + Send + Sync>(
     map: ArrayView2<i32>,
     offset: (usize, usize),
     mut out: ArrayViewMut3<T>,
+    turn: Option<&VectorTurn<T>>,
 ) -> Result<()> {
     let (eh, ew, c) = exemplar.dim();
     let (k, n, width) = check_tables(&labels, &table)?;
+    if turn.is_some() && c < 2 {
+        return Err(TilesynthError::shape(
+            "exemplar",
+            "(EH, EW, C >= 2) to turn vectors",
+            fmt_shape(exemplar.shape()),
+        ));
+    }
     let (out_h, out_w, out_c) = out.dim();
     if out_c != c {
         return Err(TilesynthError::shape(
@@ -287,6 +377,9 @@ pub fn gather_window_into<T: Copy + Send + Sync>(
                             d[i * c..(i + 1) * c].copy_from_slice(&ex[start..start + c]);
                         }
                     }
+                    if let Some(tv) = turn.filter(|_| sym != 0) {
+                        d.chunks_exact_mut(c).for_each(|px| tv.apply(sym, px));
+                    }
                     x += run;
                 }
             }
@@ -342,7 +435,7 @@ mod tests {
     #[test]
     fn factorise_reproduces_the_source() {
         let src = example(9, 10);
-        let (labels, table) = factorise(src.view()).unwrap().unwrap();
+        let (labels, table) = factorise(src.view(), None).unwrap().unwrap();
         assert!(table.dim().1 <= 3, "{:?}", table.dim());
         for t in 0..9 {
             for y in 0..10 {
@@ -361,7 +454,7 @@ mod tests {
         let (k, n) = (9, 10);
         let src = example(k, n);
         let ex = Array3::from_shape_fn((30, 40, 2), |(y, x, c)| (y * 1000 + x * 3 + c) as u16);
-        let (labels, table) = factorise(src.view()).unwrap().unwrap();
+        let (labels, table) = factorise(src.view(), None).unwrap().unwrap();
         let map = Array2::from_shape_fn((4, 5), |(i, j)| ((i * 5 + j * 2) % k) as i32);
         for (oy, ox, h, w) in [(0, 0, 40, 50), (3, 7, 30, 41), (9, 9, 1, 1), (2, 0, 5, 33)] {
             let mut out = Array3::<u16>::zeros((h, w, 2));
@@ -372,6 +465,7 @@ mod tests {
                 map.view(),
                 (oy, ox),
                 out.view_mut(),
+                None,
             )
             .unwrap();
             for y in 0..h {
@@ -388,9 +482,87 @@ mod tests {
     }
 
     #[test]
+    fn gather_turns_vectors_with_their_entries() {
+        // the quarter turn and the left-right mirror of the vectors, y up: (x, y) -> (-y, x) and (-x, y)
+        let mut m = [[[1i8, 0], [0, 1]]; 8];
+        m[1] = [[0, -1], [1, 0]];
+        m[4] = [[-1, 0], [0, 1]];
+        m[2] = [[-1, 0], [0, -1]];
+        m[3] = [[0, 1], [-1, 0]];
+        m[5] = [[0, 1], [1, 0]];
+        m[6] = [[1, 0], [0, -1]];
+        m[7] = [[0, -1], [-1, 0]];
+        let turn = VectorTurn::new(&m, |c: u8| u8::MAX - c).unwrap();
+        let (k, n) = (9, 10);
+        let src = example(k, n);
+        let ex = Array3::from_shape_fn((30, 40, 3), |(y, x, c)| {
+            ((y * 7 + x * 3 + c * 50) % 256) as u8
+        });
+        let (labels, table) = factorise(src.view(), None).unwrap().unwrap();
+        let map = Array2::from_shape_fn((3, 4), |(i, j)| ((i * 4 + j) % k) as i32);
+        let (h, w) = (30, 40);
+        let mut plain = Array3::<u8>::zeros((h, w, 3));
+        let mut turned = Array3::<u8>::zeros((h, w, 3));
+        let args = (labels.view(), table.view(), map.view());
+        gather_window_into(
+            ex.view(),
+            args.0,
+            args.1,
+            args.2,
+            (0, 0),
+            plain.view_mut(),
+            None,
+        )
+        .unwrap();
+        gather_window_into(
+            ex.view(),
+            args.0,
+            args.1,
+            args.2,
+            (0, 0),
+            turned.view_mut(),
+            Some(&turn),
+        )
+        .unwrap();
+        let mut seen = 0;
+        for y in 0..h {
+            for x in 0..w {
+                let t = map[(y / n, x / n)] as usize;
+                let s = table[(t, labels[(t, y % n, x % n)] as usize, 0)] as usize;
+                let (p, q) = (plain[(y, x, 0)], plain[(y, x, 1)]);
+                let pick = |row: [i8; 2]| match row {
+                    [1, 0] => p,
+                    [-1, 0] => 255 - p,
+                    [0, 1] => q,
+                    _ => 255 - q,
+                };
+                assert_eq!(turned[(y, x, 0)], pick(m[s][0]), "({y}, {x}) s {s}");
+                assert_eq!(turned[(y, x, 1)], pick(m[s][1]), "({y}, {x}) s {s}");
+                assert_eq!(turned[(y, x, 2)], plain[(y, x, 2)]);
+                seen += usize::from(s != 0);
+            }
+        }
+        assert!(seen > 0);
+        assert!(VectorTurn::new(&[[[1i8, 1], [0, 1]]; 8], |c: u8| c).is_err());
+    }
+
+    #[test]
+    fn factorise_gives_pixels_their_orientation() {
+        // one pixel of a turned patch: a translation fits it as well, the orientation decides
+        let one = Array4::from_shape_fn((1, 1, 1, 2), |(_, _, _, c)| [5, 7][c]);
+        let (_, t) = factorise(one.view(), None).unwrap().unwrap();
+        assert_eq!(t[(0, 0, 0)], 0);
+        let o = Array3::from_elem((1, 1, 1), 3u8);
+        let (_, t) = factorise(one.view(), Some(o.view())).unwrap().unwrap();
+        assert_eq!([t[(0, 0, 0)], t[(0, 0, 1)], t[(0, 0, 2)]], [3, 5, 7]);
+        let bad = Array3::from_elem((1, 1, 1), 8u8);
+        assert!(factorise(one.view(), Some(bad.view())).is_err());
+    }
+
+    #[test]
     fn gather_refuses_sources_outside() {
         let src = example(2, 10);
-        let (labels, mut table) = factorise(src.view()).unwrap().unwrap();
+        let (labels, mut table) = factorise(src.view(), None).unwrap().unwrap();
         table[(0, 0, 1)] = 1000;
         let ex = Array3::<u8>::zeros((30, 40, 1));
         let map = Array2::<i32>::zeros((1, 1));
@@ -402,6 +574,7 @@ mod tests {
             map.view(),
             (0, 0),
             out.view_mut(),
+            None,
         )
         .unwrap_err();
         assert!(e.to_string().contains("table"), "{e}");

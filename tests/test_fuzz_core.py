@@ -305,13 +305,19 @@ def _provenance_source(d: st.DrawFn, eh: int, ew: int) -> np.ndarray:
 
 @st.composite
 def provenance_factorise(d: st.DrawFn):
-    broken = d(st.sampled_from(["none", "none", "shape", "dtype"]))
+    broken = d(st.sampled_from(["none", "none", "shape", "dtype", "orient"]))
     src = _provenance_source(d, 8, 8)
+    orient = None
     if broken == "shape":
         src = d(arrays(d(st.integers(0, 5)), I32, None, lo=-2, hi=9))
     elif broken == "dtype":
         src = d(arrays(4, d(st.sampled_from(fuzzing.ALL_DTYPES)), (2, 3, 3, 2), lo=-2, hi=9))
-    return _core.provenance_factorise, (src,), {"threads": d(threads())}, ()
+    elif broken == "orient":  # any shape and values, or the right shape with symmetries 0..9
+        shape = getattr(src, "shape", (1, 1, 1, 2))[:3] if d(st.booleans()) else None
+        orient = d(arrays(3, "uint8", shape, lo=0, hi=9, max_side=5))
+    elif d(st.booleans()) and getattr(src, "ndim", 0) == 4:
+        orient = np.random.default_rng(d(st.integers(0, 99))).integers(0, 8, src.shape[:3]).astype(np.uint8)
+    return _core.provenance_factorise, (src,), {"threads": d(threads()), "orient": orient}, ()
 
 
 @st.composite
@@ -351,8 +357,20 @@ def provenance_gather(d: st.DrawFn):
     out = (
         d(arrays(3, out_dt, (None, None, c), max_side=9)) if broken == "out" else np.zeros((h, w, c), out_dt)
     )
-    kw = {"threads": d(threads())}
+    kw = {"threads": d(threads()), "turns": _turns(d), "snorm": d(st.booleans())}
     return _core.provenance_gather, (exemplar, labels, table, imap, offset, out), kw, (5,)
+
+
+def _turns(d: st.DrawFn) -> np.ndarray | None:
+    """None, a normal map's vector turns ((8, 2, 2) int8), or careless ones (shape, values)."""
+    from tilesynth.builder.matching.augment import vector_turns
+
+    kind = d(st.sampled_from(["none", "up", "down", "bad"]))
+    if kind == "none":
+        return None
+    if kind == "bad":
+        return d(arrays(d(st.integers(2, 4)), "int8", None, lo=-2, hi=2, max_side=8))
+    return np.ascontiguousarray(vector_turns(kind == "down"), np.int8)
 
 
 def _seam_blend_call(maps, outs, *rest, **kw):
@@ -441,7 +459,9 @@ def seam_blend(d: st.DrawFn):
     most = n - 1 if broken == "none" else n  # an offset of a whole tile is refused
     offset = (d(st.integers(0, most)), d(st.integers(0, most)))
     args = (maps, outs, labels, table, imap, offset, high, low_level, reach)
-    return _seam_blend_call, args, {"threads": d(threads())}, (1,)
+    turns = d(st.sampled_from([None, "each", "wrong-count"]))
+    turns = None if turns is None else [_turns(d) for _ in range(len(maps) + (turns == "wrong-count"))]
+    return _seam_blend_call, args, {"threads": d(threads()), "turns": turns}, (1,)
 
 
 @st.composite

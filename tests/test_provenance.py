@@ -67,6 +67,63 @@ def test_gather_matches_numpy_oracle(c2, dtype):
         assert np.array_equal(out, pv.gather_reference(image, prov, imap, h, w, (oy, ox)))
 
 
+@pytest.mark.parametrize(
+    "dtype, encoding",
+    [(np.uint8, "unorm"), (np.uint16, "unorm"), (np.float32, "unorm"), (np.float32, "snorm")],
+)
+@pytest.mark.parametrize("y_down", [False, True])
+def test_gather_turns_normal_vectors_with_their_entries(c2, dtype, encoding, y_down):
+    """A normal map's copies through rotated or mirrored entries have their x and y turned with the entry
+    (exactly in the sample type): the oracle turns the gathered codes with ``transform_normal_codes``."""
+    prov = pv.factorise(c2.source)
+    assert (prov.table[..., 0] > 0).any()
+    r = np.random.default_rng(1)
+    image = r.random((*c2.exemplar.shape[:2], 3))
+    if encoding == "snorm":
+        image = image * 2 - 1
+    elif dtype != np.float32:
+        image = image * np.iinfo(dtype).max
+    image = image.astype(dtype)
+    imap = r.integers(0, c2.n_tiles, (5, 6)).astype(np.int32)
+    for oy, ox, h, w in [(0, 0, 80, 96), (3, 9, 60, 70)]:
+        out = np.empty((h, w, 3), dtype)
+        pv.gather(image, prov, imap, out, (oy, ox), threads=2, normal=(encoding, y_down))
+        want = pv.gather_reference(image, prov, imap, h, w, (oy, ox), normal=(encoding, y_down))
+        assert np.array_equal(out, want)
+        plain = pv.gather_reference(image, prov, imap, h, w, (oy, ox))
+        assert (out != plain).any() and np.array_equal(out[..., 2], plain[..., 2])  # x, y turned; z kept
+    with pytest.raises(ts.ParameterError, match="turns"):
+        pv.gather(
+            np.zeros((40, 40, 2), np.int32),
+            prov,
+            imap,
+            np.empty((8, 8, 2), np.int32),
+            normal=("unorm", False),
+        )
+
+
+def test_factorise_gives_each_pixel_its_orientation(c2):
+    """With ``orient`` (the turn of every pixel of a rotated or mirrored matching patch) an entry's symmetry is
+    its pixels' turn, also for pieces of one pixel or one line that a translation fits as well; the Rust
+    factorisation is the oracle's."""
+    from tilesynth.builder.matching.augment import pixel_transforms
+
+    orient = pixel_transforms(c2)
+    assert orient is not None
+    prov = pv.factorise(c2.source, orient=orient)
+    ref = pv.factorise_reference(c2.source, orient=orient)
+    assert np.array_equal(prov.labels, ref.labels) and np.array_equal(prov.table, ref.table)
+    assert np.array_equal(prov.source(), c2.source)
+    sym = np.take_along_axis(prov.table[..., 0], prov.labels.reshape(c2.n_tiles, -1).astype(np.int64), axis=1)
+    assert np.array_equal(sym.reshape(orient.shape), orient)
+    # one pixel of a quarter-turned patch: geometry alone calls it a translation (the lowest symmetry)
+    one = np.array([[[[5, 7]]]], np.int32)
+    assert pv.factorise(one).table[0, 0, 0] == 0
+    assert pv.factorise(one, orient=np.array([[[1]]], np.uint8)).table[0, 0].tolist() == [1, 5, 7]
+    with pytest.raises(ts.ParameterError, match="orient"):
+        pv.factorise(one, orient=np.array([[[9]]], np.uint8))
+
+
 def test_gather_refuses_a_source_outside(c2):
     prov = pv.factorise(c2.source)
     bad = pv.Provenance(prov.labels, prov.table.copy())

@@ -431,14 +431,18 @@ class _Maps:
         self.provenance, self.tile_size, self.maps = prov, prov.tile_size, maps
 
 
+@pytest.mark.parametrize("turns", [False, True], ids=["translations", "turned"])
 @pytest.mark.parametrize("n", [64, 24])
-def test_kernel_blends_every_sample_type_as_the_oracle(n):
+def test_kernel_blends_every_sample_type_as_the_oracle(n, turns):
     """The Rust kernel blends several maps of every sample type in one call, the copies and the encoding
     (the normals' unit-length codes, float normals renormalised) done in the kernel: the bytes of the numpy
-    oracle ``blend_tiles`` for each map alone (64 px: two bands; 24 px: the one linear band)."""
+    oracle ``blend_tiles`` for each map alone (64 px: two bands; 24 px: the one linear band). With rotated and
+    mirrored entries (``--augment``) every entry reads through its symmetry and the normals' vectors turn with
+    it (y up, and y down for the 16-bit map)."""
     r = np.random.default_rng(8)
     ex = 40
-    prov = _random_prov(4, n, 5, seed=12, ex=ex, turns=False)
+    prov = _random_prov(4, n, 5, seed=12, ex=ex, turns=turns)
+    assert (prov.table[..., 0] > 0).any() == turns
     v = r.normal(size=(ex, ex, 3)) * [0.5, 0.5, 0.0] + [0, 0, 1]
     v /= np.linalg.norm(v, axis=-1, keepdims=True)
     maps = {
@@ -457,7 +461,7 @@ def test_kernel_blends_every_sample_type_as_the_oracle(n):
             1.0,
             str(a.dtype),
             a.shape[2],
-            normal_y="up" if k[0] == "n" else None,
+            normal_y=("down" if k == "n16" else "up") if k[0] == "n" else None,
             encoding=("snorm" if k == "ns" else "unorm") if k[0] == "n" else None,
         )  # fmt: skip
         for k, a in maps.items()
@@ -468,7 +472,8 @@ def test_kernel_blends_every_sample_type_as_the_oracle(n):
     got = materials.blend_windows(t, [(s, maps[k]) for k, s in specs.items()], imap, idx.size * n, n)
     mixed = 0
     for k, s in specs.items():
-        want = seams.blend_tiles(maps[k], prov, idx, kind=s.kind, encoding=s.encoding or "unorm")
+        want = seams.blend_tiles(maps[k], prov, idx, kind=s.kind, encoding=s.encoding or "unorm",
+                                 y_down=s.normal_y == "down")  # fmt: skip
         assert got[k].dtype == maps[k].dtype
         if maps[k].dtype == np.float32:  # the weights' sums in another order: the last bit of a float
             assert np.abs(got[k] - want.reshape(got[k].shape)).max() <= 2e-7, k

@@ -277,7 +277,7 @@ def _best_matches_sorting(
 
 # tile sets as provenance (rust/py/provenance.rs)
 def provenance_factorise(
-    source: npt.NDArray[np.int32], threads: int | None = None
+    source: npt.NDArray[np.int32], threads: int | None = None, orient: npt.NDArray[np.uint8] | None = None
 ) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.int32]] | None: ...
 def provenance_gather(
     exemplar: np.ndarray,
@@ -287,6 +287,8 @@ def provenance_gather(
     offset: tuple[int, int],
     out: np.ndarray,
     threads: int | None = None,
+    turns: npt.NDArray[np.int8] | None = None,
+    snorm: bool = False,
 ) -> None: ...
 
 # the seam blend of smooth material maps (rust/py/blend.rs)

@@ -63,9 +63,12 @@ type MapArgs<'py> = (
 /// map blends at every pixel (when `low_level` is given, else None); `mu` the mean per channel of what is
 /// blended; `out` `(h, w, C)` the window, the dtype of `codes`.
 /// Every map is aligned with the exemplar (the same H, W). `high`: the high band's level (every map's);
-/// `low_level` / `reach`: the low band's (scalar maps'), or None. Untransformed entries only. GIL released.
+/// `low_level` / `reach`: the low band's (scalar maps'), or None. `turns`: None, or one entry per map, None or
+/// a normal map's vector turns `(8, 2, 2)` int8 (`tilesynth.builder.matching.augment.vector_turns`): its
+/// entries' slopes and copied codes are turned with their symmetry; a rotated or mirrored entry needs them for
+/// every normal map. GIL released.
 #[pyfunction]
-#[pyo3(signature = (maps, labels, table, index_map, offset, high, low_level, reach, threads=None))]
+#[pyo3(signature = (maps, labels, table, index_map, offset, high, low_level, reach, threads=None, turns=None))]
 #[allow(clippy::too_many_arguments)]
 fn seam_blend<'py>(
     py: Python<'py>,
@@ -78,8 +81,32 @@ fn seam_blend<'py>(
     low_level: Option<f64>,
     reach: usize,
     threads: Option<usize>,
+    turns: Option<Vec<Option<PyReadonlyArray3<'py, i8>>>>,
 ) -> PyResult<()> {
     guard("seam_blend", || {
+        let turns: Vec<Option<blend::Turns>> = match turns {
+            None => vec![None; maps.len()],
+            Some(t) if t.len() == maps.len() => t
+                .iter()
+                .map(|x| {
+                    x.as_ref()
+                        .map(|a| {
+                            let m = super::provenance::vector_turns(a)?;
+                            crate::provenance::VectorTurn::<f64>::new(&m, |v| -v)
+                                .map(|v| v.sel)
+                                .map_err(errors::to_pyerr)
+                        })
+                        .transpose()
+                })
+                .collect::<PyResult<_>>()?,
+            Some(t) => {
+                return Err(errors::to_pyerr(crate::error::TilesynthError::shape(
+                    "turns",
+                    format!("{} entries (one per map)", maps.len()),
+                    format!("{} entries", t.len()),
+                )))
+            }
+        };
         contiguous("labels", &labels)?;
         contiguous("table", &table)?;
         contiguous("index_map", &index_map)?;
@@ -143,8 +170,8 @@ fn seam_blend<'py>(
             held.push(got);
         }
         let mut blends = Vec::with_capacity(maps.len());
-        for (((_, values, low, mu, _, _), got), &kind) in
-            maps.iter().zip(held.iter_mut()).zip(&kinds)
+        for ((((_, values, low, mu, _, _), got), &kind), turn) in
+            maps.iter().zip(held.iter_mut()).zip(&kinds).zip(turns)
         {
             let (codes, dims, out) = match got {
                 Borrowed::U8(c, o) => (
@@ -172,6 +199,7 @@ fn seam_blend<'py>(
                 codes,
                 channels: dims[2],
                 out,
+                turn,
             });
         }
         let lab = labels.as_array();

@@ -129,7 +129,6 @@ from .materials_atlas import (  # noqa: F401 - re-exported: tilesynth.builder.ma
     _copied_map,
     _levelled,
     _scale,
-    _turned,
     _used,
     blend_window,
     blend_windows,
@@ -348,14 +347,11 @@ def synthesize_maps(
         img = np.empty((h, w, arr.shape[2]), arr.dtype)
         if spec.name in windows:
             img = windows[spec.name]
-        elif (
-            prov is not None
-            and not smooths(tileset, spec, smooth)
-            and not (spec.kind == "normal" and _turned(tileset))
-        ):
+        elif prov is not None and not smooths(tileset, spec, smooth):
             from ..tileset.provenance import gather
 
-            gather(_copied_map(tileset, spec, arr), prov, imap, img, (oy, ox), threads=threads)  # copies
+            turn = (spec.encoding or "unorm", spec.normal_y == "down") if spec.kind == "normal" else None
+            gather(_copied_map(tileset, spec, arr), prov, imap, img, (oy, ox), threads, turn)  # copies
         else:
             atlas = np.ascontiguousarray(
                 map_atlas(tileset, spec, arr, smooth, threads, tiles=shown, seams=seams)

@@ -219,8 +219,9 @@ def map_provenance(tileset: Any) -> Any:
     src = tileset.source
     if "prov" not in cache or cache["prov"][0] is not src:
         from ..tileset.provenance import factorise
+        from .matching.augment import pixel_transforms
 
-        cache["prov"] = (src, factorise(src))
+        cache["prov"] = (src, factorise(src, orient=pixel_transforms(tileset)))
     return cache["prov"][1]
 
 
@@ -268,13 +269,16 @@ def blend_windows(
     with their seams blended (:mod:`tilesynth.synth.seams`; the Rust kernel ``seam_blend``, whose oracle is
     :func:`tilesynth.synth.seams.blend_tiles`), each in its sample type. All the maps are blended in one call:
     the weights of a pixel are found once for every map, the copies and the encoding (the normals' unit-length
-    codes too) written by the kernel straight into the windows. None when the set's provenance has rotated or
-    mirrored entries (then :func:`blended_tiles` blends per tile in numpy)."""
+    codes too) written by the kernel straight into the windows; the vectors of a normal map's rotated or
+    mirrored entries (``--augment``) turned with them. None when the set has no provenance or ``items`` is
+    empty."""
     from .. import _core
+    from .matching.augment import vector_turns
 
     prov = map_provenance(tileset)
-    if prov is None or (prov.table[..., 0] > 0).any() or not items:
+    if prov is None or not items:
         return None
+    turned = bool((prov.table[..., 0] > 0).any())
     srcs = [_blend_sources(tileset, spec, arr) for spec, arr in items]
     high = {x[4]["high"] for x in srcs}
     low = {(x[4].get("low"), x[4].get("reach")) for (spec, _), x in zip(items, srcs) if spec.kind == "scalar"}
@@ -282,8 +286,10 @@ def blend_windows(
         raise ValueError("blend_windows: the maps' bands differ; blend them apart")
     low_level, reach = low.pop() if low else (None, None)
     imap = np.ascontiguousarray(index_map, dtype=np.int32)
-    result, maps = {}, []
+    result, maps, turns = {}, [], []
     for (spec, arr), (codes, values, lows, mu, _) in zip(items, srcs):
+        turn = vector_turns(spec.normal_y == "down") if spec.kind == "normal" and turned else None
+        turns.append(None if turn is None else np.ascontiguousarray(turn, np.int8))
         kind = "scalar" if spec.kind == "scalar" else "normal-snorm" if spec.encoding == "snorm" else "normal"
         img = np.empty((height, width, arr.shape[2]), arr.dtype)
         scalar = kind == "scalar"  # the kernel blends a scalar map's samples over their maximum (its values)
@@ -293,7 +299,7 @@ def blend_windows(
         result[spec.name] = img
     _core.seam_blend(
         maps, prov.labels, prov.table, imap, offset, float(high.pop()),
-        None if low_level is None else float(low_level), int(reach or 1), threads,
+        None if low_level is None else float(low_level), int(reach or 1), threads, turns,
     )  # fmt: skip
     return result
 
@@ -314,12 +320,9 @@ def blend_window(
 
 
 def blended_tiles(tileset: Any, spec: MapSpec, arr: np.ndarray, tiles: np.ndarray) -> np.ndarray:
-    """The tiles ``tiles`` ``(k, N, N, C)`` of map ``arr`` (scalar or normal kind) with their seams blended, in
-    the map's sample type: :func:`blend_window` of a one-column index map, or for a set with rotated or
-    mirrored entries :func:`tilesynth.synth.seams.blend_tiles` (numpy, the vectors turned with their entries),
-    a bounded chunk of tiles at a time."""
-    from ..synth.seams import blend_tiles
-
+    """The tiles ``tiles`` ``(k, N, N, C)`` of map ``arr`` (scalar or normal kind) of a set with a provenance,
+    with their seams blended, in the map's sample type: :func:`blend_window` of a one-column index map, a
+    bounded chunk of tiles at a time."""
     n = tileset.tile_size
     idx = np.asarray(tiles, np.int64).reshape(-1)
     out = np.empty((idx.size, n, n, arr.shape[2]), arr.dtype)
@@ -328,9 +331,7 @@ def blended_tiles(tileset: Any, spec: MapSpec, arr: np.ndarray, tiles: np.ndarra
         part = idx[lo : lo + step]
         got = blend_window(tileset, spec, arr, part.reshape(-1, 1), part.size * n, n)
         if got is None:
-            src = _copied_map(tileset, spec, arr)
-            got = blend_tiles(src, map_provenance(tileset), part, kind=spec.kind, encoding=spec.encoding or "unorm",
-                              y_down=spec.normal_y == "down")  # fmt: skip
+            raise ValueError("blended_tiles: the tile set has no provenance (a version-1 set; use map_atlas)")
         out[lo : lo + part.size] = got.reshape(part.size, n, n, arr.shape[2])
     return out
 
@@ -398,8 +399,9 @@ def map_atlas(
     asked only (:func:`fused_tiles`, the bytes of :func:`fuse_map_atlas`); a colour map of a Poisson-smoothed set
     needs the whole set. The vectors of a normal map are turned with their pixels where a matching patch was
     rotated or mirrored (``--augment``: :func:`~tilesynth.builder.matching.augment.transform_normal_codes`, exact
-    in the map's sample type), so a bump keeps its light side; such sets take the whole-set path, whose fusion
-    follows each patch's orientation (the per-tile path does not turn steps)."""
+    in the map's sample type; the blend and the copies turn them per entry), so a bump keeps its light side; fused
+    (``seams="fuse"``), such sets take the whole-set path, whose fusion follows each patch's orientation (the
+    per-tile path does not turn steps)."""
     from ..synth.synthesis import _smooth_map_atlas
     from .matching.augment import pixel_transforms, transform_normal_codes
 
@@ -412,26 +414,30 @@ def map_atlas(
     ):  # the default: the seam blend from the labels (rotated or mirrored entries are turned by the blend)
         return blended_tiles(tileset, spec, arr, idx)
     turns = pixel_transforms(tileset)
+    if not smooths(tileset, spec, smooth):  # copies: of the map with its vectors renormalised once per set
+        src = tile_sources(tileset, idx)
+        copies = np.ascontiguousarray(_copied_map(tileset, spec, arr)[src[..., 0], src[..., 1]])
+        if turns is not None and spec.kind == "normal":  # as the gather turns them: with their patch
+            copies = transform_normal_codes(
+                copies, turns[idx], spec.encoding or "unorm", spec.normal_y == "down"
+            )
+        return copies
     if turns is not None:  # rotated or mirrored patches: every step and vector turns with its patch
         src = tileset.source
         atlas = np.ascontiguousarray(arr[src[..., 0], src[..., 1]])
         if spec.kind == "normal":
             atlas = transform_normal_codes(atlas, turns, spec.encoding or "unorm", spec.normal_y == "down")
-        if smooths(tileset, spec, smooth):
-            if spec.kind in SMOOTH_KINDS:
-                atlas = fuse_map_atlas(tileset, arr, atlas, spec=spec)
-            else:  # colour maps follow the colour's own smoothing
-                atlas = _smooth_map_atlas(tileset, arr, atlas, threads)
-        atlas = atlas if tiles is None else atlas[idx]
-    elif smooths(tileset, spec, smooth):
         if spec.kind in SMOOTH_KINDS:
-            return fused_tiles(tileset, spec, arr, idx)
-        src = tileset.source  # colour maps follow the colour's own smoothing (version-1 sets only)
+            atlas = fuse_map_atlas(tileset, arr, atlas, spec=spec)
+        else:  # colour maps follow the colour's own smoothing
+            atlas = _smooth_map_atlas(tileset, arr, atlas, threads)
+        atlas = atlas if tiles is None else atlas[idx]
+    elif spec.kind in SMOOTH_KINDS:
+        return fused_tiles(tileset, spec, arr, idx)
+    else:  # colour maps follow the colour's own smoothing (version-1 sets only)
+        src = tileset.source
         atlas = _smooth_map_atlas(tileset, arr, np.ascontiguousarray(arr[src[..., 0], src[..., 1]]), threads)
         atlas = atlas if tiles is None else atlas[idx]
-    else:  # copies: of the map with its vectors renormalised once per set (a per-vector operation)
-        src = tile_sources(tileset, idx)
-        return np.ascontiguousarray(_copied_map(tileset, spec, arr)[src[..., 0], src[..., 1]])
     if spec.kind == "normal":  # every vector, copies too: unit length after decoding (normal_codes)
         atlas = renormalise_image(atlas, spec.encoding or "unorm")
     return atlas
@@ -447,9 +453,3 @@ def _copied_map(tileset: Any, spec: MapSpec, arr: np.ndarray) -> np.ndarray:
     if key not in cache or cache[key][0] is not arr:
         cache[key] = (arr, np.ascontiguousarray(renormalise_image(arr, spec.encoding or "unorm")))
     return cache[key][1]
-
-
-def _turned(tileset: Any) -> bool:
-    """Whether some matching patch of ``tileset`` was rotated or mirrored (``--augment``): the copies of a normal
-    map must then turn their vectors, which the provenance gather does not do (:func:`map_atlas` does)."""
-    return any(t != 0 for t in (tileset.params.get("match_transforms") or []))

@@ -44,10 +44,11 @@ scalar maps ``high = 3``, ``low = 5``, ``split = 4``, ``reach = 16``; normal map
    large shapes) blended wide and variance-preserving (Heitz & Neyret 2018: a mix of independent fields keeps
    the exemplar's variance), the detail blended linearly over ``2^high`` px (a variance-preserving detail
    blend amplified the grout of a tiled floor into new cliffs; Burt & Adelson's multi-band blend). Without a
-   low band (tiles under 64 px): ``out = Σ_e h_e v_e``. Normal maps: each entry's decoded vector ``n_e`` (its
-   codes first turned with the entry's symmetry ``s_e``, as the copies are) becomes a slope ``σ_e = (n_x, n_y) /
-   max(n_z, 1/16)``, ``σ = Σ_e h_e σ_e`` and ``n = normalise(σ_x, σ_y, 1)`` (the normal of the blended height
-   field when the heights are blended with the same weights: derivative blending). A pixel whose weights are
+   low band (tiles under 64 px): ``out = Σ_e h_e v_e``. Normal maps: each entry's decoded vector ``n_e``
+   becomes a slope ``σ_e = (n_x, n_y) / max(n_z, 1/16)``, turned with the entry's symmetry ``s_e`` (x and y
+   swapped and negated exactly in floats; a copy's codes are turned in the codes), ``σ = Σ_e h_e σ_e`` and
+   ``n = normalise(σ_x, σ_y, 1)`` (the normal of the blended height field when the heights are blended with
+   the same weights: derivative blending). A pixel whose weights are
    1 for one entry in every band is that entry's copy, byte for byte (the copies of ``smooth=False``).
 6. *Encoding.* Unsigned scalar maps: ``rint(clip(out, 0, 1) · S)`` (round half to even, ``S`` = 255 or 65535,
    values read as ``code / S``); float maps: float32 (no clip). Normal maps: the unit-length code of
@@ -310,7 +311,7 @@ def blend_tiles(
     "unorm" / "snorm", ``y_down`` the DirectX convention, for turning the vectors of rotated or mirrored
     entries); ``bands``: None for :data:`BANDS` ``[kind]``, or levels replacing them (:func:`check_bands`;
     ``{"high": L}`` alone is one linear band)."""
-    from ..builder.matching.augment import transform_normal_codes
+    from ..builder.matching.augment import transform_normal_codes, transform_vectors
     from ..io.normal_codes import encode_unit
 
     img = np.asarray(image)
@@ -338,14 +339,14 @@ def blend_tiles(
             single &= wlo.max(axis=1) >= 1.0
         coords = entry_coords(tab, n, h, w)
         vals = img[coords[..., 0], coords[..., 1]]  # (k, E, N, N, C)
-        if kind == "normal":
-            sym = np.maximum(tab[..., 0], 0)[:, :, None, None]
-            if (sym != 0).any():
-                vals = transform_normal_codes(vals, np.broadcast_to(sym, vals.shape[:-1]), encoding, y_down)
+        sym = np.broadcast_to(np.maximum(tab[..., 0], 0)[:, :, None, None], vals.shape[:-1])
+        turned = kind == "normal" and bool((sym != 0).any())
+        copies = transform_normal_codes(vals, sym, encoding, y_down) if turned else vals
         # a pixel whose weights are 1 for one entry is that entry's copy, byte for byte
-        own = np.take_along_axis(vals, lab[:, None, :, :, None].astype(np.int64), axis=1)[:, 0]
+        own = np.take_along_axis(copies, lab[:, None, :, :, None].astype(np.int64), axis=1)[:, 0]
         if kind == "normal":
             s = normal_slopes(vals, encoding)
+            s = transform_vectors(s, sym, y_down) if turned else s
             sl = (wts[..., None] * s).sum(axis=1)
             nv = np.concatenate([sl, np.ones(sl.shape[:-1] + (1,))], axis=-1)
             blended = encode_unit(nv[~single], img.dtype, encoding)

@@ -39,6 +39,7 @@ mirror: the numbering of ``augment``, so a transformed matching patch is one ent
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -56,6 +57,7 @@ __all__ = [
     "check_inside",
     "materialise",
     "pure_copy",
+    "turned_pixels",
 ]
 
 CHUNK_PIXELS = 1 << 22
@@ -71,6 +73,23 @@ def dihedral_grid(s: int, n: int) -> np.ndarray:
     k = s % 4
     pos = [(yy, xx), (xx, m - yy), (m - yy, m - xx), (m - xx, yy)][k]
     return np.stack(pos, axis=-1)
+
+
+def turned_pixels(source: np.ndarray, match_offsets: np.ndarray, transforms: Any) -> np.ndarray | None:
+    """The symmetry of every tile pixel ``(K, N, N)`` uint8: ``transforms[t]`` where tile t shows its rotated or
+    mirrored matching patch (its provenance is ``match_offsets[t] + D_s(p)``), else 0; None when no matching
+    patch is transformed (``transforms`` None or all 0)."""
+    if transforms is None:
+        return None
+    t = np.asarray(transforms, dtype=np.int64).reshape(-1)
+    if not t.any():
+        return None
+    src = np.asarray(source)
+    n = src.shape[1]
+    grids = np.stack([dihedral_grid(s, n) for s in range(8)])
+    window = grids[t] + np.asarray(match_offsets, np.int64)[:, None, None, :]
+    inside = (src == window).all(axis=-1)
+    return np.where(inside, t[:, None, None], 0).astype(np.uint8)
 
 
 @dataclass(eq=False)
@@ -136,16 +155,22 @@ class Provenance:
         return out
 
 
-def factorise(source: np.ndarray, threads: int | None = None) -> Provenance | None:
+def factorise(
+    source: np.ndarray, threads: int | None = None, orient: np.ndarray | None = None
+) -> Provenance | None:
     """The :class:`Provenance` of an int32 provenance array ``(K, N, N, 2)``, or None when some tile has more than
-    255 pieces (Rust, GIL released; the same result as :func:`factorise_reference`)."""
+    255 pieces (Rust, GIL released; the same result as :func:`factorise_reference`). ``orient`` ``(K, N, N)``
+    (optional): the symmetry each pixel's entry must have, the turn of a rotated or mirrored matching patch
+    (:func:`~tilesynth.builder.matching.augment.pixel_transforms`): a normal map's vectors turn with their
+    entry's symmetry, and a piece of one pixel or one line fits several symmetries geometrically."""
     from .. import _core
 
-    out = _core.provenance_factorise(np.ascontiguousarray(source, dtype=np.int32), threads)
+    o = None if orient is None else np.ascontiguousarray(orient, dtype=np.uint8)
+    out = _core.provenance_factorise(np.ascontiguousarray(source, dtype=np.int32), threads, o)
     return None if out is None else Provenance(labels=out[0], table=out[1])
 
 
-def factorise_reference(source: np.ndarray) -> Provenance | None:
+def factorise_reference(source: np.ndarray, orient: np.ndarray | None = None) -> Provenance | None:
     """The numpy oracle of :func:`factorise` (slow: tests and small sets)."""
     src = np.asarray(source, np.int64)
     k, n = src.shape[:2]
@@ -161,15 +186,20 @@ def factorise_reference(source: np.ndarray) -> Provenance | None:
                 return None
             p0 = int(np.argmax(free))
             best = None
-            for sym in range(8):
+            may = (
+                np.ones((8, n * n), bool)
+                if orient is None
+                else np.asarray(orient)[t].reshape(1, -1) == np.arange(8)[:, None]
+            )
+            for sym in np.flatnonzero(may[:, p0]):
                 b = s[p0] - grids[sym][p0]
-                hit = free & (s == grids[sym] + b).all(axis=1)
+                hit = free & may[sym] & (s == grids[sym] + b).all(axis=1)
                 if best is None or hit.sum() > best[0].sum():
                     best = (hit, sym, b)
             hit, sym, b = best
             labels[t, hit] = len(entries)
             free &= ~hit
-            entries.append((sym, int(b[0]), int(b[1])))
+            entries.append((int(sym), int(b[0]), int(b[1])))
         tables.append(entries)
     width = max(1, max(len(e) for e in tables))
     table = np.full((k, width, 3), -1, np.int32)
@@ -185,13 +215,23 @@ def gather(
     out: np.ndarray,
     offset: tuple[int, int] = (0, 0),
     threads: int | None = None,
+    normal: tuple[str, bool] | None = None,
 ) -> np.ndarray:
     """Fill ``out`` ``(H, W, C)`` with the window at pixel ``offset = (oy, ox)`` into the first cell of the tiling
     by ``index_map``, every pixel read from ``image`` ``(EH, EW, C)`` (the exemplar or a map aligned with it;
-    uint8, uint16, float32 or int32, the dtype of ``out``) through ``prov``. Rust, GIL released; returns ``out``."""
+    uint8, uint16, float32 or int32, the dtype of ``out``) through ``prov``. ``normal = (encoding, y_down)`` for a
+    normal map: the vectors of rotated or mirrored entries are turned with their pixels, exactly in the sample
+    type (:func:`~tilesynth.io.normal_codes.transform_normal_codes`). Rust, GIL released; returns
+    ``out``."""
     from .. import _core
 
     imap = np.ascontiguousarray(index_map, dtype=np.int32)
+    turns, snorm = None, False
+    if normal is not None and (prov.table[..., 0] > 0).any():
+        from ..io.normal_codes import vector_turns
+
+        turns = np.ascontiguousarray(vector_turns(normal[1]), dtype=np.int8)
+        snorm = normal[0] == "snorm"
     _core.provenance_gather(
         np.ascontiguousarray(image),
         prov.labels,
@@ -200,6 +240,8 @@ def gather(
         (int(offset[0]), int(offset[1])),
         out,
         threads,
+        turns,
+        snorm,
     )
     return out
 
@@ -211,15 +253,22 @@ def gather_reference(
     height: int,
     width: int,
     offset: tuple[int, int] = (0, 0),
+    normal: tuple[str, bool] | None = None,
 ) -> np.ndarray:
-    """The numpy oracle of :func:`gather`: materialise the sources of every pixel, then index."""
+    """The numpy oracle of :func:`gather`: materialise the sources of every pixel, then index (and turn)."""
     n = prov.tile_size
     oy, ox = offset
     y = np.arange(height)[:, None] + oy
     x = np.arange(width)[None, :] + ox
     t = np.asarray(index_map)[y // n, x // n]
     src = prov.source()[t, y % n, x % n]
-    return np.asarray(image)[src[..., 0], src[..., 1]]
+    got = np.asarray(image)[src[..., 0], src[..., 1]]
+    if normal is None:
+        return got
+    from ..io.normal_codes import transform_normal_codes
+
+    sym = np.maximum(prov.table[t, prov.labels[t, y % n, x % n], 0], 0)
+    return transform_normal_codes(got, sym, normal[0], normal[1])
 
 
 def coordinate_grid(height: int, width: int) -> np.ndarray:

@@ -238,11 +238,12 @@ class TileSet:
         tiles, source = self.tiles, self.source
         found = self.__dict__.get("_found")
         if found is None or found[0] is not tiles or found[1] is not source or found[2] is not self.exemplar:
-            from .provenance import factorise, pure_copy
+            from .provenance import factorise, pure_copy, turned_pixels
 
             prov = None
             if not isinstance(self.params.get("smooth"), dict) and pure_copy(tiles, self.exemplar, source):
-                prov = factorise(source)
+                turns = turned_pixels(source, self.match_offsets, self.params.get("match_transforms"))
+                prov = factorise(source, orient=turns)  # an entry's symmetry is its pixels' turn
             found = (tiles, source, self.exemplar, prov)
             self.__dict__["_found"] = found
         return found[3]

@@ -52,6 +52,7 @@ from ...io.normal_codes import (  # the vector turns are normal-code semantics (
     transform_vectors,
     vector_turns,
 )
+from ...tileset.provenance import turned_pixels
 
 __all__ = [
     "AUGMENT_MODES",
@@ -195,15 +196,6 @@ def pixel_transforms(tileset: Any) -> np.ndarray | None:
     """The transform of every tile pixel ``(K, N, N)`` uint8: ``params["match_transforms"][j]`` where tile j shows
     its (transformed) matching patch, 0 where it shows an untransformed sample patch; None when no matching patch
     is transformed. A pixel shows the matching patch when its provenance is the transformed window's
-    (:func:`transformed_source`)."""
+    (:func:`~tilesynth.tileset.provenance.turned_pixels`)."""
     t = tileset.params.get("match_transforms")
-    if t is None:
-        return None
-    t = np.asarray(t, dtype=np.int64).reshape(-1)
-    if not t.any():
-        return None
-    n = tileset.tile_size
-    grid = transformed_source(np.asarray(tileset.match_offsets), t, n)
-    src = np.asarray(tileset.source)
-    inside = (src == grid).all(axis=-1)
-    return np.where(inside, t[:, None, None], 0).astype(np.uint8)
+    return turned_pixels(tileset.source, tileset.match_offsets, t)
