@@ -311,6 +311,7 @@ def seam_blend(
     low_level: float | None,
     reach: int,
     threads: int | None = None,
+    turns: list[npt.NDArray[np.int8] | None] | None = None,
 ) -> None: ...
 
 # matching from shared quadrants (rust/py/ssd.rs)
