@@ -19,7 +19,15 @@ outside ``r1``.
 Sites: ``vertex`` (tile corners) and ``mid`` (side midpoints; they need a kept disc there too: ``--mid-disc``
 adds one, as a fraction of N, by wrapping ``free_terminals``; the vertex disc is ``--disc``, default N/8).
 
-Usage: ``python benches/decals.py --textures coins,gravel-grey --variants 4,8,16 --disc 0.25 [--mid-disc 0.25]``
+Outputs: the 1024² (``--size``) crop, one tile in from the top-left, of a (size + 2N)² synthesis, so every site of
+the crop has its whole window; the lattice bench's measures on the default (V=0) and on each V. ``--split``
+splits the folded score's square by cell position (vertex discs, midpoint discs, ring, the rest by whether most
+tiles show their matching patch there); ``--matching-only`` scores the cells filled with their tiles' whole
+matching patches; ``--png`` / ``--figure`` write crops. Results: ``benches/lattice-results.md`` ("Vertex and
+edge-midpoint decals").
+
+Usage: ``python benches/decals.py --textures coins,gravel-grey --variants 4,8,16 --disc 0.25 [--mid-disc 0.25]
+[--r0 0.8] [--split] [--matching-only] [--png DIR] [--figure docs/figures/lattice-decals-NAME.png]``
 """
 
 from __future__ import annotations
@@ -35,7 +43,7 @@ from lattice import measure, texture_path  # the lattice bench's measures and te
 import tilesynth as ts
 import tilesynth.builder.matching.levers as levers
 from tilesynth.base import kernels
-from tilesynth.measure.lattice import folded_mean
+from tilesynth.measure.lattice import folded_mean, lattice_folded
 from tilesynth.measure.metrics import luminance
 from tilesynth.synth.synthesis import source_map
 
@@ -162,12 +170,15 @@ def overlay(img, table, rr, seed):
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--textures", default="coins,gravel-grey,chalk-text,caustics,lettuce-leaves")
-    ap.add_argument("--variants", default="4,8,16")
+    ap.add_argument("--variants", default="4,8,16", help="comma-separated V (empty: the default build only)")
     ap.add_argument("--disc", type=float, default=None, help="vertex disc as a fraction of N (default 1/8)")
     ap.add_argument("--mid-disc", type=float, default=None, help="side-midpoint disc, fraction of N (off)")
     ap.add_argument("--r0", type=float, default=0.5, help="decal core radius as a fraction of the disc")
     ap.add_argument("--size", type=int, default=1024)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument(
+        "--matching-only", action="store_true", help="folded score of the matching patches laid alone"
+    )
     ap.add_argument("--split", action="store_true", help="print where in the cell the folded score sits")
     ap.add_argument("--png", default=None, help="directory for the top-left 512² before / after / outlined")
     ap.add_argument(
@@ -202,12 +213,14 @@ def main() -> None:
         )
         row = measure(base, ex, n, True)
         print(f"{name} N={n} {tag} V=0: build {build:.2f}s " + fmt(row), flush=True)
+        if a.matching_only:
+            print("  " + matching_only(ex, tset, imap, n, a.size, a.seed), flush=True)
         if a.split:
             cls = position_classes(tset, imap, n, a.size, disc, round(n * a.mid_disc) if a.mid_disc else 0)
             print("  fold split V=0: " + fold_split(base, n, cls), flush=True)
         if png:
             ts.save_image(png / f"{name}-{tag.replace(' ', '_')}-V0.png", base[:512, :512])
-        for v in map(int, a.variants.split(",")):
+        for v in [int(v) for v in a.variants.split(",") if v]:
             t1 = time.process_time()
             table, st = build_decals(ex, img, src, n, big, kinds, rr, r0, r1, v)
             dt = time.process_time() - t1
@@ -282,6 +295,27 @@ def fold_split(img: np.ndarray, n: int, cls: dict[str, np.ndarray]) -> str:
         if m.any():
             parts.append(f"{k} {m.mean():.3f} z² {z2[m].mean():.1f} part {z2[m].sum() / z2.size:.2f}")
     return "; ".join(parts)
+
+
+def matching_only(ex: np.ndarray, tset, imap, n: int, size: int, seed: int) -> str:
+    """The folded score of the output's cells filled with their tiles' whole matching patches (no cuts, no
+    intermediate content), and of the same cells filled with uniformly random exemplar windows (the control)."""
+    tiles = np.asarray(imap)[1 : 1 + size // n, 1 : 1 + size // n]
+    offs = np.asarray(tset.match_offsets)
+    rng = np.random.default_rng(seed)
+    rows, cols = tiles.shape
+    laid = np.zeros((rows * n, cols * n, ex.shape[2]), np.float32)
+    rand = np.zeros_like(laid)
+    for i in range(rows):
+        for j in range(cols):
+            oy, ox = offs[tiles[i, j]]
+            laid[i * n : (i + 1) * n, j * n : (j + 1) * n] = ex[oy : oy + n, ox : ox + n]
+            ry, rx = rng.integers(0, ex.shape[0] - n + 1), rng.integers(0, ex.shape[1] - n + 1)
+            rand[i * n : (i + 1) * n, j * n : (j + 1) * n] = ex[ry : ry + n, rx : rx + n]
+    return (
+        f"fold of the matching patches alone {lattice_folded(laid, n).score:.3f}, "
+        f"random exemplar windows {lattice_folded(rand, n).score:.3f}"
+    )
 
 
 def default_output(ex: np.ndarray, seed: int, size: int, disc, mid) -> np.ndarray:
