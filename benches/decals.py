@@ -214,7 +214,7 @@ def main() -> None:
         row = measure(base, ex, n, True)
         print(f"{name} N={n} {tag} V=0: build {build:.2f}s " + fmt(row), flush=True)
         if a.matching_only:
-            print("  " + matching_only(ex, tset, imap, n, a.size, a.seed), flush=True)
+            print("  " + matching_only(ex, tset, imap, src, n, a.size, a.seed), flush=True)
         if a.split:
             cls = position_classes(tset, imap, n, a.size, disc, round(n * a.mid_disc) if a.mid_disc else 0)
             print("  fold split V=0: " + fold_split(base, n, cls), flush=True)
@@ -297,9 +297,27 @@ def fold_split(img: np.ndarray, n: int, cls: dict[str, np.ndarray]) -> str:
     return "; ".join(parts)
 
 
-def matching_only(ex: np.ndarray, tset, imap, n: int, size: int, seed: int) -> str:
+def intermediate_mean(ex: np.ndarray, src: np.ndarray, n: int) -> np.ndarray:
+    """Luminance ``(N, N)``: the mean over the K vertex patches of what each tile quadrant shows of its corner's
+    vertex patch (the intermediate tiles' mean image; vertex centres read from the provenance ``src``)."""
+    centres = {tuple(src[y, x]) for y in range(n, src.shape[0] - n, n) for x in range(n, src.shape[1] - n, n)}
+    h = n // 2
+    out = np.zeros((n, n))
+    for qy, qx in ((0, 0), (0, 1), (1, 0), (1, 1)):
+        acc = []
+        for cy, cx in centres:
+            ys = cy + np.arange(qy * h, qy * h + h) - qy * n
+            xs = cx + np.arange(qx * h, qx * h + h) - qx * n
+            if ys.min() >= 0 and xs.min() >= 0 and ys.max() < ex.shape[0] and xs.max() < ex.shape[1]:
+                acc.append(luminance(ex[np.ix_(ys, xs)]))
+        out[qy * h : qy * h + h, qx * h : qx * h + h] = np.mean(acc, axis=0)
+    return out
+
+
+def matching_only(ex: np.ndarray, tset, imap, src, n: int, size: int, seed: int) -> str:
     """The folded score of the output's cells filled with their tiles' whole matching patches (no cuts, no
-    intermediate content), and of the same cells filled with uniformly random exemplar windows (the control)."""
+    intermediate content), and of the same cells filled with uniformly random exemplar windows (the control);
+    and the correlation of the matching patches' mean image with the intermediate tiles' mean image."""
     tiles = np.asarray(imap)[1 : 1 + size // n, 1 : 1 + size // n]
     offs = np.asarray(tset.match_offsets)
     rng = np.random.default_rng(seed)
@@ -312,9 +330,11 @@ def matching_only(ex: np.ndarray, tset, imap, n: int, size: int, seed: int) -> s
             laid[i * n : (i + 1) * n, j * n : (j + 1) * n] = ex[oy : oy + n, ox : ox + n]
             ry, rx = rng.integers(0, ex.shape[0] - n + 1), rng.integers(0, ex.shape[1] - n + 1)
             rand[i * n : (i + 1) * n, j * n : (j + 1) * n] = ex[ry : ry + n, rx : rx + n]
+    corr = np.corrcoef(folded_mean(laid, n).ravel(), intermediate_mean(ex, src, n).ravel())[0, 1]
     return (
         f"fold of the matching patches alone {lattice_folded(laid, n).score:.3f}, "
-        f"random exemplar windows {lattice_folded(rand, n).score:.3f}"
+        f"random exemplar windows {lattice_folded(rand, n).score:.3f}, "
+        f"corr(matching patches' mean, intermediate tiles' mean) {corr:.2f}"
     )
 
 
