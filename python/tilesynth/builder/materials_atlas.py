@@ -273,7 +273,7 @@ def blend_windows(
     mirrored entries (``--augment``) turned with them. None when the set has no provenance or ``items`` is
     empty."""
     from .. import _core
-    from .matching.augment import vector_turns
+    from ..io.normal_codes import vector_turns
 
     prov = map_provenance(tileset)
     if prov is None or not items:

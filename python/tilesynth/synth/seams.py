@@ -311,8 +311,7 @@ def blend_tiles(
     "unorm" / "snorm", ``y_down`` the DirectX convention, for turning the vectors of rotated or mirrored
     entries); ``bands``: None for :data:`BANDS` ``[kind]``, or levels replacing them (:func:`check_bands`;
     ``{"high": L}`` alone is one linear band)."""
-    from ..builder.matching.augment import transform_normal_codes, transform_vectors
-    from ..io.normal_codes import encode_unit
+    from ..io.normal_codes import encode_unit, transform_normal_codes, transform_vectors
 
     img = np.asarray(image)
     h, w, c = img.shape
