@@ -236,8 +236,10 @@ vec2 ts_turn(int code, vec2 g) {
 }
 
 // A tangent-space normal turned with its patch (normal: 1 unsigned +y codes, 2 unsigned -y, 3 signed +y,
-// 4 signed -y; 0 no turn). R (an anticlockwise quarter turn on screen) takes (x, y) to (-y, x), y up.
+// 4 signed -y; 0 no turn; -1 a one-channel scalar map bound with its low band in .g: the value, grey). R (an
+// anticlockwise quarter turn on screen) takes (x, y) to (-y, x), y up.
 vec4 ts_turn_normal(vec4 c, int code, int normal) {
+    if (normal < 0) return vec4(c.rrr, 1.0);
     int sym = code & 7;
     if (normal == 0 || sym == 0) return c;
     vec2 v = normal <= 2 ? c.xy * 2.0 - 1.0 : c.xy;
@@ -249,12 +251,16 @@ vec4 ts_turn_normal(vec4 c, int code, int normal) {
     return c;
 }
 
-vec4 ts_entry(sampler2D map, TsSite s, int code, int bx, int normal) {
+// The texel of an entry as stored (no turn of a normal): textureGrad with the footprint's turned derivatives.
+vec4 ts_entry_raw(sampler2D map, TsSite s, int code, int bx) {
     vec2 size = vec2(textureSize(map, 0));
     vec2 src = ts_src(code, bx, s.p);
     TS_COUNT(1);
-    vec4 c = textureGrad(map, src / size, ts_turn(code, s.gx) / size, ts_turn(code, s.gy) / size);
-    return ts_turn_normal(c, code, normal);
+    return textureGrad(map, src / size, ts_turn(code, s.gx) / size, ts_turn(code, s.gy) / size);
+}
+
+vec4 ts_entry(sampler2D map, TsSite s, int code, int bx, int normal) {
+    return ts_turn_normal(ts_entry_raw(map, s, code, bx), code, normal);
 }
 
 // One map at the site: entry A, entry B or both weighted by w (the weight of B).
@@ -468,18 +474,19 @@ vec2 ts_slope(vec4 c, int normal) {
     return v.xy / max(v.z, 1.0 / 16.0);
 }
 
-// The seam blend of one map at the site (tilesynth.synth.seams step 5): normal != 0 a normal map (slopes
+// The seam blend of one map at the site (tilesynth.synth.seams step 5): normal > 0 a normal map (slopes
 // blended with the detail weights), else a scalar map (the low band variance-preserving about mean, the detail
-// linear); a pixel whose weights are all one entry's is that entry's sample.
+// linear; normal -1: a one-channel map bound with its low band in .g, one fetch per entry for both); a pixel
+// whose weights are all one entry's is that entry's sample.
 vec4 ts_blend_map(sampler2D map, TsSite s, TsBlend b, vec4 bands, vec4 mean, int normal) {
-    bool low = bands.y >= 0.0 && normal == 0;
+    bool low = bands.y >= 0.0 && normal <= 0;
     for (int i = 0; i < 5; i++) {
         if (ts_h(b, i) >= 1.0 - 1e-5 && (!low || ts_g(b, i) >= 1.0 - 1e-5)) {
             ivec2 e = ts_slot(b, i);
             return ts_entry(map, s, e.x, e.y, normal);
         }
     }
-    if (normal != 0) {
+    if (normal > 0) {
         vec2 sl = vec2(0.0);
         for (int i = 0; i < 5; i++) {
             float h = ts_h(b, i);
@@ -496,8 +503,16 @@ vec4 ts_blend_map(sampler2D map, TsSite s, TsBlend b, vec4 bands, vec4 mean, int
         float h = ts_h(b, i), g = low ? ts_g(b, i) : 0.0;
         if (h <= 0.0 && g <= 0.0) continue;
         ivec2 e = ts_slot(b, i);
-        vec4 a = low ? ts_entry_low(map, s, e, bands.z, normal) : vec4(0.0);
-        if (h > 0.0) det += h * (ts_entry(map, s, e.x, e.y, normal) - a);
+        vec4 a = vec4(0.0), v = vec4(0.0);
+        if (normal < 0) {  // value and low band in one fetch
+            vec4 c = ts_entry_raw(map, s, e.x, e.y);
+            v = vec4(c.rrr, 1.0);
+            a = low ? vec4(c.ggg, 1.0) : vec4(0.0);
+        } else {
+            if (low) a = ts_entry_low(map, s, e, bands.z, normal);
+            if (h > 0.0) v = ts_entry(map, s, e.x, e.y, normal);
+        }
+        if (h > 0.0) det += h * (v - a);
         if (g > 0.0) {
             base += g * a;
             // an entry shown by two slots (the same source) weighs once in the variance normaliser
@@ -517,7 +532,7 @@ vec4 ts_blend_map(sampler2D map, TsSite s, TsBlend b, vec4 bands, vec4 mean, int
 // A smooth map at the site: the seam blend at magnification and 1:1, fading into the footprint path (ts_map
 // with the footprint's weight w0 = ts_weight(s, 0.0)) from the band's top level to one level above it.
 vec4 ts_smooth_map(sampler2D map, TsSite s, TsBlend b, vec4 bands, vec4 mean, int normal, float w0) {
-    float top = bands.y >= 0.0 && normal == 0 ? bands.y : bands.x;
+    float top = bands.y >= 0.0 && normal <= 0 ? bands.y : bands.x;
     float t = clamp(s.lod - top, 0.0, 1.0);
     if (t >= 1.0) return ts_map(map, s, w0, normal);
     vec4 v = ts_blend_map(map, s, b, bands, mean, normal);

@@ -178,8 +178,10 @@ fn ts_turn(code: i32, g: vec2<f32>) -> vec2<f32> {
     return rc.yx;
 }
 
-// normal: 0 no turn, 1 / 2 unsigned codes +y / -y, 3 / 4 signed vectors +y / -y.
+// normal: 0 no turn, 1 / 2 unsigned codes +y / -y, 3 / 4 signed vectors +y / -y; -1 a one-channel scalar map
+// bound with its low band in .g: the value, grey.
 fn ts_turn_normal(c0: vec4<f32>, code: i32, normal: i32) -> vec4<f32> {
+    if (normal < 0) { return vec4<f32>(c0.xxx, 1.0); }
     let sym = code & 7;
     if (normal == 0 || sym == 0) { return c0; }
     var c = c0;
@@ -195,11 +197,15 @@ fn ts_turn_normal(c0: vec4<f32>, code: i32, normal: i32) -> vec4<f32> {
     return c;
 }
 
-fn ts_entry(map: texture_2d<f32>, s: TsSite, code: i32, bx: i32, normal: i32) -> vec4<f32> {
+// The texel of an entry as stored (no turn of a normal).
+fn ts_entry_raw(map: texture_2d<f32>, s: TsSite, code: i32, bx: i32) -> vec4<f32> {
     let size = vec2<f32>(textureDimensions(map, 0));
     let src = ts_src(code, bx, s.p);
-    let c = textureSampleGrad(map, ts_sampler, src / size, ts_turn(code, s.gx) / size, ts_turn(code, s.gy) / size);
-    return ts_turn_normal(c, code, normal);
+    return textureSampleGrad(map, ts_sampler, src / size, ts_turn(code, s.gx) / size, ts_turn(code, s.gy) / size);
+}
+
+fn ts_entry(map: texture_2d<f32>, s: TsSite, code: i32, bx: i32, normal: i32) -> vec4<f32> {
+    return ts_turn_normal(ts_entry_raw(map, s, code, bx), code, normal);
 }
 
 fn ts_map(map: texture_2d<f32>, s: TsSite, w: f32, normal: i32) -> vec4<f32> {
@@ -425,14 +431,14 @@ fn ts_slope(c: vec4<f32>, normal: i32) -> vec2<f32> {
 }
 
 fn ts_blend_map(map: texture_2d<f32>, s: TsSite, b: TsBlend, bands: vec4<f32>, mean: vec4<f32>, normal: i32) -> vec4<f32> {
-    let low = bands.y >= 0.0 && normal == 0;
+    let low = bands.y >= 0.0 && normal <= 0;
     for (var i = 0; i < 5; i++) {
         if (ts_h(b, i) >= 1.0 - 1e-5 && (!low || ts_g(b, i) >= 1.0 - 1e-5)) {
             let e = ts_slot(b, i);
             return ts_entry(map, s, e.x, e.y, normal);
         }
     }
-    if (normal != 0) {
+    if (normal > 0) {
         var sl = vec2<f32>(0.0);
         for (var i = 0; i < 5; i++) {
             let h = ts_h(b, i);
@@ -452,8 +458,16 @@ fn ts_blend_map(map: texture_2d<f32>, s: TsSite, b: TsBlend, bands: vec4<f32>, m
         if (h <= 0.0 && g <= 0.0) { continue; }
         let e = ts_slot(b, i);
         var a = vec4<f32>(0.0);
-        if (low) { a = ts_entry_low(map, s, e, bands.z); }
-        if (h > 0.0) { det += h * (ts_entry(map, s, e.x, e.y, normal) - a); }
+        var v = vec4<f32>(0.0);
+        if (normal < 0) {  // value and low band in one fetch
+            let c = ts_entry_raw(map, s, e.x, e.y);
+            v = vec4<f32>(c.xxx, 1.0);
+            if (low) { a = vec4<f32>(c.yyy, 1.0); }
+        } else {
+            if (low) { a = ts_entry_low(map, s, e, bands.z); }
+            if (h > 0.0) { v = ts_entry(map, s, e.x, e.y, normal); }
+        }
+        if (h > 0.0) { det += h * (v - a); }
         if (g > 0.0) {
             base += g * a;
             var seen = false;
@@ -471,7 +485,7 @@ fn ts_blend_map(map: texture_2d<f32>, s: TsSite, b: TsBlend, bands: vec4<f32>, m
 }
 
 fn ts_smooth_map(map: texture_2d<f32>, s: TsSite, b: TsBlend, bands: vec4<f32>, mean: vec4<f32>, normal: i32, w0: f32) -> vec4<f32> {
-    let top = select(bands.x, bands.y, bands.y >= 0.0 && normal == 0);
+    let top = select(bands.x, bands.y, bands.y >= 0.0 && normal <= 0);
     let t = clamp(s.lod - top, 0.0, 1.0);
     if (t >= 1.0) { return ts_map(map, s, w0, normal); }
     let v = ts_blend_map(map, s, b, bands, mean, normal);
