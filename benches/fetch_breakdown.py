@@ -39,7 +39,7 @@ KINDS_OF_FUNCTION = {
     "ts_level_f": "blend cov",
     "ts_entry": "value",
     "ts_entry_low": "low",
-    "ts_entry_pair": "value",
+    "ts_entry_raw": "value",  # with the low band beside the map: value and low band in one fetch
 }
 
 
@@ -123,6 +123,65 @@ def entries_per_pixel(tiles, m, x0, y0, w, n):
     return kb[pos, py % n, px % n], kh[pos, py % n, px % n]
 
 
+def blended_reference(
+    r, name: str, x0: float, y0: float, w: int, h: int, scale: float, level: int
+) -> np.ndarray:
+    """As ``ReferenceV2.sampled`` but of :func:`tilesynth.synthesize_maps` (the seam blend), 8-bit as the viewer
+    shows it: bilinear samples of its 2^level box filter."""
+    f = 2**level
+    qx = x0 + (np.arange(w) + 0.5) * scale
+    qy = y0 + (np.arange(h) + 0.5) * scale
+    ax0 = (int(np.floor(qx.min())) // f - 2) * f
+    ay0 = (int(np.floor(qy.min())) // f - 2) * f
+    ax1 = (int(np.ceil(qx.max())) // f + 3) * f
+    ay1 = (int(np.ceil(qy.max())) // f + 3) * f
+    tex = ref.to_rgba8(v2.to_preview8(r.synthesized(name, ax0, ay0, ax1 - ax0, ay1 - ay0)))
+    lvl = ref.box_level(tex, level, srgb=False) if level else tex
+    gx, gy = np.meshgrid(qx / f, qy / f)
+    return ref.bilinear(lvl, gx, gy, ax0 // f, ay0 // f)
+
+
+def mips(tiles, maps, exe, run_page, names=("height", "roughness")) -> None:
+    """RMS (of 255) of the blended maps minified (levels 1-6, 48 x 48 px, exact gradients) against the box filter
+    of ``synthesize_maps``."""
+    n = tiles.tile_size
+    with tempfile.TemporaryDirectory() as d:
+        d = Path(d)
+        m = export(tiles, d / "v2", maps=maps, seed=7)
+        r = v2.ReferenceV2(tiles, m, None, v2.arrays_of(tiles, m, d / "v2"))
+        all_names = [mp["name"] for mp in m["maps"]]
+        cases, refs = [], {}
+        for name in names:
+            for lv in range(1, 7):
+                f = 2**lv
+                ox, oy = -3 * n - 0.37 * f, -5 * n + 0.21 * f
+                exact = blended_reference(r, name, ox, oy, 48, 48, f, lv)
+                c = xv.case(
+                    f"{name} L{lv}",
+                    "grad",
+                    (ox, oy),
+                    48,
+                    48,
+                    f,
+                    255,
+                    np.zeros((48, 48, 4), np.uint8),
+                    dump=True,
+                )
+                c["map"] = all_names.index(name)
+                cases.append(c)
+                refs[c["name"]] = exact
+        cfg = v2.config_for(tiles, m, d / "v2", None, cases)
+        cfg["autorun"] = True
+        (d / "p.html").write_text(v2.page(cfg))
+        rep = run_page(exe, d / "p.html", timeout=900)
+        assert rep.get("error") is None, rep
+    print("map | level | RMS against the box filter of synthesize_maps (of 255)")
+    for c in rep["cases"]:
+        img = np.frombuffer(base64.b64decode(c["image"]), np.uint8).reshape(48, 48, 4)
+        diff = img[..., :1].astype(float) - refs[c["name"]][..., :1]
+        print(f"{c['name']} | {float(np.sqrt((diff**2).mean())):.2f}")
+
+
 def main() -> None:
     from engine_v2 import derived_maps, exemplar
     from webgl import find_browser, run_page
@@ -132,6 +191,7 @@ def main() -> None:
         "--tiles", help="a material .tiles (its maps exported); default: the engine_v2 bench's set"
     )
     ap.add_argument("--size", type=int, default=256, help="window side at 1x (pixels)")
+    ap.add_argument("--mips", action="store_true", help="only the blended maps' RMS per mip level")
     a = ap.parse_args()
     exe = find_browser()
     if a.tiles:
@@ -140,6 +200,9 @@ def main() -> None:
     else:
         tiles = ts.build_omega(exemplar(512), seed=1)
         maps = derived_maps(tiles.exemplar)
+    if a.mips:
+        mips(tiles, maps, exe, run_page)
+        return
     n = tiles.tile_size
     w = a.size
     x0, y0 = -n - 0.3, -2 * n + 0.7
@@ -186,6 +249,17 @@ def main() -> None:
                 print(f"  {e} | {sel.mean():.3f} | {total[sel].mean():.2f} | {total[sel].max()} | "
                       + " | ".join(f"{a_[sel].mean():.2f}" for a_ in v.values()))  # fmt: skip
             print(f"  detail band's entries: mean {kh.mean():.2f}; any band: mean {kb.mean():.2f}")
+            # the formula's floor for the three smooth maps of this bench (normal, height, roughness) and a cut
+            # albedo: the table, the albedo, the normal per detail entry, each scalar map per entry of either
+            # band (value and low band in one fetch; 2 per entry of the detail band more without) and at least
+            # one label read where more than one entry weighs
+            mm = len(names)
+            for tag, fl in (
+                ("low band beside the map", 2 + kh + 2 * kb + (kb > 1)),
+                ("low band from the map's mips", 2 + kh + 2 * (kh + kb) + (kb > 1)),
+            ):
+                print(f"  floor ({tag}): mean {fl.mean():.2f}, share <= M + 1 {(fl <= mm + 1).mean():.3f}, "
+                      f"share <= 2M + 1 {(fl <= 2 * mm + 1).mean():.3f}")  # fmt: skip
 
 
 if __name__ == "__main__":

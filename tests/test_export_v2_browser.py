@@ -235,7 +235,7 @@ def test_v2_shaders_compile_with_glslang(tmp_path, target):
         " o = ts_map(m0, s, ts_weight(s, 0.0), 1) + ts_fetch_map(m0, ivec2(uv), 2)"
         " + ts_sample_map(m0, uv, 3.0, 0); vec4 bd = vec4(3.0, 5.0, 4.0, 16.0); TsBlend b = ts_blend(s, bd);"
         " o += ts_smooth_map(m0, s, b, bd, vec4(0.5), 0, 0.0) + ts_smooth_map(m0, s, b, vec4(3.0, -1.0, 0.0, 1.0),"
-        " vec4(0.0), 1, 0.0); }\n"
+        " vec4(0.0), 1, 0.0) + ts_smooth_map(m0, s, b, bd, vec4(0.5), -1, 0.0); }\n"
     )
     if target == "hlsl":
         src = shader_source("tilesynth_v2.hlsl") + (
@@ -243,7 +243,8 @@ def test_v2_shaders_compile_with_glslang(tmp_path, target):
             "float4 main(float2 uv : TEXCOORD0) : SV_Target { TsSite s = ts_site(uv, ddx(uv), ddy(uv));"
             " return ts_map(m0, s, ts_weight(s, 0.0), 1) + ts_fetch_map(m0, int2(uv), 3)"
             " + ts_sample_map(m0, uv, 2.0, 0) + ts_smooth_map(m0, s, ts_blend(s, float4(3, 5, 4, 16)),"
-            " float4(3, 5, 4, 16), float4(0.5, 0.5, 0.5, 1), 0, 0.0); }\n"
+            " float4(3, 5, 4, 16), float4(0.5, 0.5, 0.5, 1), 0, 0.0) + ts_smooth_map(m0, s, ts_blend(s,"
+            " float4(3, 5, 4, 16)), float4(3, 5, 4, 16), float4(0.5, 0.5, 0.5, 1), -1, 0.0); }\n"
         )
         f = tmp_path / "t.hlsl"
         cmd = [exe, "-D", "-V", "-e", "main", "-S", "frag", "-o", str(tmp_path / "t.spv"), str(f)]
@@ -292,7 +293,9 @@ def test_v2_wgsl_validates_with_naga(tmp_path):
         "  return ts_map(m0, s, ts_weight(s, 0.0), 1) + ts_fetch_map(m0, vec2<i32>(uv), 1)"
         " + ts_sample_map(m0, uv, 2.0, 0)\n"
         "    + ts_smooth_map(m0, s, ts_blend(s, vec4<f32>(3.0, 5.0, 4.0, 16.0)), vec4<f32>(3.0, 5.0, 4.0, 16.0),"
-        " vec4<f32>(0.5), 0, 0.0);\n}\n"
+        " vec4<f32>(0.5), 0, 0.0)\n"
+        "    + ts_smooth_map(m0, s, ts_blend(s, vec4<f32>(3.0, 5.0, 4.0, 16.0)), vec4<f32>(3.0, 5.0, 4.0, 16.0),"
+        " vec4<f32>(0.5), -1, 0.0);\n}\n"
     )
     out = subprocess.run([exe, str(f)], capture_output=True, text=True)
     assert out.returncode == 0, out.stdout + out.stderr

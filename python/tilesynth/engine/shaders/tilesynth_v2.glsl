@@ -25,6 +25,9 @@
 //   vec4 normal = ts_smooth_map(normal_tex, s, b, nbands, vec4(0.0), 1, w0);
 // bands = (high, low, split, reach) ("low" < 0 for a normal map or a map without a low band), mean = the map's
 // "mean" per channel (1 for the alpha of maps with fewer channels), w0 = ts_weight(s, 0.0) (the footprint path).
+// A one-channel scalar map with a "low_band" in the manifest: bind level l of the map and level l of its low band
+// as one two-channel texture (R value, G low band) and pass normal = -1 (one fetch per entry serves both; the
+// result is the value, grey); without it normal = 0 and the low band comes from the map's own mips.
 // The entries of a tile on the GPU are the quadrant form: A_0..A_3 and B. The weights are exact: the detail
 // band's label coverage at its top level (3) and the low band's (the labels extended "reach" px from the tile
 // border) from ts_blend_cov (exact shares, one bilinear fetch per quadrant the sample's taps fall in: the
@@ -33,19 +36,20 @@
 // values hold the exact counts there; a texelFetch per tap: these are the 6-px border ring only); a read is
 // skipped where the quadrant's radii say its blocks are all A or all B. The values: each entry of non-zero
 // weight at the pixel, at level 0 (textureGrad
-// with the footprint's derivatives, so bilinear under magnification), and for a low band the map's own mip at
-// level "split" (textureLod, MIRRORED_REPEAT: the box mip when the map's sides are multiples of 2^split).
-// Approximations: float32 arithmetic (the CPU: float64), the map's mips stored in its sample type (8-bit maps:
-// the low band within about half a code), map sides not multiples of 2^split (the chain drops the odd row; the
-// CPU's box mip averages a partial block: 124 px, split 3, up to 3 codes). Measured against synthesize_maps at
-// 1:1 (tests/test_export_v2_browser.py): at most 1 code of 255 where the sides are multiples of 2^split.
-// Minification: the blend reads every entry with the footprint's filter (textureGrad; the low band at level
-// max(split, footprint)); above the band's top level (low for scalar maps, high for normals) it fades into
+// with the footprint's derivatives, so bilinear under magnification), and for a low band channel G of the same
+// texel (normal = -1: the CPU's low band at every pixel, stored beside the map) or the map's own mip at level
+// "split" (textureLod, MIRRORED_REPEAT: the box mip when the map's sides are multiples of 2^split).
+// Approximations: float32 arithmetic (the CPU: float64), the low band stored in the map's sample type (8-bit
+// maps: within half a code); from the map's mips only: sides not multiples of 2^split (the chain drops the odd
+// row; the CPU's box mip averages a partial block: 124 px, split 3, up to 3 codes). Measured against
+// synthesize_maps at 1:1 (tests/test_export_v2_browser.py): at most 1 code of 255.
+// Minification: the blend reads every entry with the footprint's filter (textureGrad; the low band beside the
+// map at the footprint's level of its chain, from the map's mips at level max(split, footprint)); above the band's top level (low for scalar maps, high for normals) it fades into
 // the footprint path (ts_map with w0) over one level, and from one level above it is that path alone.
 // Fetches for a smooth map: 1 per map where every weight is one entry's (away from cuts, quadrant lines and the
 // label band); near them the weights' label reads (shared by the maps of the same bands; counted in
-// tests/test_export_v2_browser.py) and per map 1 (normal) or 2 (scalar with low band) per entry of non-zero
-// weight.
+// tests/test_export_v2_browser.py) and per map 1 per entry of non-zero weight (normal maps; scalar maps with
+// the low band beside them), 2 for a scalar map reading its low band from its mips.
 //
 // Uniforms (from manifest.json "textures" and "lookup"):
 //   ts_bits      labels_bits.png as R8UI (NEAREST, texelFetch only)
