@@ -120,9 +120,9 @@ class ReferenceV2:
 
 BLEND_TOLERANCE = 2
 """Largest difference (of 255) the self-test allows for a blended smooth map at 1:1 against
-:func:`tilesynth.synthesize_maps`: float32 against float64, 8-bit previews of 16-bit maps, the low band from the
-map's own mips (measured: at most 1 where the exemplar's sides are multiples of 2^split,
-``tests/test_export_v2_browser.py``)."""
+:func:`tilesynth.synthesize_maps`: float32 against float64, 8-bit previews of 16-bit maps, the low band stored in
+the map's sample type (measured: at most 1, ``tests/test_export_v2_browser.py``; a multi-channel scalar map reads
+its low band from its own mips: up to 3 where the exemplar's sides are not multiples of 2^split)."""
 
 
 def to_preview8(img: np.ndarray) -> np.ndarray:
