@@ -34,7 +34,8 @@
 // blocks of every level lie in one quadrant; the position clamped to the tile's texel centres, as the CPU
 // clamps its indices), the detail band's levels 0-1 from the bits and 2 from the coverage texture (its 8-bit
 // values hold the exact counts there; a texelFetch per tap: these are the 6-px border ring only); a read is
-// skipped where the quadrant's radii say its blocks are all A or all B. The values: each entry of non-zero
+// skipped where the quadrant's radii say its blocks are all A or all B (and where the taps straddle a quadrant
+// line but the own quadrant's are all B, one filtered read of all four taps first: 1, no other table texel). The values: each entry of non-zero
 // weight at the pixel, at level 0 (textureGrad
 // with the footprint's derivatives, so bilinear under magnification), and for a low band channel G of the same
 // texel (normal = -1: the CPU's low band at every pixel, stored beside the map) or the map's own mip at level
@@ -404,6 +405,25 @@ void ts_level_f(inout TsBlend b, TsSite s, int band, int l, float lw, int reach)
     bvec2 cut = bvec2((a.x < hq) != (c.x < hq), (a.y < hq) != (c.y < hq));
     int t = s.tile, cols = ts_blend_layout.x;
     vec2 base = vec2(ivec2(t % cols, t / cols) * ts_blend_cell() + ts_blend_origin(band, l));
+    if (cut.x || cut.y) {
+        // taps in several quadrants whose own-quadrant taps the radii call all B (the B blob about the tile's
+        // centre): one filtered fetch of all four taps; 1 means every tap is B, and the other quadrants'
+        // table texels are not needed (each tap's bilinear weight is at least 1/64 at a pixel centre)
+        int h = n / 2;
+        bvec2 high = bvec2(s.p.x >= float(h), s.p.y >= float(h));
+        ivec2 lo = a, hi = c;
+        if (cut.x) lo.x = hi.x = high.x ? c.x : a.x;
+        if (cut.y) lo.y = hi.y = high.y ? c.y : a.y;
+        int qo = (high.y ? 2 : 0) + (high.x ? 1 : 0);
+        if (ts_rect_known(b, band, lo * sz, hi * sz + sz - 1, qo, reach) == 1.0) {
+            TS_COUNT(1);
+            vec2 pos = vec2(a) + 0.5 + vec2(notEqual(a, c)) * f;
+            if (textureLod(ts_blend_cov, (base + pos) / vec2(textureSize(ts_blend_cov, 0)), 0.0).r >= 1.0) {
+                if (band == 0) b.hb += lw; else b.gb += lw;
+                return;
+            }
+        }
+    }
     for (int g = 0; g < 4; g++) {
         int gx = g & 1, gy = g >> 1;
         if ((gx == 1 && !cut.x) || (gy == 1 && !cut.y)) continue;

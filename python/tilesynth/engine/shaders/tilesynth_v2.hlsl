@@ -329,6 +329,22 @@ void ts_level_f(inout TsBlend b, TsSite s, int band, int l, float lw, int reach)
     float2 base = float2(int2(t % cols, t / cols) * ts_blend_cell() + ts_blend_origin(band, l));
     uint tw, th;
     ts_blend_cov.GetDimensions(tw, th);
+    if (cutx || cuty) {
+        // taps in several quadrants whose own-quadrant taps the radii call all B: one filtered read of all four
+        // taps; 1 means every tap is B (tilesynth_v2.glsl)
+        bool hx = s.p.x >= float(n / 2), hy = s.p.y >= float(n / 2);
+        int2 lo = a, hi = c;
+        if (cutx) { lo.x = hx ? c.x : a.x; hi.x = lo.x; }
+        if (cuty) { lo.y = hy ? c.y : a.y; hi.y = lo.y; }
+        int qo = (hy ? 2 : 0) + (hx ? 1 : 0);
+        if (ts_rect_known(b, band, lo * sz, hi * sz + sz - 1, qo, reach) == 1.0) {
+            float2 pos = float2(a) + 0.5 + float2(a != c) * f;
+            if (ts_blend_cov.SampleLevel(ts_sampler, (base + pos) / float2(tw, th), 0.0) >= 1.0) {
+                if (band == 0) b.hb += lw; else b.gb += lw;
+                return;
+            }
+        }
+    }
     for (int g = 0; g < 4; g++) {
         int gx = g & 1, gy = g >> 1;
         if ((gx == 1 && !cutx) || (gy == 1 && !cuty)) continue;

@@ -363,6 +363,24 @@ fn ts_level_f(b: ptr<function, TsBlend>, s: TsSite, band: i32, l: i32, lw: f32, 
     let cols = ts_blend_layout.x;
     let base = vec2<f32>(vec2<i32>(t % cols, t / cols) * ts_blend_cell() + ts_blend_origin(band, l));
     let tsize = vec2<f32>(textureDimensions(ts_blend_cov, 0));
+    if (cutx || cuty) {
+        // taps in several quadrants whose own-quadrant taps the radii call all B: one filtered read of all four
+        // taps; 1 means every tap is B (tilesynth_v2.glsl)
+        let hx = s.p.x >= f32(n / 2);
+        let hy = s.p.y >= f32(n / 2);
+        var lo = a;
+        var hi = c;
+        if (cutx) { lo.x = select(a.x, c.x, hx); hi.x = lo.x; }
+        if (cuty) { lo.y = select(a.y, c.y, hy); hi.y = lo.y; }
+        let qo = select(0, 2, hy) + select(0, 1, hx);
+        if (ts_rect_known(*b, band, lo * sz, hi * sz + vec2<i32>(sz - 1), qo, reach) == 1.0) {
+            let pos = vec2<f32>(a) + 0.5 + select(vec2<f32>(0.0), f, a != c);
+            if (textureSampleLevel(ts_blend_cov, ts_sampler, (base + pos) / tsize, 0.0).r >= 1.0) {
+                if (band == 0) { (*b).hb += lw; } else { (*b).gb += lw; }
+                return;
+            }
+        }
+    }
     for (var g = 0; g < 4; g++) {
         let gx = g & 1;
         let gy = g >> 1u;
