@@ -98,7 +98,8 @@ def memory(size: int, with_v1: bool) -> None:
         g = m2["gpu_bytes"]
         print(
             f"v2 GPU: maps {g['maps'] / 2**20:.2f} MiB, bits {g['bits'] / 2**20:.2f}, coverage "
-            f"{g['coverage'] / 2**20:.2f}, table {g['table'] / 2**20:.3f}, reach {g['reach'] / 2**20:.3f}, total "
+            f"{g['coverage'] / 2**20:.2f}, table {g['table'] / 2**20:.3f}, blend {g.get('blend', 0) / 2**20:.3f}, "
+            f"low bands {g.get('low_band', 0) / 2**20:.3f}, total "
             f"{g['total'] / 2**20:.2f} MiB = {g['ratio_to_maps']:.3f}x the maps"
         )
         fb = dir_bytes(Path(d) / "v2")

@@ -496,3 +496,73 @@ def test_cli_export_blends_smooth_maps_and_says_where_it_cannot(tmp_path, small_
     assert "labels_blend.png" in m16["files"]
     atlas = export(ts.load(tmp_path / "m16.tiles"), tmp_path / "a16", format="atlas", padding=4)
     assert _all_files(tmp_path / "a16") == {*atlas["files"], "manifest.json"}
+
+
+@pytest.fixture(scope="module")
+def odd_material():
+    """Tiles of 64 (the blend's low band, split 3) on a 124 x 116 exemplar: sides not multiples of 2^3."""
+    data = Path(__file__).parent / "data"
+    albedo = np.asarray(load_raster(data / "rock053-albedo-128.png"))[:116, :124]
+    luma = (albedo.astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722]) / 255.0)[..., None]
+    maps = {
+        "height": np.rint(luma * 65535).astype(np.uint16),
+        "roughness": np.rint((1 - luma) * 255).astype(np.uint8),
+    }
+    return ts.build(albedo, tileset="c2", tile_size=64, seed=1, maps=maps), maps
+
+
+def test_low_band_beside_its_map_is_the_cpu_low_band(tmp_path, odd_material):
+    """A one-channel scalar map blended with a low band carries that band as a texture of its own size (bound
+    with the map as a second channel): at every texel the CPU formula's ``a`` (the bilinear sample of the box mip
+    at level ``split``, a partial last block averaging its own pixels), so the shader reads what
+    ``synthesize_maps`` reads wherever an entry lands, mirrored past the exemplar's edge included; the maps
+    without a low band (albedo, normals, multi-channel) have none; its bytes are counted apart."""
+    from tilesynth.synth import seams
+
+    tileset, maps = odd_material
+    normal = np.zeros(tileset.exemplar.shape, np.uint8)
+    normal[..., 2] = 255
+    m = export(tileset, tmp_path / "x", maps={"normal": normal})
+    validate_manifest(m)
+    got = {mp["name"]: mp for mp in m["maps"]}
+    assert {k for k, mp in got.items() if "low_band" in mp} == {"height", "roughness"}
+    low_bytes = 0
+    for name in ("height", "roughness"):
+        mp = got[name]
+        lb = mp["low_band"]
+        assert lb["channel"] == 1 and [lv["width"] for lv in lb["levels"]] == [
+            lv["width"] for lv in mp["levels"]
+        ]
+        split = int(mp["bands"]["split"])
+        scale = 65535.0 if maps[name].dtype == np.uint16 else 255.0
+        stored = np.asarray(load_raster(tmp_path / "x" / lb["levels"][0]["file"])).reshape(
+            maps[name].shape[:2]
+        )
+        assert stored.dtype == maps[name].dtype
+        mip = seams.box_mip(maps[name].astype(np.float64) / scale, split)
+        # the entries of every tile at every pixel, mirrored where they leave the exemplar
+        prov = tileset._provenance()
+        coords = seams.entry_coords(prov.table, 64, *maps[name].shape[:2])
+        exact = seams.sample_mip(mip, split, coords)[..., 0] * scale
+        assert np.abs(stored[coords[..., 0], coords[..., 1]] - exact).max() <= 0.5 + 1e-9
+        low_bytes += sum(lv["width"] * lv["height"] * maps[name].dtype.itemsize for lv in lb["levels"])
+    g = m["gpu_bytes"]
+    assert g["low_band"] == low_bytes and g["total"] == sum(
+        v for k, v in g.items() if k not in ("total", "ratio_to_maps")
+    )
+    assert g["ratio_to_maps"] < 2.5  # a 124 x 116 exemplar of 16 tiles: the labels weigh more than at 512²
+
+
+def test_viewer_refuses_a_low_band_it_cannot_bind(tmp_path, odd_material):
+    from tilesynth.engine import viewer_v2 as v2
+
+    tileset, _ = odd_material
+    m = export(tileset, tmp_path / "x")
+    bad = json.loads(json.dumps(m))
+    mp = next(x for x in bad["maps"] if x["name"] == "height")
+    mp["low_band"]["levels"] = mp["low_band"]["levels"][:-1]
+    with pytest.raises(ParameterError, match="low_band"):
+        v2.config_for(tileset, bad, tmp_path / "x", None, [])
+    mp["low_band"]["channel"] = 2
+    with pytest.raises(jsonschema.ValidationError):
+        validate_manifest(bad)

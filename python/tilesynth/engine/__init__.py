@@ -396,7 +396,7 @@ def _export_v2(
     plans = pe.seam_plans(entries, tileset.tile_size, blend_levels, map_smooth)
     layout = pe.blend_layout(plans, tileset.tile_size)
     n_cov = pe.coverage_count(tileset.tile_size)
-    names = pe.export_files_v2(entries, n_cov, blend=layout is not None)
+    names = pe.export_files_v2(entries, n_cov, blend=layout is not None, plans=plans)
     if lookup == "index_map":
         names.append("index.png")
     names += [f"shaders/{s}" for s in SHADER_FILES_V2]
@@ -419,7 +419,14 @@ def _export_v2(
             _write_text(out / "shaders" / s, shader_source(s))
             files.append(f"shaders/{s}")
         shapes = [(*e["array"].shape, e["array"].dtype.itemsize) for e in entries]
-        mem = pe.gpu_bytes(shapes, tileset.n_tiles, tileset.tile_size, None if layout is None else layout[:2])
+        lows = [
+            (*e["array"].shape[:2], 1, e["array"].dtype.itemsize)
+            for e in entries
+            if pe.packs_low_band(e["kind"], int(e["array"].shape[2]), plans.get(e["name"]))
+        ]
+        mem = pe.gpu_bytes(
+            shapes, tileset.n_tiles, tileset.tile_size, None if layout is None else layout[:2], lows
+        )
         manifest = {
             "format": EXPORT_FORMAT,
             "format_version": 2,

@@ -19,6 +19,9 @@ of 1 bits) is what weights the two sources where a filter footprint straddles a 
 ``map_<name>.png`` + mips  each exemplar map once, its full mip chain to 1 x 1 (``H >> L``, ``W >> L``
                            rounded down, a 2 x 2 box over the even part: an odd last row or column is left
                            out of the next level); colour maps reduced in linear light, normals renormalised
+``map_<name>_low.png``     a one-channel scalar map blended with a low band: that band at every pixel
++ mips                     (:func:`low_band_image`), bound with the map as one two-channel texture (value,
+                           low band): one fetch per entry serves both (``low_band`` in the map's entry)
 ``labels_bits.png``        R8UI (an 8-bit grey PNG): tile ``t``'s bits in an ``N/8 x N`` cell at column
                            ``t % bits_columns``, row ``t // bits_columns``; bit ``i`` of texel (x, y) of the
                            cell is pixel (8x + i, y) of the tile (least significant bit first)
@@ -56,7 +59,9 @@ from .seam_textures import (  # noqa: F401 - blend_plan, blend_shares, reach_spa
     blend_layout,
     blend_plan,
     blend_shares,
+    low_band_image,
     map_mean,
+    packs_low_band,
     reach_span,
     seam_plans,
 )
@@ -82,6 +87,16 @@ TABLE_WIDTH = 256
 """Width of the source-table texture (texels); texel ``4t + q`` is at (i % 256, i // 256)."""
 BIAS = 32768
 """Added to ``by`` before it is packed with the symmetry (``code = ((by + BIAS) << 3) | s``)."""
+
+LOW_BAND_RULE = (
+    "the seam blend's low band of this map (tilesynth.synth.seams step 4) at every exemplar pixel: the bilinear "
+    "sample of the map's 2^split box mip (a partial last block averages its own pixels, indices mirrored) at the "
+    "pixel centre, in the map's sample type, with its own full mip chain; bind level l of the map and level l of "
+    "this as one two-channel texture (value, low band) and pass normal = -1 to ts_smooth_map: one fetch per entry "
+    "then serves both (a reader that does not bind it passes the map alone with normal = 0, one more fetch per "
+    "entry)"
+)
+"""The manifest's ``low_band`` rule (a one-channel scalar map blended with a low band)."""
 
 
 class QuadrantForm:
@@ -281,24 +296,32 @@ def full_mip_chain(arr: np.ndarray, srgb: bool, normal_encoding: str | None = No
     return chain
 
 
+def _chain_bytes(shapes: list[tuple[int, int, int, int]]) -> int:
+    total = 0
+    for h, w, c, b in shapes:
+        c = 4 if c == 3 else c
+        while True:
+            total += h * w * c * b
+            if h == 1 and w == 1:
+                break
+            h, w = max(1, h // 2), max(1, w // 2)
+    return total
+
+
 def gpu_bytes(
     map_shapes: list[tuple[int, int, int, int]],
     n_tiles: int,
     tile_size: int,
     blend: tuple[int, tuple[int, int] | None] | None = None,
+    low_shapes: list[tuple[int, int, int, int]] | None = None,
 ) -> dict[str, int]:
     """Uncompressed GPU bytes of a version-2 export: ``map_shapes`` = ``(H, W, channels, bytes per sample)``;
     3-channel maps count as RGBA (no RGB8 render format on most GPUs); every map with its full chain;
     ``blend`` ``(high level, reach levels or None)``: the seam blend's coverage (R16F, :func:`blend_coverage`),
-    None without it."""
-    maps = 0
-    for h, w, c, b in map_shapes:
-        c = 4 if c == 3 else c
-        while True:
-            maps += h * w * c * b
-            if h == 1 and w == 1:
-                break
-            h, w = max(1, h // 2), max(1, w // 2)
+    None without it; ``low_shapes``: the low bands carried beside their maps (the second channel of a
+    two-channel texture, :func:`packs_low_band`), counted apart as ``low_band``."""
+    maps = _chain_bytes(map_shapes)
+    low = _chain_bytes(low_shapes or [])
     n = tile_size
     bits = n_tiles * n * n // 8
     cov = 0
@@ -314,8 +337,9 @@ def gpu_bytes(
         cols, rows = _atlas.grid_for(n_tiles)
         w, h = blend_cell(n, *blend)
         blend_b = cols * w * rows * h * 2
-    total = maps + bits + cov + table + blend_b
-    return {"maps": maps, "bits": bits, "coverage": cov, "table": table, "blend": blend_b, "total": total}
+    total = maps + low + bits + cov + table + blend_b
+    return {"maps": maps, "low_band": low, "bits": bits, "coverage": cov, "table": table, "blend": blend_b,
+            "total": total}  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------------ the maps
@@ -414,19 +438,30 @@ def check_blend_levels(blend_levels: Any, names: list[str]) -> dict[str, float]:
     return {n: out.get(n, 0.0) for n in names}
 
 
-def export_files_v2(entries: list[dict[str, Any]], n_coverage: int, blend: bool = False) -> list[str]:
+def export_files_v2(
+    entries: list[dict[str, Any]],
+    n_coverage: int,
+    blend: bool = False,
+    plans: dict[str, dict[str, float] | None] | None = None,
+) -> list[str]:
     """The level files of the maps and labels of a version-2 export (no shaders, viewer or manifest);
-    ``blend``: with the seam blend's coverage."""
+    ``blend``: with the seam blend's coverage; ``plans`` (:func:`seam_plans`): with the low bands of the maps
+    that carry one (:func:`packs_low_band`)."""
     names = []
+    plans = plans or {}
     for e in entries:
         ext = "exr" if e["array"].dtype == np.float32 else "png"
-        h, w = e["array"].shape[:2]
-        lv = 0
-        while True:
-            names.append(f"map_{e['name']}.{ext}" if lv == 0 else f"map_{e['name']}_mip{lv}.{ext}")
-            if h == 1 and w == 1:
-                break
-            h, w, lv = max(1, h // 2), max(1, w // 2), lv + 1
+        stems = [f"map_{e['name']}"]
+        if packs_low_band(e["kind"], int(e["array"].shape[2]), plans.get(e["name"])):
+            stems.append(f"map_{e['name']}_low")
+        for stem in stems:
+            h, w = e["array"].shape[:2]
+            lv = 0
+            while True:
+                names.append(f"{stem}.{ext}" if lv == 0 else f"{stem}_mip{lv}.{ext}")
+                if h == 1 and w == 1:
+                    break
+                h, w, lv = max(1, h // 2), max(1, w // 2), lv + 1
     names += ["labels_bits.png", "labels_coverage.png"]
     names += [f"labels_coverage_mip{j}.png" for j in range(1, n_coverage)]
     if blend:
@@ -477,6 +512,16 @@ def write_textures(
             write_level(out / fname, a)
             files.append(fname)
             levels.append({"level": lv, "file": fname, "width": int(a.shape[1]), "height": int(a.shape[0])})
+        bands = plans.get(e["name"])
+        low_levels = []
+        if packs_low_band(e["kind"], int(arr.shape[2]), bands):
+            for lv, a in enumerate(full_mip_chain(low_band_image(arr, int(bands["split"])), False)):
+                fname = f"map_{e['name']}_low.{ext}" if lv == 0 else f"map_{e['name']}_low_mip{lv}.{ext}"
+                write_level(out / fname, a)
+                files.append(fname)
+                low_levels.append(
+                    {"level": lv, "file": fname, "width": int(a.shape[1]), "height": int(a.shape[0])}
+                )
         me: dict[str, Any] = {
             "name": e["name"],
             "kind": e["kind"],
@@ -490,12 +535,17 @@ def write_textures(
             "blend_level": blend[e["name"]],
             "normal": normal_code(e, normal_y),
         }
-        bands = plans.get(e["name"])
         if bands is not None:
             me["seam"] = "blend"
             me["bands"] = {k: float(v) for k, v in bands.items()}
             if e["kind"] == "scalar":
                 me["mean"] = map_mean(arr)
+            if low_levels:
+                me["low_band"] = {
+                    "levels": low_levels,
+                    "channel": 1,
+                    "rule": LOW_BAND_RULE,
+                }
         else:
             me["seam"] = "coverage" if blend[e["name"]] > 0 else "cut"
         if e["kind"] == "normal" or infer_kind(e["name"]) == "normal":  # as version 1: by name too

@@ -15,7 +15,15 @@ from . import atlas as _atlas
 if TYPE_CHECKING:
     from .provenance_export import QuadrantForm
 
-__all__ = ["blend_coverage", "blend_layout", "blend_plan", "blend_shares", "seam_plans"]
+__all__ = [
+    "blend_coverage",
+    "blend_layout",
+    "blend_plan",
+    "blend_shares",
+    "low_band_image",
+    "packs_low_band",
+    "seam_plans",
+]
 
 
 # ------------------------------------------------------------------------------------------ the seam blend
@@ -142,3 +150,30 @@ def map_mean(arr: np.ndarray) -> list[float]:
     maximum; float maps as they are): the ``μ`` of the low band's variance-preserving blend."""
     scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(arr.dtype, 1.0)
     return [float(v) for v in (arr.reshape(-1, arr.shape[2]).astype(np.float64) / scale).mean(axis=0)]
+
+
+def packs_low_band(kind: str, channels: int, bands: dict[str, float] | None) -> bool:
+    """Whether a map's texture carries its low band beside its value (:func:`low_band_image`): a one-channel
+    scalar map blended with a low band. Then one fetch per entry serves the value and the low band."""
+    return bands is not None and "low" in bands and kind == "scalar" and channels == 1
+
+
+def low_band_image(arr: np.ndarray, split: int) -> np.ndarray:
+    """The low band of the seam blend at every pixel of a map ``(H, W, C)``, in its sample type: the bilinear
+    sample of its ``2^split`` box mip at the pixel centre (:func:`tilesynth.synth.seams.box_mip`,
+    :func:`~tilesynth.synth.seams.sample_mip`: a partial last block averages its own pixels, indices mirrored),
+    rounded half to even to the map's codes (float maps: float32). The texel the shaders read at a pixel centre
+    is the CPU's ``a_e`` there, for any exemplar side (the map's own mip chain drops an odd row instead)."""
+    from ..synth.seams import box_mip, sample_mip
+
+    h, w, c = arr.shape
+    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(arr.dtype)
+    mip = box_mip(arr.astype(np.float64) / (scale or 1.0), int(split))
+    out = np.empty(arr.shape, arr.dtype)
+    for r0 in range(0, h, 256):  # bounded memory: rows of 256 at a time
+        rr, cc = np.mgrid[r0 : min(h, r0 + 256), 0:w]
+        low = sample_mip(mip, int(split), np.stack([rr, cc], axis=-1))
+        out[r0 : r0 + rr.shape[0]] = (
+            np.rint(np.clip(low, 0.0, 1.0) * scale).astype(arr.dtype) if scale else low.astype(np.float32)
+        )
+    return out

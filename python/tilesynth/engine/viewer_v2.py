@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ParameterError
 from . import reference as ref
 from .viewer import case, embed_levels, fill_template, index_entry, lookup_uniforms, read_index
 
@@ -119,9 +120,9 @@ class ReferenceV2:
 
 BLEND_TOLERANCE = 2
 """Largest difference (of 255) the self-test allows for a blended smooth map at 1:1 against
-:func:`tilesynth.synthesize_maps`: float32 against float64, 8-bit previews of 16-bit maps, the low band from the
-map's own mips (measured: at most 1 where the exemplar's sides are multiples of 2^split,
-``tests/test_export_v2_browser.py``)."""
+:func:`tilesynth.synthesize_maps`: float32 against float64, 8-bit previews of 16-bit maps, the low band stored in
+the map's sample type (measured: at most 1, ``tests/test_export_v2_browser.py``; a multi-channel scalar map reads
+its low band from its own mips: up to 3 where the exemplar's sides are not multiples of 2^split)."""
 
 
 def to_preview8(img: np.ndarray) -> np.ndarray:
@@ -190,6 +191,15 @@ def config_for(
     maps = []
     for m in manifest["maps"]:
         levels = [to_preview8(load(lv["file"])) for lv in m["levels"]]
+        low = m.get("low_band")
+        if low is not None:
+            if m["channels"] != 1 or low.get("channel") != 1 or len(low["levels"]) != len(m["levels"]):
+                raise ParameterError(
+                    f"manifest map {m['name']!r}: a low_band needs a one-channel map and one level per map "
+                    f"level in channel 1 (got channels {m['channels']}, channel {low.get('channel')!r}, "
+                    f"{len(low['levels'])} levels for {len(m['levels'])}): this viewer cannot read it"
+                )
+            low = embed_levels([to_preview8(load(lv["file"])) for lv in low["levels"]])
         maps.append(
             {
                 "name": m["name"],
@@ -198,6 +208,7 @@ def config_for(
                 "normal": m["normal"],
                 "blend_level": m["blend_level"],
                 "levels": embed_levels(levels),
+                "low": low,
                 **{k: m[k] for k in ("seam", "bands", "mean") if k in m},
             }
         )
@@ -250,7 +261,12 @@ def page(config: dict[str, Any]) -> str:
     for i, m in enumerate(config["maps"]):
         for j, lv in enumerate(m["levels"]):
             imgs.append(f'<img id="ts-map-{i}-{j}" alt="" src="data:image/png;base64,{lv["png"]}">')
-        maps.append(dict(m, levels=[{k: v for k, v in lv.items() if k != "png"} for lv in m["levels"]]))
+        for j, lv in enumerate(m.get("low") or []):
+            imgs.append(f'<img id="ts-low-{i}-{j}" alt="" src="data:image/png;base64,{lv["png"]}">')
+        low = [{k: v for k, v in lv.items() if k != "png"} for lv in m["low"]] if m.get("low") else None
+        maps.append(
+            dict(m, levels=[{k: v for k, v in lv.items() if k != "png"} for lv in m["levels"]], low=low)
+        )
     config["maps"] = maps
     for j, lv in enumerate(config["coverage"]):
         imgs.append(f'<img id="ts-cov-{j}" alt="" src="data:image/png;base64,{lv["png"]}">')

@@ -25,27 +25,32 @@
 //   vec4 normal = ts_smooth_map(normal_tex, s, b, nbands, vec4(0.0), 1, w0);
 // bands = (high, low, split, reach) ("low" < 0 for a normal map or a map without a low band), mean = the map's
 // "mean" per channel (1 for the alpha of maps with fewer channels), w0 = ts_weight(s, 0.0) (the footprint path).
+// A one-channel scalar map with a "low_band" in the manifest: bind level l of the map and level l of its low band
+// as one two-channel texture (R value, G low band) and pass normal = -1 (one fetch per entry serves both; the
+// result is the value, grey); without it normal = 0 and the low band comes from the map's own mips.
 // The entries of a tile on the GPU are the quadrant form: A_0..A_3 and B. The weights are exact: the detail
 // band's label coverage at its top level (3) and the low band's (the labels extended "reach" px from the tile
 // border) from ts_blend_cov (exact shares, one bilinear fetch per quadrant the sample's taps fall in: the
 // blocks of every level lie in one quadrant; the position clamped to the tile's texel centres, as the CPU
 // clamps its indices), the detail band's levels 0-1 from the bits and 2 from the coverage texture (its 8-bit
 // values hold the exact counts there; a texelFetch per tap: these are the 6-px border ring only); a read is
-// skipped where the quadrant's radii say its blocks are all A or all B. The values: each entry of non-zero
+// skipped where the quadrant's radii say its blocks are all A or all B (and where the taps straddle a quadrant
+// line but the own quadrant's are all B, one filtered read of all four taps first: 1, no other table texel). The values: each entry of non-zero
 // weight at the pixel, at level 0 (textureGrad
-// with the footprint's derivatives, so bilinear under magnification), and for a low band the map's own mip at
-// level "split" (textureLod, MIRRORED_REPEAT: the box mip when the map's sides are multiples of 2^split).
-// Approximations: float32 arithmetic (the CPU: float64), the map's mips stored in its sample type (8-bit maps:
-// the low band within about half a code), map sides not multiples of 2^split (the chain drops the odd row; the
-// CPU's box mip averages a partial block: 124 px, split 3, up to 3 codes). Measured against synthesize_maps at
-// 1:1 (tests/test_export_v2_browser.py): at most 1 code of 255 where the sides are multiples of 2^split.
-// Minification: the blend reads every entry with the footprint's filter (textureGrad; the low band at level
-// max(split, footprint)); above the band's top level (low for scalar maps, high for normals) it fades into
+// with the footprint's derivatives, so bilinear under magnification), and for a low band channel G of the same
+// texel (normal = -1: the CPU's low band at every pixel, stored beside the map) or the map's own mip at level
+// "split" (textureLod, MIRRORED_REPEAT: the box mip when the map's sides are multiples of 2^split).
+// Approximations: float32 arithmetic (the CPU: float64), the low band stored in the map's sample type (8-bit
+// maps: within half a code); from the map's mips only: sides not multiples of 2^split (the chain drops the odd
+// row; the CPU's box mip averages a partial block: 124 px, split 3, up to 3 codes). Measured against
+// synthesize_maps at 1:1 (tests/test_export_v2_browser.py): at most 1 code of 255.
+// Minification: the blend reads every entry with the footprint's filter (textureGrad; the low band beside the
+// map at the footprint's level of its chain, from the map's mips at level max(split, footprint)); above the band's top level (low for scalar maps, high for normals) it fades into
 // the footprint path (ts_map with w0) over one level, and from one level above it is that path alone.
 // Fetches for a smooth map: 1 per map where every weight is one entry's (away from cuts, quadrant lines and the
 // label band); near them the weights' label reads (shared by the maps of the same bands; counted in
-// tests/test_export_v2_browser.py) and per map 1 (normal) or 2 (scalar with low band) per entry of non-zero
-// weight.
+// tests/test_export_v2_browser.py) and per map 1 per entry of non-zero weight (normal maps; scalar maps with
+// the low band beside them), 2 for a scalar map reading its low band from its mips.
 //
 // Uniforms (from manifest.json "textures" and "lookup"):
 //   ts_bits      labels_bits.png as R8UI (NEAREST, texelFetch only)
@@ -236,8 +241,10 @@ vec2 ts_turn(int code, vec2 g) {
 }
 
 // A tangent-space normal turned with its patch (normal: 1 unsigned +y codes, 2 unsigned -y, 3 signed +y,
-// 4 signed -y; 0 no turn). R (an anticlockwise quarter turn on screen) takes (x, y) to (-y, x), y up.
+// 4 signed -y; 0 no turn; -1 a one-channel scalar map bound with its low band in .g: the value, grey). R (an
+// anticlockwise quarter turn on screen) takes (x, y) to (-y, x), y up.
 vec4 ts_turn_normal(vec4 c, int code, int normal) {
+    if (normal < 0) return vec4(c.rrr, 1.0);
     int sym = code & 7;
     if (normal == 0 || sym == 0) return c;
     vec2 v = normal <= 2 ? c.xy * 2.0 - 1.0 : c.xy;
@@ -249,12 +256,16 @@ vec4 ts_turn_normal(vec4 c, int code, int normal) {
     return c;
 }
 
-vec4 ts_entry(sampler2D map, TsSite s, int code, int bx, int normal) {
+// The texel of an entry as stored (no turn of a normal): textureGrad with the footprint's turned derivatives.
+vec4 ts_entry_raw(sampler2D map, TsSite s, int code, int bx) {
     vec2 size = vec2(textureSize(map, 0));
     vec2 src = ts_src(code, bx, s.p);
     TS_COUNT(1);
-    vec4 c = textureGrad(map, src / size, ts_turn(code, s.gx) / size, ts_turn(code, s.gy) / size);
-    return ts_turn_normal(c, code, normal);
+    return textureGrad(map, src / size, ts_turn(code, s.gx) / size, ts_turn(code, s.gy) / size);
+}
+
+vec4 ts_entry(sampler2D map, TsSite s, int code, int bx, int normal) {
+    return ts_turn_normal(ts_entry_raw(map, s, code, bx), code, normal);
 }
 
 // One map at the site: entry A, entry B or both weighted by w (the weight of B).
@@ -394,6 +405,25 @@ void ts_level_f(inout TsBlend b, TsSite s, int band, int l, float lw, int reach)
     bvec2 cut = bvec2((a.x < hq) != (c.x < hq), (a.y < hq) != (c.y < hq));
     int t = s.tile, cols = ts_blend_layout.x;
     vec2 base = vec2(ivec2(t % cols, t / cols) * ts_blend_cell() + ts_blend_origin(band, l));
+    if (cut.x || cut.y) {
+        // taps in several quadrants whose own-quadrant taps the radii call all B (the B blob about the tile's
+        // centre): one filtered fetch of all four taps; 1 means every tap is B, and the other quadrants'
+        // table texels are not needed (each tap's bilinear weight is at least 1/64 at a pixel centre)
+        int h = n / 2;
+        bvec2 high = bvec2(s.p.x >= float(h), s.p.y >= float(h));
+        ivec2 lo = a, hi = c;
+        if (cut.x) lo.x = hi.x = high.x ? c.x : a.x;
+        if (cut.y) lo.y = hi.y = high.y ? c.y : a.y;
+        int qo = (high.y ? 2 : 0) + (high.x ? 1 : 0);
+        if (ts_rect_known(b, band, lo * sz, hi * sz + sz - 1, qo, reach) == 1.0) {
+            TS_COUNT(1);
+            vec2 pos = vec2(a) + 0.5 + vec2(notEqual(a, c)) * f;
+            if (textureLod(ts_blend_cov, (base + pos) / vec2(textureSize(ts_blend_cov, 0)), 0.0).r >= 1.0) {
+                if (band == 0) b.hb += lw; else b.gb += lw;
+                return;
+            }
+        }
+    }
     for (int g = 0; g < 4; g++) {
         int gx = g & 1, gy = g >> 1;
         if ((gx == 1 && !cut.x) || (gy == 1 && !cut.y)) continue;
@@ -468,18 +498,19 @@ vec2 ts_slope(vec4 c, int normal) {
     return v.xy / max(v.z, 1.0 / 16.0);
 }
 
-// The seam blend of one map at the site (tilesynth.synth.seams step 5): normal != 0 a normal map (slopes
+// The seam blend of one map at the site (tilesynth.synth.seams step 5): normal > 0 a normal map (slopes
 // blended with the detail weights), else a scalar map (the low band variance-preserving about mean, the detail
-// linear); a pixel whose weights are all one entry's is that entry's sample.
+// linear; normal -1: a one-channel map bound with its low band in .g, one fetch per entry for both); a pixel
+// whose weights are all one entry's is that entry's sample.
 vec4 ts_blend_map(sampler2D map, TsSite s, TsBlend b, vec4 bands, vec4 mean, int normal) {
-    bool low = bands.y >= 0.0 && normal == 0;
+    bool low = bands.y >= 0.0 && normal <= 0;
     for (int i = 0; i < 5; i++) {
         if (ts_h(b, i) >= 1.0 - 1e-5 && (!low || ts_g(b, i) >= 1.0 - 1e-5)) {
             ivec2 e = ts_slot(b, i);
             return ts_entry(map, s, e.x, e.y, normal);
         }
     }
-    if (normal != 0) {
+    if (normal > 0) {
         vec2 sl = vec2(0.0);
         for (int i = 0; i < 5; i++) {
             float h = ts_h(b, i);
@@ -496,8 +527,16 @@ vec4 ts_blend_map(sampler2D map, TsSite s, TsBlend b, vec4 bands, vec4 mean, int
         float h = ts_h(b, i), g = low ? ts_g(b, i) : 0.0;
         if (h <= 0.0 && g <= 0.0) continue;
         ivec2 e = ts_slot(b, i);
-        vec4 a = low ? ts_entry_low(map, s, e, bands.z, normal) : vec4(0.0);
-        if (h > 0.0) det += h * (ts_entry(map, s, e.x, e.y, normal) - a);
+        vec4 a = vec4(0.0), v = vec4(0.0);
+        if (normal < 0) {  // value and low band in one fetch
+            vec4 c = ts_entry_raw(map, s, e.x, e.y);
+            v = vec4(c.rrr, 1.0);
+            a = low ? vec4(c.ggg, 1.0) : vec4(0.0);
+        } else {
+            if (low) a = ts_entry_low(map, s, e, bands.z, normal);
+            if (h > 0.0) v = ts_entry(map, s, e.x, e.y, normal);
+        }
+        if (h > 0.0) det += h * (v - a);
         if (g > 0.0) {
             base += g * a;
             // an entry shown by two slots (the same source) weighs once in the variance normaliser
@@ -517,7 +556,7 @@ vec4 ts_blend_map(sampler2D map, TsSite s, TsBlend b, vec4 bands, vec4 mean, int
 // A smooth map at the site: the seam blend at magnification and 1:1, fading into the footprint path (ts_map
 // with the footprint's weight w0 = ts_weight(s, 0.0)) from the band's top level to one level above it.
 vec4 ts_smooth_map(sampler2D map, TsSite s, TsBlend b, vec4 bands, vec4 mean, int normal, float w0) {
-    float top = bands.y >= 0.0 && normal == 0 ? bands.y : bands.x;
+    float top = bands.y >= 0.0 && normal <= 0 ? bands.y : bands.x;
     float t = clamp(s.lod - top, 0.0, 1.0);
     if (t >= 1.0) return ts_map(map, s, w0, normal);
     vec4 v = ts_blend_map(map, s, b, bands, mean, normal);

@@ -169,8 +169,10 @@ float2 ts_turn(int code, float2 g) {
     return rc.yx;
 }
 
-// normal: 0 no turn, 1 / 2 unsigned codes +y / -y, 3 / 4 signed vectors +y / -y.
+// normal: 0 no turn, 1 / 2 unsigned codes +y / -y, 3 / 4 signed vectors +y / -y; -1 a one-channel scalar map
+// bound with its low band in .g: the value, grey.
 float4 ts_turn_normal(float4 c, int code, int normal) {
+    if (normal < 0) return float4(c.rrr, 1.0);
     int sym = code & 7;
     if (normal == 0 || sym == 0) return c;
     float2 v = normal <= 2 ? c.xy * 2.0 - 1.0 : c.xy;
@@ -183,13 +185,17 @@ float4 ts_turn_normal(float4 c, int code, int normal) {
     return c;
 }
 
-float4 ts_entry(Texture2D<float4> map, TsSite s, int code, int bx, int normal) {
+// The texel of an entry as stored (no turn of a normal).
+float4 ts_entry_raw(Texture2D<float4> map, TsSite s, int code, int bx) {
     uint w, h, levels;
     map.GetDimensions(0, w, h, levels);
     float2 size = float2(w, h);
     float2 src = ts_src(code, bx, s.p);
-    float4 c = map.SampleGrad(ts_sampler, src / size, ts_turn(code, s.gx) / size, ts_turn(code, s.gy) / size);
-    return ts_turn_normal(c, code, normal);
+    return map.SampleGrad(ts_sampler, src / size, ts_turn(code, s.gx) / size, ts_turn(code, s.gy) / size);
+}
+
+float4 ts_entry(Texture2D<float4> map, TsSite s, int code, int bx, int normal) {
+    return ts_turn_normal(ts_entry_raw(map, s, code, bx), code, normal);
 }
 
 float4 ts_map(Texture2D<float4> map, TsSite s, float w, int normal) {
@@ -323,6 +329,22 @@ void ts_level_f(inout TsBlend b, TsSite s, int band, int l, float lw, int reach)
     float2 base = float2(int2(t % cols, t / cols) * ts_blend_cell() + ts_blend_origin(band, l));
     uint tw, th;
     ts_blend_cov.GetDimensions(tw, th);
+    if (cutx || cuty) {
+        // taps in several quadrants whose own-quadrant taps the radii call all B: one filtered read of all four
+        // taps; 1 means every tap is B (tilesynth_v2.glsl)
+        bool hx = s.p.x >= float(n / 2), hy = s.p.y >= float(n / 2);
+        int2 lo = a, hi = c;
+        if (cutx) { lo.x = hx ? c.x : a.x; hi.x = lo.x; }
+        if (cuty) { lo.y = hy ? c.y : a.y; hi.y = lo.y; }
+        int qo = (hy ? 2 : 0) + (hx ? 1 : 0);
+        if (ts_rect_known(b, band, lo * sz, hi * sz + sz - 1, qo, reach) == 1.0) {
+            float2 pos = float2(a) + 0.5 + float2(a != c) * f;
+            if (ts_blend_cov.SampleLevel(ts_sampler, (base + pos) / float2(tw, th), 0.0) >= 1.0) {
+                if (band == 0) b.hb += lw; else b.gb += lw;
+                return;
+            }
+        }
+    }
     for (int g = 0; g < 4; g++) {
         int gx = g & 1, gy = g >> 1;
         if ((gx == 1 && !cutx) || (gy == 1 && !cuty)) continue;
@@ -388,14 +410,14 @@ float2 ts_slope(float4 c, int normal) {
 }
 
 float4 ts_blend_map(Texture2D<float4> map, TsSite s, TsBlend b, float4 bands, float4 mean, int normal) {
-    bool low = bands.y >= 0.0 && normal == 0;
+    bool low = bands.y >= 0.0 && normal <= 0;
     for (int i0 = 0; i0 < 5; i0++) {
         if (ts_h(b, i0) >= 1.0 - 1e-5 && (!low || ts_g(b, i0) >= 1.0 - 1e-5)) {
             int2 e = ts_slot(b, i0);
             return ts_entry(map, s, e.x, e.y, normal);
         }
     }
-    if (normal != 0) {
+    if (normal > 0) {
         float2 sl = float2(0.0, 0.0);
         for (int i1 = 0; i1 < 5; i1++) {
             float h = ts_h(b, i1);
@@ -412,8 +434,16 @@ float4 ts_blend_map(Texture2D<float4> map, TsSite s, TsBlend b, float4 bands, fl
         float h = ts_h(b, i), g = low ? ts_g(b, i) : 0.0;
         if (h <= 0.0 && g <= 0.0) continue;
         int2 e = ts_slot(b, i);
-        float4 a = low ? ts_entry_low(map, s, e, bands.z) : float4(0.0, 0.0, 0.0, 0.0);
-        if (h > 0.0) det += h * (ts_entry(map, s, e.x, e.y, normal) - a);
+        float4 a = float4(0.0, 0.0, 0.0, 0.0), v = float4(0.0, 0.0, 0.0, 0.0);
+        if (normal < 0) {  // value and low band in one fetch
+            float4 c = ts_entry_raw(map, s, e.x, e.y);
+            v = float4(c.rrr, 1.0);
+            if (low) a = float4(c.ggg, 1.0);
+        } else {
+            if (low) a = ts_entry_low(map, s, e, bands.z);
+            if (h > 0.0) v = ts_entry(map, s, e.x, e.y, normal);
+        }
+        if (h > 0.0) det += h * (v - a);
         if (g > 0.0) {
             base += g * a;
             bool seen = false;
@@ -430,7 +460,7 @@ float4 ts_blend_map(Texture2D<float4> map, TsSite s, TsBlend b, float4 bands, fl
 }
 
 float4 ts_smooth_map(Texture2D<float4> map, TsSite s, TsBlend b, float4 bands, float4 mean, int normal, float w0) {
-    float top = bands.y >= 0.0 && normal == 0 ? bands.y : bands.x;
+    float top = bands.y >= 0.0 && normal <= 0 ? bands.y : bands.x;
     float t = clamp(s.lod - top, 0.0, 1.0);
     if (t >= 1.0) return ts_map(map, s, w0, normal);
     float4 v = ts_blend_map(map, s, b, bands, mean, normal);

@@ -178,8 +178,10 @@ fn ts_turn(code: i32, g: vec2<f32>) -> vec2<f32> {
     return rc.yx;
 }
 
-// normal: 0 no turn, 1 / 2 unsigned codes +y / -y, 3 / 4 signed vectors +y / -y.
+// normal: 0 no turn, 1 / 2 unsigned codes +y / -y, 3 / 4 signed vectors +y / -y; -1 a one-channel scalar map
+// bound with its low band in .g: the value, grey.
 fn ts_turn_normal(c0: vec4<f32>, code: i32, normal: i32) -> vec4<f32> {
+    if (normal < 0) { return vec4<f32>(c0.xxx, 1.0); }
     let sym = code & 7;
     if (normal == 0 || sym == 0) { return c0; }
     var c = c0;
@@ -195,11 +197,15 @@ fn ts_turn_normal(c0: vec4<f32>, code: i32, normal: i32) -> vec4<f32> {
     return c;
 }
 
-fn ts_entry(map: texture_2d<f32>, s: TsSite, code: i32, bx: i32, normal: i32) -> vec4<f32> {
+// The texel of an entry as stored (no turn of a normal).
+fn ts_entry_raw(map: texture_2d<f32>, s: TsSite, code: i32, bx: i32) -> vec4<f32> {
     let size = vec2<f32>(textureDimensions(map, 0));
     let src = ts_src(code, bx, s.p);
-    let c = textureSampleGrad(map, ts_sampler, src / size, ts_turn(code, s.gx) / size, ts_turn(code, s.gy) / size);
-    return ts_turn_normal(c, code, normal);
+    return textureSampleGrad(map, ts_sampler, src / size, ts_turn(code, s.gx) / size, ts_turn(code, s.gy) / size);
+}
+
+fn ts_entry(map: texture_2d<f32>, s: TsSite, code: i32, bx: i32, normal: i32) -> vec4<f32> {
+    return ts_turn_normal(ts_entry_raw(map, s, code, bx), code, normal);
 }
 
 fn ts_map(map: texture_2d<f32>, s: TsSite, w: f32, normal: i32) -> vec4<f32> {
@@ -357,6 +363,24 @@ fn ts_level_f(b: ptr<function, TsBlend>, s: TsSite, band: i32, l: i32, lw: f32, 
     let cols = ts_blend_layout.x;
     let base = vec2<f32>(vec2<i32>(t % cols, t / cols) * ts_blend_cell() + ts_blend_origin(band, l));
     let tsize = vec2<f32>(textureDimensions(ts_blend_cov, 0));
+    if (cutx || cuty) {
+        // taps in several quadrants whose own-quadrant taps the radii call all B: one filtered read of all four
+        // taps; 1 means every tap is B (tilesynth_v2.glsl)
+        let hx = s.p.x >= f32(n / 2);
+        let hy = s.p.y >= f32(n / 2);
+        var lo = a;
+        var hi = c;
+        if (cutx) { lo.x = select(a.x, c.x, hx); hi.x = lo.x; }
+        if (cuty) { lo.y = select(a.y, c.y, hy); hi.y = lo.y; }
+        let qo = select(0, 2, hy) + select(0, 1, hx);
+        if (ts_rect_known(*b, band, lo * sz, hi * sz + vec2<i32>(sz - 1), qo, reach) == 1.0) {
+            let pos = vec2<f32>(a) + 0.5 + select(vec2<f32>(0.0), f, a != c);
+            if (textureSampleLevel(ts_blend_cov, ts_sampler, (base + pos) / tsize, 0.0).r >= 1.0) {
+                if (band == 0) { (*b).hb += lw; } else { (*b).gb += lw; }
+                return;
+            }
+        }
+    }
     for (var g = 0; g < 4; g++) {
         let gx = g & 1;
         let gy = g >> 1u;
@@ -425,14 +449,14 @@ fn ts_slope(c: vec4<f32>, normal: i32) -> vec2<f32> {
 }
 
 fn ts_blend_map(map: texture_2d<f32>, s: TsSite, b: TsBlend, bands: vec4<f32>, mean: vec4<f32>, normal: i32) -> vec4<f32> {
-    let low = bands.y >= 0.0 && normal == 0;
+    let low = bands.y >= 0.0 && normal <= 0;
     for (var i = 0; i < 5; i++) {
         if (ts_h(b, i) >= 1.0 - 1e-5 && (!low || ts_g(b, i) >= 1.0 - 1e-5)) {
             let e = ts_slot(b, i);
             return ts_entry(map, s, e.x, e.y, normal);
         }
     }
-    if (normal != 0) {
+    if (normal > 0) {
         var sl = vec2<f32>(0.0);
         for (var i = 0; i < 5; i++) {
             let h = ts_h(b, i);
@@ -452,8 +476,16 @@ fn ts_blend_map(map: texture_2d<f32>, s: TsSite, b: TsBlend, bands: vec4<f32>, m
         if (h <= 0.0 && g <= 0.0) { continue; }
         let e = ts_slot(b, i);
         var a = vec4<f32>(0.0);
-        if (low) { a = ts_entry_low(map, s, e, bands.z); }
-        if (h > 0.0) { det += h * (ts_entry(map, s, e.x, e.y, normal) - a); }
+        var v = vec4<f32>(0.0);
+        if (normal < 0) {  // value and low band in one fetch
+            let c = ts_entry_raw(map, s, e.x, e.y);
+            v = vec4<f32>(c.xxx, 1.0);
+            if (low) { a = vec4<f32>(c.yyy, 1.0); }
+        } else {
+            if (low) { a = ts_entry_low(map, s, e, bands.z); }
+            if (h > 0.0) { v = ts_entry(map, s, e.x, e.y, normal); }
+        }
+        if (h > 0.0) { det += h * (v - a); }
         if (g > 0.0) {
             base += g * a;
             var seen = false;
@@ -471,7 +503,7 @@ fn ts_blend_map(map: texture_2d<f32>, s: TsSite, b: TsBlend, bands: vec4<f32>, m
 }
 
 fn ts_smooth_map(map: texture_2d<f32>, s: TsSite, b: TsBlend, bands: vec4<f32>, mean: vec4<f32>, normal: i32, w0: f32) -> vec4<f32> {
-    let top = select(bands.x, bands.y, bands.y >= 0.0 && normal == 0);
+    let top = select(bands.x, bands.y, bands.y >= 0.0 && normal <= 0);
     let t = clamp(s.lod - top, 0.0, 1.0);
     if (t >= 1.0) { return ts_map(map, s, w0, normal); }
     let v = ts_blend_map(map, s, b, bands, mean, normal);
