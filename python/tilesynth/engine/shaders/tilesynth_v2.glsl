@@ -35,9 +35,9 @@
 // clamps its indices), the detail band's levels 0-1 from the bits and 2 from the coverage texture (its 8-bit
 // values hold the exact counts there; a texelFetch per tap: these are the 6-px border ring only); a read is
 // skipped where the quadrant's radii say its blocks are all A or all B (and where the taps straddle a quadrant
-// line but the own quadrant's are all B, one filtered read of all four taps first: 1, no other table texel). The values: each entry of non-zero
-// weight at the pixel, at level 0 (textureGrad
-// with the footprint's derivatives, so bilinear under magnification), and for a low band channel G of the same
+// line but the own quadrant's are all B, one filtered read of all four taps first: 1, no other table texel).
+// The values: each entry of non-zero weight at the pixel, at level 0 (textureGrad with the footprint's
+// derivatives, so bilinear under magnification), and for a low band channel G of the same
 // texel (normal = -1: the CPU's low band at every pixel, stored beside the map) or the map's own mip at level
 // "split" (textureLod, MIRRORED_REPEAT: the box mip when the map's sides are multiples of 2^split).
 // Approximations: float32 arithmetic (the CPU: float64), the low band stored in the map's sample type (8-bit
@@ -45,8 +45,9 @@
 // row; the CPU's box mip averages a partial block: 124 px, split 3, up to 3 codes). Measured against
 // synthesize_maps at 1:1 (tests/test_export_v2_browser.py): at most 1 code of 255.
 // Minification: the blend reads every entry with the footprint's filter (textureGrad; the low band beside the
-// map at the footprint's level of its chain, from the map's mips at level max(split, footprint)); above the band's top level (low for scalar maps, high for normals) it fades into
-// the footprint path (ts_map with w0) over one level, and from one level above it is that path alone.
+// map at the footprint's level of its chain, from the map's mips at level max(split, footprint)); above the
+// band's top level (low for scalar maps, high for normals) it fades into the footprint path (ts_map with w0)
+// over one level, and from one level above it is that path alone.
 // Fetches for a smooth map: 1 per map where every weight is one entry's (away from cuts, quadrant lines and the
 // label band); near them the weights' label reads (shared by the maps of the same bands; counted in
 // tests/test_export_v2_browser.py) and per map 1 per entry of non-zero weight (normal maps; scalar maps with
