@@ -8,7 +8,7 @@
 //! non-zero weight read at the pixel (`D_s(p) + b`, mirrored into the map). Scalar maps:
 //! `μ + (Σ g a − μ) / √Σ g² + Σ h (v − a)` with a low band (`a`: the low band of the value read, given at every
 //! pixel), `Σ h v` without, encoded as the map's samples (`rint(clip(out, 0, 1) · S)`, or float32); normal maps:
-//! the blended slopes `Σ h σ` encoded at unit length ([`encode_unit`], the codes of
+//! the blended slopes `Σ h σ` (each entry's turned with its symmetry) encoded at unit length ([`encode_unit`], the codes of
 //! `tilesynth.io.normal_codes.encode_unit`). A pixel where one entry has every weight of the map's bands is that
 //! entry's copy (the map's samples read through the provenance). The arithmetic (f64) is done in the oracle's
 //! order, so the two agree to the last bit in practice.
@@ -621,10 +621,11 @@ fn contiguous<'a, T>(name: &'static str, a: &ArrayView3<'a, T>) -> Result<&'a [T
 }
 
 /// Blends the maps `maps` over a window of the tiling by `map` at pixel `offset = (oy, ox)` into its first cell
-/// (module docstring), writing each map's `out`. `labels` `(K, N, N)` / `table` `(K, L, 3)` the provenance (every
-/// entry of symmetry 0, or -1 for none: rotated entries are turned by the caller; every label of a tile shown
-/// an entry of the table), `bands` the blend's bands: the high band is every map's, the low band the scalar
-/// maps' (each then gives its `low`).
+/// (module docstring), writing each map's `out`. `labels` `(K, N, N)` / `table` `(K, L, 3)` the provenance (an
+/// entry's symmetry 0..8, or -1 for none; every entry reads through its symmetry, and a rotated or mirrored
+/// entry needs the turns of every normal map, [`MapBlend::turn`]; every label of a tile shown an entry of the
+/// table), `bands` the blend's bands: the high band is every map's, the low band the scalar maps' (each then
+/// gives its `low`).
 pub fn blend_maps(
     maps: &mut [MapBlend<'_>],
     labels: ArrayView3<u8>,
