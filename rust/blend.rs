@@ -8,9 +8,9 @@
 //! non-zero weight read at the pixel (`D_s(p) + b`, mirrored into the map). Scalar maps:
 //! `μ + (Σ g a − μ) / √Σ g² + Σ h (v − a)` with a low band (`a`: the low band of the value read, given at every
 //! pixel), `Σ h v` without, encoded as the map's samples (`rint(clip(out, 0, 1) · S)`, or float32); normal maps:
-//! the blended slopes `Σ h σ` (each entry's turned with its symmetry) encoded at unit length ([`encode_unit`], the codes of
-//! `tilesynth.io.normal_codes.encode_unit`). A pixel where one entry has every weight of the map's bands is that
-//! entry's copy (the map's samples read through the provenance). The arithmetic (f64) is done in the oracle's
+//! the blended slopes `Σ h σ` (each entry's turned with its symmetry) encoded at unit length ([`encode_unit`],
+//! the codes of `tilesynth.io.normal_codes.encode_unit`). A pixel where one entry has every weight of the map's
+//! bands is that entry's copy (the map's samples read through the provenance). The arithmetic (f64) is done in the oracle's
 //! order, so the two agree to the last bit in practice.
 //!
 //! All the maps of a window are blended in one pass: the weights of a pixel are found once and shared (the high
