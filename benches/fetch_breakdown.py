@@ -129,16 +129,10 @@ def blended_reference(
     """As ``ReferenceV2.sampled`` but of :func:`tilesynth.synthesize_maps` (the seam blend), 8-bit as the viewer
     shows it: bilinear samples of its 2^level box filter."""
     f = 2**level
-    qx = x0 + (np.arange(w) + 0.5) * scale
-    qy = y0 + (np.arange(h) + 0.5) * scale
-    ax0 = (int(np.floor(qx.min())) // f - 2) * f
-    ay0 = (int(np.floor(qy.min())) // f - 2) * f
-    ax1 = (int(np.ceil(qx.max())) // f + 3) * f
-    ay1 = (int(np.ceil(qy.max())) // f + 3) * f
-    tex = ref.to_rgba8(v2.to_preview8(r.synthesized(name, ax0, ay0, ax1 - ax0, ay1 - ay0)))
+    gx, gy, win = ref.sample_grid(x0, y0, w, h, scale, level)
+    tex = ref.to_rgba8(v2.to_preview8(r.synthesized(name, *win)))
     lvl = ref.box_level(tex, level, srgb=False) if level else tex
-    gx, gy = np.meshgrid(qx / f, qy / f)
-    return ref.bilinear(lvl, gx, gy, ax0 // f, ay0 // f)
+    return ref.bilinear(lvl, gx, gy, win[0] // f, win[1] // f)
 
 
 def mips(tiles, maps, exe, run_page, names=("height", "roughness")) -> None:

@@ -89,6 +89,23 @@ def bilinear(img: np.ndarray, qx: np.ndarray, qy: np.ndarray, ox: int, oy: int) 
     return (p00 * (1 - fx) + p10 * fx) * (1 - fy) + (p01 * (1 - fx) + p11 * fx) * fy
 
 
+def sample_grid(
+    x0: float, y0: float, w: int, h: int, scale: float, level: int
+) -> tuple[np.ndarray, np.ndarray, tuple[int, int, int, int]]:
+    """The ``h x w`` sample positions ``origin + (i + 0.5) * scale`` (texels) in level-``level`` texels
+    ``(gx, gy)``, and the texture window ``(x, y, width, height)`` they read: aligned to the level's 2^L blocks,
+    with one level texel of margin (what :func:`box_level` then :func:`bilinear` at ``(x, y) // 2^L`` need)."""
+    f = 2**level
+    qx = x0 + (np.arange(w) + 0.5) * scale
+    qy = y0 + (np.arange(h) + 0.5) * scale
+    ax0 = (int(np.floor(qx.min())) // f - 2) * f
+    ay0 = (int(np.floor(qy.min())) // f - 2) * f
+    ax1 = (int(np.ceil(qx.max())) // f + 3) * f
+    ay1 = (int(np.ceil(qy.max())) // f + 3) * f
+    gx, gy = np.meshgrid(qx / f, qy / f)
+    return gx, gy, (ax0, ay0, ax1 - ax0, ay1 - ay0)
+
+
 def box_level(img: np.ndarray, level: int, srgb: bool) -> np.ndarray:
     """Direct 2^L x 2^L box filter (linear light for sRGB, as the mips), rounded once; ``img`` uint8, its size a
     multiple of 2^L."""

@@ -115,18 +115,11 @@ class Reference:
         """Bilinear at level ``level`` (a direct box filter of the texture) at the sample positions
         ``origin + (i + 0.5) * scale``; returns float64 ``(h, w, 4)``."""
         f = 2**level
-        qx = x0 + (np.arange(w) + 0.5) * scale
-        qy = y0 + (np.arange(h) + 0.5) * scale
-        # texture pixels needed, aligned to the level's blocks, with one level texel of margin
-        ax0 = (int(np.floor(qx.min())) // f - 2) * f
-        ay0 = (int(np.floor(qy.min())) // f - 2) * f
-        ax1 = (int(np.ceil(qx.max())) // f + 3) * f
-        ay1 = (int(np.ceil(qy.max())) // f + 3) * f
-        tex = self.texels(ax0, ay0, ax1 - ax0, ay1 - ay0)
+        gx, gy, win = ref.sample_grid(x0, y0, w, h, scale, level)
+        tex = self.texels(*win)
         lvl = ref.box_level(tex, level, srgb=True) if level else tex
-        gx, gy = np.meshgrid(qx / f, qy / f)
-        self._last = (lvl, ax0 // f, ay0 // f)
-        return ref.bilinear(lvl, gx, gy, ax0 // f, ay0 // f)
+        self._last = (lvl, win[0] // f, win[1] // f)
+        return ref.bilinear(lvl, gx, gy, win[0] // f, win[1] // f)
 
     def inexact_gutter(self, x0: float, y0: float, w: int, h: int, scale: float, level: int) -> np.ndarray:
         """bool ``(h, w)``: samples whose level-``level`` bilinear footprint reads a gutter texel that differs

@@ -98,16 +98,11 @@ class ReferenceV2:
         """Bilinear samples of the 2^level box filter of the exact texture at ``origin + (i + 0.5) * scale``:
         float64 ``(h, w, 4)``."""
         f = 2**level
-        qx = x0 + (np.arange(w) + 0.5) * scale
-        qy = y0 + (np.arange(h) + 0.5) * scale
-        ax0 = (int(np.floor(qx.min())) // f - 2) * f
-        ay0 = (int(np.floor(qy.min())) // f - 2) * f
-        ax1 = (int(np.ceil(qx.max())) // f + 3) * f
-        ay1 = (int(np.ceil(qy.max())) // f + 3) * f
-        tex = self.texels(name, ax0, ay0, ax1 - ax0, ay1 - ay0)
+        gx, gy, win = ref.sample_grid(x0, y0, w, h, scale, level)
+        ax0, ay0 = win[:2]
+        tex = self.texels(name, *win)
         srgb = self.maps[name]["colour_space"] == "srgb"
         lvl = ref.box_level(tex, level, srgb=srgb) if level else tex
-        gx, gy = np.meshgrid(qx / f, qy / f)
         out = ref.bilinear(lvl, gx, gy, ax0 // f, ay0 // f)
         if level:
             # the same box filter on a grid shifted by half a block: as valid a level L, other numbers
