@@ -25,9 +25,11 @@ import sys
 import time
 
 
-def child(path: str, size: int, windows: int, seed: int) -> None:
+def child(path: str, size: int, windows: int, seed: int, mode: str = "blend") -> None:
     """In a fresh process: CPU times (s) of ``windows`` colour and maps windows of ``size``² (a warm-up first);
-    ``size = 0``: the peak RSS of load + 1024² colour + maps. Prints JSON."""
+    ``size = 0``: the peak RSS of load + 1024² colour + maps. ``mode``: the maps' seams, "blend" (the default),
+    "fusion" (``seams="fuse"``) or "copies" (``smooth=False``; ``benches/relief.py`` times all three). Prints
+    JSON."""
     import numpy as np
 
     import tilesynth as ts
@@ -40,18 +42,29 @@ def child(path: str, size: int, windows: int, seed: int) -> None:
         peak = [int(x.split()[1]) / 1024 for x in open("/proc/self/status") if x.startswith("VmHWM:")][0]
         print(json.dumps({"rss_mb": peak}))
         return
+    seams = "fuse" if mode == "fusion" else None
+    smooth = False if mode == "copies" else None
     n = t.tile_size
     r = np.random.default_rng(seed)
-    materials.synthesize_maps(t, ts.synthesize(t, size, size, seed=1)[1], size, size)  # warm-up: set caches
+    # warm-up: the set's caches (the maps' copies, slopes and low bands)
+    materials.synthesize_maps(
+        t, ts.synthesize(t, size, size, seed=1)[1], size, size, seams=seams, smooth=smooth
+    )
     res: dict[str, list[float]] = {"colour": [], "maps": []}
     for _ in range(windows):
         origin = (int(r.integers(-(10**6), 10**6)), int(r.integers(-(10**6), 10**6)))
         c0 = time.process_time()
         _, imap = ts.synthesize(t, size, size, seed=1, origin=origin)
         c1 = time.process_time()
-        materials.synthesize_maps(t, imap, size, size, offset=(origin[1] % n, origin[0] % n))
+        cache = materials._cache(t)  # new tiles: nothing fused before (the fusion caches per tile)
+        cache.get("fused", {}).clear()
+        cache["fused_bytes"] = 0
+        c2 = time.process_time()
+        materials.synthesize_maps(
+            t, imap, size, size, offset=(origin[1] % n, origin[0] % n), seams=seams, smooth=smooth
+        )
         res["colour"].append(c1 - c0)
-        res["maps"].append(time.process_time() - c1)
+        res["maps"].append(time.process_time() - c2)
     print(json.dumps(res))
 
 
@@ -68,17 +81,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sizes", default="256,1024", help="window sides (comma-separated)")
     ap.add_argument("--repeat", type=int, default=5, help="fresh processes per size (default 5)")
     ap.add_argument("--windows", type=int, default=8, help="windows per process (default 8)")
-    ap.add_argument("--child", nargs=4, help=argparse.SUPPRESS)
+    ap.add_argument("--child", nargs=5, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
-        child(args.child[0], int(args.child[1]), int(args.child[2]), int(args.child[3]))
+        child(args.child[0], int(args.child[1]), int(args.child[2]), int(args.child[3]), args.child[4])
         return 0
     sizes = [int(s) for s in args.sizes.split(",") if s]
     runs = {s: {"colour": [], "maps": []} for s in sizes}
     for rep in range(args.repeat):
         for s in sizes:  # interleaved: every size once per round
             got = run_child(
-                args.set, str(s), str(args.windows if s < 1024 else max(2, args.windows // 4)), str(rep)
+                args.set,
+                str(s),
+                str(args.windows if s < 1024 else max(2, args.windows // 4)),
+                str(rep),
+                "blend",
             )
             runs[s]["colour"] += got["colour"]
             runs[s]["maps"] += got["maps"]
@@ -86,7 +103,9 @@ def main(argv: list[str] | None = None) -> int:
     for s in sizes:
         c, m = statistics.median(runs[s]["colour"]) * 1e3, statistics.median(runs[s]["maps"]) * 1e3
         print(f"| {s}² | {c:.2f} | {m:.2f} | {m / c:.2f}x |")
-    print(f"\nPeak RSS, load + 1024² colour + maps: {run_child(args.set, '0', '0', '0')['rss_mb']:.0f} MB")
+    print(
+        f"\nPeak RSS, load + 1024² colour + maps: {run_child(args.set, '0', '0', '0', 'blend')['rss_mb']:.0f} MB"
+    )
     return 0
 
 

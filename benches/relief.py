@@ -51,9 +51,7 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -256,61 +254,23 @@ def outputs(t, size: int, seed: int, side: float) -> dict[str, dict[str, np.ndar
 
 
 # ------------------------------------------------------------------------------------------------- timing
-def child(path: str, windows: int, mode: str) -> None:
-    """In a fresh process: CPU time of colour and maps of ``windows`` 256² windows of new tiles; peak RSS of a
-    1024² colour + maps synthesis (mode "rss"). Prints JSON."""
-    import tilesynth as ts
-    from tilesynth.builder import materials
-
-    t = ts.load(path)
-    if mode == "rss":
-        _, imap = ts.synthesize(t, 1024, 1024, seed=1)
-        materials.synthesize_maps(t, imap, 1024, 1024)
-        peak = [int(x.split()[1]) / 1024 for x in open("/proc/self/status") if x.startswith("VmHWM:")][0]
-        print(json.dumps({"rss_mb": peak}))
-        return
-    seams = "fuse" if mode == "fusion" else None
-    smooth = False if mode == "copies" else None
-    r = np.random.default_rng(5)
-    res: dict[str, list] = {"colour": [], "maps": []}
-    materials.synthesize_maps(t, ts.synthesize(t, 256, 256, seed=1)[1], 256, 256, seams=seams, smooth=smooth)
-    for _ in range(windows + 1):
-        origin = (int(r.integers(-(10**6), 10**6)), int(r.integers(-(10**6), 10**6)))
-        c0 = time.process_time()
-        _, imap = ts.synthesize(t, 256, 256, seed=1, origin=origin)
-        c1 = time.process_time()
-        cache = materials._cache(t)  # new tiles: nothing blended or fused before
-        cache.get("fused", {}).clear()
-        cache["fused_bytes"] = 0
-        n = t.tile_size
-        c2 = time.process_time()
-        materials.synthesize_maps(
-            t, imap, 256, 256, offset=(origin[1] % n, origin[0] % n), seams=seams, smooth=smooth
-        )
-        res["colour"].append(c1 - c0)
-        res["maps"].append(time.process_time() - c2)
-    print(json.dumps(res))
-
-
-def run_child(*args: str) -> dict:
-    out = subprocess.run(
-        ["nice", sys.executable, __file__, "--child", *args], check=True, capture_output=True, text=True
-    ).stdout
-    return json.loads(out.strip().splitlines()[-1])
-
-
 def timing(path: Path, repeat: int, windows: int) -> dict:
+    """CPU time of the colour and the maps of ``windows`` 256² windows of new tiles per fresh process, copies,
+    blend and fusion interleaved ``repeat`` times (``benches/map_speed.py``'s child), and the peak RSS of a 1024²
+    colour + maps synthesis."""
+    from map_speed import run_child  # the timing child of the map-speed bench (this folder)
+
     runs: dict[str, dict[str, list]] = {m: {"colour": [], "maps": []} for m in ("copies", "blend", "fusion")}
-    for _ in range(repeat):
+    for rep in range(repeat):
         for m in runs:
-            r = run_child(str(path), str(windows), m)
+            r = run_child(str(path), "256", str(windows), str(5 + rep), m)
             runs[m]["colour"] += r["colour"]
             runs[m]["maps"] += r["maps"]
     out = {}
     for m, r in runs.items():
         c, mp = statistics.median(r["colour"]), statistics.median(r["maps"])
         out[m] = {"colour_ms": c * 1e3, "maps_ms": mp * 1e3, "ratio": mp / c}
-    out["rss_mb"] = run_child(str(path), "1", "rss")["rss_mb"]
+    out["rss_mb"] = run_child(str(path), "0", "0", "0", "blend")["rss_mb"]
     return out
 
 
@@ -364,7 +324,6 @@ def table(rows: list[dict]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--child", nargs=3, metavar=("PATH", "WINDOWS", "MODE"), help=argparse.SUPPRESS)
     ap.add_argument(
         "--src", default="/tmp/relief/src", help="folder of the ambientCG JPEGs (module docstring)"
     )
@@ -381,9 +340,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", help="also write the raw figures here")
     ap.add_argument("--out", help="write the table here (default: print)")
     args = ap.parse_args(argv)
-    if args.child:
-        child(args.child[0], int(args.child[1]), args.child[2])
-        return 0
     names = [m for m in args.materials.split(",") if m]
     seeds = [int(s) for s in args.seeds.split(",")]
     rows = []
