@@ -501,29 +501,13 @@ mod tests {
         let (labels, table) = factorise(src.view(), None).unwrap().unwrap();
         let map = Array2::from_shape_fn((3, 4), |(i, j)| ((i * 4 + j) % k) as i32);
         let (h, w) = (30, 40);
-        let mut plain = Array3::<u8>::zeros((h, w, 3));
-        let mut turned = Array3::<u8>::zeros((h, w, 3));
-        let args = (labels.view(), table.view(), map.view());
-        gather_window_into(
-            ex.view(),
-            args.0,
-            args.1,
-            args.2,
-            (0, 0),
-            plain.view_mut(),
-            None,
-        )
-        .unwrap();
-        gather_window_into(
-            ex.view(),
-            args.0,
-            args.1,
-            args.2,
-            (0, 0),
-            turned.view_mut(),
-            Some(&turn),
-        )
-        .unwrap();
+        let gather = |t: Option<&VectorTurn<u8>>| {
+            let mut out = Array3::<u8>::zeros((h, w, 3));
+            let (l, tb, m) = (labels.view(), table.view(), map.view());
+            gather_window_into(ex.view(), l, tb, m, (0, 0), out.view_mut(), t).unwrap();
+            out
+        };
+        let (plain, turned) = (gather(None), gather(Some(&turn)));
         let mut seen = 0;
         for y in 0..h {
             for x in 0..w {
