@@ -1241,43 +1241,31 @@ trait Code: Copy {
     fn normal(v: [f64; 3], snorm: bool) -> [Self; 3];
 }
 
-impl Code for u8 {
-    #[inline]
-    fn negate(self, _: bool) -> u8 {
-        u8::MAX - self
-    }
-    #[inline]
-    fn value(self) -> f64 {
-        f64::from(self) / 255.0
-    }
-    #[inline]
-    fn scalar(v: f64) -> u8 {
-        rint_small(v.clamp(0.0, 1.0) * 255.0) as u8
-    }
-    #[inline]
-    fn normal(v: [f64; 3], _: bool) -> [u8; 3] {
-        encode_unit(v, 255.0).map(|c| c as u8)
-    }
+/// The unsigned codes' impl: samples over their maximum `S` (255 or 65535; `f64::from(MAX)` is exact).
+macro_rules! code_for_unsigned {
+    ($t:ty) => {
+        impl Code for $t {
+            #[inline]
+            fn negate(self, _: bool) -> $t {
+                <$t>::MAX - self
+            }
+            #[inline]
+            fn value(self) -> f64 {
+                f64::from(self) / f64::from(<$t>::MAX)
+            }
+            #[inline]
+            fn scalar(v: f64) -> $t {
+                rint_small(v.clamp(0.0, 1.0) * f64::from(<$t>::MAX)) as $t
+            }
+            #[inline]
+            fn normal(v: [f64; 3], _: bool) -> [$t; 3] {
+                encode_unit(v, f64::from(<$t>::MAX)).map(|c| c as $t)
+            }
+        }
+    };
 }
-
-impl Code for u16 {
-    #[inline]
-    fn negate(self, _: bool) -> u16 {
-        u16::MAX - self
-    }
-    #[inline]
-    fn value(self) -> f64 {
-        f64::from(self) / 65535.0
-    }
-    #[inline]
-    fn scalar(v: f64) -> u16 {
-        rint_small(v.clamp(0.0, 1.0) * 65535.0) as u16
-    }
-    #[inline]
-    fn normal(v: [f64; 3], _: bool) -> [u16; 3] {
-        encode_unit(v, 65535.0).map(|c| c as u16)
-    }
-}
+code_for_unsigned!(u8);
+code_for_unsigned!(u16);
 
 impl Code for f32 {
     #[inline]
