@@ -97,6 +97,9 @@ def test_free_weights_shape():
     reward, fx, fy = free_weights(n, 0.5)
     assert reward.max() == pytest.approx(0.5) and reward[n // 2, n // 2] == pytest.approx(0.5)
     assert (reward[:2] == 0).all() and (reward[:, -2:] == 0).all()  # nothing rewards the ring
+    # ... nor the first free row beside it (issue 29: the cut was paid to rest on the ring), but the next one
+    assert (reward[2] == 0).all() and (reward[:, -3] == 0).all()
+    assert reward[3, n // 2] > 0 and reward[n // 2, -4] > 0
     np.testing.assert_allclose(reward, reward.T)
     np.testing.assert_allclose(reward, reward[::-1])
     assert fx.shape == (1, n) and fy.shape == (n, 1)

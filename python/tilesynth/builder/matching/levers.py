@@ -19,9 +19,10 @@ matching patch O. Two build options of :func:`tilesynth.build_omega` move that b
 
     - an *area reward* for giving pixels to O (a sink t-link of ``cut_bias`` times the tile's mean edge
       weight per pixel, default :func:`default_bias` = 32/N), full inside the rounded square ρ ≤ 1/2 and
-      tapering linearly to 0 at the ring, where ρ = (|u|^q + |v|^q)^(1/q) is the superellipse radius of the
+      tapering linearly to 0 next to the ring, where ρ = (|u|^q + |v|^q)^(1/q) is the superellipse radius of the
       pixel (u, v = its offsets from the tile centre in units of N/2, q = :data:`SUPERELLIPSE` = 8): the cut
-      moves outwards, into the corners more than a circle would, but nothing presses it onto the ring;
+      moves outwards, into the corners more than a circle would, but nothing presses it onto the ring (the
+      taper ends :data:`REWARD_GAP` pixel inside the ring, so the first free row earns nothing);
     - a *ring penalty* on the edges whose cut would run parallel to a tile border near it: their weight is
       multiplied by 1 + :data:`RING_PENALTY`·(1 − t)², t = (depth − ring) / (N/4) clipped to [0, 1] (depth =
       pixels from that border), smooth at both ends so that no depth is a preferred resting line.
@@ -110,6 +111,21 @@ RING_BIAS = 0.02
 RING_PENALTY = 3.0
 """Extra weight factor, at the ring, of the cut edges parallel to a nearby tile border (see the module
 docstring); it falls to 0 at N/4 inside. 3 and 6 were measured: 6 shrinks O with no further gain."""
+REWARD_GAP = 1
+"""Pixels next to the ring that get no area reward (the taper of :func:`free_weights` reaches 0 at depth
+``ring + REWARD_GAP`` instead of at the ring; tiles under 4·(ring + REWARD_GAP) pixels keep the ring as the end).
+
+Why (issue 29): with the reward still positive on the first free pixel row, the cut was paid to lay the
+matching patch against the ring wherever its seam there is cheap in Kwatra's gradient-normalised units, which on
+high-contrast object photos it often is: the O/ring boundary became a straight line at the same depth in every
+tile, the worst phase of the lattice (gradient) (grapes 8.1, crackers 9.2: the steps at depth 2), seen as a grid
+of bright and dark lines. With no reward on that row nothing presses the cut onto the ring. Measured (1024²,
+seed 1, default c5; ``benches/lattice-results.md``), gap 0 -> 1 -> 2: lattice (gradient) grapes 8.09 -> 4.58 ->
+3.64, crackers 9.15 -> 7.22 -> 4.49, tomatoes 4.47 -> 3.11 -> 2.22, chalk text 4.32 -> 3.24 -> 2.79; on 13
+stochastic textures of ``../shared/textures`` the means of periodic copies / autocorrelation peak / texture
+statistics moved +1.4 / +2.2 / +1.4 % with gap 1 and +9.6 / +4.6 / +2.9 % with gap 2 (the matching patch
+loses area to the vertex content), so 1: the largest gap within the issue's 5 % no-loss bound. A sharp cut-off
+(the reward set to 0 within 4 px, the taper unchanged inside) made a new resting line at its edge."""
 SUPERELLIPSE = 8.0
 """Exponent q of the rounded square that shapes the reward (2 = circle; larger reaches further into the corners).
 
@@ -156,7 +172,9 @@ def free_weights(
     h = n / 2
     t = np.abs(np.arange(n) - (n - 1) / 2) / h  # |u| of every pixel centre
     rho = (t[:, None] ** SUPERELLIPSE + t[None, :] ** SUPERELLIPSE) ** (1 / SUPERELLIPSE)
-    rho0, rho1 = 0.5, 1 - ring / h
+    # the reward reaches 0 REWARD_GAP pixels inside the ring (where the tile is large enough for it)
+    edge = ring + REWARD_GAP if ring + REWARD_GAP < h / 2 else ring
+    rho0, rho1 = 0.5, 1 - edge / h
     reward = bias * np.clip((rho1 - rho) / (rho1 - rho0), 0.0, 1.0)
     # pair (x, x+1) lies (x + 1) pixels from the left border, (n - 1 - x) from the right one
     x = np.arange(n)
