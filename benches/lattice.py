@@ -22,15 +22,17 @@ Usage: ``python benches/lattice.py [--textures a,b] [--size 1024] [--methods "de
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
 from repetition import hex_tiling, quilt  # the controls of the repetition bench, unchanged
 
 import tilesynth as ts
+from tilesynth.builder.matching import levers
 from tilesynth.builder.tile_scale import feature_tile_size
 from tilesynth.layouts.complete import default_complete_tile_size
 from tilesynth.measure.lattice import lattice_folded, lattice_gradient, objects_intact
@@ -68,6 +70,12 @@ LEVERS: dict[str, Callable[[np.ndarray], dict]] = {
 """``default+<name>`` -> the build kwargs on top of the defaults, from the exemplar: ``scale`` the tile size
 from the exemplar's objects (:func:`tilesynth.builder.tile_scale.feature_tile_size`), ``smooth`` Poisson
 smoothing inside the cutting curves (``smooth=True``, the existing option)."""
+CONSTANTS: dict[str, dict[str, object]] = {
+    "ring2": {"RING": 2, "REWARD_GAP": 0},
+}
+"""``default+<name>`` -> module constants of :mod:`tilesynth.builder.matching.levers` set for that build only (not
+build options): ``ring2`` the free cut region of before issue 29's change (a 2-px border ring and the area reward
+tapering to 0 at the ring itself; the same for every tile of 16 px or more), for the before/after rows."""
 METHODS = ["default", "hex", "quilt"]
 
 
@@ -94,6 +102,19 @@ def measure(img: np.ndarray, ex: np.ndarray, n: int, tiles: bool) -> dict:
     }
 
 
+@contextlib.contextmanager
+def _constants(values: dict[str, object]) -> Iterator[None]:
+    """Set constants of :mod:`tilesynth.builder.matching.levers` for one build, then restore them."""
+    old = {k: getattr(levers, k) for k in values}
+    try:
+        for k, v in values.items():
+            setattr(levers, k, v)
+        yield
+    finally:
+        for k, v in old.items():
+            setattr(levers, k, v)
+
+
 def run_texture(name: str, methods: list[str], size: int, seed: int, png: Path | None) -> list[dict]:
     ex = ts.load_image(texture_path(name))[0]
     rows: list[dict] = []
@@ -107,8 +128,10 @@ def run_texture(name: str, methods: list[str], size: int, seed: int, png: Path |
         t = time.process_time()
         tiles = method.startswith("default")
         if tiles:
-            kw = {} if method == "default" else LEVERS[method.split("+", 1)[1]](ex)
-            tset = ts.build_omega(ex, seed=seed, **kw)
+            lever = method.split("+", 1)[1] if "+" in method else None
+            kw = LEVERS[lever](ex) if lever in LEVERS else {}
+            with _constants(CONSTANTS.get(lever, {})):
+                tset = ts.build_omega(ex, seed=seed, **kw)
             build = time.process_time() - t
             n = n or tset.tile_size
             img, _ = ts.synthesize(tset, size, size, seed=seed)
@@ -208,10 +231,10 @@ def main() -> None:
     bad = [
         m
         for m in methods
-        if m not in ("default", "hex", "quilt") and m.removeprefix("default+") not in LEVERS
+        if m not in ("default", "hex", "quilt") and m.removeprefix("default+") not in {**LEVERS, **CONSTANTS}
     ]
     if bad:
-        ap.error(f"unknown methods {bad}; levers: {sorted(LEVERS)}")
+        ap.error(f"unknown methods {bad}; levers: {sorted({**LEVERS, **CONSTANTS})}")
     png = Path(a.png) if a.png else None
     if png:
         png.mkdir(parents=True, exist_ok=True)

@@ -25,7 +25,7 @@ from tilesynth.builder.matching.augment import (
     transform_vectors,
     transformed_source,
 )
-from tilesynth.builder.matching.levers import diverse_matches, diverse_matches_augmented
+from tilesynth.builder.matching.levers import RING, diverse_matches, diverse_matches_augmented
 from tilesynth.errors import ParameterError
 from tilesynth.io.images import load_image
 
@@ -131,7 +131,7 @@ def test_build_with_augment(lettuce, mode):
     np.testing.assert_array_equal(s.tiles[m], o[m])
     # a tiling is still seamless across tile borders: borders are the intermediate tiles'
     plain = ts.build_omega(lettuce, tileset="c2", tile_size=40, seed=5)
-    ring = ~np.pad(np.ones((36, 36), bool), 2)
+    ring = ~np.pad(np.ones((40 - 2 * RING, 40 - 2 * RING), bool), RING)
     np.testing.assert_array_equal(s.source[:, ring], plain.source[:, ring])
 
 

@@ -96,16 +96,17 @@ def test_free_weights_shape():
     n = 64
     reward, fx, fy = free_weights(n, 0.5)
     assert reward.max() == pytest.approx(0.5) and reward[n // 2, n // 2] == pytest.approx(0.5)
-    assert (reward[:2] == 0).all() and (reward[:, -2:] == 0).all()  # nothing rewards the ring
-    # ... nor the first free row beside it (issue 29: the cut was paid to rest on the ring), but the next one
-    assert (reward[2] == 0).all() and (reward[:, -3] == 0).all()
+    # nothing rewards the 1-px ring nor the two rows beside it (issue 29: the cut was paid to rest on the ring)
+    assert (reward[:3] == 0).all() and (reward[:, -3:] == 0).all()
     assert reward[3, n // 2] > 0 and reward[n // 2, -4] > 0
+    src, sink = free_terminals(n)
+    assert src[0].all() and not src[1, n // 2] and not sink[0].any()  # the ring is one pixel wide
     np.testing.assert_allclose(reward, reward.T)
     np.testing.assert_allclose(reward, reward[::-1])
     assert fx.shape == (1, n) and fy.shape == (n, 1)
     np.testing.assert_array_equal(fx.ravel(), fy.ravel())
     f = fx.ravel()
-    assert f[1] == pytest.approx(1 + RING_PENALTY)  # the pair between the ring and the first free pixel
+    assert f[0] == pytest.approx(1 + RING_PENALTY)  # the pair between the ring and the first free pixel
     assert (f[2 + n // 4 : n - 3 - n // 4] == 1).all()  # no penalty deeper than N/4 inside
     assert (np.diff(f[: n // 2]) <= 0).all()  # falls monotonically away from the border
     flat, gx, gy = free_weights(n, 0.02, tapered=False)

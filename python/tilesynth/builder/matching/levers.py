@@ -7,8 +7,8 @@ matching patch O. Two build options of :func:`tilesynth.build_omega` move that b
 ``cut_region="free"`` (:func:`free_cuts`)
     The ω cut of 002 keeps everything outside the inscribed circle (at least 21.5 % of the tile, its corners)
     from the intermediate tile. Here the terminals are instead: sources = a border ring of ``ring`` pixels
-    (default 2) and a disc of radius ``disc`` (default N/8) around each tile corner; sinks = the intermediate
-    tile's central cross (where its four sample quadrants meet), minus the sources. Everything else is free,
+    (default :data:`RING` = 1) and a disc of radius ``disc`` (default N/8) around each tile corner; sinks = the
+    intermediate tile's central cross (where its four sample quadrants meet), minus the sources. Everything else is free,
     so the min cut (Kwatra weights, the same as the circle's, by the general grid min cut
     :func:`tilesynth.base.kernels.grid_mincut`) may give most of the tile to O. The tile border is still the
     intermediate tile's (the ring), so neighbouring tiles match exactly as before.
@@ -22,7 +22,7 @@ matching patch O. Two build options of :func:`tilesynth.build_omega` move that b
       tapering linearly to 0 next to the ring, where ρ = (|u|^q + |v|^q)^(1/q) is the superellipse radius of the
       pixel (u, v = its offsets from the tile centre in units of N/2, q = :data:`SUPERELLIPSE` = 8): the cut
       moves outwards, into the corners more than a circle would, but nothing presses it onto the ring (the
-      taper ends :data:`REWARD_GAP` pixel inside the ring, so the first free row earns nothing);
+      taper ends :data:`REWARD_GAP` = 2 pixels inside the ring, so the rows beside it earn nothing);
     - a *ring penalty* on the edges whose cut would run parallel to a tile border near it: their weight is
       multiplied by 1 + :data:`RING_PENALTY`·(1 − t)², t = (depth − ring) / (N/4) clipped to [0, 1] (depth =
       pixels from that border), smooth at both ends so that no depth is a preferred resting line.
@@ -82,9 +82,9 @@ excluded; 32 keeps the c2 test set of 16 tiles pairwise more than N/2 apart)."""
 def free_terminals(n: int, ring: int | None = None, disc: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(source, sink) bool masks ``(n, n)`` of the free cut region (see the module docstring).
 
-    Defaults: ``ring`` 2 pixels (1 for tiles under 16 pixels), ``disc`` N/8 (at least 1, below N/2)."""
+    Defaults: ``ring`` :data:`RING` pixels, ``disc`` N/8 (at least 1, below N/2)."""
     if ring is None:
-        ring = 2 if n >= 16 else 1
+        ring = RING
     if disc is None:
         disc = min(max(1, n // 8), n // 2 - 1)
     if not (1 <= ring <= n // 2 - 1) or not (0 <= disc < n // 2):
@@ -111,21 +111,30 @@ RING_BIAS = 0.02
 RING_PENALTY = 3.0
 """Extra weight factor, at the ring, of the cut edges parallel to a nearby tile border (see the module
 docstring); it falls to 0 at N/4 inside. 3 and 6 were measured: 6 shrinks O with no further gain."""
-REWARD_GAP = 1
-"""Pixels next to the ring that get no area reward (the taper of :func:`free_weights` reaches 0 at depth
-``ring + REWARD_GAP`` instead of at the ring; tiles under 4·(ring + REWARD_GAP) pixels keep the ring as the end).
+RING = 1
+"""Width in pixels of the border ring tied to the intermediate tile (the free cut region's sources besides the
+corner discs): the tile borders stay the vertex patches' own, so neighbouring tiles meet seamlessly. It was 2
+for tiles of 16 px and more until issue 29; see :data:`REWARD_GAP` for why it is 1."""
+REWARD_GAP = 2
+"""Pixels next to the ring that get no area reward: the taper of :func:`free_weights` reaches 0 at depth
+``ring + REWARD_GAP`` (3 px) instead of at the ring (tiles under 4·(ring + REWARD_GAP) px keep the ring as the
+end).
 
-Why (issue 29): with the reward still positive on the first free pixel row, the cut was paid to lay the
-matching patch against the ring wherever its seam there is cheap in Kwatra's gradient-normalised units, which on
-high-contrast object photos it often is: the O/ring boundary became a straight line at the same depth in every
-tile, the worst phase of the lattice (gradient) (grapes 8.1, crackers 9.2: the steps at depth 2), seen as a grid
-of bright and dark lines. With no reward on that row nothing presses the cut onto the ring. Measured (1024²,
-seed 1, default c5; ``benches/lattice-results.md``), gap 0 -> 1 -> 2: lattice (gradient) grapes 8.09 -> 4.58 ->
-3.64, crackers 9.15 -> 7.22 -> 4.49, tomatoes 4.47 -> 3.11 -> 2.22, chalk text 4.32 -> 3.24 -> 2.79; on 13
-stochastic textures of ``../shared/textures`` the means of periodic copies / autocorrelation peak / texture
-statistics moved +1.4 / +2.2 / +1.4 % with gap 1 and +9.6 / +4.6 / +2.9 % with gap 2 (the matching patch
-loses area to the vertex content), so 1: the largest gap within the issue's 5 % no-loss bound. A sharp cut-off
-(the reward set to 0 within 4 px, the taper unchanged inside) made a new resting line at its edge."""
+Why (issue 29): with a 2-px ring and the reward still positive on the first free row, the cut was paid to lay
+the matching patch against the ring wherever its seam there is cheap in Kwatra's gradient-normalised units,
+which on high-contrast object photos it often is: the O/ring boundary became a straight line at the same depth
+in every tile, the worst phase of the lattice (gradient) (grapes 8.1, crackers 9.2), seen as a grid of bright
+and dark lines; and the 4-px straight seam where the two vertex patches of an edge meet inside the rings (2 px on
+each side of the border) drew the side midpoints (caustics, sea foam). Measured (1024², seed 1, default c5,
+``benches/lattice-results.md``), ring / reward end before -> ring 2, end 3 -> ring 1, end 3: lattice (gradient)
+grapes 8.09 -> 4.58 -> 4.10, crackers 9.15 -> 7.22 -> 7.14, tomatoes 4.47 -> 3.11 -> 2.96, chalk text 4.32 ->
+3.24 -> 3.00, caustics 3.60 -> 3.57 -> 2.60, sea foam 3.74 -> 3.75 -> 2.75; on 13 stochastic textures of
+``../shared/textures`` periodic copies / autocorrelation peak / texture statistics (means) +1.4 / +2.2 / +1.4 %
+and +2.0 / −0.8 / +0.2 % (the issue's no-loss bound is 5 %). Measured and not taken: the reward ending at depth 4
+(ring 2: copies +9.6 %, the matching patch loses area to the vertex content); ring 1 with the reward ending at 2
+(grapes 6.7: the cut rests on the ring again); a sharp cut-off (reward 0 within 4 px, the taper unchanged
+inside: a new resting line at its edge); a larger ring penalty (12: grapes 7.9); unnormalised seam weights at
+the ring (worse: the cut rests one row further in)."""
 SUPERELLIPSE = 8.0
 """Exponent q of the rounded square that shapes the reward (2 = circle; larger reaches further into the corners).
 
@@ -165,7 +174,7 @@ def free_weights(
     ``factor_x`` ``(1, n)`` multiplies the horizontal-neighbour weights ``wx[:, x]`` (a cut there runs
     parallel to the left and right borders), ``factor_y`` ``(n, 1)`` the vertical ones (all ones untapered)."""
     if ring is None:
-        ring = 2 if n >= 16 else 1
+        ring = RING
     if not tapered:
         one = np.ones(n)
         return np.full((n, n), float(bias)), one[None, :], one[:, None]
