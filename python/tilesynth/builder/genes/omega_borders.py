@@ -9,7 +9,7 @@ of the vertex.
 
 The default cuts never reach the border: ``keep_border=True`` ties the one-pixel border ring to the
 intermediate tile for the inscribed-circle cut region, and the free cut region (:mod:`tilesynth.builder.matching.levers`) ties a
-ring of 2 pixels and the corner discs to it. Every pixel pair across a tile border is therefore a pair of
+ring (:data:`tilesynth.builder.matching.levers.RING`, 1 pixel) and the corner discs to it. Every pixel pair across a tile border is therefore a pair of
 neighbouring exemplar pixels on one of those lines (benches/seams.py measures 0.0 % discontinuous border pairs
 for ω and patch), and the border seam score of a tiling (:func:`tilesynth.measure.metrics.seam_score`) is decided by the
 genes alone, before any matching or cut (``keep_border=False`` lets the matching patch reach the border near the
