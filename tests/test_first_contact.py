@@ -59,6 +59,7 @@ def test_metrics_and_report_report_every_step(built, tmp_path):
     assert names == [
         "sample synthesis",
         "seam score",
+        "lattice",
         "coherence energy",
         "coverage",
         "repetition",

@@ -225,3 +225,32 @@ def test_feature_tile_size_grows_with_objects_only():
     small = _discs_on_white(256, 4, 150, seed=22)  # objects that fit the default tile: no change either
     n3, info3 = feature_tile_size(small)
     assert n3 is None and info3["kind"] == "objects"
+
+
+# ------------------------------------------------------------------------------------------ in the metrics
+def test_image_metrics_report_the_lattice_objects_and_the_exemplars_own():
+    """`tilesynth metrics` and the report carry the three measures (issue 29), with the exemplar's own values on
+    the same grid beside them; none without a grid, objects only for an exemplar of separate objects."""
+    from tilesynth.measure.metrics import format_metrics, image_metrics
+    from tilesynth.measure.report_page import metrics_rows
+
+    ex = _discs_on_white(128, 5, 30, seed=20) * 0.8 + _noise(
+        128, 128, seed=25, amp=0.2
+    )  # grain: finite ratios
+    img = _cells(128, 160, N, seed=21) + _noise(128, 160, seed=26, amp=0.2)
+    m = image_metrics(img, tile_size=N, exemplar=ex, patch=8, stride=8)
+    la = m["lattice"]
+    assert la["gradient"]["score"] == pytest.approx(lattice_gradient(img, N).score)
+    assert la["gradient"]["score"] > 5  # planted steps on the grid lines
+    assert la["folded"]["score"] == pytest.approx(lattice_folded(img, N).score)
+    assert la["exemplar_gradient"] == pytest.approx(lattice_gradient(ex, N).score)
+    assert la["exemplar_folded"] == pytest.approx(lattice_folded(ex, N).score)
+    assert m["objects"]["share"] == pytest.approx(objects_intact(img, ex).share)
+    text = format_metrics(m)
+    assert "lattice       gradient" in text and "objects" in text
+    names = [r[0] for r in metrics_rows(m)]
+    assert {"lattice (gradient)", "lattice (folded)", "objects intact"} <= set(names)
+    plain = image_metrics(_noise(96, 96, seed=22), exemplar=_noise(64, 64, seed=23), patch=8, stride=8)
+    assert plain["lattice"] is None and plain["objects"] is None  # no grid given; not an object exemplar
+    small = image_metrics(_noise(40, 40, seed=24), tile_size=N, patch=8, stride=8)
+    assert small["lattice"] is None  # under two tiles and two cells: neither measure applies

@@ -72,6 +72,11 @@ over every pixel pair of the tiles. 1 means the cut is as invisible as any pair 
 scores above 1. It is the score that Poisson smoothing (``smooth=True``) lowers; the seam score above measures
 the tile borders, which smoothing never changes.
 
+**Lattice and objects** (:mod:`tilesynth.measure.lattice`, issue 29): with a tile size, ``lattice`` holds the
+lattice (gradient) and (folded) of the image on its tile grid and the exemplar's own on the same grid (a
+texture whose own period divides N scores high there too, whatever lays it out); with an exemplar of separate
+objects, ``objects`` holds the share of object pixels in whole exemplar objects (None otherwise).
+
 :func:`tileset_metrics` and :func:`image_metrics` compute everything that can be computed for a tile set
 (after synthesizing a sample, default 512x512 with seed 1) or for a plain image (seam score only with a tile
 size, coherence only with an exemplar, coverage only with a provenance map, objective never); what was skipped
@@ -280,6 +285,9 @@ def _measure(
         if tile_size > 2 * INNER_DEPTHS[0]:  # lattice-parallel seams inside the tiles
             objs["inner_seam"] = inner_seam_score(img, tile_size)
         out["inner_seam"] = objs["inner_seam"].to_dict() if "inner_seam" in objs else None
+    with step("lattice"):
+        out["lattice"] = None if tile_size is None else _lattice(img, tile_size, exemplar)
+        out["objects"] = _objects(img, exemplar)
     if exemplar is None:
         out["coherence"] = None
         notes.append("coherence energy skipped: it needs the exemplar")
@@ -392,6 +400,46 @@ def measure_tileset(
     return out, objs
 
 
+def _lattice(img: np.ndarray, n: int, exemplar: np.ndarray | None) -> dict[str, Any] | None:
+    """Lattice (gradient) and (folded) of ``img`` on its N-grid (:mod:`tilesynth.measure.lattice`; issue 29), and
+    the exemplar's own on the same grid where it holds two tiles: a texture whose own period divides N scores
+    high there whatever lays it out. None where the image is too small for either measure."""
+    from .lattice import lattice_folded, lattice_gradient  # lattice imports this module
+
+    def both(a: np.ndarray) -> tuple[Any, Any]:
+        try:
+            g = lattice_gradient(a, n)
+        except ShapeError:
+            g = None
+        try:
+            f = lattice_folded(a, n)
+        except ShapeError:
+            f = None
+        return g, f
+
+    g, f = both(img)
+    if g is None and f is None:
+        return None
+    eg, ef = both(as_image(exemplar, "exemplar")) if exemplar is not None else (None, None)
+    return {
+        "gradient": None if g is None else g.to_dict(),
+        "folded": None if f is None else f.to_dict(),
+        "exemplar_gradient": None if eg is None else eg.score,
+        "exemplar_folded": None if ef is None else ef.score,
+    }
+
+
+def _objects(img: np.ndarray, exemplar: np.ndarray | None) -> dict[str, Any] | None:
+    """Objects intact (:func:`tilesynth.measure.lattice.objects_intact`) where the exemplar is one of separate
+    objects (``applies``), else None."""
+    if exemplar is None:
+        return None
+    from .lattice import objects_intact  # lattice imports this module
+
+    o = objects_intact(img, exemplar)
+    return o.to_dict() if o.applies else None
+
+
 class _Steps:
     """``with step(name):`` reports ``(name, 0, 1)`` before and ``(name, 1, 1)`` after to ``progress`` (if any),
     so every metric step that takes more than a second shows up (``metrics`` used to run for minutes
@@ -455,6 +503,21 @@ def _format_measures(m: dict[str, Any]) -> list[str]:
         lines.append(
             f"inner seam    {_num(ins['max'], '.4f')}  (worst lattice-parallel line {ins['depth_of_max']:+d} px "
             f"inside the tile borders; mean over ±{len(ins['scores']) // 2} depths {_num(ins['mean'], '.4f')})"
+        )
+    la = m.get("lattice")
+    if la:
+        g, f = la["gradient"], la["folded"]
+        lines.append(
+            f"lattice       gradient {_num(g and g['score'], '.3f')}  (worst step phase: x "
+            f"{_num(g and g['phase_x'], 'd')}, y {_num(g and g['phase_y'], 'd')}; exemplar on this grid "
+            f"{_num(la['exemplar_gradient'], '.3f')}), folded {_num(f and f['score'], '.3f')}  ({_num(f and f['cells'], 'd')} "
+            f"cells; exemplar {_num(la['exemplar_folded'], '.3f')}); 1 = no tile grid"
+        )
+    ob = m.get("objects")
+    if ob:
+        lines.append(
+            f"objects       {_num(ob['share'], '.3f')} of object pixels in whole exemplar objects  (the exemplar's "
+            f"own {_num(ob['exemplar_share'], '.3f')}; {ob['n_intact']} of {ob['n_counted']} objects)"
         )
     co = m.get("coherence")
     if co:

@@ -49,6 +49,37 @@ def _inner_seam_rows(ins: dict[str, Any]) -> list[tuple[str, str, str]]:
     ]
 
 
+def _lattice_rows(la: dict[str, Any]) -> list[tuple[str, str, str]]:
+    g, f = la["gradient"] or {}, la["folded"] or {}
+    return [
+        (
+            "lattice (gradient)",
+            _fmt(g.get("score"), ".3f"),
+            f"mean squared step at the worst depth of the tile grid / the median depth (worst: x "
+            f"{_fmt(g.get('phase_x'))}, y {_fmt(g.get('phase_y'))} px after a border); 1 = no line at a fixed "
+            f"depth; the exemplar itself on this grid: {_fmt(la.get('exemplar_gradient'), '.3f')}",
+        ),
+        (
+            "lattice (folded)",
+            _fmt(f.get("score"), ".3f"),
+            f"spread of the luminance averaged over the {_fmt(f.get('cells'))} tile cells against noise; 1 = "
+            "nothing at fixed tile positions (grows with the number of cells for a fixed pattern); the "
+            f"exemplar itself: {_fmt(la.get('exemplar_folded'), '.3f')}",
+        ),
+    ]
+
+
+def _objects_rows(ob: dict[str, Any]) -> list[tuple[str, str, str]]:
+    return [
+        (
+            "objects intact",
+            _fmt(ob["share"], ".3f"),
+            f"share of the object pixels in whole exemplar objects ({ob['n_intact']} of {ob['n_counted']}); "
+            f"the exemplar itself: {_fmt(ob['exemplar_share'], '.3f')}",
+        )
+    ]
+
+
 def _coherence_rows(co: dict[str, Any]) -> list[tuple[str, str, str]]:
     return [
         (
@@ -185,6 +216,8 @@ def _cut_score_rows(ob: dict[str, Any]) -> list[tuple[str, str, str]]:
 _ROW_MAKERS: tuple[tuple[str, Callable[[dict[str, Any]], list[tuple[str, str, str]]]], ...] = (
     ("seam", _seam_rows),
     ("inner_seam", _inner_seam_rows),  # straight cuts inside the tiles, which the border score misses
+    ("lattice", _lattice_rows),  # the tile grid by steps at a fixed depth and content at fixed positions
+    ("objects", _objects_rows),
     ("coherence", _coherence_rows),
     ("coverage", _coverage_rows),
     ("repetition", _repetition_rows),
