@@ -322,7 +322,7 @@ def test_v2_wgsl_hash_and_tile_index_match_the_vectors_in_webgpu(browser, tmp_pa
 
 def test_viewer_selftest_passes_and_the_file_is_a_few_times_the_maps(browser, tmp_path, c5_set):
     """The exported viewer (every map, lit preview) passes its own self-test (level 0 exact, levels 1-5 within
-    the tolerance) and is at most 3x the bytes of the maps' exported PNG levels, whatever the tile count."""
+    the tolerance) and is about 3x the bytes of the maps' exported PNG levels, whatever the tile count."""
     maps = _derived_maps(c5_set.exemplar)
     out = tmp_path / "x"
     m = export(c5_set, out, maps=maps, viewer=True, blend_levels={"height": 2, "normal": 2})
@@ -341,7 +341,11 @@ def test_viewer_selftest_passes_and_the_file_is_a_few_times_the_maps(browser, tm
     map_bytes = sum((out / lv["file"]).stat().st_size for mp in m["maps"] for lv in mp["levels"])
     size = (out / "viewer.html").stat().st_size
     print(f"viewer {size} B, maps' PNG levels {map_bytes} B: {size / map_bytes:.2f}x")
-    assert size <= 3 * map_bytes
+    # 3x was this fixture's own figure when the bound was set (2.99x: 625 tiles of labels on a 128-px
+    # exemplar); issue 29's 1-px border ring let the matching patches reach one pixel closer to the borders,
+    # and the label bits grew 4 % (3.002x). The bound is there to catch a viewer that embeds more than the
+    # maps, the labels and the table (the atlas viewer was 49x the maps), with 3 % room for cut changes.
+    assert size <= 3.1 * map_bytes
 
 
 def _wgsl_data(tileset, m: dict, out: Path, imap, names: tuple[str, ...]) -> dict:
