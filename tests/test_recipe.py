@@ -14,6 +14,7 @@ from tilesynth.builder.options import common_options
 from tilesynth.builder.recipe import DEFAULT, Recipe, resolve, why
 from tilesynth.errors import ParameterError
 from tilesynth.layouts.corners import corner_set
+from tilesynth.measure.diagnose import InputWarning
 
 FIELDS = [f.name for f in dataclasses.fields(Recipe)]
 
@@ -186,7 +187,9 @@ def test_objects_sizes_tiles_from_the_objects():
     assert t.tile_size == rec["feature_scale"]["size"] and t.tile_size in (72, 80)
     sized = tilesynth.build_omega(ex, seed=1, tileset="c3", tile_size=t.tile_size)
     assert np.array_equal(t.tiles, sized.tiles)
-    kept = tilesynth.build_omega(ex, seed=1, recipe="objects", tileset="c3", tile_size=48)  # the keyword wins
+    with pytest.warns(InputWarning, match=r"tiles of 48 px.*tiles of (72|80) px.*\[objects-cut\]"):
+        # the keyword wins, and the build says the objects ask for larger tiles (issue 29)
+        kept = tilesynth.build_omega(ex, seed=1, recipe="objects", tileset="c3", tile_size=48)
     assert kept.tile_size == 48 and kept.params["recipe"]["applied"] == []
 
 

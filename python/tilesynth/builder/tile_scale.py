@@ -25,19 +25,16 @@ are unchanged byte for byte.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 
 from ..base.validate import as_image
 from ..layouts.complete import default_complete_tile_size
-from ..measure.lattice import objects_intact
+from ..measure.lattice import FEATURES_PER_TILE, object_tile_size
+from ..measure.lattice import MAX_OBJECT_TILE as MAX_TILE
 
-FEATURES_PER_TILE = 4
-"""Tile side in units of the feature scale."""
-MAX_TILE = 256
-"""Largest tile size :func:`feature_tile_size` asks for (as the default's cap)."""
+__all__ = ["FEATURES_PER_TILE", "MAX_TILE", "feature_tile_size"]
 
 
 def feature_tile_size(exemplar: np.ndarray) -> tuple[int | None, dict[str, Any]]:
@@ -48,11 +45,10 @@ def feature_tile_size(exemplar: np.ndarray) -> tuple[int | None, dict[str, Any]]
     off the build's own choices (the periodic-exemplar rule of :mod:`tilesynth.builder.periodic`), so the
     default is left to the build rather than passed back."""
     ex = as_image(exemplar, "exemplar")
-    h, w = ex.shape[:2]
     n0 = default_complete_tile_size(ex.shape)
-    cap = min(MAX_TILE, 8 * (min(h, w) // 2 // 8))
-    obj = objects_intact(ex, ex)
-    kind, scale = ("objects", 2 * math.sqrt(obj.reference_area / math.pi)) if obj.applies else (None, 0.0)
-    want = min(cap, 8 * math.ceil(FEATURES_PER_TILE * scale / 8))
-    n = want if kind is not None and want > n0 else None
+    want, scale = object_tile_size(
+        ex
+    )  # the size formula lives beside the measure (the build warning uses it)
+    kind = None if want is None else "objects"
+    n = want if want is not None and want > n0 else None
     return n, {"default": n0, "kind": kind, "scale": scale, "size": n0 if n is None else n}

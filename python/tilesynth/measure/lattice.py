@@ -72,6 +72,11 @@ OBJECT_IOU = 0.75
 MIN_OBJECT_AREA = 16
 """Typical object area (pixels) below which an exemplar is not one of separate objects (``applies`` False):
 a 4x4 blob is texture grain, not an object a tile cut could visibly chop."""
+FEATURES_PER_TILE = 4
+"""Tile side in units of the typical object's diameter that :func:`object_tile_size` asks for (the reasoning:
+:mod:`tilesynth.builder.tile_scale`)."""
+MAX_OBJECT_TILE = 256
+"""Largest tile side :func:`object_tile_size` asks for (the complete sets' default cap)."""
 MAX_REFERENCES = 256
 """Reference objects compared at most (evenly spaced in label order): bounds the cost on busy exemplars."""
 
@@ -376,3 +381,20 @@ def objects_intact(
         threshold=t,
         polarity=polarity,
     )
+
+
+def object_tile_size(exemplar: np.ndarray) -> tuple[int | None, float]:
+    """The tile side an exemplar of separate objects asks for, and the objects' scale: ``(size, d)`` with ``d =
+    2·√(A/π)`` the equivalent diameter of the typical object (``A`` the reference area of
+    :func:`objects_intact`) and ``size`` = :data:`FEATURES_PER_TILE`·d rounded up to a multiple of 8, at most
+    half the shorter side (rounded down to a multiple of 8) and :data:`MAX_OBJECT_TILE`; ``(None, 0.0)`` where
+    the exemplar is not one of separate objects. What :func:`tilesynth.builder.tile_scale.feature_tile_size`
+    builds with and the ``objects-cut`` warning (:mod:`tilesynth.measure.diagnose`) compares a build's tiles
+    with."""
+    ex = as_image(exemplar, "exemplar")
+    obj = objects_intact(ex, ex)
+    if not obj.applies:
+        return None, 0.0
+    scale = 2 * math.sqrt(obj.reference_area / math.pi)
+    cap = min(MAX_OBJECT_TILE, 8 * (min(ex.shape[:2]) // 2 // 8))
+    return min(cap, 8 * math.ceil(FEATURES_PER_TILE * scale / 8)), scale
