@@ -46,9 +46,8 @@ def feature_tile_size(exemplar: np.ndarray) -> tuple[int | None, dict[str, Any]]
     default is left to the build rather than passed back."""
     ex = as_image(exemplar, "exemplar")
     n0 = default_complete_tile_size(ex.shape)
-    want, scale = object_tile_size(
-        ex
-    )  # the size formula lives beside the measure (the build warning uses it)
+    # the size formula lives beside the measure: the build's objects-cut warning uses it too
+    want, scale = object_tile_size(ex)
     kind = None if want is None else "objects"
     n = want if want is not None and want > n0 else None
     return n, {"default": n0, "kind": kind, "scale": scale, "size": n0 if n is None else n}
