@@ -77,6 +77,8 @@ from typing import Any
 
 import numpy as np
 
+from ..base.validate import validated_image
+
 __all__ = [
     "LOW_COVERAGE",
     "MASKED_AREA",
@@ -385,7 +387,10 @@ def finish_build(ts: Any, b: Any) -> Any:
         ts.params["mask"] = m.record()
         if not m.empty:
             m.check_provenance(ts.source)
-    found = diagnose_exemplar(ts.exemplar, m, b.tile_size) + diagnose_tileset(ts, m)
+    # the build validated b.exemplar once (the tile set's exemplar is the same pixels): the objects check must
+    # not scan it again (tests/test_exemplar.py counts the scans)
+    with validated_image(b.exemplar):
+        found = diagnose_exemplar(b.exemplar, m, b.tile_size) + diagnose_tileset(ts, m)
     if found:
         ts.params["warnings"] = found
         for f in found:
