@@ -563,7 +563,11 @@ def test_smooth_map_fetch_counts(browser, tmp_path, material):
         f"{np.median(near):.0f}); all pixels mean {count.mean():.2f}, at <= M + 1: {(count <= mm + 1).mean():.3f}"
     )
     assert 0.05 < single.mean() < 0.95  # both kinds of pixel are in the window
-    assert away.min() == mm + 1  # where no tap reaches a cut or quadrant line: table + one per map
+    assert away.min() >= mm + 1  # never fewer than the table texel and one fetch per map
+    if n == 32:  # where no tap reaches a cut or quadrant line: table + one per map (the label reads skipped)
+        assert away.min() == mm + 1
+    # with 64-px tiles the low band's taps reach 48 px, so pixels that need no label read at all are rare: 0.5 %
+    # of this window with the 2-px border ring, none with the 1-px ring of issue 29 (mean fetches 12.39 -> 12.54)
     assert (
         near.min() > mm + 1 and near.max() < 255
     )  # near cuts the labels are read; the counter did not saturate

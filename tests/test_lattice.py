@@ -259,7 +259,7 @@ def test_image_metrics_report_the_lattice_objects_and_the_exemplars_own():
 def test_objects_cut_warning_fires_below_the_objects_tile_size_only():
     """The build warns when the exemplar's objects ask for larger tiles than it builds (issue 29: the grid shows
     on object photos), naming the recipe and its size; not at that size, not on a texture without objects."""
-    from tilesynth.measure.diagnose import diagnose_exemplar
+    from tilesynth.measure.diagnose import diagnose_objects
     from tilesynth.measure.lattice import object_tile_size
 
     ex = _discs_on_white(256, 9, 60, seed=30) * 0.8 + _noise(256, 256, seed=31, amp=0.2)
@@ -267,7 +267,7 @@ def test_objects_cut_warning_fires_below_the_objects_tile_size_only():
     assert want is not None and 16 < scale < 22 and want % 8 == 0
 
     def found(img, n):
-        return {f["code"]: f for f in diagnose_exemplar(img, tile_size=n)}
+        return {f["code"]: f for f in diagnose_objects(img, tile_size=n)}
 
     hit = found(ex, want - 8)["objects-cut"]
     assert f"tiles of {want} px" in hit["message"] and "--recipe objects" in hit["message"]

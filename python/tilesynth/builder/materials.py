@@ -116,6 +116,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError, ShapeError
+from ..measure.diagnose import colour_of_build
 from .materials_atlas import (  # noqa: F401 - re-exported: tilesynth.builder.materials.<name> stays the import path
     _CACHES,
     DEFAULT_SEAMS,
@@ -238,7 +239,8 @@ def build_with_maps(
         for key, value in (material_options or {}).items():  # the scheme's joint-build defaults
             kwargs.setdefault(key, value)
         # the feature image is derived from the checked albedo: float32, C-contiguous, in [0, 1]
-        ts = build(Exemplar(feats, ex.mask, ex.info), **kwargs)
+        with colour_of_build(albedo):  # the objects warning reads the albedo, not the feature image
+            ts = build(Exemplar(feats, ex.mask, ex.info), **kwargs)
     else:  # only weight-0 maps (labels): the colour-only build, plus the maps
         record = {"feature_channels": int(albedo.shape[2]), "variance_kept": 1.0,
                   "feature_scale": 1.0, "albedo_weight": ex.albedo_weight}  # fmt: skip

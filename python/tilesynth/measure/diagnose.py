@@ -71,13 +71,17 @@ measures 34°; a uniformly rotated brick wall 1°.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import warnings
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 
 from ..base.validate import validated_image
+from .lattice import object_tile_size
 
 __all__ = [
     "LOW_COVERAGE",
@@ -93,6 +97,8 @@ __all__ = [
     "VALID_WINDOWS",
     "InputWarning",
     "diagnose_exemplar",
+    "colour_of_build",
+    "diagnose_objects",
     "diagnose_tileset",
     "finish_build",
     "outliers",
@@ -276,24 +282,6 @@ def diagnose_exemplar(exemplar: np.ndarray, mask: Any = None, tile_size: int | N
                     MASKED_AREA,
                 )
             )
-    if tile_size is not None and (mask is None or mask.empty):  # a mask's holes are not objects
-        from .lattice import object_tile_size
-
-        want, scale = object_tile_size(exemplar)
-        if want is not None and want > tile_size:
-            found.append(
-                _finding(
-                    "objects-cut",
-                    f"the exemplar shows separate objects about {scale:.0f} px across, large against tiles of "
-                    f"{tile_size} px: the tile cuts will chop most of them and the tile grid may show. The "
-                    f"'objects' recipe (--recipe objects) builds tiles of {want} px, about four objects wide (on 6 "
-                    "object photos: object pixels in whole objects 0.28 -> 0.37, lattice (folded) 7.1 -> 3.8, at "
-                    "about 2x the periodic copies and 1.8x the build time); 'tilesynth metrics' shows the lattice "
-                    "and objects intact of a sample",
-                    want / tile_size,
-                    1.0,
-                )
-            )
     st = stationarity(exemplar, masked)
     trend = st["mean_trend"] >= NONSTATIONARY_MEAN and st["trend_r2"] >= NONSTATIONARY_R2
     if trend or st["contrast_trend"] >= NONSTATIONARY_CONTRAST:
@@ -329,6 +317,45 @@ def diagnose_exemplar(exemplar: np.ndarray, mask: Any = None, tile_size: int | N
             )
         )
     return found
+
+
+_COLOUR: contextvars.ContextVar[np.ndarray | None] = contextvars.ContextVar("tilesynth_colour", default=None)
+
+
+@contextlib.contextmanager
+def colour_of_build(colour: np.ndarray) -> Iterator[None]:
+    """Within the block, :func:`finish_build` checks ``colour`` for objects instead of the build's exemplar: a
+    material is built on a feature image (:func:`tilesynth.builder.materials_inputs.feature_image`), whose
+    channels are not what the user sees. ``colour`` must be validated (:func:`tilesynth.base.validate.as_image`)."""
+    token = _COLOUR.set(colour)
+    try:
+        yield
+    finally:
+        _COLOUR.reset(token)
+
+
+def diagnose_objects(colour: np.ndarray, mask: Any = None, tile_size: int | None = None) -> list[dict]:
+    """The ``objects-cut`` finding: the colour exemplar (a material's albedo, not its feature image) is one of
+    separate objects whose size asks for tiles larger than ``tile_size``
+    (:func:`tilesynth.measure.lattice.object_tile_size`); none with a mask (its holes are not objects)."""
+    if tile_size is None or not (mask is None or mask.empty):
+        return []
+    want, scale = object_tile_size(colour)
+    if want is None or want <= tile_size:
+        return []
+    return [
+        _finding(
+            "objects-cut",
+            f"the exemplar shows separate objects about {scale:.0f} px across, large against tiles of "
+            f"{tile_size} px: the tile cuts will chop most of them and the tile grid may show. The "
+            f"'objects' recipe (--recipe objects) builds tiles of {want} px, about four objects wide (on 6 "
+            "object photos: object pixels in whole objects 0.28 -> 0.37, lattice (folded) 7.1 -> 3.8, at "
+            "about 2x the periodic copies and 1.8x the build time); 'tilesynth metrics' shows the lattice "
+            "and objects intact of a sample",
+            want / tile_size,
+            1.0,
+        )
+    ]
 
 
 def _coverage(ts: Any, mask: Any) -> float:
@@ -387,10 +414,16 @@ def finish_build(ts: Any, b: Any) -> Any:
         ts.params["mask"] = m.record()
         if not m.empty:
             m.check_provenance(ts.source)
-    # the build validated b.exemplar once (the tile set's exemplar is the same pixels): the objects check must
-    # not scan it again (tests/test_exemplar.py counts the scans)
-    with validated_image(b.exemplar):
-        found = diagnose_exemplar(b.exemplar, m, b.tile_size) + diagnose_tileset(ts, m)
+    # the objects check reads the colour (a material's albedo, not the feature image it was built on), which the
+    # build validated once: it must not scan it again (tests/test_exemplar.py counts the scans)
+    over = _COLOUR.get()
+    colour = b.source.image if over is None else over
+    with validated_image(colour):
+        found = (
+            diagnose_exemplar(ts.exemplar, m, b.tile_size)
+            + diagnose_objects(colour, m, b.tile_size)
+            + diagnose_tileset(ts, m)
+        )
     if found:
         ts.params["warnings"] = found
         for f in found:

@@ -65,7 +65,8 @@ import numpy as np
 
 from ..base.validate import as_image, positive_int
 from ..errors import ParameterError, ShapeError
-from .metrics import _finite, _ratio, luminance
+from .metrics_common import _finite, _ratio
+from .metrics_repetition import luminance
 
 OBJECT_IOU = 0.75
 """Intersection over union at or above which an output component counts as one intact exemplar object."""

@@ -100,6 +100,7 @@ import numpy as np
 from ..base.validate import as_image
 from ..errors import ShapeError
 from .energy import LAMBDA, energy
+from .lattice import lattice_folded, lattice_gradient, objects_intact
 from .metrics_coherence import (  # noqa: F401 - re-exported: tilesynth.measure.metrics.<name> is the public path
     COHERENCE_BATCH,
     DEFAULT_PATCH,
@@ -404,7 +405,6 @@ def _lattice(img: np.ndarray, n: int, exemplar: np.ndarray | None) -> dict[str, 
     """Lattice (gradient) and (folded) of ``img`` on its N-grid (:mod:`tilesynth.measure.lattice`; issue 29), and
     the exemplar's own on the same grid where it holds two tiles: a texture whose own period divides N scores
     high there whatever lays it out. None where the image is too small for either measure."""
-    from .lattice import lattice_folded, lattice_gradient  # lattice imports this module
 
     def both(a: np.ndarray) -> tuple[Any, Any]:
         try:
@@ -434,8 +434,6 @@ def _objects(img: np.ndarray, exemplar: np.ndarray | None) -> dict[str, Any] | N
     objects (``applies``), else None."""
     if exemplar is None:
         return None
-    from .lattice import objects_intact  # lattice imports this module
-
     o = objects_intact(img, exemplar)
     return o.to_dict() if o.applies else None
 
