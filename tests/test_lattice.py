@@ -270,7 +270,7 @@ def test_objects_cut_warning_fires_below_the_objects_tile_size_only():
         return {f["code"]: f for f in diagnose_objects(img, tile_size=n)}
 
     hit = found(ex, want - 8)["objects-cut"]
-    assert f"tiles of {want} px" in hit["message"] and "--recipe objects" in hit["message"]
+    assert f"--tile-size {want}" in hit["message"] and "--recipe objects" in hit["message"]
     assert hit["value"] == pytest.approx(want / (want - 8))
     assert "objects-cut" not in found(ex, want)
     assert "objects-cut" not in found(_noise(256, 256, seed=32), 32)

@@ -187,7 +187,7 @@ def test_objects_sizes_tiles_from_the_objects():
     assert t.tile_size == rec["feature_scale"]["size"] and t.tile_size in (72, 80)
     sized = tilesynth.build_omega(ex, seed=1, tileset="c3", tile_size=t.tile_size)
     assert np.array_equal(t.tiles, sized.tiles)
-    with pytest.warns(InputWarning, match=r"tiles of 48 px.*tiles of (72|80) px.*\[objects-cut\]"):
+    with pytest.warns(InputWarning, match=r"tiles of 48 px.*--tile-size (72|80).*\[objects-cut\]"):
         # the keyword wins, and the build says the objects ask for larger tiles (issue 29)
         kept = tilesynth.build_omega(ex, seed=1, recipe="objects", tileset="c3", tile_size=48)
     assert kept.tile_size == 48 and kept.params["recipe"]["applied"] == []

@@ -347,11 +347,11 @@ def diagnose_objects(colour: np.ndarray, mask: Any = None, tile_size: int | None
         _finding(
             "objects-cut",
             f"the exemplar shows separate objects about {scale:.0f} px across, large against tiles of "
-            f"{tile_size} px: the tile cuts will chop most of them and the tile grid may show. The "
-            f"'objects' recipe (--recipe objects) builds tiles of {want} px, about four objects wide (on 6 "
-            "object photos: object pixels in whole objects 0.28 -> 0.37, lattice (folded) 7.1 -> 3.8, at "
-            "about 2x the periodic copies and 1.8x the build time); 'tilesynth metrics' shows the lattice "
-            "and objects intact of a sample",
+            f"{tile_size} px: the tile cuts will chop most of them and the tile grid may show. Tiles of "
+            f"{want} px, about four objects wide (--tile-size {want}; the 'objects' recipe, --recipe objects, "
+            "picks that size for ω sets), kept more of them whole on 6 object photos (object pixels in whole "
+            "objects 0.28 -> 0.37, lattice (folded) 7.1 -> 3.8) at about 2x the periodic copies and 1.8x the "
+            "build time; 'tilesynth metrics' shows the lattice and objects intact of a sample",
             want / tile_size,
             1.0,
         )
@@ -416,8 +416,8 @@ def finish_build(ts: Any, b: Any) -> Any:
             m.check_provenance(ts.source)
     # the objects check reads the colour (a material's albedo, not the feature image it was built on), which the
     # build validated once: it must not scan it again (tests/test_exemplar.py counts the scans)
-    over = _COLOUR.get()
-    colour = b.source.image if over is None else over
+    over, source = _COLOUR.get(), getattr(b, "source", None)
+    colour = over if over is not None else (b.exemplar if source is None else source.image)
     with validated_image(colour):
         found = (
             diagnose_exemplar(ts.exemplar, m, b.tile_size)
