@@ -234,9 +234,8 @@ def test_image_metrics_report_the_lattice_objects_and_the_exemplars_own():
     from tilesynth.measure.metrics import format_metrics, image_metrics
     from tilesynth.measure.report_page import metrics_rows
 
-    ex = _discs_on_white(128, 5, 30, seed=20) * 0.8 + _noise(
-        128, 128, seed=25, amp=0.2
-    )  # grain: finite ratios
+    # grain on the discs and the cells: no phase has zero steps, so the ratios stay finite
+    ex = _discs_on_white(128, 5, 30, seed=20) * 0.8 + _noise(128, 128, seed=25, amp=0.2)
     img = _cells(128, 160, N, seed=21) + _noise(128, 160, seed=26, amp=0.2)
     m = image_metrics(img, tile_size=N, exemplar=ex, patch=8, stride=8)
     la = m["lattice"]

@@ -67,9 +67,9 @@ def test_window_candidates_are_the_border_best_in_draw_order(small_exemplar):
     assert [g.tolist() for g in kept] == [every[i].tolist() for i in want]
 
 
-# with the 1-px border ring (issue 29) one of this build's candidates has two tiles whose forced cut at a side
-# midpoint costs ~3700x the median (Kwatra's weights over near-flat content): the cut-cost warning fires; it is
-# not what this test is about (the outlier warning's false positives are noted in the issue 29 stop's note)
+# with the 1-px border ring (issue 29) this build has two tiles whose cut costs ~3700x the median (Kwatra's
+# gradient-normalised weights): the cut-cost warning fires; it is not what this test is about (the outlier
+# warning's false positives on such costs are noted in the issue 29 stop's note)
 @pytest.mark.filterwarnings("ignore:.*cut-cost-outlier.*:tilesynth.InputWarning")
 def test_window_build_keeps_the_rank_sum_winner_of_its_recorded_windows(small_exemplar, tmp_path):
     """Oracle: the recorded window of the kept genes is the window of the full build of those genes (diversity
