@@ -317,12 +317,17 @@ def objects_intact(
         raise ParameterError(f"polarity = {polarity!r}: must be 'auto', 'bright' or 'dark'")
     if not (isinstance(iou, (int, float)) and 0 < iou <= 1):
         raise ParameterError(f"iou = {iou!r}: must be in (0, 1]")
-    ye, yi = luminance(ex), luminance(img)
+    # the exemplar against itself (its own share; object_tile_size, which every build's objects check runs):
+    # one luminance and one labelling, not two of the same
+    same = img is ex
+    ye = luminance(ex)
+    yi = ye if same else luminance(img)
     t = otsu_threshold(ye)
     if polarity == "auto":
         polarity = "bright" if (ye > t).mean() <= 0.5 else "dark"
     fg_ex, fg_img = (ye > t, yi > t) if polarity == "bright" else (ye <= t, yi <= t)
-    ce, ci = _components(fg_ex), _components(fg_img)
+    ce = _components(fg_ex)
+    ci = ce if same else _components(fg_img)
     interior = np.flatnonzero(~ce.border)
     nan_result = ObjectsIntact(math.nan, math.nan, False, 0, math.nan, 0, 0, t, polarity)
     if not interior.size:
@@ -369,8 +374,10 @@ def objects_intact(
             n_intact += int(ok.sum())
         return intact_area / float(areas.sum()), int(counted.size), n_intact
 
-    ex_share, _, _ = share(ce)
-    out_share, n_counted, n_intact = share(ci)
+    ex_share, n_counted, n_intact = share(ce)
+    out_share = ex_share
+    if not same:
+        out_share, n_counted, n_intact = share(ci)
     return ObjectsIntact(
         share=out_share,
         exemplar_share=ex_share,
