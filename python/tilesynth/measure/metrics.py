@@ -504,12 +504,12 @@ def _format_measures(m: dict[str, Any]) -> list[str]:
         )
     la = m.get("lattice")
     if la:
-        g, f = la["gradient"], la["folded"]
+        g, f = la["gradient"] or {}, la["folded"] or {}  # either is None under two tiles / cells
         lines.append(
-            f"lattice       gradient {_num(g and g['score'], '.3f')}  (worst step phase: x "
-            f"{_num(g and g['phase_x'], 'd')}, y {_num(g and g['phase_y'], 'd')}; exemplar on this grid "
-            f"{_num(la['exemplar_gradient'], '.3f')}), folded {_num(f and f['score'], '.3f')}  ({_num(f and f['cells'], 'd')} "
-            f"cells; exemplar {_num(la['exemplar_folded'], '.3f')}); 1 = no tile grid"
+            f"lattice       gradient {_num(g.get('score'), '.3f')}  (worst step phase: x "
+            f"{_num(g.get('phase_x'), 'd')}, y {_num(g.get('phase_y'), 'd')}; exemplar on this grid "
+            f"{_num(la['exemplar_gradient'], '.3f')}), folded {_num(f.get('score'), '.3f')}  "
+            f"({_num(f.get('cells'), 'd')} cells; exemplar {_num(la['exemplar_folded'], '.3f')}); 1 = no tile grid"
         )
     ob = m.get("objects")
     if ob:
